@@ -1,0 +1,58 @@
+# jackson: the two commands a newcomer needs are `make demo` and `make test`.
+# Both run `make setup` first, which installs whatever is missing (see tools/setup.sh).
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+NATIVE := build/native
+JOBS   ?= 2
+
+.PHONY: help setup test lint typecheck generated native native-test pytest bench demo clean
+
+help:
+	@echo "make demo    set up, then show the C++ encoder's frames decoded by the Python decoder"
+	@echo "make test    set up, then ruff, mypy, generated-code check, C++ tests (ASan+UBSan), pytest"
+	@echo "make bench   benchmarks: table on screen, JSON in build/bench.json"
+	@echo "make setup   only install what is missing (.venv, Debian packages)"
+
+setup:
+	@PYTHON=$(PYTHON) bash tools/setup.sh
+
+test: setup
+	@$(MAKE) --no-print-directory lint typecheck generated native-test pytest
+	@echo "make test: all passed"
+
+lint:
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+# mypy reads the package through the editable install's link tree (site-packages), so the
+# folder-to-package mapping is the one users get; strict on jackson.protocol (pyproject.toml).
+typecheck:
+	cd build && ../$(BIN)/mypy --config-file ../pyproject.toml -p jackson
+
+generated:
+	$(BIN)/python protocol/codegen.py --check
+	$(BIN)/python -m jackson.protocol.make_vectors --check
+
+native:
+	@mkdir -p build
+	@cmake -S . -B $(NATIVE) -DCMAKE_BUILD_TYPE=Debug -DJACKSON_SANITIZE=ON > $(NATIVE).log 2>&1 \
+	  || { cat $(NATIVE).log; exit 1; }
+	@env -u MAKEFLAGS -u MAKELEVEL cmake --build $(NATIVE) -j $(JOBS)
+
+native-test: native
+	ctest --test-dir $(NATIVE) --output-on-failure
+
+pytest:
+	$(BIN)/pytest -q
+
+bench: setup
+	$(BIN)/jackson bench
+
+demo: setup native
+	@echo "== C++ encoder (jackson_emit_frames) | Python decoder (jackson decode) =="
+	@$(NATIVE)/protocol/jackson_emit_frames | $(BIN)/jackson decode --summary -
+
+clean:
+	rm -rf build $(VENV)

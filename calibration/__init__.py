@@ -1,0 +1,1 @@
+"""Calibration procedures, the paper's validation metrics, trial campaigns and reports."""

@@ -1,0 +1,9 @@
+"""jackson: firmware-plus-host stack for low-cost differential-drive robots.
+
+The import packages map onto the repository's folders: ``jackson.protocol`` is
+``protocol/``, ``jackson.host`` is ``host/``, ``jackson.sim`` is ``sim/``,
+``jackson.calibration`` is ``calibration/``; this package (``cli/``) holds the
+``jackson`` command.
+"""
+
+__version__ = "0.1.0"

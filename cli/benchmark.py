@@ -1,0 +1,61 @@
+"""``jackson bench``: run every benchmark suite, print a table, write build/bench.json.
+
+Each suite is a module with ``run(quick: bool) -> list[BenchResult]``. The JSON file
+is a list of ``{"name", "value", "unit", "target", "better"}`` objects, one per figure;
+later subsystems add their suites to :data:`SUITES`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Literal
+
+SUITES: tuple[str, ...] = ("jackson.protocol.bench",)
+"""Modules with a ``run(quick)`` function, in the order they run."""
+
+
+@dataclass(frozen=True)
+class BenchResult:
+    """One measured figure and the target it is judged against."""
+
+    name: str
+    value: float
+    unit: str
+    target: float
+    better: Literal["higher", "lower"]
+
+    @property
+    def met(self) -> bool:
+        return self.value >= self.target if self.better == "higher" else self.value <= self.target
+
+
+def run_all(quick: bool = False) -> list[BenchResult]:
+    results: list[BenchResult] = []
+    for name in SUITES:
+        run: Callable[[bool], list[BenchResult]] = importlib.import_module(name).run
+        results.extend(run(quick))
+    return results
+
+
+def write_json(results: list[BenchResult], path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps([asdict(r) for r in results], indent=2) + "\n", encoding="utf-8")
+
+
+def print_table(results: list[BenchResult]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="jackson bench")
+    for col in ("figure", "value", "unit", "target", "met"):
+        table.add_column(col, justify="right" if col in ("value", "target") else "left")
+    for r in results:
+        sign = ">=" if r.better == "higher" else "<="
+        table.add_row(
+            r.name, f"{r.value:.4g}", r.unit, f"{sign} {r.target:.4g}", "yes" if r.met else "NO"
+        )
+    Console().print(table)

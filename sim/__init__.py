@@ -1,0 +1,1 @@
+"""The pymunk digital twin: the robot for everyone without one. Never imports ``jackson.host``."""

@@ -1,0 +1,52 @@
+"""The import packages map onto the repository folders, and the layering holds."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+MAPPING = {
+    "jackson": "cli",
+    "jackson.protocol": "protocol",
+    "jackson.host": "host",
+    "jackson.sim": "sim",
+    "jackson.calibration": "calibration",
+}
+FORBIDDEN = {  # package folder -> packages it must never import
+    "host": ("jackson.sim", "jackson.calibration"),
+    "sim": ("jackson.host",),
+    "protocol": ("jackson.host", "jackson.sim", "jackson.calibration"),
+}
+
+
+@pytest.mark.parametrize(("package", "folder"), MAPPING.items())
+def test_package_maps_onto_its_folder(package: str, folder: str) -> None:
+    module = importlib.import_module(package)
+    assert module.__file__ is not None
+    assert Path(module.__file__).resolve().parent == ROOT / folder
+
+
+@pytest.mark.parametrize("folder", FORBIDDEN)
+def test_layering(folder: str) -> None:
+    for path in (ROOT / folder).rglob("*.py"):
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            for name in names:
+                assert not name.startswith(FORBIDDEN[folder]), f"{path}: imports {name}"
+
+
+def test_console_script_runs() -> None:
+    exe = Path(sys.executable).parent / "jackson"
+    out = subprocess.run([str(exe), "--version"], capture_output=True, text=True, check=True)
+    assert out.stdout.startswith("jackson ")

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# `make setup`: everything `make test` and `make demo` need, installed once.
+# Idempotent and silent when nothing is missing. Debian/Ubuntu, x86_64 and aarch64.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PYTHON=${PYTHON:-python3}
+VENV=.venv
+
+say() { printf 'setup: %s\n' "$*"; }
+die() { printf 'setup: %s\n' "$*" >&2; exit 1; }
+
+command -v "$PYTHON" >/dev/null 2>&1 || die "$PYTHON not found; install it: sudo apt-get install -y python3"
+"$PYTHON" - <<'PY' || die "Python 3.10-3.12 is needed, $PYTHON is $("$PYTHON" -V 2>&1); set PYTHON=python3.x"
+import sys
+sys.exit(0 if (3, 10) <= sys.version_info[:2] <= (3, 12) else 1)
+PY
+
+# ---- system packages (Debian names) -----------------------------------------------------------
+missing=()
+command -v g++ >/dev/null 2>&1 || missing+=(g++)
+command -v cmake >/dev/null 2>&1 || missing+=(cmake)
+"$PYTHON" -c 'import ensurepip, venv' >/dev/null 2>&1 || missing+=(python3-venv)
+"$PYTHON" -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
+  || missing+=(python3-dev)
+[ -e /usr/include/eigen3/Eigen/Core ] || missing+=(libeigen3-dev)
+[ -e /usr/include/gtest/gtest.h ] || missing+=(libgtest-dev)
+[ -e /usr/include/nlohmann/json.hpp ] || missing+=(nlohmann-json3-dev)
+
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" -eq 0 ]; then
+    say "installing ${missing[*]} with apt-get"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq >/dev/null
+    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    die "missing system packages; run: sudo apt-get install -y ${missing[*]}   (then make again)"
+  fi
+fi
+
+# ---- virtual environment and the package ------------------------------------------------------
+if [ ! -x "$VENV/bin/python" ]; then
+  say "creating $VENV"
+  "$PYTHON" -m venv "$VENV"
+fi
+
+# Dependencies: reinstalled when pyproject.toml or the constraints change.
+deps_key=$(cat pyproject.toml tools/constraints.txt | sha256sum | cut -c1-16)
+# Strict editable install: a static link tree that mypy and pytest see like any install; it
+# is rebuilt when a Python file is added or removed.
+files_key=$( (echo "$deps_key"; find cli protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
+
+pip=("$VENV/bin/python" -m pip install -q --disable-pip-version-check)
+if [ "$(cat "$VENV/.deps-key" 2>/dev/null)" != "$deps_key" ]; then
+  say "installing Python dependencies (pinned)"
+  "${pip[@]}" -c tools/constraints.txt setuptools wheel
+  "${pip[@]}" -c tools/constraints.txt -e '.[dev]' --config-settings editable_mode=strict
+  "$VENV/bin/python" -c 'import crcmod._crcfunext' 2>/dev/null \
+    || die "crcmod built without its C extension; install python3-dev and gcc, then rm -rf $VENV and make setup"
+  echo "$deps_key" > "$VENV/.deps-key"
+  echo "$files_key" > "$VENV/.files-key"
+fi
+if [ "$(cat "$VENV/.files-key" 2>/dev/null)" != "$files_key" ]; then
+  "${pip[@]}" --no-deps --no-build-isolation -e . --config-settings editable_mode=strict
+  echo "$files_key" > "$VENV/.files-key"
+fi
