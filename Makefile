@@ -29,7 +29,7 @@ lint:
 # mypy reads the package through the editable install's link tree (site-packages), so the
 # folder-to-package mapping is the one users get; strict on jackson.protocol (pyproject.toml).
 typecheck:
-	cd build && ../$(BIN)/mypy --config-file ../pyproject.toml -p jackson
+	mkdir -p build && cd build && ../$(BIN)/mypy --config-file ../pyproject.toml -p jackson
 
 generated:
 	$(BIN)/python protocol/codegen.py --check
