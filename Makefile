@@ -7,13 +7,17 @@ BIN    := $(VENV)/bin
 NATIVE := build/native
 JOBS   ?= 2
 
-.PHONY: help setup test lint typecheck generated native native-test pytest bench demo clean
+.PHONY: help setup test lint typecheck generated native native-test pytest bench demo clean \
+        firmware flash firmware-test
 
 help:
 	@echo "make demo    set up, then show the C++ encoder's frames decoded by the Python decoder"
 	@echo "make test    set up, then ruff, mypy, generated-code check, C++ tests (ASan+UBSan), pytest"
 	@echo "make bench   benchmarks: table on screen, JSON in build/bench.json"
 	@echo "make setup   only install what is missing (.venv, Debian packages)"
+	@echo "make firmware        build the ESP32-S3 firmware (PlatformIO)"
+	@echo "make flash PORT=...  build and flash it (default PORT=/dev/ttyACM0)"
+	@echo "make firmware-test   build the firmware core natively and run its tests"
 
 setup:
 	@PYTHON=$(PYTHON) bash tools/setup.sh
@@ -53,6 +57,24 @@ bench: setup
 demo: setup native
 	@echo "== C++ encoder (jackson_emit_frames) | Python decoder (jackson decode) =="
 	@$(NATIVE)/protocol/jackson_emit_frames | $(BIN)/jackson decode --summary -
+
+# ---- firmware ---------------------------------------------------------------------------------
+PORT ?= /dev/ttyACM0
+PIO  ?= $(shell command -v pio 2>/dev/null || command -v platformio 2>/dev/null)
+PIO_MISSING = echo "PlatformIO is not installed; install it with: pipx install platformio  (or python3 -m pip install --user platformio), then run make $@ again" >&2; exit 1
+
+firmware:
+	@if [ -z "$(PIO)" ]; then $(PIO_MISSING); fi
+	$(PIO) run -d firmware
+
+flash:
+	@if [ -z "$(PIO)" ]; then $(PIO_MISSING); fi
+	@[ -e "$(PORT)" ] || { echo "$(PORT) does not exist: plug the ESP32-S3 in by its USB port, or pass PORT=/dev/ttyACMx" >&2; exit 1; }
+	$(PIO) run -d firmware -t upload --upload-port $(PORT)
+
+firmware-test: setup native
+	ctest --test-dir $(NATIVE) --output-on-failure -R firmware
+	$(BIN)/pytest -q tests/firmware
 
 clean:
 	rm -rf build $(VENV)

@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal
 
-SUITES: tuple[str, ...] = ("jackson.protocol.bench",)
+SUITES: tuple[str, ...] = ("jackson.protocol.bench", "jackson.firmware_bench")
 """Modules with a ``run(quick)`` function, in the order they run."""
 
 

@@ -95,6 +95,11 @@ struct DecoderCounters {
 /// that starts inside a corrupt one is still found. Uses kMaxFrame bytes of state, no heap.
 class FrameDecoder {
  public:
+  FrameDecoder() = default;
+  /// With `deliver_unknown`, CRC-valid frames of an unknown TYPE also reach the sink (they are
+  /// still counted in unknown_type and bytes_skipped), so a device can NACK them.
+  explicit FrameDecoder(bool deliver_unknown) : deliver_unknown_(deliver_unknown) {}
+
   /// Feeds one byte received at `now_us` (a free-running microsecond clock that may wrap).
   template <class Sink>
   void feed(uint8_t byte, uint32_t now_us, Sink&& sink) {
@@ -178,6 +183,7 @@ class FrameDecoder {
       last_seq_ = seq;
       if (!is_known_type(type)) {
         ++counters_.unknown_type;
+        if (deliver_unknown_) sink(Frame{type, seq, static_cast<uint8_t>(len), buf_.data() + kHeaderSize});
         skip(total);
         continue;
       }
@@ -198,6 +204,7 @@ class FrameDecoder {
   uint32_t last_us_ = 0;
   bool have_seq_ = false;
   uint8_t last_seq_ = 0;
+  bool deliver_unknown_ = false;
   DecoderCounters counters_{};
 };
 
