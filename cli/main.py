@@ -114,6 +114,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--summary", action="store_true", help="a table of message counts instead of each message"
     )
     p.set_defaults(func=_cmd_decode)
+
+    from jackson.sim import cli as sim_cli
+
+    sim_cli.add_parser(sub)
+    sub.choices["sim"].set_defaults(func=sim_cli.run)
     return parser
 
 

@@ -84,7 +84,10 @@ class FrameDecoder:
     :attr:`counters`, never raised.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, deliver_unknown: bool = False) -> None:
+        """With ``deliver_unknown``, CRC-valid frames of an unknown TYPE are also returned (still
+        counted in unknown_type and bytes_skipped), so a device can NACK them."""
+        self.deliver_unknown = deliver_unknown
         self.counters = DecoderCounters()
         self._buf = bytearray()
         self._last_us: int | None = None
@@ -195,6 +198,8 @@ class FrameDecoder:
             self._last_seq = seq
             if ftype not in MESSAGES:
                 c.unknown_type += 1
+                if self.deliver_unknown:
+                    frames.append(Frame(ftype, seq, bytes(buf[pos + HEADER_SIZE : end])))
                 skipped += end + CRC_SIZE - pos
                 pos = end + CRC_SIZE
                 continue

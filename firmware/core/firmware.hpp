@@ -70,6 +70,8 @@ class Firmware {
     return heartbeat_seen_;
   }
   bool calibrated() const noexcept { return calibrated_; }
+  /// When the next telemetry frame is due (meaningful during a session).
+  uint32_t next_telemetry_us() const noexcept { return next_telemetry_us_; }
   const Mpu6050& imu() const noexcept { return imu_; }
 
  private:

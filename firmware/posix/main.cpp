@@ -11,7 +11,7 @@
 //
 // Each reply is one line:
 //   s <t_us> <telemetry_seq|-1> <frames_sent> <heartbeat_ack|-1> <motor_left> <motor_right>
-//     <braked> <failsafe> <session> <tx_dropped> <rx_crc_errors>
+//     <braked> <failsafe> <session> <tx_dropped> <rx_crc_errors> <next_telemetry_us|-1>
 // With --realtime the clock follows CLOCK_MONOTONIC and t lines only update the sensors.
 #include <poll.h>
 #include <unistd.h>
@@ -109,11 +109,13 @@ struct Process {
     const bool sent = fw.last_telemetry_seq(seq);
     uint8_t hb = 0;
     const bool seen = fw.last_heartbeat_ack(hb);
-    std::printf("s %llu %d %u %d %d %d %d %d %d %u %u\n",
+    const long long next =
+        fw.session_active() ? static_cast<long long>(fw.next_telemetry_us()) : -1;
+    std::printf("s %llu %d %u %d %d %d %d %d %d %u %u %lld\n",
                 static_cast<unsigned long long>(clock.now64()), sent ? seq : -1,
                 fw.frames_sent(), seen ? hb : -1, motors.left_, motors.right_,
                 motors.braked_ ? 1 : 0, fw.motors().failsafe ? 1 : 0, fw.session_active() ? 1 : 0,
-                fw.tx_dropped(), fw.rx_counters().crc_errors);
+                fw.tx_dropped(), fw.rx_counters().crc_errors, next);
     std::fflush(stdout);
   }
 

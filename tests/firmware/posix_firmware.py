@@ -35,6 +35,7 @@ class FeedReply:
     session: bool
     tx_dropped: int
     rx_crc_errors: int
+    next_telemetry_us: int
 
 
 def imu_registers(accel: tuple[int, int, int], temp: int, gyro: tuple[int, int, int]) -> str:
@@ -80,7 +81,18 @@ class PosixFirmware:
         assert parts and parts[0] == "s", parts
         v = [int(x) for x in parts[1:]]
         return FeedReply(
-            v[0], v[1], v[2], v[3], v[4], v[5], bool(v[6]), bool(v[7]), bool(v[8]), v[9], v[10]
+            v[0],
+            v[1],
+            v[2],
+            v[3],
+            v[4],
+            v[5],
+            bool(v[6]),
+            bool(v[7]),
+            bool(v[8]),
+            v[9],
+            v[10],
+            v[11],
         )
 
     def step(

@@ -1,0 +1,1 @@
+"""The actuation chain: limits, kinematics, PWM shaping, and the motor-driver outputs."""

@@ -1,0 +1,99 @@
+"""PCA9685 16-channel PWM driver over the host's I2C bus (NXP PCA9685 datasheet, Rev. 4).
+
+The chip's register map is written as the datasheet names it. Channels are set with one block
+write of their four LEDn_ON/OFF registers (auto-increment); contiguous channels go in a single
+transfer, so one motor command is one I2C transaction.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+from jackson.host.i2c import I2cBus
+
+MODE1 = 0x00
+MODE2 = 0x01
+LED0_ON_L = 0x06
+ALL_LED_ON_L = 0xFA
+ALL_LED_OFF_H = 0xFD
+PRE_SCALE = 0xFE
+
+MODE1_RESTART = 0x80
+MODE1_AI = 0x20  # register auto-increment
+MODE1_SLEEP = 0x10
+MODE1_ALLCALL = 0x01
+LED_FULL = 0x10  # bit 4 of LEDn_ON_H (full on) and LEDn_OFF_H (full off)
+
+OSC_CLOCK_HZ = 25_000_000
+DEFAULT_ADDRESS = 0x40
+MAX_BLOCK_BYTES = 32
+RESTART_WAIT_S = 500e-6  # datasheet 7.3.1.1: oscillator start-up before RESTART
+
+
+def prescale_for(frequency_hz: float) -> int:
+    """PRE_SCALE for an update rate: round(25 MHz / (4096 f)) - 1 (datasheet eq. 1)."""
+    value = round(OSC_CLOCK_HZ / (4096.0 * frequency_hz)) - 1
+    if not 3 <= value <= 255:
+        raise ValueError(f"PWM frequency {frequency_hz} Hz is outside the PCA9685's 24-1526 Hz")
+    return value
+
+
+def led_registers(duty: float) -> list[int]:
+    """LEDn_ON_L, ON_H, OFF_L, OFF_H for a duty in [0, 1]: full-off at 0, full-on at 1."""
+    if duty <= 0.0:
+        return [0, 0, 0, LED_FULL]
+    if duty >= 1.0:
+        return [0, LED_FULL, 0, 0]
+    off = min(4095, max(1, round(duty * 4096)))
+    return [0, 0, off & 0xFF, off >> 8]
+
+
+class Pca9685:
+    """One PCA9685 on an :class:`~jackson.host.i2c.I2cBus` (smbus2 or the twin's socket)."""
+
+    def __init__(self, bus: I2cBus, address: int = DEFAULT_ADDRESS) -> None:
+        self.bus = bus
+        self.address = address
+        self.writes = 0  # I2C transactions issued, for diagnostics
+
+    def init(self, frequency_hz: float = 1000.0) -> None:
+        """Sleep, set the prescaler, wake, wait for the oscillator, restart with auto-increment.
+
+        Outputs start fully off.
+        """
+        prescale = prescale_for(frequency_hz)
+        self._write(MODE1, MODE1_SLEEP | MODE1_AI | MODE1_ALLCALL)  # PRE_SCALE: only asleep
+        self._write(PRE_SCALE, prescale)
+        self.bus.write_i2c_block_data(self.address, ALL_LED_ON_L, [0, 0, 0, LED_FULL])
+        self.writes += 1
+        self._write(MODE1, MODE1_AI | MODE1_ALLCALL)
+        time.sleep(RESTART_WAIT_S)
+        self._write(MODE1, MODE1_RESTART | MODE1_AI | MODE1_ALLCALL)
+
+    def _write(self, reg: int, value: int) -> None:
+        self.bus.write_byte_data(self.address, reg, value)
+        self.writes += 1
+
+    def set_duties(self, duties: Mapping[int, float]) -> None:
+        """Set channels to duties in [0, 1], contiguous channels in one block write each."""
+        channels = sorted(duties)
+        run: list[int] = []
+        for ch in channels:
+            if run and (ch != run[-1] + 1 or 4 * (len(run) + 1) > MAX_BLOCK_BYTES):
+                self._write_run(run, duties)
+                run = []
+            run.append(ch)
+        if run:
+            self._write_run(run, duties)
+
+    def _write_run(self, run: list[int], duties: Mapping[int, float]) -> None:
+        data: list[int] = []
+        for ch in run:
+            data += led_registers(duties[ch])
+        self.bus.write_i2c_block_data(self.address, LED0_ON_L + 4 * run[0], data)
+        self.writes += 1
+
+    def all_off(self) -> None:
+        """Every channel fully off in one write (ALL_LED_OFF_H full-off bit)."""
+        self._write(ALL_LED_OFF_H, LED_FULL)

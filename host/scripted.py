@@ -1,0 +1,118 @@
+"""A minimal scripted host: the handshake, then wheel duties and a heartbeat per frame.
+
+It is what the twin's tests and the lockstep benchmark run against the twin: the smallest
+host that behaves like the real one on the wire (HELLO and INFO check, telemetry in, PCA9685
+register writes through the I2C bus, HEARTBEAT acknowledging each frame).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import serial
+
+from jackson.host.actuation.pca9685 import Pca9685
+from jackson.host.actuation.tb6612 import BridgeChannels, bridge_duties
+from jackson.host.i2c import open_bus
+from jackson.protocol import (
+    Ack,
+    FrameDecoder,
+    Heartbeat,
+    HostState,
+    Info,
+    Message,
+    Telemetry,
+    check_peer,
+    decode_message,
+    encode_frame,
+    hello,
+)
+
+LEFT = BridgeChannels(pwm=0, in1=1, in2=2)
+RIGHT = BridgeChannels(pwm=5, in1=3, in2=4)
+DutyFn = Callable[[Telemetry], tuple[float, float]]
+
+
+class HostTimeoutError(TimeoutError):
+    """The robot did not answer in time."""
+
+
+class ScriptedHost:
+    """Connects to a robot (or the twin) by its serial port and I2C bus."""
+
+    def __init__(self, serial_path: str, i2c_spec: str, address: int = 0x40) -> None:
+        self.port = serial.Serial(serial_path, baudrate=921600, timeout=0.05)
+        self.bus = open_bus(i2c_spec)
+        self.pca = Pca9685(self.bus, address)
+        self.decoder = FrameDecoder()
+        self.seq = 0
+        self.inbox: list[tuple[int, Message]] = []  # (SEQ, message) not yet taken
+        self.info: Info | None = None
+        self.last_telemetry_seq = 0
+
+    def send(self, msg: Message) -> None:
+        self.port.write(encode_frame(msg, self.seq))
+        self.seq = (self.seq + 1) & 0xFF
+
+    def _pump(self) -> None:
+        data = self.port.read(max(1, self.port.in_waiting))
+        if data:
+            for frame in self.decoder.feed(data):
+                self.inbox.append((frame.seq, decode_message(frame)))
+
+    def connect(self, timeout_s: float = 5.0) -> Info:
+        """HELLO, then wait for INFO and its ACK; refuses another protocol or schema."""
+        self.pca.init()
+        self.send(hello())
+        deadline = time.monotonic() + timeout_s
+        acked = False
+        while self.info is None or not acked:
+            if time.monotonic() > deadline:
+                raise HostTimeoutError("no INFO/ACK after HELLO")
+            self._pump()
+            for _, m in self.inbox:
+                if isinstance(m, Info):
+                    check_peer(m)
+                    self.info = m
+                acked |= isinstance(m, Ack)
+            self.inbox.clear()
+        return self.info
+
+    def next_telemetry(self, timeout_s: float = 5.0) -> Telemetry:
+        """The next telemetry frame (other messages stay in :attr:`inbox`)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            for i, (seq, m) in enumerate(self.inbox):
+                if isinstance(m, Telemetry):
+                    del self.inbox[i]
+                    self.last_telemetry_seq = seq
+                    return m
+            if time.monotonic() > deadline:
+                raise HostTimeoutError("no telemetry")
+            self._pump()
+
+    def set_wheels(self, left: float, right: float) -> None:
+        """Signed duties in [-1, 1]; 0 short-brakes."""
+        self.pca.set_duties({**bridge_duties(LEFT, left), **bridge_duties(RIGHT, right)})
+
+    def run(self, frames: int, duties: DutyFn) -> list[Telemetry]:
+        """For each telemetry frame: set the duties it asks for, then acknowledge it."""
+        out = []
+        for _ in range(frames):
+            t = self.next_telemetry()
+            self.set_wheels(*duties(t))
+            self.heartbeat()
+            out.append(t)
+        return out
+
+    def heartbeat(self, state: HostState = HostState.ACTIVE) -> None:
+        """Acknowledge the newest telemetry frame taken."""
+        self.send(Heartbeat(ack_seq=self.last_telemetry_seq, host_state=state))
+
+    def close(self) -> None:
+        try:
+            self.heartbeat(HostState.SHUTDOWN)
+        finally:
+            self.port.close()
+            self.bus.close()

@@ -1,0 +1,109 @@
+"""``jackson sim``: start the twin and print where the host connects."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import tempfile
+import threading
+from pathlib import Path
+from types import FrameType
+
+from jackson.sim.config import ConfigError, load_robot, load_world
+from jackson.sim.fil import FirmwareError
+from jackson.sim.i2c_server import I2cServerError
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "sim",
+        help="start the digital twin: a robot on a virtual serial port and a virtual I2C bus",
+        description="Start the digital twin. It prints the serial port and the I2C socket a host "
+        "connects to, and runs until SIGINT or SIGTERM (or --duration).",
+    )
+    p.add_argument("--world", default="open_floor", help="world name in sim/worlds or a YAML path")
+    p.add_argument("--robot", default="jackson", help="robot name in sim/robots or a YAML path")
+    p.add_argument("--realtime", action="store_true", help="pace on the wall clock (else lockstep)")
+    p.add_argument(
+        "--firmware",
+        action="store_true",
+        help="run the compiled POSIX firmware as the MCU instead of the emulator",
+    )
+    p.add_argument(
+        "--mcu-motors",
+        action="store_true",
+        help="the MCU drives the motors (MOTOR_PWM) instead of the PCA9685",
+    )
+    p.add_argument("--seed", type=int, default=0, help="noise seed (runs are deterministic)")
+    p.add_argument("--i2c", type=Path, help="I2C socket path (default: a fresh temporary path)")
+    p.add_argument("--link", help="also make this symlink to the serial port (e.g. /tmp/robot)")
+    p.add_argument("--no-lidar", action="store_true", help="do not simulate the LiDAR")
+    p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
+    p.add_argument(
+        "--heartbeat-timeout",
+        type=float,
+        default=1.0,
+        help="lockstep: wall seconds to wait for the host before moving on",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from jackson.sim.runner import TwinRunner
+    from jackson.sim.twin import Twin
+
+    try:
+        world = load_world(args.world)
+        robot = load_robot(args.robot)
+    except ConfigError as exc:
+        print(f"jackson sim: {exc}", file=sys.stderr)
+        return 2
+    tmp = None
+    i2c_path = args.i2c
+    if i2c_path is None:
+        tmp = tempfile.TemporaryDirectory(prefix="jackson-twin-")
+        i2c_path = Path(tmp.name) / "i2c.sock"
+    twin = Twin(
+        world, robot, seed=args.seed, lidar=False if args.no_lidar else None, record_truth=False
+    )
+    try:
+        runner = TwinRunner(
+            twin,
+            i2c_path=i2c_path,
+            lockstep=not args.realtime,
+            firmware=args.firmware,
+            mcu_motors=args.mcu_motors,
+            heartbeat_timeout_s=args.heartbeat_timeout,
+            serial_link=args.link,
+        )
+    except (I2cServerError, FirmwareError, OSError) as exc:
+        print(f"jackson sim: {exc}", file=sys.stderr)
+        return 2
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    print(f"serial: {runner.serial_path}", flush=True)
+    print(f"i2c: unix:{i2c_path}", flush=True)
+    mode = "real time" if args.realtime else "lockstep"
+    mcu = "POSIX firmware" if args.firmware else "MCU emulator"
+    print(
+        f"twin: world {world.name}, robot {robot.name}, {mode}, {mcu}; waiting for HELLO",
+        flush=True,
+    )
+    try:
+        stats = runner.run(args.duration, stop)
+    finally:
+        runner.close()
+        if tmp is not None:
+            tmp.cleanup()
+    print(
+        f"twin: {stats.sim_s:.2f} s simulated in {stats.wall_s:.2f} s "
+        f"(x{stats.real_time_factor:.0f}), {stats.frames} telemetry frames, "
+        f"{twin.collisions} collisions",
+        flush=True,
+    )
+    return 0

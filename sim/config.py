@@ -1,0 +1,435 @@
+"""World and robot files of the twin: YAML in, validated frozen dataclasses out.
+
+Robot files (``sim/robots/*.yaml``) hold the twin's *true* parameters, which the host does
+not know; world files (``sim/worlds/*.yaml``) hold walls, cylinders, triggered obstacles and
+the floor. Every problem is reported as one :class:`ConfigError` line naming the file and the
+field, e.g. ``robot jackson.yaml: motor.stall_torque_nm: expected a number > 0, got -1``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
+
+SIM_DIR = Path(__file__).resolve().parent
+ROBOTS_DIR = SIM_DIR / "robots"
+WORLDS_DIR = SIM_DIR / "worlds"
+
+
+class ConfigError(ValueError):
+    """A world or robot file is missing, unreadable or has a bad field."""
+
+
+@dataclass(frozen=True)
+class Sides:
+    """A value per wheel."""
+
+    left: float
+    right: float
+
+
+@dataclass(frozen=True)
+class MotorSpec:
+    """DC gear motor at the wheel shaft, driven through the TB6612 from the battery."""
+
+    battery_v: float = 6.0  # 5 x 1.2 V NiMH
+    nominal_v: float = 6.0
+    no_load_rpm: float = 100.0  # at nominal_v
+    stall_torque_nm: float = 0.6  # at nominal_v
+    time_constant_s: float = 0.02  # first-order torque response
+    deadband_duty: Sides = Sides(0.10, 0.10)  # static breakaway duty at the battery voltage
+    gain: Sides = Sides(1.0, 1.0)  # left/right asymmetry of the whole drive
+    wheel_inertia_kg_m2: float = 2.0e-4  # wheel plus reflected rotor inertia
+
+    @property
+    def no_load_rad_s(self) -> float:
+        return self.no_load_rpm * 2.0 * math.pi / 60.0
+
+
+@dataclass(frozen=True)
+class WiringSpec:
+    """How the PCA9685 drives the TB6612 on this robot."""
+
+    pca9685_address: int = 0x40
+    left: MotorWiring = LEFT_WIRING
+    right: MotorWiring = RIGHT_WIRING
+    stby_channel: int | None = None  # None: STBY tied high
+
+
+@dataclass(frozen=True)
+class ImuSpec:
+    """MPU-6050 error model, Eq. 7-8: a = a_true + b_a + eta_a, omega = omega_true + b_w + eta_w."""
+
+    gyro_bias_rad_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel_bias_m_s2: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gyro_noise_sigma_rad_s: float = 3.999e-4
+    accel_noise_sigma_m_s2: float = 1.7976e-2
+    gravity_scale: float = 1.0  # the paper's sensor read 9.299 at rest: 0.9479
+    yaw_scale: float = 1.0  # gyro z scale error
+    present: bool = True
+
+
+@dataclass(frozen=True)
+class LidarMount:
+    """The LiDAR's error model and pose on the robot (RPLIDAR A1M8 by default)."""
+
+    enabled: bool = True
+    noise_sigma_m: float = 0.01
+    extra_noise_sigma_m: float = 0.0
+    dropout_probability: float = 0.0
+    mount_x_m: float = 0.0
+    mount_y_m: float = 0.0
+    mount_yaw_rad: float = 0.0
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """The twin's true robot."""
+
+    name: str
+    mass_kg: float = 2.0
+    inertia_kg_m2: float = 0.021  # about z through the axle centre
+    wheel_radius_m: Sides = Sides(0.033, 0.033)
+    track_width_m: float = 0.198
+    ticks_per_rev: Sides = Sides(621.0, 621.0)
+    envelope_x_m: tuple[float, float] = (-0.135, 0.135177)  # collision envelope, base frame
+    envelope_y_m: tuple[float, float] = (-0.135439, 0.135)
+    caster_load_fraction: float = 0.2  # share of the weight on the caster
+    caster_rolling_coeff: float = 0.02
+    actuation_latency_s: float = 0.0
+    motor: MotorSpec = field(default_factory=MotorSpec)
+    wiring: WiringSpec = field(default_factory=WiringSpec)
+    imu: ImuSpec = field(default_factory=ImuSpec)
+    lidar: LidarMount = field(default_factory=LidarMount)
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    x: float
+    y: float
+    radius: float
+
+
+@dataclass(frozen=True)
+class Trigger:
+    """Inserts a cylinder once the robot is ``when_moved_m`` from its start position."""
+
+    when_moved_m: float
+    cylinder: Cylinder
+
+
+@dataclass(frozen=True)
+class WorldSpec:
+    """A floor with walls, cylinders and triggered obstacles."""
+
+    name: str
+    mu_static: float = 0.8
+    mu_dynamic: float = 0.7
+    walls: tuple[tuple[float, float, float, float], ...] = ()
+    cylinders: tuple[Cylinder, ...] = ()
+    triggers: tuple[Trigger, ...] = ()
+    start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+# ------------------------------------------------------------------------- validation
+
+
+class _Reader:
+    """Pulls typed fields out of a YAML mapping, naming the full field path in errors."""
+
+    def __init__(self, where: str, data: Mapping[str, Any], prefix: str = "") -> None:
+        self.where = where
+        self.data = data
+        self.prefix = prefix
+        self.used: set[str] = set()
+
+    def fail(self, key: str, msg: str) -> ConfigError:
+        return ConfigError(f"{self.where}: {self.prefix}{key}: {msg}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def number(
+        self,
+        key: str,
+        default: float,
+        lo: float | None = None,
+        *,
+        gt: bool = False,
+        hi: float | None = None,
+    ) -> float:
+        self.used.add(key)
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise self.fail(key, f"expected a number, got {v!r}")
+        if lo is not None and (v <= lo if gt else v < lo):
+            raise self.fail(key, f"expected a number {'>' if gt else '>='} {lo:g}, got {v!r}")
+        if hi is not None and v > hi:
+            raise self.fail(key, f"expected a number <= {hi:g}, got {v!r}")
+        return float(v)
+
+    def integer(self, key: str, default: int, lo: int, hi: int) -> int:
+        self.used.add(key)
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise self.fail(key, f"expected an integer in {lo}-{hi}, got {v!r}")
+        return v
+
+    def optional_integer(self, key: str, lo: int, hi: int) -> int | None:
+        if self.data.get(key) is None:
+            self.used.add(key)
+            return None
+        return self.integer(key, 0, lo, hi)
+
+    def boolean(self, key: str, default: bool) -> bool:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if not isinstance(v, bool):
+            raise self.fail(key, f"expected true or false, got {v!r}")
+        return v
+
+    def text(self, key: str, default: str) -> str:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if not isinstance(v, str):
+            raise self.fail(key, f"expected text, got {v!r}")
+        return v
+
+    def sub(self, key: str) -> _Reader:
+        self.used.add(key)
+        v = self.data.get(key, {})
+        if not isinstance(v, Mapping):
+            raise self.fail(key, f"expected a mapping, got {v!r}")
+        return _Reader(self.where, v, f"{self.prefix}{key}.")
+
+    def sides(
+        self, key: str, default: Sides, lo: float, *, gt: bool = False, hi: float | None = None
+    ) -> Sides:
+        """``key: 0.5`` (both sides) or ``key: {left: 0.5, right: 0.6}``."""
+        if isinstance(self.data.get(key), Mapping):
+            r = self.sub(key)
+            out = Sides(
+                r.number("left", default.left, lo, gt=gt, hi=hi),
+                r.number("right", default.right, lo, gt=gt, hi=hi),
+            )
+            r.finish()
+            return out
+        v = self.number(key, math.nan, lo, gt=gt, hi=hi) if key in self.data else None
+        return default if v is None else Sides(v, v)
+
+    def vector(self, key: str, default: tuple[float, ...], n: int) -> tuple[float, ...]:
+        self.used.add(key)
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if (
+            not isinstance(v, list)
+            or len(v) != n
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+        ):
+            raise self.fail(key, f"expected a list of {n} numbers, got {v!r}")
+        return tuple(float(x) for x in v)
+
+    def items(self, key: str) -> list[Any]:
+        self.used.add(key)
+        v = self.data.get(key, [])
+        if v is None:
+            return []
+        if not isinstance(v, list):
+            raise self.fail(key, f"expected a list, got {v!r}")
+        return v
+
+    def finish(self) -> None:
+        unknown = sorted(set(self.data) - self.used)
+        if unknown:
+            raise self.fail(unknown[0], "unknown field (check the spelling)")
+
+
+def _load_yaml(path: Path, kind: str) -> tuple[str, Mapping[str, Any]]:
+    where = f"{kind} {path.name}"
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"{kind} file {path}: cannot read it ({exc.strerror})") from exc
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{where}:{line} is not valid YAML") from exc
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where}: expected a mapping of fields at the top level")
+    return where, data
+
+
+def resolve(name_or_path: str | Path, folder: Path) -> Path:
+    """A bundled name (``jackson``) or a path to a YAML file."""
+    p = Path(name_or_path)
+    if p.suffix in (".yaml", ".yml") or p.exists():
+        return p
+    return folder / f"{name_or_path}.yaml"
+
+
+def load_robot(name_or_path: str | Path) -> RobotSpec:
+    """Read and validate a robot file (a bundled name like ``jackson`` or a path)."""
+    path = resolve(name_or_path, ROBOTS_DIR)
+    where, data = _load_yaml(path, "robot")
+    r = _Reader(where, data)
+    m = r.sub("motor")
+    motor = MotorSpec(
+        battery_v=m.number("battery_v", 6.0, 0, gt=True),
+        nominal_v=m.number("nominal_v", 6.0, 0, gt=True),
+        no_load_rpm=m.number("no_load_rpm", 100.0, 0, gt=True),
+        stall_torque_nm=m.number("stall_torque_nm", 0.6, 0, gt=True),
+        time_constant_s=m.number("time_constant_s", 0.02, 0),
+        deadband_duty=m.sides("deadband_duty", Sides(0.10, 0.10), 0, hi=0.9),
+        gain=m.sides("gain", Sides(1.0, 1.0), 0, gt=True, hi=2.0),
+        wheel_inertia_kg_m2=m.number("wheel_inertia_kg_m2", 2.0e-4, 0, gt=True),
+    )
+    m.finish()
+    w = r.sub("wiring")
+
+    def wheel(key: str, default: MotorWiring) -> MotorWiring:
+        if not w.has(key):
+            w.used.add(key)
+            return default
+        s = w.sub(key)
+        out = MotorWiring(
+            s.integer("pwm", default.pwm, 0, 15),
+            s.integer("in1", default.in1, 0, 15),
+            s.integer("in2", default.in2, 0, 15),
+        )
+        s.finish()
+        return out
+
+    wiring = WiringSpec(
+        pca9685_address=w.integer("pca9685_address", 0x40, 0x03, 0x77),
+        left=wheel("left", MotorWiring(0, 1, 2)),
+        right=wheel("right", MotorWiring(5, 3, 4)),
+        stby_channel=w.optional_integer("stby_channel", 0, 15),
+    )
+    w.finish()
+    i = r.sub("imu")
+    imu = ImuSpec(
+        gyro_bias_rad_s=_v3(i.vector("gyro_bias_rad_s", (0.0, 0.0, 0.0), 3)),
+        accel_bias_m_s2=_v3(i.vector("accel_bias_m_s2", (0.0, 0.0, 0.0), 3)),
+        gyro_noise_sigma_rad_s=i.number("gyro_noise_sigma_rad_s", 3.999e-4, 0),
+        accel_noise_sigma_m_s2=i.number("accel_noise_sigma_m_s2", 1.7976e-2, 0),
+        gravity_scale=i.number("gravity_scale", 1.0, 0, gt=True),
+        yaw_scale=i.number("yaw_scale", 1.0, 0, gt=True),
+        present=i.boolean("present", True),
+    )
+    i.finish()
+    li = r.sub("lidar")
+    lidar = LidarMount(
+        enabled=li.boolean("enabled", True),
+        noise_sigma_m=li.number("noise_sigma_m", 0.01, 0),
+        extra_noise_sigma_m=li.number("extra_noise_sigma_m", 0.0, 0),
+        dropout_probability=li.number("dropout_probability", 0.0, 0, hi=1.0),
+        mount_x_m=li.number("mount_x_m", 0.0),
+        mount_y_m=li.number("mount_y_m", 0.0),
+        mount_yaw_rad=li.number("mount_yaw_rad", 0.0),
+    )
+    li.finish()
+    ex = r.vector("envelope_x_m", (-0.135, 0.135177), 2)
+    ey = r.vector("envelope_y_m", (-0.135439, 0.135), 2)
+    for key, (lo, hi) in (("envelope_x_m", ex), ("envelope_y_m", ey)):
+        if not lo < 0 < hi:
+            raise r.fail(key, f"expected [min < 0, max > 0] around the axle centre, got {[lo, hi]}")
+    spec = RobotSpec(
+        name=r.text("name", path.stem),
+        mass_kg=r.number("mass_kg", 2.0, 0, gt=True),
+        inertia_kg_m2=r.number("inertia_kg_m2", 0.021, 0, gt=True),
+        wheel_radius_m=r.sides("wheel_radius_m", Sides(0.033, 0.033), 0, gt=True, hi=0.5),
+        track_width_m=r.number("track_width_m", 0.198, 0, gt=True, hi=2.0),
+        ticks_per_rev=r.sides("ticks_per_rev", Sides(621.0, 621.0), 0, gt=True),
+        envelope_x_m=(ex[0], ex[1]),
+        envelope_y_m=(ey[0], ey[1]),
+        caster_load_fraction=r.number("caster_load_fraction", 0.2, 0, hi=0.9),
+        caster_rolling_coeff=r.number("caster_rolling_coeff", 0.02, 0, hi=1.0),
+        actuation_latency_s=r.number("actuation_latency_s", 0.0, 0, hi=1.0),
+        motor=motor,
+        wiring=wiring,
+        imu=imu,
+        lidar=lidar,
+    )
+    r.finish()
+    return spec
+
+
+def _v3(v: tuple[float, ...]) -> tuple[float, float, float]:
+    return (v[0], v[1], v[2])
+
+
+def load_world(name_or_path: str | Path) -> WorldSpec:
+    """Read and validate a world file (a bundled name like ``open_floor`` or a path)."""
+    path = resolve(name_or_path, WORLDS_DIR)
+    where, data = _load_yaml(path, "world")
+    r = _Reader(where, data)
+    f = r.sub("floor")
+    mu_s = f.number("mu_static", 0.8, 0, gt=True)
+    mu_d = f.number("mu_dynamic", 0.7, 0, gt=True)
+    f.finish()
+    if mu_d > mu_s:
+        raise r.fail("floor.mu_dynamic", f"must not exceed mu_static ({mu_s:g}), got {mu_d:g}")
+    walls = []
+    for k, w in enumerate(r.items("walls")):
+        if (
+            not isinstance(w, list)
+            or len(w) != 4
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
+        ):
+            raise r.fail(f"walls[{k}]", f"expected [x1, y1, x2, y2] in metres, got {w!r}")
+        walls.append((float(w[0]), float(w[1]), float(w[2]), float(w[3])))
+
+    def cylinder(reader: _Reader) -> Cylinder:
+        c = Cylinder(
+            reader.number("x", math.nan),
+            reader.number("y", math.nan),
+            reader.number("radius", math.nan, 0, gt=True),
+        )
+        for key in ("x", "y", "radius"):
+            if not reader.has(key):
+                raise reader.fail(key, "missing")
+        reader.finish()
+        return c
+
+    cylinders = []
+    for k, c in enumerate(r.items("cylinders")):
+        if not isinstance(c, Mapping):
+            raise r.fail(f"cylinders[{k}]", f"expected {{x, y, radius}}, got {c!r}")
+        cylinders.append(cylinder(_Reader(where, c, f"cylinders[{k}].")))
+    triggers = []
+    for k, t in enumerate(r.items("triggers")):
+        if not isinstance(t, Mapping):
+            raise r.fail(f"triggers[{k}]", f"expected {{when_moved_m, add_cylinder}}, got {t!r}")
+        tr = _Reader(where, t, f"triggers[{k}].")
+        if not tr.has("when_moved_m") or not tr.has("add_cylinder"):
+            raise tr.fail(
+                "when_moved_m" if not tr.has("when_moved_m") else "add_cylinder", "missing"
+            )
+        triggers.append(
+            Trigger(tr.number("when_moved_m", 0.0, 0), cylinder(tr.sub("add_cylinder")))
+        )
+        tr.finish()
+    start = r.vector("start_pose", (0.0, 0.0, 0.0), 3)
+    spec = WorldSpec(
+        name=r.text("name", path.stem),
+        mu_static=mu_s,
+        mu_dynamic=mu_d,
+        walls=tuple(walls),
+        cylinders=tuple(cylinders),
+        triggers=tuple(triggers),
+        start_pose=(start[0], start[1], start[2]),
+    )
+    r.finish()
+    return spec

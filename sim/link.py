@@ -1,0 +1,70 @@
+"""The twin's serial link: a pseudo-terminal that looks like the ESP32-S3's USB port."""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import tty
+from pathlib import Path
+
+QUEUE_BYTES = 8192  # like a USB CDC TX buffer: frames that do not fit are dropped whole
+
+
+class PtyLink:
+    """A raw-mode pty. The twin keeps its own slave descriptor open, so a client may close and
+    reopen the port (a host reconnecting) without the link going down; frames are written
+    whole or not at all, and never block the twin.
+    """
+
+    def __init__(self, link: str | None = None) -> None:
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self._slave)
+        self._queue = bytearray()
+        self.link = Path(link) if link else None
+        if self.link is not None:
+            with contextlib.suppress(FileNotFoundError):
+                self.link.unlink()
+            self.link.symlink_to(self.path)
+
+    def fileno(self) -> int:
+        return self.master
+
+    def flush(self) -> None:
+        while self._queue:
+            try:
+                n = os.write(self.master, self._queue)
+            except BlockingIOError:
+                return
+            except OSError as exc:  # pragma: no cover - only if the pty itself fails
+                if exc.errno in (errno.EIO, errno.EAGAIN):
+                    return
+                raise
+            del self._queue[:n]
+
+    def write(self, frame: bytes) -> bool:
+        """Queue a whole frame; False (dropped) when the buffer cannot take it."""
+        self.flush()
+        if len(self._queue) + len(frame) > QUEUE_BYTES:
+            return False
+        self._queue += frame
+        self.flush()
+        return True
+
+    def read(self) -> bytes:
+        """Whatever the host has written (b"" when nothing)."""
+        self.flush()
+        try:
+            return os.read(self.master, 65536)
+        except (BlockingIOError, OSError):
+            return b""
+
+    def close(self) -> None:
+        for fd in (self.master, self._slave):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        if self.link is not None:
+            with contextlib.suppress(FileNotFoundError):
+                self.link.unlink()

@@ -1,0 +1,310 @@
+"""Register-level model of the NXP PCA9685 16-channel, 12-bit PWM controller (datasheet Rev. 4).
+
+The twin's virtual I²C bus hands every transaction addressed to the chip to :meth:`Pca9685.write`
+or :meth:`Pca9685.read`, so the host's driver talks to this model exactly as it talks to the chip
+on the robot. The outputs the TB6612FNG sees are read back with :meth:`Pca9685.channel_duty`.
+
+What is modelled (section and table numbers of the datasheet):
+
+- Register map, power-on values and read-only bits (§7.3, Table 4).
+- MODE1 (§7.3.1, Table 5): SLEEP stops the outputs; AI auto-increments the register pointer;
+  EXTCLK is sticky and can only be set while SLEEP is already 1; RESTART as in §7.3.1.1.
+- LEDn_ON/LEDn_OFF (§7.3.3, Table 7): 12-bit ON and OFF counts, full-on (bit 4 of ON_H) and
+  full-off (bit 4 of OFF_H), full-off taking precedence; bits 7:5 of the _H registers read 0.
+- ALL_LED_ON/ALL_LED_OFF (§7.3.4): a write goes to the same register of all 16 channels; reads
+  return 0.
+- PRE_SCALE (§7.3.5): accepted only while SLEEP = 1, forced to at least 3; update rate
+  ``f = osc_clock / (4096 * (PRE_SCALE + 1))`` (Eq. 1) with the 25 MHz internal oscillator.
+
+Simplifications, stated so nobody mistakes them for the chip:
+
+- With AI = 1 the register pointer advances by one after every byte and wraps from 0xFF to 0x00
+  (the chip's own roll-over rules, including the AI1/AI0 subsets, are not reproduced). With
+  AI = 0 every byte of a block goes to the same register.
+- No time: the 500 µs oscillator start-up after clearing SLEEP is not enforced, output changes
+  take effect at once (MODE2 OCH is stored but changes nothing), and the phase of a channel
+  within the PWM period is ignored: only its duty matters.
+- MODE2 (INVRT, OCH, OUTDRV, OUTNE) and the sub-addresses are stored and read back, but the
+  outputs are modelled as non-inverted totem-pole outputs (MODE2 = 0x04, the power-on value and
+  the one motor HATs use) and the chip answers only at the address the bus gives it.
+- Reserved registers 0x46..0xF9 and TestMode 0xFF ignore writes and read 0.
+"""
+
+from __future__ import annotations
+
+# ---- register map (§7.3, Table 4) -------------------------------------------------------------
+MODE1 = 0x00
+MODE2 = 0x01
+SUBADR1 = 0x02
+SUBADR2 = 0x03
+SUBADR3 = 0x04
+ALLCALLADR = 0x05
+LED0_ON_L = 0x06
+LED0_ON_H = 0x07
+LED0_OFF_L = 0x08
+LED0_OFF_H = 0x09
+LED15_OFF_H = 0x45
+ALL_LED_ON_L = 0xFA
+ALL_LED_ON_H = 0xFB
+ALL_LED_OFF_L = 0xFC
+ALL_LED_OFF_H = 0xFD
+PRE_SCALE = 0xFE
+TESTMODE = 0xFF
+
+CHANNELS = 16
+REGISTERS_PER_CHANNEL = 4  # ON_L, ON_H, OFF_L, OFF_H
+
+# ---- MODE1 bits (Table 5) ---------------------------------------------------------------------
+MODE1_RESTART = 0x80
+MODE1_EXTCLK = 0x40
+MODE1_AI = 0x20
+MODE1_SLEEP = 0x10
+MODE1_SUB1 = 0x08
+MODE1_SUB2 = 0x04
+MODE1_SUB3 = 0x02
+MODE1_ALLCALL = 0x01
+
+# ---- MODE2 bits (Table 6) ---------------------------------------------------------------------
+MODE2_INVRT = 0x10
+MODE2_OCH = 0x08
+MODE2_OUTDRV = 0x04
+MODE2_OUTNE = 0x03  # two-bit field
+
+# ---- LEDn_ON_H / LEDn_OFF_H (Table 7) ---------------------------------------------------------
+LED_FULL = 0x10  # bit 4: full-on in ON_H, full-off in OFF_H
+LED_COUNT_H_MASK = 0x0F  # bits 11:8 of the 12-bit count
+LED_H_WRITABLE = 0x1F  # bits 7:5 are reserved and read 0
+
+# ---- power-on values (Table 4) ----------------------------------------------------------------
+MODE1_POWER_ON = MODE1_SLEEP | MODE1_ALLCALL  # 0x11
+MODE2_POWER_ON = MODE2_OUTDRV  # 0x04
+SUBADR1_POWER_ON = 0xE2
+SUBADR2_POWER_ON = 0xE4
+SUBADR3_POWER_ON = 0xE8
+ALLCALLADR_POWER_ON = 0xE0
+PRE_SCALE_POWER_ON = 0x1E  # 200 Hz nominal
+PRE_SCALE_MIN = 3  # forced by the hardware (§7.3.5)
+PRE_SCALE_MAX = 0xFF
+
+DEFAULT_ADDRESS = 0x40  # all address pins low
+OSC_CLOCK_HZ = 25e6  # internal oscillator [Hz]
+PWM_STEPS = 4096  # 12-bit counter
+
+_MODE1_STORED = 0x7F  # every bit but RESTART, whose read value is the model's restart state
+_ADDRESS_WRITABLE = 0xFE  # bit 0 of the (sub)address registers is read-only 0
+
+
+def led_on_l(channel: int) -> int:
+    """Address of LEDn_ON_L for channel n (0..15); ON_H, OFF_L, OFF_H follow it (Table 4)."""
+    if not 0 <= channel < CHANNELS:
+        raise ValueError(f"PCA9685 channel {channel} outside 0..{CHANNELS - 1}")
+    return LED0_ON_L + REGISTERS_PER_CHANNEL * channel
+
+
+def prescale_for(freq_hz: float) -> int:
+    """PRE_SCALE value for an update rate, §7.3.5 Eq. 1.
+
+    ``prescale = round(osc_clock / (4096 * update_rate)) - 1`` with the 25 MHz internal
+    oscillator; e.g. 200 Hz gives 30 (0x1E) and 1 kHz gives 5.
+
+    Args:
+        freq_hz: Wanted PWM update rate [Hz].
+
+    Returns:
+        The PRE_SCALE register value.
+
+    Raises:
+        ValueError: The rate needs a value outside 3..255 (about 24 Hz to 1526 Hz).
+    """
+    if not freq_hz > 0:
+        raise ValueError(f"PWM frequency must be positive, got {freq_hz} Hz")
+    prescale = round(OSC_CLOCK_HZ / (PWM_STEPS * freq_hz)) - 1
+    if not PRE_SCALE_MIN <= prescale <= PRE_SCALE_MAX:
+        raise ValueError(
+            f"PWM frequency {freq_hz} Hz needs PRE_SCALE {prescale}, outside "
+            f"{PRE_SCALE_MIN}..{PRE_SCALE_MAX}"
+        )
+    return prescale
+
+
+class Pca9685:
+    """One PCA9685 at the register level: what an I²C master can write, read and observe.
+
+    Args:
+        extclk_hz: Frequency of a clock on the EXTCLK pin [Hz], used once MODE1 EXTCLK is set.
+    """
+
+    _mode1: int
+    _mode2: int
+    _addresses: list[int]  # SUBADR1, SUBADR2, SUBADR3, ALLCALLADR
+    _leds: bytearray  # LED0_ON_L .. LED15_OFF_H
+    _prescale: int
+    _restart_pending: bool
+
+    def __init__(self, extclk_hz: float = OSC_CLOCK_HZ) -> None:
+        self.extclk_hz = extclk_hz
+        self.reset()
+
+    def reset(self) -> None:
+        """Return every register to its power-on value (power cycle or SWRST, §7.6)."""
+        self._mode1 = MODE1_POWER_ON
+        self._mode2 = MODE2_POWER_ON
+        self._addresses = [
+            SUBADR1_POWER_ON,
+            SUBADR2_POWER_ON,
+            SUBADR3_POWER_ON,
+            ALLCALLADR_POWER_ON,
+        ]
+        self._leds = bytearray(CHANNELS * REGISTERS_PER_CHANNEL)
+        for channel in range(CHANNELS):
+            self._leds[REGISTERS_PER_CHANNEL * channel + 3] = LED_FULL  # OFF_H: full-off
+        self._prescale = PRE_SCALE_POWER_ON
+        self._restart_pending = False
+
+    # ---- bus interface ------------------------------------------------------------------------
+    def write(self, reg: int, data: bytes) -> None:
+        """One I²C write transaction: ``data`` written starting at register ``reg``.
+
+        With MODE1 AI = 1 the pointer advances after each byte (wrapping 0xFF -> 0x00), with
+        AI = 0 every byte goes to ``reg``. A transaction that writes any LED or ALL_LED register
+        ends a pending restart (§7.3.1.1, "other actions that clear the RESTART bit").
+
+        Args:
+            reg: First register address (0x00..0xFF).
+            data: The bytes the master sent after the register address.
+        """
+        pointer = _check_register(reg)
+        touched_pwm = False
+        for value in data:
+            touched_pwm |= _is_pwm_register(pointer)
+            self._write_register(pointer, value)
+            if self._mode1 & MODE1_AI:
+                pointer = (pointer + 1) & 0xFF
+        if touched_pwm:
+            self._restart_pending = False
+
+    def read(self, reg: int, n: int) -> bytes:
+        """One I²C read of ``n`` bytes starting at register ``reg`` (pointer rules as in write).
+
+        Args:
+            reg: First register address (0x00..0xFF).
+            n: Number of bytes the master clocks out.
+
+        Returns:
+            The ``n`` register values.
+        """
+        pointer = _check_register(reg)
+        if n < 0:
+            raise ValueError(f"cannot read {n} bytes")
+        out = bytearray()
+        for _ in range(n):
+            out.append(self._read_register(pointer))
+            if self._mode1 & MODE1_AI:
+                pointer = (pointer + 1) & 0xFF
+        return bytes(out)
+
+    # ---- outputs ------------------------------------------------------------------------------
+    @property
+    def asleep(self) -> bool:
+        """MODE1 SLEEP: the oscillator is off and no output runs."""
+        return bool(self._mode1 & MODE1_SLEEP)
+
+    @property
+    def restart_pending(self) -> bool:
+        """MODE1 RESTART reads 1: outputs held off until RESTART is written 1 (§7.3.1.1)."""
+        return self._restart_pending
+
+    @property
+    def frequency_hz(self) -> float:
+        """PWM update rate [Hz], §7.3.5 Eq. 1: ``clock / (4096 * (PRE_SCALE + 1))``."""
+        clock_hz = self.extclk_hz if self._mode1 & MODE1_EXTCLK else OSC_CLOCK_HZ
+        return clock_hz / (PWM_STEPS * (self._prescale + 1))
+
+    def channel_duty(self, channel: int) -> float:
+        """Fraction of each PWM period during which output ``channel`` is high, in [0, 1].
+
+        0 while asleep or while a restart is pending; otherwise full-off gives 0 (it wins over
+        full-on), full-on gives 1, and else ``((OFF - ON) mod 4096) / 4096`` (§7.3.3).
+        """
+        duty = self._programmed_duty(channel)
+        return 0.0 if self.asleep or self._restart_pending else duty
+
+    # ---- registers ----------------------------------------------------------------------------
+    def _programmed_duty(self, channel: int) -> float:
+        base = led_on_l(channel) - LED0_ON_L
+        on_l, on_h, off_l, off_h = self._leds[base : base + REGISTERS_PER_CHANNEL]
+        if off_h & LED_FULL:
+            return 0.0
+        if on_h & LED_FULL:
+            return 1.0
+        on = ((on_h & LED_COUNT_H_MASK) << 8) | on_l
+        off = ((off_h & LED_COUNT_H_MASK) << 8) | off_l
+        return ((off - on) % PWM_STEPS) / PWM_STEPS
+
+    def _any_channel_active(self) -> bool:
+        return any(self._programmed_duty(ch) > 0.0 for ch in range(CHANNELS))
+
+    def _write_register(self, reg: int, value: int) -> None:
+        if reg == MODE1:
+            self._write_mode1(value)
+        elif reg == MODE2:
+            self._mode2 = value & 0x1F  # bits 7:5 reserved
+        elif SUBADR1 <= reg <= ALLCALLADR:
+            self._addresses[reg - SUBADR1] = value & _ADDRESS_WRITABLE
+        elif LED0_ON_L <= reg <= LED15_OFF_H:
+            self._leds[reg - LED0_ON_L] = _led_value(reg - LED0_ON_L, value)
+        elif ALL_LED_ON_L <= reg <= ALL_LED_OFF_H:
+            offset = reg - ALL_LED_ON_L
+            for channel in range(CHANNELS):
+                index = REGISTERS_PER_CHANNEL * channel + offset
+                self._leds[index] = _led_value(offset, value)
+        elif reg == PRE_SCALE and self.asleep:  # §7.3.5: only while the oscillator is off
+            self._prescale = max(PRE_SCALE_MIN, value)
+        # PRE_SCALE while awake, reserved registers and TestMode: ignored
+
+    def _write_mode1(self, value: int) -> None:
+        """MODE1 write (Table 5, §7.3.1.1).
+
+        RESTART written 1 restarts held outputs only if the oscillator was already running
+        before this write; a write that clears SLEEP and sets RESTART at once leaves them held.
+        """
+        was_asleep = self.asleep
+        stored = value & _MODE1_STORED
+        # EXTCLK is sticky and is only taken while SLEEP was already set (Table 5).
+        extclk = self._mode1 & MODE1_EXTCLK
+        if was_asleep and stored & MODE1_SLEEP:
+            extclk |= stored & MODE1_EXTCLK
+        stored = (stored & ~MODE1_EXTCLK) | extclk
+        if not was_asleep and stored & MODE1_SLEEP and self._any_channel_active():
+            self._restart_pending = True  # §7.3.1.1: entering sleep with outputs running
+        if value & MODE1_RESTART and not was_asleep:
+            self._restart_pending = False  # writing 1 restarts; needs the oscillator running
+        self._mode1 = stored
+
+    def _read_register(self, reg: int) -> int:
+        if reg == MODE1:
+            return self._mode1 | (MODE1_RESTART if self._restart_pending else 0)
+        if reg == MODE2:
+            return self._mode2
+        if SUBADR1 <= reg <= ALLCALLADR:
+            return self._addresses[reg - SUBADR1]
+        if LED0_ON_L <= reg <= LED15_OFF_H:
+            return self._leds[reg - LED0_ON_L]
+        if reg == PRE_SCALE:
+            return self._prescale
+        return 0  # ALL_LED registers read 0; reserved and TestMode too
+
+
+def _check_register(reg: int) -> int:
+    if not 0 <= reg <= 0xFF:
+        raise ValueError(f"PCA9685 register {reg:#x} outside 0x00..0xFF")
+    return reg
+
+
+def _is_pwm_register(reg: int) -> bool:
+    return LED0_ON_L <= reg <= LED15_OFF_H or ALL_LED_ON_L <= reg <= ALL_LED_OFF_H
+
+
+def _led_value(offset: int, value: int) -> int:
+    """Value stored in the LED register at ``offset`` within a channel (Table 7)."""
+    return value & LED_H_WRITABLE if offset % 2 else value & 0xFF

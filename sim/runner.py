@@ -1,0 +1,261 @@
+"""Runs the twin against a host: the serial link, the virtual I2C bus and the clock.
+
+**Lockstep** (the default for tests and campaigns): before the host's HELLO the clock stands
+still; then the twin emits telemetry frame k, serves the host (serial commands and I2C register
+writes) until its HEARTBEAT acknowledges frame k, applies the motor outputs and advances the
+physics to the next frame. A host that does not answer within ``heartbeat_timeout_s`` of wall
+time does not stop the world: the twin moves on, and the MCU's failsafe sees the silence in
+simulated time. **Real time** paces the same steps on the wall clock and never waits.
+
+The MCU is the Python emulator (:mod:`jackson.sim.mcu`) or, with ``firmware=True``, the compiled
+POSIX firmware (:mod:`jackson.sim.fil`) fed the same sensor values at the same instants.
+"""
+
+from __future__ import annotations
+
+import selectors
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from threading import Event
+
+from jackson.sim.fil import FeedStatus, FirmwareProcess
+from jackson.sim.i2c_server import I2cSocketServer
+from jackson.sim.link import PtyLink
+from jackson.sim.mcu import McuEmulator, SensorSample
+from jackson.sim.pca9685 import Pca9685
+from jackson.sim.robot import WheelDrive
+from jackson.sim.tb6612 import BridgeOutput, bridge_outputs
+from jackson.sim.twin import Twin
+
+
+@dataclass(frozen=True)
+class RunnerStats:
+    """What a run did."""
+
+    sim_s: float
+    wall_s: float
+    frames: int
+    heartbeat_timeouts: int
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_s / self.wall_s if self.wall_s > 0 else float("inf")
+
+
+def _wheel(b: BridgeOutput) -> WheelDrive:
+    return WheelDrive(b.drive, abs(b.drive) + b.brake_fraction)
+
+
+class TwinRunner:
+    """The twin behind a pty and an I2C socket, as the host sees the robot."""
+
+    def __init__(
+        self,
+        twin: Twin,
+        *,
+        i2c_path: str | Path,
+        lockstep: bool = True,
+        firmware: bool = False,
+        mcu_motors: bool = False,
+        heartbeat_timeout_s: float = 1.0,
+        serial_link: str | None = None,
+    ) -> None:
+        self.twin = twin
+        self.lockstep = lockstep
+        self.mcu_motors = mcu_motors
+        self.heartbeat_timeout_s = heartbeat_timeout_s
+        wiring = twin.robot_spec.wiring
+        self.pca = Pca9685()
+        self.i2c = I2cSocketServer(i2c_path, {wiring.pca9685_address: self.pca})
+        self._wiring = wiring
+        self._sample: tuple[int, SensorSample] | None = None
+        self.firmware: FirmwareProcess | None = None
+        self.link: PtyLink | None = None
+        self.mcu: McuEmulator | None = None
+        if firmware:
+            self.firmware = FirmwareProcess(motors=mcu_motors)
+            self.serial_path = self.firmware.serial_path
+        else:
+            self.link = PtyLink(serial_link)
+            self.serial_path = self.link.path
+            self.mcu = McuEmulator(
+                self.link.write,
+                self.sensors,
+                motor_output=mcu_motors,
+                imu_present=twin.robot_spec.imu.present,
+            )
+        self.frames = 0
+        self.heartbeat_timeouts = 0
+        self._host_gone: int | None = None  # heartbeats seen when the host went silent
+        self._pace_origin = (0.0, 0.0)
+        self._sel = selectors.DefaultSelector()
+        self._sel.register(self.i2c, selectors.EVENT_READ, "i2c")
+        if self.link is not None:
+            self._sel.register(self.link, selectors.EVENT_READ, "serial")
+
+    # ------------------------------------------------------------------ sensors and actuation
+
+    def sensors(self) -> SensorSample:
+        """The sensors at the current instant (read once per instant, then cached)."""
+        now = self.twin.t_us
+        if self._sample is None or self._sample[0] != now:
+            self._sample = (now, self.twin.sensors())
+        return self._sample[1]
+
+    def _actuate(self, fw: FeedStatus | None = None) -> None:
+        if self.mcu_motors:
+            if fw is not None:
+                duties = (fw.motor_left / 1e4, fw.motor_right / 1e4, fw.braked)
+            else:
+                assert self.mcu is not None
+                duties = self.mcu.wheel_duty()
+            left, right, braked = duties
+            if braked:
+                self.twin.command(WheelDrive.brake(), WheelDrive.brake())
+            else:
+                self.twin.command(WheelDrive(left, 1.0), WheelDrive(right, 1.0))
+            return
+        b_left, b_right = bridge_outputs(
+            self.pca, self._wiring.left, self._wiring.right, self._wiring.stby_channel
+        )
+        self.twin.command(_wheel(b_left), _wheel(b_right))
+
+    # ------------------------------------------------------------------ serving the host
+
+    def _serve(self, timeout_s: float) -> None:
+        """Serve the serial link and the I2C bus for at most ``timeout_s``."""
+        for key, _ in self._sel.select(timeout_s):
+            if key.data == "i2c":
+                self.i2c.service(0.0)
+            elif self.link is not None and self.mcu is not None:
+                data = self.link.read()
+                if data:
+                    self.mcu.receive(data, self.twin.t_us)
+
+    def _wait_heartbeat(self, seq: int) -> None:
+        """Lockstep: serve the host until it acknowledges frame ``seq``. After a timeout the
+        host counts as gone: the twin then runs in real time until a heartbeat comes back."""
+        mcu = self.mcu
+        assert mcu is not None
+        if self._host_gone is not None:
+            self._serve(0.0)
+            if mcu.heartbeats != self._host_gone:
+                self._host_gone = None  # the host is back: lockstep again
+            else:
+                self._pace(*self._pace_origin)
+            return
+        deadline = time.monotonic() + self.heartbeat_timeout_s
+        while not (mcu.heartbeat_seen and mcu.heartbeat_ack == seq):
+            left = deadline - time.monotonic()
+            if left <= 0:
+                self.heartbeat_timeouts += 1
+                self._host_gone = mcu.heartbeats
+                self._pace_origin = (time.monotonic(), self.twin.t_s)
+                return
+            self._serve(left)
+
+    # ------------------------------------------------------------------ the loop
+
+    def run(self, duration_s: float | None = None, stop: Event | None = None) -> RunnerStats:
+        """Run until ``duration_s`` of simulated time after the HELLO, or until ``stop``."""
+        wall0 = time.monotonic()
+        start_s = self.twin.t_s
+        if self.firmware is not None:
+            self._run_firmware(duration_s, stop)
+        else:
+            self._run_emulator(duration_s, stop)
+        return RunnerStats(
+            self.twin.t_s - start_s, time.monotonic() - wall0, self.frames, self.heartbeat_timeouts
+        )
+
+    def _done(self, end_s: float | None, stop: Event | None) -> bool:
+        return (stop is not None and stop.is_set()) or (
+            end_s is not None and self.twin.t_s >= end_s - 1e-9
+        )
+
+    def _run_emulator(self, duration_s: float | None, stop: Event | None) -> None:
+        mcu = self.mcu
+        assert mcu is not None
+        while not mcu.session:  # the clock stands still until the host says HELLO
+            if stop is not None and stop.is_set():
+                return
+            self._serve(0.05)
+        end_s = None if duration_s is None else self.twin.t_s + duration_s
+        wall0, sim0 = time.monotonic(), self.twin.t_s
+        while not self._done(end_s, stop):
+            now = self.twin.t_us
+            frames_before = mcu.telemetry_frames
+            mcu.tick(now)
+            if mcu.telemetry_frames != frames_before:
+                self.frames += 1
+                if self.lockstep:
+                    self._wait_heartbeat(mcu.last_telemetry_seq)
+                else:
+                    self._serve(0.0)
+                self._actuate()
+            elif self.mcu_motors:
+                self._actuate()
+            nxt = mcu.next_deadline(now)
+            step_us = ((nxt - now) & 0xFFFFFFFF) if nxt is not None else 50_000
+            if step_us == 0 or step_us >= 0x80000000:
+                step_us = mcu.period_us
+            if end_s is not None:
+                step_us = min(step_us, max(1, round((end_s - self.twin.t_s) * 1e6)))
+            self.twin.advance(step_us / 1e6)
+            if not self.lockstep:
+                self._pace(wall0, sim0)
+
+    def _pace(self, wall0: float, sim0: float) -> None:
+        """Real time: serve the host until the wall clock catches up with the twin."""
+        while True:
+            ahead = (self.twin.t_s - sim0) - (time.monotonic() - wall0)
+            if ahead <= 0:
+                return
+            self._serve(ahead)
+
+    def _run_firmware(self, duration_s: float | None, stop: Event | None) -> None:
+        fw = self.firmware
+        assert fw is not None
+        status = fw.wait_heartbeat(256, 0)
+        while not status.session:  # time stands still until HELLO, as with the emulator
+            if stop is not None and stop.is_set():
+                return
+            status = fw.wait_heartbeat(256, 50, on_wait=lambda: self.i2c.service(0.0))
+        end_s = None if duration_s is None else self.twin.t_s + duration_s
+        wall0, sim0 = time.monotonic(), self.twin.t_s
+        last_seq = status.telemetry_seq
+        while not self._done(end_s, stop):
+            now = self.twin.t_us
+            step_us = (status.next_telemetry_us - now) & 0xFFFFFFFF
+            if step_us == 0 or step_us >= 0x80000000:
+                step_us = 50_000
+            if end_s is not None:
+                step_us = min(step_us, max(1, round((end_s - self.twin.t_s) * 1e6)))
+            self.twin.advance(step_us / 1e6)
+            status = fw.step(self.twin.t_us, self.sensors())
+            if status.telemetry_seq != last_seq:
+                last_seq = status.telemetry_seq
+                self.frames += 1
+                if self.lockstep:
+                    status = fw.wait_heartbeat(
+                        status.telemetry_seq,
+                        round(self.heartbeat_timeout_s * 1000),
+                        on_wait=lambda: self.i2c.service(0.0),
+                    )
+                    if status.heartbeat_ack != last_seq:
+                        self.heartbeat_timeouts += 1
+                else:
+                    self.i2c.service(0.0)
+                self._actuate(status)
+            if not self.lockstep:
+                while (self.twin.t_s - sim0) > (time.monotonic() - wall0):
+                    self.i2c.service(0.001)
+
+    def close(self) -> None:
+        self.i2c.close()
+        if self.link is not None:
+            self.link.close()
+        if self.firmware is not None:
+            self.firmware.close()
+        self._sel.close()

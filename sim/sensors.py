@@ -1,0 +1,70 @@
+"""Encoder and MPU-6050 models of the twin.
+
+Encoders are quantised at the robot's *true* ticks per revolution (which the host may believe
+differently). The IMU follows Eq. 7-8 of the paper, a = a_true + b_a + eta_a and
+omega = omega_true + b_omega + eta_omega, with white noise of the configured sigma per
+telemetry sample, gravity on z with an optional scale error, and quantisation at the configured
+MPU-6050 sensitivity; the result is the 14 register bytes 0x3B..0x48 the firmware reads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from jackson.sim.config import ImuSpec, Sides
+
+GRAVITY_M_S2 = 9.81
+ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
+GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+TEMP_RAW_AT_25C = round((25.0 - 36.53) * 340.0)  # raw/340 + 36.53 deg C
+
+
+def encoder_counts(angle_l_rad: float, angle_r_rad: float, ticks_per_rev: Sides) -> tuple[int, int]:
+    """Cumulative 4x quadrature counts of wheel angles: floor(angle / 2 pi * TPR)."""
+    return (
+        math.floor(angle_l_rad / (2.0 * math.pi) * ticks_per_rev.left),
+        math.floor(angle_r_rad / (2.0 * math.pi) * ticks_per_rev.right),
+    )
+
+
+def _lsb(value: float, scale: float) -> int:
+    return max(-32768, min(32767, round(value * scale)))
+
+
+class ImuModel:
+    """Turns true body-frame specific force and rate into MPU-6050 register values."""
+
+    def __init__(self, spec: ImuSpec, rng: np.random.Generator) -> None:
+        self.spec = spec
+        self.rng = rng
+        self.accel_fs = 0
+        self.gyro_fs = 0
+
+    def sample(
+        self, accel_body: tuple[float, float], yaw_rate: float
+    ) -> tuple[tuple[int, int, int], int, tuple[int, int, int]]:
+        """(accel LSB xyz, temperature raw, gyro LSB xyz) for one telemetry sample."""
+        s = self.spec
+        noise = self.rng.standard_normal(6)
+        a_true = (accel_body[0], accel_body[1], GRAVITY_M_S2 * s.gravity_scale)
+        w_true = (0.0, 0.0, yaw_rate * s.yaw_scale)
+        a_scale = ACCEL_LSB_PER_G[self.accel_fs] / GRAVITY_M_S2
+        g_scale = GYRO_LSB_PER_DPS[self.gyro_fs] * 180.0 / math.pi
+        accel = tuple(
+            _lsb(a_true[i] + s.accel_bias_m_s2[i] + s.accel_noise_sigma_m_s2 * noise[i], a_scale)
+            for i in range(3)
+        )
+        gyro = tuple(
+            _lsb(
+                w_true[i] + s.gyro_bias_rad_s[i] + s.gyro_noise_sigma_rad_s * noise[3 + i], g_scale
+            )
+            for i in range(3)
+        )
+        return (accel[0], accel[1], accel[2]), TEMP_RAW_AT_25C, (gyro[0], gyro[1], gyro[2])
+
+
+def imu_register_bytes(accel: tuple[int, int, int], temp: int, gyro: tuple[int, int, int]) -> bytes:
+    """The 14 bytes at 0x3B..0x48: big-endian, accel xyz, temperature, gyro xyz."""
+    return b"".join(v.to_bytes(2, "big", signed=True) for v in (*accel, temp, *gyro))
