@@ -14,7 +14,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal
 
-SUITES: tuple[str, ...] = ("jackson.protocol.bench", "jackson.firmware_bench")
+SUITES: tuple[str, ...] = (
+    "jackson.protocol.bench",
+    "jackson.firmware_bench",
+    "jackson.sim.bench",
+    "jackson.sim.bench_lidar",
+    "jackson.lockstep_bench",
+)
 """Modules with a ``run(quick)`` function, in the order they run."""
 
 

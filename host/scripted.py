@@ -7,6 +7,8 @@ register writes through the I2C bus, HEARTBEAT acknowledging each frame).
 
 from __future__ import annotations
 
+import os
+import select
 import time
 from collections.abc import Callable
 
@@ -50,16 +52,33 @@ class ScriptedHost:
         self.inbox: list[tuple[int, Message]] = []  # (SEQ, message) not yet taken
         self.info: Info | None = None
         self.last_telemetry_seq = 0
+        self.connected = False
+        self.others: list[Message] = []  # ACK, NACK, STATUS, LOG after the handshake
+        self.received = bytearray()  # every byte from the robot, for recordings and tests
 
     def send(self, msg: Message) -> None:
         self.port.write(encode_frame(msg, self.seq))
         self.seq = (self.seq + 1) & 0xFF
 
-    def _pump(self) -> None:
-        data = self.port.read(max(1, self.port.in_waiting))
-        if data:
-            for frame in self.decoder.feed(data):
-                self.inbox.append((frame.seq, decode_message(frame)))
+    def _pump(self, timeout_s: float = 0.05) -> None:
+        # select + os.read on the port's descriptor: pyserial's read adds an ioctl and a
+        # second select per call, which shows in lockstep round trips
+        fd = self.port.fileno()
+        if not select.select([fd], [], [], timeout_s)[0]:
+            return
+        try:
+            data = os.read(fd, 4096)
+        except BlockingIOError:
+            return
+        if not data:
+            raise serial.SerialException("the serial port was closed by the robot")
+        self.received += data
+        for frame in self.decoder.feed(data):
+            msg = decode_message(frame)
+            if isinstance(msg, Telemetry) or not self.connected:
+                self.inbox.append((frame.seq, msg))
+            else:
+                self.others.append(msg)
 
     def connect(self, timeout_s: float = 5.0) -> Info:
         """HELLO, then wait for INFO and its ACK; refuses another protocol or schema."""
@@ -71,12 +90,17 @@ class ScriptedHost:
             if time.monotonic() > deadline:
                 raise HostTimeoutError("no INFO/ACK after HELLO")
             self._pump()
-            for _, m in self.inbox:
+            rest: list[tuple[int, Message]] = []
+            for seq, m in self.inbox:
                 if isinstance(m, Info):
                     check_peer(m)
                     self.info = m
-                acked |= isinstance(m, Ack)
-            self.inbox.clear()
+                elif isinstance(m, Ack):
+                    acked = True
+                else:  # telemetry may already follow: keep it
+                    rest.append((seq, m))
+            self.inbox = rest
+        self.connected = True
         return self.info
 
     def next_telemetry(self, timeout_s: float = 5.0) -> Telemetry:

@@ -8,6 +8,7 @@ counters on the same input (the shared vectors check this).
 
 from __future__ import annotations
 
+import copy
 import struct
 from dataclasses import asdict, dataclass
 from typing import NamedTuple
@@ -92,6 +93,15 @@ class FrameDecoder:
         self._buf = bytearray()
         self._last_us: int | None = None
         self._last_seq: int | None = None
+
+    def copy(self) -> FrameDecoder:
+        """An independent decoder in the same state (to try input and roll back)."""
+        twin = FrameDecoder(self.deliver_unknown)
+        twin.counters = copy.copy(self.counters)
+        twin._buf = bytearray(self._buf)
+        twin._last_us = self._last_us
+        twin._last_seq = self._last_seq
+        return twin
 
     @property
     def pending(self) -> int:

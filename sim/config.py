@@ -271,17 +271,21 @@ def _load_yaml(path: Path, kind: str) -> tuple[str, Mapping[str, Any]]:
     return where, data
 
 
-def resolve(name_or_path: str | Path, folder: Path) -> Path:
+def resolve(name_or_path: str | Path, folder: Path, kind: str = "file") -> Path:
     """A bundled name (``jackson``) or a path to a YAML file."""
     p = Path(name_or_path)
     if p.suffix in (".yaml", ".yml") or p.exists():
         return p
-    return folder / f"{name_or_path}.yaml"
+    bundled = folder / f"{name_or_path}.yaml"
+    if not bundled.exists():
+        names = ", ".join(sorted(f.stem for f in folder.glob("*.yaml")))
+        raise ConfigError(f"{kind} {name_or_path!r}: no such file, nor a bundled {kind} ({names})")
+    return bundled
 
 
 def load_robot(name_or_path: str | Path) -> RobotSpec:
     """Read and validate a robot file (a bundled name like ``jackson`` or a path)."""
-    path = resolve(name_or_path, ROBOTS_DIR)
+    path = resolve(name_or_path, ROBOTS_DIR, "robot")
     where, data = _load_yaml(path, "robot")
     r = _Reader(where, data)
     m = r.sub("motor")
@@ -372,7 +376,7 @@ def _v3(v: tuple[float, ...]) -> tuple[float, float, float]:
 
 def load_world(name_or_path: str | Path) -> WorldSpec:
     """Read and validate a world file (a bundled name like ``open_floor`` or a path)."""
-    path = resolve(name_or_path, WORLDS_DIR)
+    path = resolve(name_or_path, WORLDS_DIR, "world")
     where, data = _load_yaml(path, "world")
     r = _Reader(where, data)
     f = r.sub("floor")

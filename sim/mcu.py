@@ -192,9 +192,20 @@ class McuEmulator:
         return t
 
     def receive(self, data: bytes, now: int) -> None:
-        """Bytes from the host, handled at MCU time ``now`` [us]."""
-        for frame in self.decoder.feed(data, now):
-            self._handle(frame, now)
+        """Bytes from the host, handled at MCU time ``now`` [us].
+
+        The firmware handles each frame the moment its last byte arrives, before it looks at
+        the bytes after it (which STATUS counters can show). A chunk that is exactly one frame
+        is decoded at once (nothing can follow it); anything else is fed byte by byte.
+        """
+        dec = self.decoder
+        if not dec.pending and len(data) >= 10 and data[0] == 0xA5 and len(data) == data[5] + 10:
+            for frame in dec.feed(data, now):
+                self._handle(frame, now)
+            return
+        for i in range(len(data)):
+            for frame in dec.feed(data[i : i + 1], now):
+                self._handle(frame, now)
 
     def tick(self, now: int) -> None:
         """Everything scheduled at or before ``now`` (the firmware's tick)."""

@@ -21,6 +21,12 @@ Per physics step of ``dt`` (semi-implicit, stable at any friction):
 
 The centre of mass is at the axle centre (``base_footprint``), the caster carries
 ``caster_load_fraction`` of the weight. Collisions with walls and obstacles are pymunk's.
+
+The chassis state is kept as plain floats (``x, y, yaw`` and the world-frame velocity). Within
+reach of an obstacle every step goes through ``pymunk.Space.step``; in free space, where pymunk
+would only integrate ``p += v dt, yaw += omega dt`` (no gravity, no damping, no contact), the
+same update is done directly, and the pymunk body is brought up to date before the next step
+that needs it. Both paths give the same trajectory (a test checks this).
 """
 
 from __future__ import annotations
@@ -89,6 +95,9 @@ class DiffDriveRobot:
         self.shape.elasticity = 0.0
         space.add(self.body, self.shape)
 
+        self.x = self.y = self.yaw = 0.0
+        self.vwx = self.vwy = self.wz = 0.0  # world-frame velocity, yaw rate
+        self.in_space = False  # True while pymunk integrates (near obstacles)
         self.omega_l = self.omega_r = 0.0
         self.angle_l = self.angle_r = 0.0
         self.tau_l = self.tau_r = 0.0
@@ -97,57 +106,100 @@ class DiffDriveRobot:
         self.accel_x = self.accel_y = 0.0
 
     def place(self, x: float, y: float, yaw: float) -> None:
-        self.body.position = (x, y)
-        self.body.angle = yaw
-        self.body.velocity = (0.0, 0.0)
-        self.body.angular_velocity = 0.0
+        self.x, self.y, self.yaw = x, y, yaw
+        self.vwx = self.vwy = self.wz = 0.0
+        self.sync_body()
 
-    def _motor(
-        self, tau: float, wd: WheelDrive, tau_drive: float, omega: float, alpha: float
-    ) -> float:
-        target = tau_drive * wd.drive - self.k_e * omega * wd.connected
-        return tau + (target - tau) * alpha
+    def sync_body(self) -> None:
+        """Copy the float state into the pymunk body (before pymunk takes over)."""
+        b = self.body
+        b.position = (self.x, self.y)
+        b.angle = self.yaw
+        b.velocity = (self.vwx, self.vwy)
+        b.angular_velocity = self.wz
+
+    def step_space(self, space: pymunk.Space, dt: float) -> None:
+        """Let pymunk integrate this step and resolve contacts, then read the result back."""
+        b = self.body
+        if not self.in_space:
+            self.in_space = True
+            b.position = (self.x, self.y)
+            b.angle = self.yaw
+        b.velocity = (self.vwx, self.vwy)
+        b.angular_velocity = self.wz
+        space.step(dt)
+        self.x, self.y = b.position
+        self.yaw = b.angle
+        self.vwx, self.vwy = b.velocity
+        self.wz = b.angular_velocity
+
+    def step_free(self, dt: float) -> None:
+        """The step pymunk would take in free space: p += v dt, yaw += omega dt."""
+        self.in_space = False
+        self.x += self.vwx * dt
+        self.y += self.vwy * dt
+        self.yaw += self.wz * dt
+
+    def _constants(self, dt: float) -> tuple[float, ...]:
+        """Per-step constants (dt is fixed for a run; recomputed only when it changes)."""
+        if self._const_dt != dt:
+            tc = self.time_constant
+            h2i = self.half_track * self.half_track / self.inertia
+            self._const = (
+                1.0 - math.exp(-dt / tc) if tc > 0 else 1.0,  # motor lag per step
+                1.0 / self.mass + h2i,  # coupling of a wheel force to its own contact
+                1.0 / self.mass - h2i,  # ... and to the other wheel's contact
+                self.r_l * self.r_l / self.j_w,
+                self.r_r * self.r_r / self.j_w,
+                self.mu_s * self.n_wheel,
+                self.mu_d * self.n_wheel,
+            )
+            self._const_dt = dt
+        return self._const
+
+    _const_dt = -1.0
+    _const: tuple[float, ...] = ()
 
     def step_forces(self, dt: float, left: WheelDrive, right: WheelDrive) -> None:
-        """Update wheel speeds and the chassis velocity for one step; pymunk then moves it."""
-        body = self.body
-        yaw = body.angle
+        """Update wheel speeds and the chassis velocity for one step (then step_space/free)."""
+        alpha, d, o, a_free_l, a_free_r, lim_s, lim_d = self._constants(dt)
+        yaw = self.yaw
         c, s = math.cos(yaw), math.sin(yaw)
-        vwx, vwy = body.velocity
+        vwx, vwy, wz = self.vwx, self.vwy, self.wz
         vx = c * vwx + s * vwy
         vy = -s * vwx + c * vwy
-        wz = body.angular_velocity
-        h = self.half_track
-        m, inertia, jw = self.mass, self.inertia, self.j_w
+        h, m, jw = self.half_track, self.mass, self.j_w
+        r_l, r_r = self.r_l, self.r_r
+        om_l, om_r = self.omega_l, self.omega_r
+        tc_l, tc_r = self.tau_c_l, self.tau_c_r
+        k_e = self.k_e
 
-        alpha = 1.0 - math.exp(-dt / self.time_constant) if self.time_constant > 0 else 1.0
-        tau_l = self.tau_l = self._motor(self.tau_l, left, self.tau_drive_l, self.omega_l, alpha)
-        tau_r = self.tau_r = self._motor(self.tau_r, right, self.tau_drive_r, self.omega_r, alpha)
+        # motor torque: first-order lag towards the torque-speed line
+        tau_l = self.tau_l
+        tau_l += (self.tau_drive_l * left.drive - k_e * om_l * left.connected - tau_l) * alpha
+        tau_r = self.tau_r
+        tau_r += (self.tau_drive_r * right.drive - k_e * om_r * right.connected - tau_r) * alpha
+        self.tau_l, self.tau_r = tau_l, tau_r
 
         # gearbox: locked while the motor cannot break it free
-        free_l = abs(self.omega_l) > _STICK_RAD_S or abs(tau_l) > self.tau_c_l
-        free_r = abs(self.omega_r) > _STICK_RAD_S or abs(tau_r) > self.tau_c_r
+        free_l = abs(om_l) > _STICK_RAD_S or abs(tau_l) > tc_l
+        free_r = abs(om_r) > _STICK_RAD_S or abs(tau_r) > tc_r
 
         # caster rolling resistance, smooth through zero
         f_c = -self.f_caster * math.tanh(vx / 0.005)
-        for _ in range(2):
-            net_l = tau_l - math.copysign(self.tau_c_l, self.omega_l if self.omega_l else tau_l)
-            net_r = tau_r - math.copysign(self.tau_c_r, self.omega_r if self.omega_r else tau_r)
-            w_l = self.omega_l + dt * net_l / jw if free_l else 0.0
-            w_r = self.omega_r + dt * net_r / jw if free_r else 0.0
-            v_pred = vx + dt * f_c / m
-            s_l = w_l * self.r_l - (v_pred - h * wz)  # slip without ground forces
-            s_r = w_r * self.r_r - (v_pred + h * wz)
-            a_l = self.r_l * self.r_l / jw if free_l else 0.0
-            a_r = self.r_r * self.r_r / jw if free_r else 0.0
-            d = 1.0 / m + h * h / inertia
-            o = 1.0 / m - h * h / inertia
-            a11, a12, a22 = a_l + d, o, a_r + d
-            b1, b2 = s_l / dt, s_r / dt
-            det = a11 * a22 - a12 * a12
-            f_l = (b1 * a22 - a12 * b2) / det
-            f_r = (a11 * b2 - a12 * b1) / det
-            lim_s, lim_d = self.mu_s * self.n_wheel, self.mu_d * self.n_wheel
+        v_pred = vx + dt * f_c / m
+        net_l = tau_l - math.copysign(tc_l, om_l if om_l else tau_l)
+        net_r = tau_r - math.copysign(tc_r, om_r if om_r else tau_r)
+        while True:
+            w_l = om_l + dt * net_l / jw if free_l else 0.0
+            w_r = om_r + dt * net_r / jw if free_r else 0.0
+            b1 = (w_l * r_l - (v_pred - h * wz)) / dt  # slip without ground forces, per dt
+            b2 = (w_r * r_r - (v_pred + h * wz)) / dt
+            a11 = (a_free_l if free_l else 0.0) + d
+            a22 = (a_free_r if free_r else 0.0) + d
+            det = a11 * a22 - o * o
+            f_l = (b1 * a22 - o * b2) / det
+            f_r = (a11 * b2 - o * b1) / det
             slip_l = abs(f_l) > lim_s
             slip_r = abs(f_r) > lim_s
             if slip_l and slip_r:
@@ -155,56 +207,55 @@ class DiffDriveRobot:
                 f_r = math.copysign(lim_d, f_r)
             elif slip_l:
                 f_l = math.copysign(lim_d, f_l)
-                f_r = max(-lim_s, min(lim_s, (b2 - a12 * f_l) / a22))
+                f_r = max(-lim_s, min(lim_s, (b2 - o * f_l) / a22))
             elif slip_r:
                 f_r = math.copysign(lim_d, f_r)
-                f_l = max(-lim_s, min(lim_s, (b1 - a12 * f_r) / a11))
+                f_l = max(-lim_s, min(lim_s, (b1 - o * f_r) / a11))
             # a locked wheel breaks free when the ground back-drives it past stiction
-            unlock_l = not free_l and abs(tau_l - f_l * self.r_l) > self.tau_c_l
-            unlock_r = not free_r and abs(tau_r - f_r * self.r_r) > self.tau_c_r
+            unlock_l = not free_l and abs(tau_l - f_l * r_l) > tc_l
+            unlock_r = not free_r and abs(tau_r - f_r * r_r) > tc_r
             if not (unlock_l or unlock_r):
                 break
             free_l = free_l or unlock_l
             free_r = free_r or unlock_r
 
-        self.slipping = slip_l or slip_r
+        slipping = slip_l or slip_r
         # wheels
         if free_l:
-            net_l = tau_l - f_l * self.r_l
-            fric = math.copysign(self.tau_c_l, self.omega_l if self.omega_l else net_l)
-            new_l = self.omega_l + dt * (net_l - fric) / jw
-            if self.omega_l and new_l * self.omega_l < 0 and abs(net_l) <= self.tau_c_l:
-                new_l = 0.0  # Coulomb friction stops the wheel; it does not reverse it
-            self.omega_l = new_l
+            net = tau_l - f_l * r_l
+            new = om_l + dt * (net - math.copysign(tc_l, om_l if om_l else net)) / jw
+            if om_l and new * om_l < 0 and abs(net) <= tc_l:
+                new = 0.0  # Coulomb friction stops the wheel; it does not reverse it
+            om_l = new
         else:
-            self.omega_l = 0.0
+            om_l = 0.0
         if free_r:
-            net_r = tau_r - f_r * self.r_r
-            fric = math.copysign(self.tau_c_r, self.omega_r if self.omega_r else net_r)
-            new_r = self.omega_r + dt * (net_r - fric) / jw
-            if self.omega_r and new_r * self.omega_r < 0 and abs(net_r) <= self.tau_c_r:
-                new_r = 0.0
-            self.omega_r = new_r
+            net = tau_r - f_r * r_r
+            new = om_r + dt * (net - math.copysign(tc_r, om_r if om_r else net)) / jw
+            if om_r and new * om_r < 0 and abs(net) <= tc_r:
+                new = 0.0
+            om_r = new
         else:
-            self.omega_r = 0.0
-        self.angle_l += self.omega_l * dt
-        self.angle_r += self.omega_r * dt
+            om_r = 0.0
+        self.omega_l, self.omega_r = om_l, om_r
+        self.angle_l += om_l * dt
+        self.angle_r += om_r * dt
 
         # chassis: longitudinal and yaw from the wheel forces, lateral grip at the axle
         vx_new = vx + dt * (f_l + f_r + f_c) / m
-        wz_new = wz + dt * (f_r - f_l) * h / inertia
+        wz_new = wz + dt * (f_r - f_l) * h / self.inertia
         f_lat = -m * vy / dt
-        mu_lat = self.mu_s
-        cap = _cone(mu_lat * self.n_wheel, f_l) + _cone(mu_lat * self.n_wheel, f_r)
+        cap = _cone(lim_s, f_l) + _cone(lim_s, f_r)
         if abs(f_lat) > cap:
-            cap = _cone(self.mu_d * self.n_wheel, f_l) + _cone(self.mu_d * self.n_wheel, f_r)
-            f_lat = math.copysign(cap, f_lat)
-            self.slipping = True
+            f_lat = math.copysign(_cone(lim_d, f_l) + _cone(lim_d, f_r), f_lat)
+            slipping = True
+        self.slipping = slipping
         vy_new = vy + dt * f_lat / m
         self.accel_x = (vx_new - vx) / dt - wz * vy
         self.accel_y = (vy_new - vy) / dt + wz * vx
-        body.velocity = (c * vx_new - s * vy_new, s * vx_new + c * vy_new)
-        body.angular_velocity = wz_new
+        self.vwx = c * vx_new - s * vy_new
+        self.vwy = s * vx_new + c * vy_new
+        self.wz = wz_new
 
 
 def _cone(limit: float, f_long: float) -> float:

@@ -100,6 +100,8 @@ class TwinRunner:
         """The sensors at the current instant (read once per instant, then cached)."""
         now = self.twin.t_us
         if self._sample is None or self._sample[0] != now:
+            if self.mcu is not None:  # the MCU's configured ranges scale the registers
+                self.twin.imu.accel_fs, self.twin.imu.gyro_fs = self.mcu.accel_fs, self.mcu.gyro_fs
             self._sample = (now, self.twin.sensors())
         return self._sample[1]
 
@@ -185,6 +187,7 @@ class TwinRunner:
         wall0, sim0 = time.monotonic(), self.twin.t_s
         while not self._done(end_s, stop):
             now = self.twin.t_us
+            self._serve(0.0)  # like the firmware's tick: what has arrived is handled first
             frames_before = mcu.telemetry_frames
             mcu.tick(now)
             if mcu.telemetry_frames != frames_before:

@@ -41,13 +41,17 @@ class ImuModel:
         self.rng = rng
         self.accel_fs = 0
         self.gyro_fs = 0
+        self._noise: list[float] = []  # drawn in blocks: the same stream as one draw per sample
 
     def sample(
         self, accel_body: tuple[float, float], yaw_rate: float
     ) -> tuple[tuple[int, int, int], int, tuple[int, int, int]]:
         """(accel LSB xyz, temperature raw, gyro LSB xyz) for one telemetry sample."""
         s = self.spec
-        noise = self.rng.standard_normal(6)
+        if len(self._noise) < 6:
+            self._noise = self.rng.standard_normal(6 * 256).tolist()[::-1]
+        pop = self._noise.pop
+        noise = (pop(), pop(), pop(), pop(), pop(), pop())
         a_true = (accel_body[0], accel_body[1], GRAVITY_M_S2 * s.gravity_scale)
         w_true = (0.0, 0.0, yaw_rate * s.yaw_scale)
         a_scale = ACCEL_LSB_PER_G[self.accel_fs] / GRAVITY_M_S2

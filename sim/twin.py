@@ -12,8 +12,10 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+import pymunk
 from numpy.typing import NDArray
 
 from jackson.sim.config import RobotSpec, WorldSpec
@@ -24,10 +26,10 @@ from jackson.sim.sensors import ImuModel, encoder_counts
 from jackson.sim.world import World
 
 PHYSICS_HZ = 200
+CONTACT_MARGIN_M = 0.05  # pymunk takes over within this distance of an obstacle
 
 
-@dataclass(frozen=True)
-class Truth:
+class Truth(NamedTuple):
     """Ground truth at one instant: pose in the world, twist in the body frame."""
 
     t_s: float
@@ -72,20 +74,28 @@ class Twin:
         self.robot.shape.collision_type = 1
         x0, y0, yaw0 = world.start_pose
         self.robot.place(x0, y0, yaw0)
+        (ex0, ex1), (ey0, ey1) = robot.envelope_x_m, robot.envelope_y_m
+        self._radius = max(math.hypot(ex, ey) for ex in (ex0, ex1) for ey in (ey0, ey1))
+        self._free_budget = -1.0  # metres the robot may move before clearance is checked again
+        self._recheck = 0
         self.start_xy = (x0, y0)
         self.imu = ImuModel(robot.imu, self.rng)
         self._drive = (WheelDrive(), WheelDrive())  # coasting until commanded
         self._pending: deque[tuple[float, WheelDrive, WheelDrive]] = deque()
         self._acc_sum = [0.0, 0.0, 0.0]
-        self._acc_n = 0
-        self.truth_log: list[Truth] = []
+        self._acc_from_step = 0
+        self._raw_truth: list[
+            tuple[int, float, float, float, float, float, float, float, float]
+        ] = []
+        self._truth_cache: list[Truth] = []
         self.record_truth = record_truth
         self.scans: list[Scan] = []
         use_lidar = robot.lidar.enabled if lidar is None else lidar
         self._lidar = self._make_lidar() if use_lidar else None
         self._next_scan_s = 0.0
         if record_truth:
-            self.truth_log.append(self.truth())
+            r = self.robot
+            self._raw_truth.append((0, r.x, r.y, r.yaw, 0.0, 0.0, 0.0, 0.0, 0.0))
 
     def _make_lidar(self) -> Lidar:
         m = self.robot_spec.lidar
@@ -120,66 +130,139 @@ class Twin:
     def advance(self, duration_s: float) -> None:
         """Run physics for ``duration_s`` (rounded to whole steps)."""
         end = self.steps + round(duration_s / self.dt)
-        robot, space, dt = self.robot, self.world.space, self.dt
-        while self.steps < end:
-            pending = self._pending
-            while pending and pending[0][0] <= self.t_s:
-                _, left, right = pending.popleft()
+        robot, space, dt, radius = self.robot, self.world.space, self.dt, self._radius
+        pending, world = self._pending, self.world
+        raw = self._raw_truth if self.record_truth else None
+        step_forces = robot.step_forces
+        steps = self.steps
+        ax = ay = az = 0.0
+        left, right = self._drive
+        budget = self._free_budget
+        while steps < end:
+            if pending and pending[0][0] <= steps * dt:
+                while pending and pending[0][0] <= steps * dt:
+                    _, left, right = pending.popleft()
                 self._drive = (left, right)
-            robot.step_forces(dt, self._drive[0], self._drive[1])
-            space.step(dt)
-            self.steps += 1
-            self._acc_sum[0] += robot.accel_x
-            self._acc_sum[1] += robot.accel_y
-            self._acc_sum[2] += robot.body.angular_velocity
-            self._acc_n += 1
-            if self.world._pending:
-                x, y = robot.body.position
-                fired = self.world.check_triggers(
-                    math.hypot(x - self.start_xy[0], y - self.start_xy[1]), self.t_s
+            step_forces(dt, left, right)
+            if budget > 0.0:  # free space: the update pymunk would make (see robot.py)
+                robot.x += robot.vwx * dt
+                robot.y += robot.vwy * dt
+                robot.yaw += robot.wz * dt
+                robot.in_space = False
+                budget -= (abs(robot.vwx) + abs(robot.vwy) + abs(robot.wz) * radius) * dt
+            else:
+                self.steps = steps
+                self._free_budget = budget
+                self._step_near_obstacles(space, dt)
+                budget = self._free_budget
+            steps += 1
+            ax += robot.accel_x
+            ay += robot.accel_y
+            az += robot.wz
+            if raw is not None:
+                raw.append(
+                    (
+                        steps,
+                        robot.x,
+                        robot.y,
+                        robot.yaw,
+                        robot.vwx,
+                        robot.vwy,
+                        robot.wz,
+                        robot.omega_l,
+                        robot.omega_r,
+                    )
                 )
-                if fired and self._lidar is not None:
-                    for c in fired:
-                        self._obstacles.add_circle(c.x, c.y, c.radius)
-            if self.record_truth:
-                self.truth_log.append(self.truth())
-            if self._lidar is not None and self.t_s + 1e-9 >= self._next_scan_s:
-                self._take_scan()
+            if world._pending or (
+                self._lidar is not None and steps * dt + 1e-9 >= self._next_scan_s
+            ):
+                self.steps = steps
+                self._free_budget = budget
+                if world._pending:
+                    self._check_triggers()
+                if self._lidar is not None and steps * dt + 1e-9 >= self._next_scan_s:
+                    self._take_scan()
+                budget = self._free_budget
+        self.steps = steps
+        self._free_budget = budget
+        acc = self._acc_sum
+        acc[0] += ax
+        acc[1] += ay
+        acc[2] += az
+
+    def _check_triggers(self) -> None:
+        r = self.robot
+        fired = self.world.check_triggers(
+            math.hypot(r.x - self.start_xy[0], r.y - self.start_xy[1]), self.t_s
+        )
+        if fired:
+            self._free_budget = -1.0
+            if self._lidar is not None:
+                for c in fired:
+                    self._obstacles.add_circle(c.x, c.y, c.radius)
+
+    @property
+    def truth_log(self) -> list[Truth]:
+        """Ground truth at every physics step since the start (when recorded)."""
+        raw = self._raw_truth
+        done = len(self._truth_cache)
+        if done < len(raw):
+            dt = self.dt
+            for steps, x, y, yaw, vwx, vwy, wz, om_l, om_r in raw[done:]:
+                c, s = math.cos(yaw), math.sin(yaw)
+                self._truth_cache.append(
+                    Truth(
+                        steps * dt, x, y, yaw, c * vwx + s * vwy, -s * vwx + c * vwy, wz, om_l, om_r
+                    )
+                )
+        return self._truth_cache
+
+    def _step_near_obstacles(self, space: pymunk.Space, dt: float) -> None:
+        robot = self.robot
+        if self._recheck <= 0:
+            self._free_budget = (
+                self.world.clearance(robot.x, robot.y) - self._radius - CONTACT_MARGIN_M
+            )
+            self._recheck = 20
+            if self._free_budget > 0.0:
+                robot.step_free(dt)
+                return
+        self._recheck -= 1
+        robot.step_space(space, dt)
 
     def _take_scan(self) -> None:
-        x, y = self.robot.body.position
+        r = self.robot
         assert self._lidar is not None
-        ranges = self._lidar.scan(x, y, self.robot.body.angle, self._obstacles)
+        ranges = self._lidar.scan(r.x, r.y, r.yaw, self._obstacles)
         self.scans.append(Scan(self.t_s, ranges))
         self._next_scan_s += self.scan_period_s
 
     def truth(self) -> Truth:
-        b = self.robot.body
-        yaw = b.angle
+        r = self.robot
+        yaw = r.yaw
         c, s = math.cos(yaw), math.sin(yaw)
-        vwx, vwy = b.velocity
-        x, y = b.position
         return Truth(
-            self.t_s,
-            x,
-            y,
+            self.steps * self.dt,
+            r.x,
+            r.y,
             yaw,
-            c * vwx + s * vwy,
-            -s * vwx + c * vwy,
-            b.angular_velocity,
-            self.robot.omega_l,
-            self.robot.omega_r,
+            c * r.vwx + s * r.vwy,
+            -s * r.vwx + c * r.vwy,
+            r.wz,
+            r.omega_l,
+            r.omega_r,
         )
 
     def sensors(self) -> SensorSample:
         """Encoder counts now, and the IMU sample averaged since the previous call."""
         r = self.robot
         enc_l, enc_r = encoder_counts(r.angle_l, r.angle_r, self.robot_spec.ticks_per_rev)
-        n = self._acc_n or 1
+        count = self.steps - self._acc_from_step
+        n = count or 1
         accel = (self._acc_sum[0] / n, self._acc_sum[1] / n)
-        yaw_rate = self._acc_sum[2] / n if self._acc_n else r.body.angular_velocity
-        self._acc_sum = [0.0, 0.0, 0.0]
-        self._acc_n = 0
+        yaw_rate = self._acc_sum[2] / n if count else r.wz
+        self._acc_sum[:] = [0.0, 0.0, 0.0]
+        self._acc_from_step = self.steps
         a, temp, g = self.imu.sample(accel, yaw_rate)
         return SensorSample(enc_l, enc_r, self.robot_spec.imu.present, a, temp, g)
 

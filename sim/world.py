@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pymunk
 
 from jackson.sim.config import Cylinder, WorldSpec
@@ -50,6 +51,23 @@ class World:
     def add_cylinder(self, c: Cylinder) -> None:
         self._add_static(pymunk.Circle(self.space.static_body, c.radius, (c.x, c.y)))
         self.circles.append((c.x, c.y, c.radius))
+
+    def clearance(self, x: float, y: float) -> float:
+        """Distance from a point to the nearest wall or cylinder surface (inf when none)."""
+        best = math.inf
+        if self.segments:
+            seg = np.asarray(self.segments)
+            a, b = seg[:, :2], seg[:, 2:]
+            ab = b - a
+            p = np.array([x, y])
+            den = np.maximum((ab * ab).sum(axis=1), 1e-18)
+            t = np.clip(((p - a) * ab).sum(axis=1) / den, 0.0, 1.0)
+            d = np.hypot(*(a + ab * t[:, None] - p).T)
+            best = float(d.min())
+        if self.circles:
+            c = np.asarray(self.circles)
+            best = min(best, float((np.hypot(c[:, 0] - x, c[:, 1] - y) - c[:, 2]).min()))
+        return best
 
     def check_triggers(self, moved_m: float, t_s: float) -> list[Cylinder]:
         """Insert every triggered obstacle whose distance has been reached; return them."""

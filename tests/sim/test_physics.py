@@ -63,10 +63,9 @@ def test_v_0_08_w_0_16_traces_a_half_metre_circle() -> None:
     tw = Twin(FLOOR, spec, lidar=False)
     v, w, b, r = 0.08, 0.16, spec.track_width_m, spec.wheel_radius_m.left
     run_wheel_speed_pi(tw, (v - w * b / 2) / r, (v + w * b / 2) / r, 3.0)  # settle
-    log = tw.truth_log
-    start = len(log)
+    start = len(tw.truth_log)
     run_wheel_speed_pi(tw, (v - w * b / 2) / r, (v + w * b / 2) / r, 2 * math.pi / w)
-    xy = np.array([(s.x, s.y) for s in log[start:]])
+    xy = np.array([(s.x, s.y) for s in tw.truth_log[start:]])
     # least-squares circle fit (Kasa)
     a = np.c_[2 * xy, np.ones(len(xy))]
     cx, cy, c = np.linalg.lstsq(a, (xy**2).sum(axis=1), rcond=None)[0]
@@ -184,3 +183,38 @@ def test_actuation_latency_delays_the_command() -> None:
     assert tw.robot.omega_l == 0.0
     tw.advance(0.02)
     assert tw.robot.omega_l > 0.0
+
+
+def test_free_space_shortcut_matches_pymunk_step_for_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Away from obstacles the twin integrates as pymunk would; forcing pymunk changes nothing."""
+
+    def trajectory() -> list[tuple[float, float, float]]:
+        tw = Twin(FLOOR, robot(), lidar=False)
+        tw.command(drive(0.5), drive(0.8))
+        tw.advance(3.0)
+        tw.command(drive(-0.6), drive(0.4))
+        tw.advance(2.0)
+        return [(s.x, s.y, s.yaw) for s in tw.truth_log]
+
+    fast = trajectory()
+    import jackson.sim.twin as twin_module
+
+    monkeypatch.setattr(
+        twin_module.Twin,
+        "_step_near_obstacles",
+        lambda self, space, dt: self.robot.step_space(space, dt),
+    )
+    monkeypatch.setattr(twin_module, "CONTACT_MARGIN_M", 1e9)
+    slow = []
+    tw = Twin(FLOOR, robot(), lidar=False)
+    tw._free_budget = -1e9
+    tw.command(drive(0.5), drive(0.8))
+    tw.advance(3.0)
+    tw.command(drive(-0.6), drive(0.4))
+    tw.advance(2.0)
+    slow = [(s.x, s.y, s.yaw) for s in tw.truth_log]
+    assert len(fast) == len(slow) == 1001
+    assert (
+        max(abs(a - b) for p, q in zip(fast, slow, strict=True) for a, b in zip(p, q, strict=True))
+        < 1e-9
+    )
