@@ -14,14 +14,14 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal
 
-SUITES: tuple[str, ...] = (
-    "jackson.protocol.bench",
-    "jackson.firmware_bench",
-    "jackson.sim.bench",
-    "jackson.sim.bench_lidar",
-    "jackson.lockstep_bench",
-)
-"""Modules with a ``run(quick)`` function, in the order they run."""
+SUITES: dict[str, str] = {
+    "protocol": "jackson.protocol.bench",
+    "firmware": "jackson.firmware_bench",
+    "twin": "jackson.sim.bench",
+    "lidar": "jackson.sim.bench_lidar",
+    "lockstep": "jackson.lockstep_bench",
+}
+"""Suite name -> module with a ``run(quick)`` function, in the order they run."""
 
 
 @dataclass(frozen=True)
@@ -39,11 +39,19 @@ class BenchResult:
         return self.value >= self.target if self.better == "higher" else self.value <= self.target
 
 
-def run_all(quick: bool = False) -> list[BenchResult]:
+def run_all(quick: bool = False, only: list[str] | None = None) -> list[BenchResult]:
+    """Run the named suites (all by default) with a progress bar."""
+    from rich.progress import Progress
+
+    names = only or list(SUITES)
     results: list[BenchResult] = []
-    for name in SUITES:
-        run: Callable[[bool], list[BenchResult]] = importlib.import_module(name).run
-        results.extend(run(quick))
+    with Progress(transient=True) as progress:
+        task = progress.add_task("benchmarks", total=len(names))
+        for name in names:
+            progress.update(task, description=f"bench {name}")
+            run: Callable[[bool], list[BenchResult]] = importlib.import_module(SUITES[name]).run
+            results.extend(run(quick))
+            progress.advance(task)
     return results
 
 

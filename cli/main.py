@@ -24,7 +24,7 @@ class CliError(Exception):
 def _cmd_bench(args: argparse.Namespace) -> int:
     from jackson.benchmark import print_table, run_all, write_json
 
-    results = run_all(quick=args.quick)
+    results = run_all(quick=args.quick, only=args.suite)
     print_table(results)
     write_json(results, args.out)
     print(f"wrote {args.out}")
@@ -103,6 +103,14 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="run the benchmarks, print a table, write build/bench.json")
     p.add_argument("--out", type=Path, default=Path("build/bench.json"), help="JSON output path")
     p.add_argument("--quick", action="store_true", help="smaller workloads (seconds, noisier)")
+    from jackson.benchmark import SUITES
+
+    p.add_argument(
+        "--suite",
+        action="append",
+        choices=list(SUITES),
+        help="run only this suite (repeatable; default: all)",
+    )
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser(

@@ -45,7 +45,9 @@ def test_missing_file_is_one_line_and_exit_2(tmp_path: Path) -> None:
 def test_bench_writes_json_records(tmp_path: Path) -> None:
     out_file = tmp_path / "bench.json"
     out = subprocess.run(
-        [*JACKSON, "bench", "--quick", "--out", str(out_file)], capture_output=True, text=True
+        [*JACKSON, "bench", "--quick", "--suite", "protocol", "--out", str(out_file)],
+        capture_output=True,
+        text=True,
     )
     assert out.returncode == 0, out.stderr
     records = json.loads(out_file.read_text())
