@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from jackson import __version__
+from jackson.host.cli import HostCliError
 
 
 class CliError(Exception):
@@ -123,7 +124,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_decode)
 
+    from jackson.host import cli as host_cli
     from jackson.sim import cli as sim_cli
+
+    host_cli.add_parsers(sub)
 
     sim_cli.add_parser(sub)
     sub.choices["sim"].set_defaults(func=sim_cli.run)
@@ -134,7 +138,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         rc: int = args.func(args)
-    except CliError as exc:
+    except (CliError, HostCliError) as exc:
         print(f"jackson {args.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -1,0 +1,118 @@
+"""PWM deadband compensation and left/right gain trim: wheel speed command to signed duty.
+
+A DC gear motor does not turn until its duty passes a breakaway value, different per wheel
+and per direction. This stage maps a wheel-speed command onto the duty range above that
+value, so every nonzero command moves the wheel (this is the opposite of a zero-out
+deadband, which drops small commands):
+
+    duty = 0                                                 if |omega| <= omega_0
+    duty = sign(omega) min(1, d_b + (1 - d_b) g |omega| / omega_max)   otherwise
+
+with omega_0 the zero threshold, d_b the breakaway duty of that wheel in that direction,
+g that wheel's gain trim and omega_max the wheel speed at duty 1. A duty of 0 brakes (the
+TB6612FNG's short brake, see :mod:`jackson.host.actuation.tb6612`). The gain trim scales
+only the part above breakaway, so it corrects a wheel that is faster or slower at speed
+without moving its start-up point.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+NOMINAL_MAX_WHEEL_RAD_S = 100.0 * 2.0 * math.pi / 60.0  # [rad/s] the 100 RPM gear motor
+
+Side = Literal["left", "right"]
+
+
+@dataclass(frozen=True)
+class DeadbandConfig:
+    """Breakaway duties, full-duty wheel speed, zero threshold and gain trim.
+
+    Attributes:
+        forward_left: Breakaway duty of the left wheel driving forward, in [0, 1).
+        reverse_left: Breakaway duty of the left wheel driving backward, in [0, 1).
+        forward_right: Breakaway duty of the right wheel driving forward, in [0, 1).
+        reverse_right: Breakaway duty of the right wheel driving backward, in [0, 1).
+        max_wheel_rad_s: omega_max, the wheel speed at duty 1 [rad/s] (100 RPM = 10.47).
+        zero_threshold_rad_s: omega_0: commands with |omega| at or below it brake [rad/s].
+        gain_left: Left gain trim g (dimensionless, > 0).
+        gain_right: Right gain trim g (dimensionless, > 0).
+    """
+
+    forward_left: float
+    reverse_left: float
+    forward_right: float
+    reverse_right: float
+    max_wheel_rad_s: float
+    zero_threshold_rad_s: float = 0.05
+    gain_left: float = 1.0
+    gain_right: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("forward_left", "reverse_left", "forward_right", "reverse_right"):
+            value = getattr(self, name)
+            if not 0.0 <= value < 1.0:
+                raise ValueError(f"DeadbandConfig.{name} must be in [0, 1), got {value}")
+        for name in ("max_wheel_rad_s", "gain_left", "gain_right"):
+            value = getattr(self, name)
+            if not 0.0 < value < math.inf:
+                raise ValueError(f"DeadbandConfig.{name} must be finite and > 0, got {value}")
+        if not 0.0 <= self.zero_threshold_rad_s < math.inf:
+            raise ValueError(
+                f"DeadbandConfig.zero_threshold_rad_s must be finite and >= 0, "
+                f"got {self.zero_threshold_rad_s}"
+            )
+
+
+def wheel_duty(omega_cmd_rad_s: float, side: Side, cfg: DeadbandConfig) -> float:
+    """Signed duty for one wheel's speed command.
+
+    duty = 0 for |omega| <= omega_0, else
+    sign(omega) min(1, d_b + (1 - d_b) g |omega| / omega_max).
+
+    Args:
+        omega_cmd_rad_s: Wheel speed command [rad/s], positive forward.
+        side: ``"left"`` or ``"right"``: which breakaway duties and gain apply.
+        cfg: The wheel's calibration.
+
+    Returns:
+        Signed duty in [-1, 1]; 0 means brake.
+
+    Raises:
+        ValueError: If ``side`` is neither wheel or the command is NaN or infinite.
+    """
+    if side == "left":
+        forward, reverse, gain = cfg.forward_left, cfg.reverse_left, cfg.gain_left
+    elif side == "right":
+        forward, reverse, gain = cfg.forward_right, cfg.reverse_right, cfg.gain_right
+    else:
+        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+    if not math.isfinite(omega_cmd_rad_s):
+        raise ValueError(f"non-finite wheel speed command: {omega_cmd_rad_s}")
+    magnitude = abs(omega_cmd_rad_s)
+    if magnitude <= cfg.zero_threshold_rad_s:
+        return 0.0
+    breakaway = forward if omega_cmd_rad_s > 0.0 else reverse
+    duty = min(1.0, breakaway + (1.0 - breakaway) * gain * magnitude / cfg.max_wheel_rad_s)
+    return math.copysign(duty, omega_cmd_rad_s)
+
+
+def wheel_duties(
+    omega_l_rad_s: float, omega_r_rad_s: float, cfg: DeadbandConfig
+) -> tuple[float, float]:
+    """Signed (left, right) duties for both wheels' speed commands, by :func:`wheel_duty`.
+
+    Args:
+        omega_l_rad_s: Left wheel speed command [rad/s], positive forward.
+        omega_r_rad_s: Right wheel speed command [rad/s], positive forward.
+        cfg: Both wheels' calibration.
+
+    Returns:
+        (left duty, right duty), each in [-1, 1].
+
+    Raises:
+        ValueError: If a command is NaN or infinite.
+    """
+    return wheel_duty(omega_l_rad_s, "left", cfg), wheel_duty(omega_r_rad_s, "right", cfg)

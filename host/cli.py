@@ -1,0 +1,209 @@
+"""``jackson daemon``, ``jackson monitor`` and ``jackson replay``."""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import filecmp
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+
+class HostCliError(Exception):
+    """One line for the user, exit status 2."""
+
+
+def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("daemon", help="run the host daemon against the robot (or the twin)")
+    p.add_argument("--config", type=Path, help="host YAML (default: host/config/jackson.yaml)")
+    p.add_argument("--port", help="serial port of the MCU (default: serial.port of the config)")
+    p.add_argument(
+        "--i2c",
+        help="I2C bus of the PCA9685, e.g. /dev/i2c-7 or unix:/path (the "
+        "twin's socket); default: pca9685.bus of the config",
+    )
+    p.add_argument(
+        "--mission",
+        choices=["square", "figure8"],
+        help="drive a mission, report and exit (else wait for velocity commands)",
+    )
+    p.add_argument("--run-dir", type=Path, help="run folder (default: RECORDING/<time>-<mission>)")
+    p.add_argument("--no-record", action="store_true", help="do not write a run folder")
+    p.add_argument("--max-seconds", type=float, help="stop after this much wall time")
+    p.set_defaults(func=cmd_daemon)
+
+    p = sub.add_parser("monitor", help="live view of the link: rate, errors, counts, IMU, health")
+    p.add_argument("--port", required=True, help="serial port (the robot's or the twin's)")
+    p.add_argument("--baudrate", type=int, default=921600)
+    p.add_argument("--duration", type=float, help="stop after this many seconds")
+    p.set_defaults(func=cmd_monitor)
+
+    p = sub.add_parser("replay", help="feed a run folder back through the host, offline")
+    p.add_argument("run", type=Path, help="run folder written by jackson daemon")
+    p.add_argument("--out", type=Path, help="where to write the replayed outputs (default: temp)")
+    p.set_defaults(func=cmd_replay)
+
+
+def _load(path: Path | None) -> object:
+    from jackson.host.config import DEFAULT_CONFIG, ConfigError, load_config
+
+    try:
+        return load_config(path or DEFAULT_CONFIG)
+    except ConfigError as exc:
+        raise HostCliError(str(exc)) from exc
+
+
+def cmd_daemon(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
+    from jackson.host.actuation.pca9685 import Pca9685
+    from jackson.host.config import HostConfig
+    from jackson.host.daemon import Daemon, with_port
+    from jackson.host.i2c import I2cError, open_bus
+    from jackson.host.transport import LinkError, SerialTransport
+    from jackson.protocol import Message, ProtocolMismatchError
+
+    cfg = _load(args.config)
+    assert isinstance(cfg, HostConfig)
+    cfg = with_port(cfg, args.port)
+    if args.i2c:
+        cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=args.i2c))
+    pca = None
+    if cfg.actuator == "pca9685":
+        try:
+            pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
+            pca.init(cfg.pca9685.frequency_hz)
+        except (I2cError, OSError) as exc:
+            raise HostCliError(
+                f"PCA9685 at {cfg.pca9685.address:#04x} on {cfg.pca9685.bus}: {exc}"
+            ) from exc
+
+    def output_factory(send: Callable[[Message], object]) -> MotorOutput:
+        if pca is not None:
+            p = cfg.pca9685
+            return Pca9685Output(pca, p.left, p.right, p.stby_channel)
+        return McuOutput(send)
+
+    transport = SerialTransport(cfg.serial.port, cfg.serial.baudrate)
+    try:
+        transport.open()
+    except LinkError as exc:
+        raise HostCliError(str(exc)) from exc
+    run_dir = None
+    if not args.no_record:
+        stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+        run_dir = args.run_dir or Path(cfg.recording_folder) / f"{stamp}-{args.mission or 'drive'}"
+    meta = {
+        "mission": args.mission,
+        "config": str(args.config or "default"),
+        "port": cfg.serial.port,
+        "started": dt.datetime.now().isoformat(),
+    }
+    daemon = Daemon(
+        cfg,
+        output_factory,
+        transport,
+        mission_name=args.mission,
+        run_folder=run_dir,
+        meta=meta,
+    )
+    if run_dir is not None:
+        import yaml
+
+        from jackson.host.config import dump_config
+
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
+    daemon.install_signals()
+    print(
+        f"daemon: {cfg.serial.port}, actuator {cfg.actuator}"
+        + (f", mission {args.mission}" if args.mission else "")
+        + (f", recording to {run_dir}" if run_dir else ""),
+        flush=True,
+    )
+    try:
+        daemon.run(args.max_seconds)
+    except ProtocolMismatchError as exc:
+        raise HostCliError(str(exc)) from exc
+    finally:
+        transport.close()
+    core = daemon.core
+    e = core.ekf
+    if core.mission is not None:
+        state = "done" if core.mission.done else "stopped before the end"
+        print(
+            f"mission {core.mission.name} {state}: {core.frames} frames, EKF pose "
+            f"x={e.x_m:+.4f} m y={e.y_m:+.4f} m yaw={e.yaw_rad:+.4f} rad, "
+            f"closure {(e.x_m**2 + e.y_m**2) ** 0.5 * 100:.2f} cm",
+            flush=True,
+        )
+    return 0 if core.mission is None or core.mission.done else 1
+
+
+def cmd_monitor(args: argparse.Namespace) -> int:
+    from jackson.host.monitor import run_monitor
+    from jackson.host.transport import LinkError
+    from jackson.protocol import ProtocolMismatchError
+
+    try:
+        run_monitor(args.port, args.baudrate, args.duration)
+    except LinkError as exc:
+        raise HostCliError(str(exc)) from exc
+    except ProtocolMismatchError as exc:
+        raise HostCliError(str(exc)) from exc
+    return 0
+
+
+def replay(run: Path, out: Path) -> list[str]:
+    """Feed ``run`` through a fresh HostCore writing into ``out``; the files that differ."""
+    import json
+
+    from jackson.host.actuation.output import NullOutput
+    from jackson.host.config import DEFAULT_CONFIG, load_config
+    from jackson.host.control import MISSIONS
+    from jackson.host.daemon import HostCore
+    from jackson.host.recording import (
+        KIND_CMD,
+        KIND_RX,
+        RecordingError,
+        RunRecorder,
+        read_log,
+        unpack_command,
+    )
+    from jackson.protocol import Frame
+
+    try:
+        meta = json.loads((run / "meta.json").read_text())
+    except (OSError, ValueError) as exc:
+        raise RecordingError(f"{run}: not a run folder (meta.json: {exc})") from exc
+    cfg_path = run / "config.yaml"
+    cfg = load_config(cfg_path if cfg_path.exists() else DEFAULT_CONFIG)
+    mission = MISSIONS[meta["mission"]]() if meta.get("mission") else None
+    rec = RunRecorder(out, meta)
+    core = HostCore(cfg, NullOutput(), lambda m: None, mission=mission, recorder=rec)
+    for r in read_log(run):
+        if r.kind == KIND_RX:
+            core.on_frame(Frame(r.payload[0], r.payload[1], r.payload[2:]), r.host_time_ns)
+        elif r.kind == KIND_CMD:
+            core.submit_velocity(*unpack_command(r.payload), r.host_time_ns)
+    rec.close()
+    names = ("odometry.csv", "ekf.csv", "commands.csv")
+    return [n for n in names if not filecmp.cmp(run / n, out / n, shallow=False)]
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from jackson.host.config import ConfigError
+    from jackson.host.recording import RecordingError
+
+    out = args.out or Path(tempfile.mkdtemp(prefix="jackson-replay-"))
+    try:
+        differ = replay(args.run, out)
+    except (RecordingError, ConfigError) as exc:
+        raise HostCliError(str(exc)) from exc
+    if differ:
+        print(f"replay differs from the run in {', '.join(differ)} (outputs in {out})")
+        return 1
+    print(f"replay of {args.run} reproduces odometry, EKF and commands bit for bit ({out})")
+    return 0

@@ -1,0 +1,811 @@
+"""The host's runtime configuration: YAML in, validated frozen dataclasses out.
+
+This is what the robot *believes* (the paper's "physical runtime" column of Table 3 and the EKF
+settings of Table 2): wheel radii, separation and encoder resolution per side, covariances,
+limits, deadbands, the PCA9685 wiring, the MCU's settings. The twin's truth lives in its own
+robot files and is never read here. ``host/config/jackson.yaml`` is the paper's robot and the
+default; every field is optional and defaults to that file's value, unknown fields are refused.
+
+Every problem is reported as one :class:`ConfigError` line naming the file and the field, e.g.
+``config jackson.yaml: deadband.left.forward: expected a number in [0, 0.9), got 1.2``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, is_dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+from jackson.host.actuation.tb6612 import BridgeChannels
+from jackson.host.i2c import SOCKET_PREFIX
+
+DEFAULT_CONFIG = Path(__file__).resolve().parent / "config" / "jackson.yaml"
+
+Actuator = Literal["pca9685", "mcu"]
+ACTUATORS: dict[str, Actuator] = {"pca9685": "pca9685", "mcu": "mcu"}
+
+MAX_DEADBAND_DUTY = 0.9  # a breakaway duty at or above this leaves no range to control
+PWM_FREQUENCY_RANGE_HZ = (24.0, 1526.0)  # PCA9685 PRE_SCALE 253..3 (datasheet eq. 1)
+MAX_TELEMETRY_RATE_HZ = 500  # SET_RATE limit of the firmware
+WATCHDOG_RANGE_S = (0.05, 10.0)  # SET_CONFIG failsafe_ms 50-10000
+ROTATION_TOLERANCE = 1e-3  # the firmware's test for a proper rotation
+MAX_GYRO_BIAS_RAD_S = 0.5  # the firmware refuses a bias of this or more
+ACCEL_SCALE_RANGE = (0.5, 2.0)
+
+LEFT_CHANNELS = BridgeChannels(pwm=0, in1=1, in2=2)  # PWMA, AIN1, AIN2 (the common motor HAT)
+RIGHT_CHANNELS = BridgeChannels(pwm=5, in1=3, in2=4)  # PWMB, BIN1, BIN2
+Rotation = tuple[float, float, float, float, float, float, float, float, float]  # row-major 3x3
+IDENTITY: Rotation = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+
+
+class ConfigError(ValueError):
+    """The configuration file is missing, unreadable, not YAML, or has a bad field."""
+
+
+# ------------------------------------------------------------------------- the configuration
+
+
+@dataclass(frozen=True)
+class RobotGeometry:
+    """Wheel geometry and encoder resolution of the odometry (Table 3, physical runtime)."""
+
+    wheel_radius_left_m: float = 0.033  # r_run
+    wheel_radius_right_m: float = 0.033
+    wheel_separation_m: float = 0.198  # B_run
+    ticks_per_rev_left: float = 621.0  # C_e,run
+    ticks_per_rev_right: float = 621.0
+
+    @property
+    def meters_per_tick_left(self) -> float:
+        """2 pi r / C_e of the left wheel (Eq. 9, Eq. A18)."""
+        return 2.0 * math.pi * self.wheel_radius_left_m / self.ticks_per_rev_left
+
+    @property
+    def meters_per_tick_right(self) -> float:
+        """2 pi r / C_e of the right wheel (Eq. 9, Eq. A18)."""
+        return 2.0 * math.pi * self.wheel_radius_right_m / self.ticks_per_rev_right
+
+
+@dataclass(frozen=True)
+class OdometryCovariance:
+    """Diagonal covariances published with the wheel odometry."""
+
+    twist_vx: float = 0.01  # [(m/s)^2] = R_vx
+    twist_vy: float = 0.001  # [(m/s)^2] = R_vy
+    twist_wz: float = 0.02  # [(rad/s)^2]
+    pose_xy: float = 0.01  # [m^2]
+    pose_yaw: float = 0.05  # [rad^2]
+
+
+@dataclass(frozen=True)
+class ProcessNoise:
+    """Diagonal of the EKF's Q per second of prediction (robot_localization's defaults)."""
+
+    x: float = 0.05  # [m^2]
+    y: float = 0.05  # [m^2]
+    yaw: float = 0.06  # [rad^2]
+    vx: float = 0.025  # [(m/s)^2]
+    vy: float = 0.025  # [(m/s)^2]
+    vyaw: float = 0.02  # [(rad/s)^2]
+    ax: float = 0.01  # [(m/s^2)^2]
+
+
+@dataclass(frozen=True)
+class EkfSettings:
+    """The planar EKF of Table 2: wheel v_x and v_y = 0, IMU yaw rate."""
+
+    frequency_hz: float = 30.0
+    sensor_timeout_s: float = 0.2
+    process_noise: ProcessNoise = field(default_factory=ProcessNoise)
+    initial_covariance: float = 1e-9  # diagonal of P0
+    r_vx: float = 0.01  # [(m/s)^2]
+    r_vy: float = 0.001  # [(m/s)^2]
+    r_wz: float = 0.0004  # [(rad/s)^2]
+    mahalanobis_wheel: float | None = None  # innovation gate; None: off
+    mahalanobis_imu: float | None = None
+    gyro_bias_window_s: float = 2.0  # start-up standstill for the gyro z bias; 0: off
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Velocity and acceleration bounds of the command shaping."""
+
+    max_v_m_s: float = 0.30
+    max_w_rad_s: float = 2.0
+    max_accel_m_s2: float = 0.5
+    max_decel_m_s2: float = 1.0
+    max_alpha_rad_s2: float = 3.0
+    max_alpha_decel_rad_s2: float = 6.0
+
+
+@dataclass(frozen=True)
+class Deadband:
+    """Wheel speed to PWM duty: breakaway duty per wheel and direction, full-scale speed, gain."""
+
+    forward_left: float = 0.10  # [duty]
+    reverse_left: float = 0.10
+    forward_right: float = 0.10
+    reverse_right: float = 0.10
+    max_wheel_rad_s: float = 10.47  # wheel speed at full duty (100 RPM)
+    zero_threshold_rad_s: float = 0.05  # slower commands brake
+    gain_left: float = 1.0
+    gain_right: float = 1.0
+
+
+@dataclass(frozen=True)
+class WheelPi:
+    """Optional PI loop on each wheel's encoder speed, output in duty."""
+
+    enabled: bool = False
+    kp: float = 0.05  # [duty per rad/s]
+    ki: float = 0.5  # [duty per rad]
+    integral_limit: float = 0.5  # [duty]
+
+
+@dataclass(frozen=True)
+class Pca9685Settings:
+    """The PCA9685 and the TB6612FNG inputs wired to its outputs."""
+
+    bus: str = "/dev/i2c-7"  # or "unix:/path/to.sock" for the twin
+    address: int = 0x40
+    frequency_hz: float = 1000.0
+    left: BridgeChannels = LEFT_CHANNELS
+    right: BridgeChannels = RIGHT_CHANNELS
+    stby_channel: int | None = None  # None: STBY tied high
+
+
+@dataclass(frozen=True)
+class ImuCalibration:
+    """Sent with SET_IMU_CALIBRATION: omega = R omega_s - gyro_bias, a = accel_scale R a_s."""
+
+    rotation: Rotation = IDENTITY  # sensor to base frame, row-major
+    gyro_bias_rad_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel_scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class ImuSettings:
+    """The MCU's SET_CONFIG fields and the optional on-board IMU calibration."""
+
+    accel_fs: int = 0  # 0-3: +-2, 4, 8, 16 g
+    gyro_fs: int = 0  # 0-3: +-250, 500, 1000, 2000 deg/s
+    direction_flags: int = 0  # bit 0 inverts the left encoder, bit 1 the right
+    calibration: ImuCalibration | None = None
+
+
+@dataclass(frozen=True)
+class SerialSettings:
+    """The link to the MCU."""
+
+    port: str = "/dev/jackson-mcu"
+    baudrate: int = 921600
+    telemetry_rate_hz: int = 20
+
+
+@dataclass(frozen=True)
+class HostConfig:
+    """Everything the daemon believes about its robot."""
+
+    robot: RobotGeometry = field(default_factory=RobotGeometry)
+    odometry: OdometryCovariance = field(default_factory=OdometryCovariance)
+    ekf: EkfSettings = field(default_factory=EkfSettings)
+    limits: Limits = field(default_factory=Limits)
+    deadband: Deadband = field(default_factory=Deadband)
+    wheel_pi: WheelPi = field(default_factory=WheelPi)
+    actuator: Actuator = "pca9685"
+    pca9685: Pca9685Settings = field(default_factory=Pca9685Settings)
+    imu: ImuSettings = field(default_factory=ImuSettings)
+    serial: SerialSettings = field(default_factory=SerialSettings)
+    watchdog_s: float = 0.6  # velocity commands older than this brake the motors
+    recording_folder: Path = Path("runs")
+
+
+# ------------------------------------------------------------------------- validation
+
+
+def _show(value: Any) -> str:
+    """A value as the YAML author wrote it."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)
+
+
+def _interval(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> str:
+    if lo is not None and hi is not None:
+        return f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f" {'>' if lo_open else '>='} {lo:g}"
+    if hi is not None:
+        return f" {'<' if hi_open else '<='} {hi:g}"
+    return ""
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+class _Section:
+    """Pulls typed fields out of one YAML mapping, naming the dotted field in errors."""
+
+    def __init__(self, where: str, data: Mapping[Any, Any], prefix: str = "") -> None:
+        self.where = where
+        self.data = data
+        self.prefix = prefix
+        self.used: set[str] = set()
+
+    def fail(self, key: str, msg: str) -> ConfigError:
+        return ConfigError(f"{self.where}: {self.prefix}{key}: {msg}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def number(
+        self,
+        key: str,
+        default: float,
+        lo: float | None = None,
+        hi: float | None = None,
+        *,
+        lo_open: bool = False,
+        hi_open: bool = False,
+    ) -> float:
+        self.used.add(key)
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        ok = _is_number(v) and math.isfinite(v)
+        if ok and lo is not None:
+            ok = v > lo if lo_open else v >= lo
+        if ok and hi is not None:
+            ok = v < hi if hi_open else v <= hi
+        if not ok:
+            raise self.fail(
+                key, f"expected a number{_interval(lo, hi, lo_open, hi_open)}, got {_show(v)}"
+            )
+        return float(v)
+
+    def optional_number(self, key: str, lo: float, *, lo_open: bool = False) -> float | None:
+        """A number, or null (the default) for "off"."""
+        if self.data.get(key) is None:
+            self.used.add(key)
+            return None
+        v = self.data[key]
+        if not _is_number(v) or not math.isfinite(v) or (v <= lo if lo_open else v < lo):
+            interval = _interval(lo, None, lo_open, False)
+            raise self.fail(key, f"expected a number{interval} or null, got {_show(v)}")
+        self.used.add(key)
+        return float(v)
+
+    def integer(
+        self, key: str, default: int, lo: int, hi: int, *, hexadecimal: bool = False
+    ) -> int:
+        self.used.add(key)
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            got = f"0x{v:02x}" if hexadecimal and isinstance(v, int) and v >= 0 else _show(v)
+            span = f"0x{lo:02x}-0x{hi:02x}" if hexadecimal else f"{lo}-{hi}"
+            raise self.fail(key, f"expected an integer in {span}, got {got}")
+        return v
+
+    def optional_integer(self, key: str, lo: int, hi: int) -> int | None:
+        if self.data.get(key) is None:
+            self.used.add(key)
+            return None
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise self.fail(key, f"expected an integer in {lo}-{hi} or null, got {_show(v)}")
+        self.used.add(key)
+        return v
+
+    def boolean(self, key: str, default: bool) -> bool:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if not isinstance(v, bool):
+            raise self.fail(key, f"expected true or false, got {_show(v)}")
+        return v
+
+    def text(self, key: str, default: str) -> str:
+        self.used.add(key)
+        v = self.data.get(key, default)
+        if not isinstance(v, str) or not v.strip():
+            raise self.fail(key, f"expected a non-empty text, got {_show(v)}")
+        return v
+
+    def section(self, key: str) -> _Section:
+        """A nested mapping; absent or null reads as empty (all defaults)."""
+        self.used.add(key)
+        v = self.data.get(key)
+        if v is None:
+            v = {}
+        if not isinstance(v, Mapping):
+            raise self.fail(key, f"expected a mapping of fields, got {_show(v)}")
+        return _Section(self.where, v, f"{self.prefix}{key}.")
+
+    def sides(
+        self,
+        key: str,
+        default: float,
+        lo: float | None = None,
+        hi: float | None = None,
+        *,
+        lo_open: bool = False,
+    ) -> tuple[float, float]:
+        """``key: 0.033`` (both wheels) or ``key: {left: 0.033, right: 0.0331}``."""
+        if not isinstance(self.data.get(key), Mapping):
+            v = self.number(key, default, lo, hi, lo_open=lo_open)
+            return v, v
+        s = self.section(key)
+        for side in ("left", "right"):
+            if not s.has(side):
+                raise s.fail(side, "missing (give both left and right, or one number)")
+        out = (
+            s.number("left", default, lo, hi, lo_open=lo_open),
+            s.number("right", default, lo, hi, lo_open=lo_open),
+        )
+        s.finish()
+        return out
+
+    def vector(self, key: str, default: tuple[float, ...], n: int) -> tuple[float, ...]:
+        self.used.add(key)
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if (
+            not isinstance(v, list)
+            or len(v) != n
+            or not all(_is_number(x) and math.isfinite(x) for x in v)
+        ):
+            raise self.fail(key, f"expected a list of {n} numbers, got {_show(v)}")
+        return tuple(float(x) for x in v)
+
+    def finish(self) -> None:
+        unknown = sorted(str(k) for k in self.data if k not in self.used)
+        if unknown:
+            raise self.fail(unknown[0], "unknown field (check the spelling)")
+
+
+class _Loader(yaml.SafeLoader):
+    """Safe YAML that also reads ``1e-9`` as a number and refuses duplicate keys."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: set[str] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if isinstance(key, str):
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"duplicate field {key!r}", key_node.start_mark
+                    )
+                seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _read_yaml(path: Path) -> tuple[str, Mapping[Any, Any]]:
+    where = f"config {path.name}"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"config file {path}: cannot read it ({exc.strerror or exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"config file {path}: not UTF-8 text") from exc
+    try:
+        data = yaml.load(text, Loader=_Loader)  # a SafeLoader
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = getattr(exc, "problem", None)
+        line = f" line {mark.line + 1}:" if mark is not None else ""
+        detail = f" ({problem})" if problem else ""
+        raise ConfigError(f"{where}:{line} not valid YAML{detail}") from exc
+    if not isinstance(data, Mapping):
+        raise ConfigError(
+            f"{where}: expected a mapping of fields at the top level, got {_show(data)}"
+        )
+    return where, data
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG) -> HostConfig:
+    """Read and validate a host configuration file.
+
+    Args:
+        path: A YAML file in the layout of ``host/config/jackson.yaml``.
+
+    Returns:
+        The validated configuration.
+
+    Raises:
+        ConfigError: One line naming the file and the field at fault.
+    """
+    where, data = _read_yaml(Path(path))
+    return parse_config(data, where)
+
+
+def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
+    """Validate an already parsed mapping (the layout of the YAML file).
+
+    Raises:
+        ConfigError: One line ``<where>: <dotted field>: <problem>``.
+    """
+    top = _Section(where, data)
+    cfg = HostConfig(
+        robot=_robot(top.section("robot")),
+        odometry=_odometry(top.section("odometry")),
+        ekf=_ekf(top.section("ekf")),
+        limits=_limits(top.section("limits")),
+        deadband=_deadband(top.section("deadband")),
+        wheel_pi=_wheel_pi(top.section("wheel_pi")),
+        actuator=_actuator(top),
+        pca9685=_pca9685(top.section("pca9685")),
+        imu=_imu(top.section("imu")),
+        serial=_serial(top.section("serial")),
+        watchdog_s=top.number("watchdog_s", 0.6, *WATCHDOG_RANGE_S),
+        recording_folder=_recording(top.section("recording")),
+    )
+    top.finish()
+    return cfg
+
+
+def _robot(s: _Section) -> RobotGeometry:
+    d = RobotGeometry()
+    r_left, r_right = s.sides("wheel_radius_m", d.wheel_radius_left_m, 0.0, 1.0, lo_open=True)
+    tpr_left, tpr_right = s.sides("ticks_per_rev", d.ticks_per_rev_left, 0.0, lo_open=True)
+    out = RobotGeometry(
+        wheel_radius_left_m=r_left,
+        wheel_radius_right_m=r_right,
+        wheel_separation_m=s.number(
+            "wheel_separation_m", d.wheel_separation_m, 0.0, 5.0, lo_open=True
+        ),
+        ticks_per_rev_left=tpr_left,
+        ticks_per_rev_right=tpr_right,
+    )
+    s.finish()
+    return out
+
+
+def _odometry(s: _Section) -> OdometryCovariance:
+    d = OdometryCovariance()
+    twist = s.section("twist_covariance")
+    pose = s.section("pose_covariance")
+    out = OdometryCovariance(
+        twist_vx=twist.number("vx", d.twist_vx, 0.0),
+        twist_vy=twist.number("vy", d.twist_vy, 0.0),
+        twist_wz=twist.number("wz", d.twist_wz, 0.0),
+        pose_xy=pose.number("xy", d.pose_xy, 0.0),
+        pose_yaw=pose.number("yaw", d.pose_yaw, 0.0),
+    )
+    twist.finish()
+    pose.finish()
+    s.finish()
+    return out
+
+
+def _ekf(s: _Section) -> EkfSettings:
+    d = EkfSettings()
+    q = s.section("process_noise")
+    qd = ProcessNoise()
+    noise = ProcessNoise(**{f.name: q.number(f.name, getattr(qd, f.name), 0.0) for f in fields(qd)})
+    q.finish()
+    gate = s.section("mahalanobis_threshold")
+    wheel = gate.optional_number("wheel", 0.0, lo_open=True)
+    imu = gate.optional_number("imu", 0.0, lo_open=True)
+    gate.finish()
+    out = EkfSettings(
+        frequency_hz=s.number("frequency_hz", d.frequency_hz, 0.0, lo_open=True),
+        sensor_timeout_s=s.number("sensor_timeout_s", d.sensor_timeout_s, 0.0, lo_open=True),
+        process_noise=noise,
+        initial_covariance=s.number("initial_covariance", d.initial_covariance, 0.0, lo_open=True),
+        r_vx=s.number("r_vx", d.r_vx, 0.0, lo_open=True),
+        r_vy=s.number("r_vy", d.r_vy, 0.0, lo_open=True),
+        r_wz=s.number("r_wz", d.r_wz, 0.0, lo_open=True),
+        mahalanobis_wheel=wheel,
+        mahalanobis_imu=imu,
+        gyro_bias_window_s=s.number("gyro_bias_window_s", d.gyro_bias_window_s, 0.0),
+    )
+    s.finish()
+    return out
+
+
+def _limits(s: _Section) -> Limits:
+    d = Limits()
+    out = Limits(
+        **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
+    )
+    s.finish()
+    return out
+
+
+def _deadband(s: _Section) -> Deadband:
+    d = Deadband()
+    duty: dict[str, float] = {}
+    for side in ("left", "right"):
+        w = s.section(side)
+        for direction in ("forward", "reverse"):
+            name = f"{direction}_{side}"
+            duty[name] = w.number(direction, getattr(d, name), 0.0, MAX_DEADBAND_DUTY, hi_open=True)
+        w.finish()
+    gain = s.section("gain")
+    gain_left = gain.number("left", d.gain_left, 0.0, 2.0, lo_open=True)
+    gain_right = gain.number("right", d.gain_right, 0.0, 2.0, lo_open=True)
+    gain.finish()
+    max_wheel = s.number("max_wheel_rad_s", d.max_wheel_rad_s, 0.0, lo_open=True)
+    zero = s.number("zero_threshold_rad_s", d.zero_threshold_rad_s, 0.0, max_wheel, hi_open=True)
+    s.finish()
+    return Deadband(
+        **duty,
+        max_wheel_rad_s=max_wheel,
+        zero_threshold_rad_s=zero,
+        gain_left=gain_left,
+        gain_right=gain_right,
+    )
+
+
+def _wheel_pi(s: _Section) -> WheelPi:
+    d = WheelPi()
+    out = WheelPi(
+        enabled=s.boolean("enabled", d.enabled),
+        kp=s.number("kp", d.kp, 0.0),
+        ki=s.number("ki", d.ki, 0.0),
+        integral_limit=s.number("integral_limit", d.integral_limit, 0.0, 1.0),
+    )
+    s.finish()
+    return out
+
+
+def _actuator(s: _Section) -> Actuator:
+    s.used.add("actuator")
+    v = s.data.get("actuator", "pca9685")
+    if not isinstance(v, str) or v not in ACTUATORS:
+        raise s.fail("actuator", f"expected pca9685 or mcu, got {_show(v)}")
+    return ACTUATORS[v]
+
+
+def _pca9685(s: _Section) -> Pca9685Settings:
+    d = Pca9685Settings()
+    bus = s.text("bus", d.bus)
+    if bus.startswith(SOCKET_PREFIX):
+        valid_bus = len(bus) > len(SOCKET_PREFIX)
+    else:
+        number = bus.removeprefix("/dev/i2c-")
+        valid_bus = number.isascii() and number.isdigit()
+    if not valid_bus:
+        raise s.fail("bus", f"expected /dev/i2c-N or unix:/path/to.sock, got {_show(bus)}")
+    frequency = s.number("frequency_hz", d.frequency_hz, *PWM_FREQUENCY_RANGE_HZ)
+    channels = s.section("channels")
+    used: dict[int, str] = {}  # channel -> the field that took it
+
+    def claim(section: _Section, key: str, value: int) -> None:
+        if value in used:
+            raise section.fail(key, f"channel {value} is already used by {used[value]}")
+        used[value] = f"{section.prefix}{key}"
+
+    def bridge(key: str, default: BridgeChannels) -> BridgeChannels:
+        b = channels.section(key)
+        values = []
+        for name in ("pwm", "in1", "in2"):
+            value = b.integer(name, getattr(default, name), 0, 15)
+            claim(b, name, value)
+            values.append(value)
+        b.finish()
+        return BridgeChannels(*values)
+
+    left = bridge("left", d.left)
+    right = bridge("right", d.right)
+    channels.finish()
+    stby = s.optional_integer("stby_channel", 0, 15)
+    if stby is not None:
+        claim(s, "stby_channel", stby)
+    out = Pca9685Settings(
+        bus=bus,
+        address=s.integer("address", d.address, 0x03, 0x77, hexadecimal=True),
+        frequency_hz=frequency,
+        left=left,
+        right=right,
+        stby_channel=stby,
+    )
+    s.finish()
+    return out
+
+
+def _imu(s: _Section) -> ImuSettings:
+    d = ImuSettings()
+    calibration = None
+    if s.data.get("calibration") is not None:
+        calibration = _imu_calibration(s.section("calibration"))
+    else:
+        s.used.add("calibration")
+    out = ImuSettings(
+        accel_fs=s.integer("accel_fs", d.accel_fs, 0, 3),
+        gyro_fs=s.integer("gyro_fs", d.gyro_fs, 0, 3),
+        direction_flags=s.integer("direction_flags", d.direction_flags, 0, 3),
+        calibration=calibration,
+    )
+    s.finish()
+    return out
+
+
+def _imu_calibration(s: _Section) -> ImuCalibration:
+    """The firmware's own acceptance test, so a bad calibration fails here, not as a NACK."""
+    for key in ("rotation", "gyro_bias_rad_s", "accel_scale"):
+        if not s.has(key):
+            raise s.fail(
+                key, "missing (a calibration needs rotation, gyro_bias_rad_s and accel_scale)"
+            )
+    d = ImuCalibration()
+    r = s.vector("rotation", d.rotation, 9)
+    worst = max(
+        abs(sum(r[3 * i + k] * r[3 * j + k] for k in range(3)) - (1.0 if i == j else 0.0))
+        for i in range(3)
+        for j in range(3)
+    )
+    det = (
+        r[0] * (r[4] * r[8] - r[5] * r[7])
+        - r[1] * (r[3] * r[8] - r[5] * r[6])
+        + r[2] * (r[3] * r[7] - r[4] * r[6])
+    )
+    if worst >= ROTATION_TOLERANCE or abs(det - 1.0) >= ROTATION_TOLERANCE:
+        raise s.fail(
+            "rotation",
+            f"expected a rotation (orthonormal, determinant +1, within {ROTATION_TOLERANCE:g}) "
+            f"as 9 numbers row by row, got {list(r)}",
+        )
+    bias = s.vector("gyro_bias_rad_s", d.gyro_bias_rad_s, 3)
+    if max(abs(b) for b in bias) >= MAX_GYRO_BIAS_RAD_S:
+        raise s.fail(
+            "gyro_bias_rad_s",
+            f"expected 3 numbers in rad/s, each smaller than {MAX_GYRO_BIAS_RAD_S:g} in "
+            f"magnitude, got {list(bias)}",
+        )
+    out = ImuCalibration(
+        rotation=(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]),
+        gyro_bias_rad_s=(bias[0], bias[1], bias[2]),
+        accel_scale=s.number("accel_scale", d.accel_scale, *ACCEL_SCALE_RANGE),
+    )
+    s.finish()
+    return out
+
+
+def _serial(s: _Section) -> SerialSettings:
+    d = SerialSettings()
+    out = SerialSettings(
+        port=s.text("port", d.port),
+        baudrate=s.integer("baudrate", d.baudrate, 1, 100_000_000),
+        telemetry_rate_hz=s.integer(
+            "telemetry_rate_hz", d.telemetry_rate_hz, 1, MAX_TELEMETRY_RATE_HZ
+        ),
+    )
+    s.finish()
+    return out
+
+
+def _recording(s: _Section) -> Path:
+    out = Path(s.text("folder", "runs"))
+    s.finish()
+    return out
+
+
+# ------------------------------------------------------------------------- output
+
+
+def _per_side(left: float, right: float) -> float | dict[str, float]:
+    return left if left == right else {"left": left, "right": right}
+
+
+def dump_config(cfg: HostConfig) -> dict[str, Any]:
+    """The configuration in the layout of the YAML file; ``parse_config`` reads it back equal."""
+    robot, odo, ekf, db, pca, imu = (
+        cfg.robot,
+        cfg.odometry,
+        cfg.ekf,
+        cfg.deadband,
+        cfg.pca9685,
+        cfg.imu,
+    )
+    out: dict[str, Any] = {
+        "robot": {
+            "wheel_radius_m": _per_side(robot.wheel_radius_left_m, robot.wheel_radius_right_m),
+            "wheel_separation_m": robot.wheel_separation_m,
+            "ticks_per_rev": _per_side(robot.ticks_per_rev_left, robot.ticks_per_rev_right),
+        },
+        "odometry": {
+            "twist_covariance": {"vx": odo.twist_vx, "vy": odo.twist_vy, "wz": odo.twist_wz},
+            "pose_covariance": {"xy": odo.pose_xy, "yaw": odo.pose_yaw},
+        },
+        "ekf": {
+            "frequency_hz": ekf.frequency_hz,
+            "sensor_timeout_s": ekf.sensor_timeout_s,
+            "process_noise": {
+                f.name: getattr(ekf.process_noise, f.name) for f in fields(ProcessNoise)
+            },
+            "initial_covariance": ekf.initial_covariance,
+            "r_vx": ekf.r_vx,
+            "r_vy": ekf.r_vy,
+            "r_wz": ekf.r_wz,
+            "mahalanobis_threshold": {"wheel": ekf.mahalanobis_wheel, "imu": ekf.mahalanobis_imu},
+            "gyro_bias_window_s": ekf.gyro_bias_window_s,
+        },
+        "limits": {f.name: getattr(cfg.limits, f.name) for f in fields(Limits)},
+        "deadband": {
+            "left": {"forward": db.forward_left, "reverse": db.reverse_left},
+            "right": {"forward": db.forward_right, "reverse": db.reverse_right},
+            "max_wheel_rad_s": db.max_wheel_rad_s,
+            "zero_threshold_rad_s": db.zero_threshold_rad_s,
+            "gain": {"left": db.gain_left, "right": db.gain_right},
+        },
+        "wheel_pi": {f.name: getattr(cfg.wheel_pi, f.name) for f in fields(WheelPi)},
+        "actuator": cfg.actuator,
+        "pca9685": {
+            "bus": pca.bus,
+            "address": pca.address,
+            "frequency_hz": pca.frequency_hz,
+            "channels": {
+                side: {"pwm": b.pwm, "in1": b.in1, "in2": b.in2}
+                for side, b in (("left", pca.left), ("right", pca.right))
+            },
+            "stby_channel": pca.stby_channel,
+        },
+        "imu": {
+            "accel_fs": imu.accel_fs,
+            "gyro_fs": imu.gyro_fs,
+            "direction_flags": imu.direction_flags,
+        },
+        "serial": {f.name: getattr(cfg.serial, f.name) for f in fields(SerialSettings)},
+        "watchdog_s": cfg.watchdog_s,
+        "recording": {"folder": str(cfg.recording_folder)},
+    }
+    if imu.calibration is not None:
+        out["imu"]["calibration"] = {
+            "rotation": list(imu.calibration.rotation),
+            "gyro_bias_rad_s": list(imu.calibration.gyro_bias_rad_s),
+            "accel_scale": imu.calibration.accel_scale,
+        }
+    return out
+
+
+def _format(value: Any) -> str:
+    """A leaf value for :func:`config_diff`: 621.0 as 621, None as null, tuples as lists."""
+    if value is None or isinstance(value, bool):
+        return _show(value)
+    if isinstance(value, float):
+        return str(int(value)) if value.is_integer() and abs(value) < 1e15 else repr(value)
+    if isinstance(value, (int, str, Path)):
+        return str(value)
+    if isinstance(value, tuple):
+        return "[" + ", ".join(_format(v) for v in value) + "]"
+    if is_dataclass(value):
+        inner = ", ".join(f"{f.name}: {_format(getattr(value, f.name))}" for f in fields(value))
+        return "{" + inner + "}"
+    return repr(value)
+
+
+def config_diff(old: HostConfig, new: HostConfig) -> list[str]:
+    """What changed between two configurations, one line per field.
+
+    Lines name the dataclass fields, e.g. ``robot.ticks_per_rev_left: 621 -> 617``; a
+    sub-configuration that appears or disappears (``imu.calibration``) is one line.
+    """
+    lines: list[str] = []
+
+    def walk(prefix: str, a: Any, b: Any) -> None:
+        if is_dataclass(a) and not isinstance(a, type) and type(a) is type(b):
+            for f in fields(a):
+                walk(f"{prefix}{f.name}.", getattr(a, f.name), getattr(b, f.name))
+        elif a != b:
+            lines.append(f"{prefix[:-1]}: {_format(a)} -> {_format(b)}")
+
+    walk("", old, new)
+    return lines

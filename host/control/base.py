@@ -1,0 +1,35 @@
+"""What a mission sees and returns."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+
+def wrap_angle(a: float) -> float:
+    """An angle in [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@dataclass(frozen=True)
+class NavState:
+    """The estimate a mission steers by (the EKF's, in the odom frame)."""
+
+    t_s: float
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    v_m_s: float
+    w_rad_s: float
+
+
+class Mission(Protocol):
+    """A source of velocity commands that knows when it has finished."""
+
+    name: str
+    done: bool
+
+    def command(self, s: NavState) -> tuple[float, float]:
+        """(v [m/s], w [rad/s]) for this control tick."""
+        ...

@@ -1,0 +1,425 @@
+"""The host daemon: one telemetry frame in, odometry, EKF, a command and a heartbeat out.
+
+:class:`HostCore` is everything the daemon computes, free of I/O but for its motor output and a
+``send`` callable, so the same code runs on the robot, against the twin and in ``jackson
+replay``. Per telemetry frame, on MCU time (the unwrapped ``t_us``, never the wall clock):
+
+1. wheel odometry (Eq. 2, 3, 9) from the cumulative counts;
+2. the EKF: outputs at 30 Hz of MCU time up to this frame (predict only), then predict to the
+   frame and fuse wheel ``vx`` with ``vy = 0`` and the IMU yaw rate less the start-up gyro bias;
+3. a command: from the mission, or the newest external (``/cmd_vel``-style) command, which
+   brakes once older than the watchdog (0.6 s);
+4. the actuation chain: velocity and acceleration limits, inverse kinematics, optional wheel
+   PI, per-wheel and per-direction deadband compensation, the motor output;
+5. a HEARTBEAT acknowledging the frame (in lockstep, the twin advances on it).
+
+:class:`Daemon` adds the serial transport, the recorder and the process lifecycle.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import queue
+import signal
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
+from jackson.host.actuation.kinematics import inverse
+from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
+from jackson.host.actuation.output import MotorOutput
+from jackson.host.actuation.watchdog import CommandWatchdog
+from jackson.host.actuation.wheel_pi import WheelPiConfig, WheelSpeedPi
+from jackson.host.config import HostConfig
+from jackson.host.control import MISSIONS, Mission, NavState
+from jackson.host.ekf import Ekf, EkfConfig, EkfState, GyroBiasEstimator
+from jackson.host.odometry import OdometryConfig, OdometryState, WheelOdometry
+from jackson.host.recording import RunRecorder
+from jackson.protocol import (
+    Frame,
+    Heartbeat,
+    HostState,
+    Info,
+    Message,
+    SetConfig,
+    SetImuCalibration,
+    SetRate,
+    Telemetry,
+    TelemetryFlags,
+    TimestampUnwrapper,
+    check_peer,
+    decode_message,
+)
+
+GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+
+
+def odometry_config(cfg: HostConfig) -> OdometryConfig:
+    r, c = cfg.robot, cfg.odometry
+    return OdometryConfig(
+        wheel_radius_left_m=r.wheel_radius_left_m,
+        wheel_radius_right_m=r.wheel_radius_right_m,
+        wheel_separation_m=r.wheel_separation_m,
+        ticks_per_rev_left=r.ticks_per_rev_left,
+        ticks_per_rev_right=r.ticks_per_rev_right,
+        twist_covariance_vx=c.twist_vx,
+        twist_covariance_vy=c.twist_vy,
+        twist_covariance_wz=c.twist_wz,
+        pose_covariance_xy=c.pose_xy,
+        pose_covariance_yaw=c.pose_yaw,
+    )
+
+
+def ekf_config(cfg: HostConfig) -> EkfConfig:
+    e = cfg.ekf
+    q = e.process_noise
+    return EkfConfig(
+        process_noise=(q.x, q.y, q.yaw, q.vx, q.vy, q.vyaw, q.ax),
+        initial_covariance=e.initial_covariance,
+        r_vx=e.r_vx,
+        r_vy=e.r_vy,
+        r_wz=e.r_wz,
+        sensor_timeout_s=e.sensor_timeout_s,
+        output_rate_hz=e.frequency_hz,
+        mahalanobis_threshold_wheel=e.mahalanobis_wheel or None,
+        mahalanobis_threshold_imu=e.mahalanobis_imu or None,
+    )
+
+
+def gyro_z_rad_s(t: Telemetry) -> float:
+    """Yaw rate of a telemetry frame at the range its flags name."""
+    fs = (t.flags >> 10) & 3
+    return math.radians(t.gyro[2] / GYRO_LSB_PER_DPS[fs])
+
+
+class HostCore:
+    """The daemon's computation; see the module docstring for the order of work per frame."""
+
+    def __init__(
+        self,
+        cfg: HostConfig,
+        output: MotorOutput,
+        send: Callable[[Message], object],
+        *,
+        mission: Mission | None = None,
+        recorder: RunRecorder | None = None,
+    ) -> None:
+        self.cfg = cfg
+        self.output = output
+        self.send = send
+        self.mission = mission
+        self.recorder = recorder
+        self.unwrapper = TimestampUnwrapper()
+        self.odometry = WheelOdometry(odometry_config(cfg))
+        self.ekf = Ekf(ekf_config(cfg))
+        self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
+        lim = cfg.limits
+        self.limiter = VelocityLimiter(
+            LimiterConfig(
+                lim.max_v_m_s,
+                lim.max_w_rad_s,
+                lim.max_accel_m_s2,
+                lim.max_decel_m_s2,
+                lim.max_alpha_rad_s2,
+                lim.max_alpha_decel_rad_s2,
+            )
+        )
+        d = cfg.deadband
+        self.deadband = DeadbandConfig(
+            d.forward_left,
+            d.reverse_left,
+            d.forward_right,
+            d.reverse_right,
+            d.max_wheel_rad_s,
+            d.zero_threshold_rad_s,
+            d.gain_left,
+            d.gain_right,
+        )
+        pi = cfg.wheel_pi
+        pi_cfg = WheelPiConfig(
+            kp=pi.kp,
+            ki=pi.ki,
+            integral_limit=pi.integral_limit,
+            zero_threshold_rad_s=d.zero_threshold_rad_s,
+        )
+        self.pi = (WheelSpeedPi(pi_cfg), WheelSpeedPi(pi_cfg)) if pi.enabled else None
+        self.watchdog = CommandWatchdog(cfg.watchdog_s)
+        self.info: Info | None = None
+        self.t_s: float | None = None
+        self.last_odometry: OdometryState | None = None
+        self.external: tuple[float, float] = (0.0, 0.0)
+        self._external_pending: tuple[float, float] | None = None
+        self._next_output_s: float | None = None
+        self.frames = 0
+        self.braked = True
+        self.ekf_outputs = 0
+        self.last_output: EkfState | None = None
+
+    # ------------------------------------------------------------------ inputs
+
+    def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None:
+        """An external velocity command (``/cmd_vel``); stamped on MCU time at the next frame."""
+        if not (math.isfinite(v_m_s) and math.isfinite(w_rad_s)):
+            return  # a NaN must never become a duty
+        self._external_pending = (v_m_s, w_rad_s)
+        if self.recorder is not None:
+            self.recorder.command(host_time_ns, v_m_s, w_rad_s)
+
+    def on_frame(self, frame: Frame, host_time_ns: int = 0) -> None:
+        """One decoded frame from the MCU."""
+        if self.recorder is not None:
+            self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
+        msg = decode_message(frame)
+        if isinstance(msg, Info):
+            check_peer(msg)  # raises ProtocolMismatchError naming both versions
+            self.info = msg
+            self._configure_device()
+        elif isinstance(msg, Telemetry):
+            self._on_telemetry(msg, frame.seq)
+
+    def _configure_device(self) -> None:
+        """Bring the device's rate, ranges, direction flags and failsafe to the config."""
+        c = self.cfg
+        info = self.info
+        assert info is not None
+        if info.telemetry_rate_hz != c.serial.telemetry_rate_hz:
+            self.send(SetRate(rate_hz=c.serial.telemetry_rate_hz))
+        failsafe_ms = round(c.watchdog_s * 1000)
+        wanted = (c.imu.accel_fs, c.imu.gyro_fs, c.imu.direction_flags, failsafe_ms)
+        if (info.accel_fs, info.gyro_fs, info.direction_flags, info.failsafe_ms) != wanted:
+            self.send(
+                SetConfig(
+                    accel_fs=wanted[0],
+                    gyro_fs=wanted[1],
+                    direction_flags=wanted[2],
+                    failsafe_ms=failsafe_ms,
+                    persist=0,
+                )
+            )
+        cal = c.imu.calibration
+        if cal is not None:
+            self.send(
+                SetImuCalibration(
+                    imu_rotation=cal.rotation,
+                    gyro_bias=cal.gyro_bias_rad_s,
+                    accel_scale=cal.accel_scale,
+                    persist=0,
+                )
+            )
+
+    # ------------------------------------------------------------------ the frame
+
+    def _on_telemetry(self, t: Telemetry, seq: int) -> None:
+        t_s = self.unwrapper.unwrap(t.t_us) / 1e6
+        self.t_s = t_s
+        self.frames += 1
+        odo = self.odometry.update(t_s, t.enc_left, t.enc_right)
+        self.last_odometry = odo
+        ekf = self.ekf
+        # 30 Hz outputs of MCU time up to this frame: prediction only between measurements
+        period = 1.0 / self.cfg.ekf.frequency_hz
+        if self._next_output_s is None:
+            self._next_output_s = math.ceil(t_s / period) * period
+        while self._next_output_s <= t_s + 1e-9:
+            if ekf.initialized:
+                self._record_ekf(self._next_output_s)
+            self._next_output_s += period
+        ekf.update_wheel(t_s, odo.v_m_s, 0.0)
+        if t.flags & TelemetryFlags.IMU_OK:
+            wz = gyro_z_rad_s(t)
+            still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
+            self.gyro_bias.add(t_s, wz, still)
+            bias = self.gyro_bias.bias_rad_s
+            if bias is not None:
+                ekf.update_gyro(t_s, wz - bias)
+        # command and actuation
+        v_cmd, w_cmd, brake = self._command(t_s, odo)
+        self._actuate(t_s, v_cmd, w_cmd, brake, odo)
+        self.send(Heartbeat(ack_seq=seq, host_state=HostState.ACTIVE))
+        if self.recorder is not None:
+            self.recorder.row(
+                self.recorder.odometry,
+                (
+                    t_s,
+                    odo.x_m,
+                    odo.y_m,
+                    odo.yaw_rad,
+                    odo.v_m_s,
+                    odo.w_rad_s,
+                    t.enc_left,
+                    t.enc_right,
+                ),
+            )
+
+    def _record_ekf(self, t_s: float) -> None:
+        """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""
+        self.ekf_outputs += 1
+        self.last_output = s = self.ekf.state_at(t_s)
+        if self.recorder is None:
+            return
+        self.recorder.row(
+            self.recorder.ekf,
+            (
+                t_s,
+                s.x_m,
+                s.y_m,
+                s.yaw_rad,
+                s.vx_m_s,
+                s.vy_m_s,
+                s.vyaw_rad_s,
+                s.ax_m_s2,
+                s.p_xx,
+                s.p_yy,
+                s.p_yawyaw,
+            ),
+        )
+
+    def nav_state(self) -> NavState:
+        e = self.ekf
+        return NavState(self.t_s or 0.0, e.x_m, e.y_m, e.yaw_rad, e.vx_m_s, e.vyaw_rad_s)
+
+    def _command(self, t_s: float, odo: OdometryState) -> tuple[float, float, bool]:
+        if self._external_pending is not None:
+            self.external = self._external_pending
+            self._external_pending = None
+            self.watchdog.feed(t_s)
+        if self.mission is not None:
+            if self.gyro_bias.bias_rad_s is None:
+                return 0.0, 0.0, True  # stand still until the gyro bias is known
+            v, w = self.mission.command(self.nav_state())
+            return v, w, self.mission.done
+        if self.watchdog.expired(t_s):
+            return 0.0, 0.0, True
+        return self.external[0], self.external[1], False
+
+    def _actuate(
+        self, t_s: float, v_cmd: float, w_cmd: float, brake: bool, odo: OdometryState
+    ) -> None:
+        if brake:
+            self.limiter.reset()
+            if self.pi is not None:
+                for pi in self.pi:
+                    pi.reset()
+            self.output.brake()
+            self.braked = True
+            duties = (0.0, 0.0)
+            v = w = 0.0
+        else:
+            v, w = self.limiter.limit(v_cmd, w_cmd, t_s)
+            r = self.cfg.robot
+            om_l, om_r = inverse(
+                v, w, r.wheel_radius_left_m, r.wheel_radius_right_m, r.wheel_separation_m
+            )
+            d_l = wheel_duty(om_l, "left", self.deadband)
+            d_r = wheel_duty(om_r, "right", self.deadband)
+            if self.pi is not None:
+                d_l = max(
+                    -1.0,
+                    min(
+                        1.0,
+                        d_l
+                        + self.pi[0].update(
+                            om_l, odo.wheel_velocity_left_rad_s, t_s, feedforward_duty=d_l
+                        ),
+                    ),
+                )
+                d_r = max(
+                    -1.0,
+                    min(
+                        1.0,
+                        d_r
+                        + self.pi[1].update(
+                            om_r, odo.wheel_velocity_right_rad_s, t_s, feedforward_duty=d_r
+                        ),
+                    ),
+                )
+            self.output.set(d_l, d_r)
+            self.braked = False
+            duties = (d_l, d_r)
+        if self.recorder is not None:
+            self.recorder.row(self.recorder.commands, (t_s, v, w, duties[0], duties[1], int(brake)))
+
+    def brake(self) -> None:
+        """Brake now (link lost, shutdown)."""
+        self.output.brake()
+        self.braked = True
+
+
+class Daemon:
+    """The process: transport, core, recorder, signals. ``run()`` returns an exit status."""
+
+    def __init__(
+        self,
+        cfg: HostConfig,
+        output_factory: Callable[[Callable[[Message], object]], MotorOutput],
+        transport: Any,
+        *,
+        mission_name: str | None = None,
+        run_folder: Path | None = None,
+        meta: dict[str, Any] | None = None,
+    ) -> None:
+        self.cfg = cfg
+        self.transport = transport
+        self.recorder = RunRecorder(run_folder, meta or {}) if run_folder is not None else None
+        mission = MISSIONS[mission_name]() if mission_name else None
+        self.core = HostCore(
+            cfg, output_factory(self._send), self._send, mission=mission, recorder=self.recorder
+        )
+        self.stop = threading.Event()
+        self.link_downs = 0
+
+    def _send(self, msg: Message) -> object:
+        frame = self.transport.encode(msg)
+        if self.recorder is not None:
+            self.recorder.tx(time.monotonic_ns(), frame)
+        return self.transport.send_raw(frame)
+
+    def install_signals(self) -> None:
+        def on_signal(signum: int, frame: FrameType | None) -> None:
+            self.stop.set()
+
+        signal.signal(signal.SIGINT, on_signal)
+        signal.signal(signal.SIGTERM, on_signal)
+
+    def run(self, max_s: float | None = None) -> int:
+        from jackson.host.transport import LinkEvent
+
+        core = self.core
+        deadline = None if max_s is None else time.monotonic() + max_s
+        try:
+            while not self.stop.is_set():
+                if deadline is not None and time.monotonic() > deadline:
+                    break
+                try:
+                    item = self.transport.items.get(timeout=0.1)
+                except queue.Empty:
+                    continue
+                if isinstance(item, LinkEvent):
+                    if self.recorder is not None:
+                        self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
+                    if item.kind == "down":
+                        self.link_downs += 1
+                        core.brake()
+                    continue
+                rx_ns, frame = item
+                core.on_frame(frame, rx_ns)
+                if core.mission is not None and core.mission.done and core.braked:
+                    break
+        finally:
+            core.brake()
+            self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
+            if self.recorder is not None:
+                self.recorder.close()
+        return 0
+
+
+def with_port(cfg: HostConfig, port: str | None) -> HostConfig:
+    """The config with ``serial.port`` replaced (``--port``)."""
+    if port is None:
+        return cfg
+    return dataclasses.replace(cfg, serial=dataclasses.replace(cfg.serial, port=port))

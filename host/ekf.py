@@ -1,0 +1,732 @@
+"""Planar EKF after robot_localization's constant-acceleration model (Table 2), on filterpy.
+
+State (7), velocities in the body frame, pose in the odom frame:
+
+    x = [x, y, yaw, vx, vy, vyaw, ax]   [m, m, rad, m/s, m/s, rad/s, m/s^2]
+
+Process model f(x, dt), with c = cos(yaw), s = sin(yaw):
+
+    x'    = x + (vx c - vy s) dt + 0.5 ax c dt^2
+    y'    = y + (vx s + vy c) dt + 0.5 ax s dt^2
+    yaw'  = wrap(yaw + vyaw dt)
+    vx'   = vx + ax dt
+    vy'   = vy,  vyaw' = vyaw,  ax' = ax
+
+Its Jacobian F = df/dx is the identity plus
+
+    F[x, yaw] = -(vx s + vy c) dt - 0.5 ax s dt^2
+    F[x, vx]  = c dt,   F[x, vy] = -s dt,   F[x, ax] = 0.5 c dt^2
+    F[y, yaw] =  (vx c - vy s) dt + 0.5 ax c dt^2
+    F[y, vx]  = s dt,   F[y, vy] =  c dt,   F[y, ax] = 0.5 s dt^2
+    F[yaw, vyaw] = dt,  F[vx, ax] = dt
+
+Prediction (robot_localization scales Q, given per second, by the step):
+
+    x = f(x, dt),   P = F P F^T + dt Q
+
+Correction: z = H x + v with H selecting the measured states and R the measurement
+covariance; innovation y = z - H x (angles wrapped to [-pi, pi)), S = H P H^T + R,
+squared Mahalanobis distance d^2 = y^T S^-1 y. With a threshold n set for the sensor the
+measurement is rejected when d^2 >= n^2 (robot_localization's rule); otherwise
+K = P H^T S^-1, x = x + K y, P = (I - K H) P (I - K H)^T + K R K^T (Joseph form).
+
+Fused, as in Table 2: the wheel odometry's v_x and v_y (= 0, the non-holonomic constraint)
+with R = diag(0.01, 0.001), and the IMU's yaw rate with R = 0.0004. Time is always the
+MCU's unwrapped clock in seconds, passed in by the caller: the filter never reads a clock.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from filterpy.kalman import ExtendedKalmanFilter
+
+Vector = npt.NDArray[np.float64]
+Matrix = npt.NDArray[np.float64]
+
+# State indices.
+X, Y, YAW, VX, VY, VYAW, AX = range(7)
+STATE_SIZE = 7
+STATE_NAMES = ("x", "y", "yaw", "vx", "vy", "vyaw", "ax")
+
+# robot_localization's defaults: process_noise_covariance diagonal for the planar states and
+# initial_estimate_covariance.
+DEFAULT_PROCESS_NOISE = (0.05, 0.05, 0.06, 0.025, 0.025, 0.02, 0.01)
+DEFAULT_INITIAL_COVARIANCE = 1e-9
+MIN_MEASUREMENT_VARIANCE = 1e-9  # robot_localization's floor on a measurement variance
+TIME_EPSILON_S = 1e-9  # [s] slack on time comparisons (0.2 s of 20 Hz frames is 0.19999...)
+
+SENSOR_WHEEL = "wheel"
+SENSOR_GYRO = "gyro"
+SENSOR_YAW = "yaw"
+
+
+def wrap_angle(angle_rad: float) -> float:
+    """The angle in [-pi, pi) [rad]."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def transition(x: Vector, dt_s: float) -> Vector:
+    """The process model f(x, dt) (module docstring); returns a new (7,) state."""
+    yaw = x[YAW]
+    c, s = math.cos(yaw), math.sin(yaw)
+    half_dt2 = 0.5 * dt_s * dt_s
+    out = np.array(x, dtype=np.float64)
+    out[X] = x[X] + (x[VX] * c - x[VY] * s) * dt_s + x[AX] * c * half_dt2
+    out[Y] = x[Y] + (x[VX] * s + x[VY] * c) * dt_s + x[AX] * s * half_dt2
+    out[YAW] = wrap_angle(yaw + x[VYAW] * dt_s)
+    out[VX] = x[VX] + x[AX] * dt_s
+    return out
+
+
+def transition_jacobian(x: Vector, dt_s: float) -> Matrix:
+    """F = df/dx at the state before the step (derived in the module docstring)."""
+    yaw = x[YAW]
+    c, s = math.cos(yaw), math.sin(yaw)
+    half_dt2 = 0.5 * dt_s * dt_s
+    jac = np.eye(STATE_SIZE)
+    jac[X, YAW] = -(x[VX] * s + x[VY] * c) * dt_s - x[AX] * s * half_dt2
+    jac[X, VX] = c * dt_s
+    jac[X, VY] = -s * dt_s
+    jac[X, AX] = c * half_dt2
+    jac[Y, YAW] = (x[VX] * c - x[VY] * s) * dt_s + x[AX] * c * half_dt2
+    jac[Y, VX] = s * dt_s
+    jac[Y, VY] = c * dt_s
+    jac[Y, AX] = s * half_dt2
+    jac[YAW, VYAW] = dt_s
+    jac[VX, AX] = dt_s
+    return jac
+
+
+def _check_threshold(name: str, value: float | None) -> None:
+    if value is not None and not 0.0 < value < math.inf:
+        raise ValueError(f"{name} must be None or finite and > 0, got {value}")
+
+
+@dataclass(frozen=True)
+class EkfConfig:
+    """Settings of the EKF (Table 2; robot_localization defaults where the paper is silent).
+
+    Attributes
+    ----------
+    process_noise : tuple of 7 float
+        Diagonal of Q per second for [x, y, yaw, vx, vy, vyaw, ax]; a step of dt adds dt Q.
+        Default: robot_localization's process_noise_covariance (dynamic process noise off).
+    initial_covariance : float
+        Diagonal of the initial P (robot_localization's initial_estimate_covariance, 1e-9).
+    r_vx, r_vy : float
+        R of the wheel odometry's v_x and v_y [(m/s)^2], Table 2.
+    r_wz : float
+        R of the IMU's yaw rate [(rad/s)^2], Table 2 (sigma_w = 4e-4 rad/s, Sec. 2.2.4).
+    sensor_timeout_s : float
+        After this long without a measurement the daemon only predicts [s] (Table 2).
+    output_rate_hz : float
+        Rate at which the daemon publishes the estimate [Hz] (Table 2: 30 Hz).
+    mahalanobis_threshold_wheel, mahalanobis_threshold_imu : float or None
+        Innovation gate n (in standard deviations) for the wheel odometry and the gyro: a
+        measurement with d^2 >= n^2 is rejected. None switches the gate off, as in the paper
+        (robot_localization's *_rejection_threshold defaults to off).
+    """
+
+    process_noise: tuple[float, ...] = DEFAULT_PROCESS_NOISE
+    initial_covariance: float = DEFAULT_INITIAL_COVARIANCE
+    r_vx: float = 0.01
+    r_vy: float = 0.001
+    r_wz: float = 0.0004
+    sensor_timeout_s: float = 0.2
+    output_rate_hz: float = 30.0
+    mahalanobis_threshold_wheel: float | None = None
+    mahalanobis_threshold_imu: float | None = None
+
+    def __post_init__(self) -> None:
+        if len(self.process_noise) != STATE_SIZE or not all(
+            0.0 <= q < math.inf for q in self.process_noise
+        ):
+            raise ValueError(
+                f"EkfConfig.process_noise must be {STATE_SIZE} finite values >= 0, "
+                f"got {self.process_noise}"
+            )
+        for name in ("initial_covariance", "r_vx", "r_vy", "r_wz", "sensor_timeout_s"):
+            value = getattr(self, name)
+            if not 0.0 < value < math.inf:
+                raise ValueError(f"EkfConfig.{name} must be finite and > 0, got {value}")
+        if not 0.0 < self.output_rate_hz < math.inf:
+            raise ValueError(f"EkfConfig.output_rate_hz must be > 0, got {self.output_rate_hz}")
+        _check_threshold("EkfConfig.mahalanobis_threshold_wheel", self.mahalanobis_threshold_wheel)
+        _check_threshold("EkfConfig.mahalanobis_threshold_imu", self.mahalanobis_threshold_imu)
+
+
+@dataclass(frozen=True)
+class EkfState:
+    """A snapshot of the estimate.
+
+    Attributes
+    ----------
+    t_s : float or None
+        MCU time the state refers to [s]; None before the filter is initialised.
+    x : tuple of 7 float
+        [x, y, yaw, vx, vy, vyaw, ax] [m, m, rad, m/s, m/s, rad/s, m/s^2].
+    covariance_diagonal : tuple of 7 float
+        diag(P) in the same order.
+    initialized : bool
+        Whether a measurement (or :meth:`Ekf.set_state`) has initialised the filter.
+    """
+
+    t_s: float | None
+    x: tuple[float, ...]
+    covariance_diagonal: tuple[float, ...]
+    initialized: bool
+
+    @property
+    def x_m(self) -> float:
+        return self.x[X]
+
+    @property
+    def y_m(self) -> float:
+        return self.x[Y]
+
+    @property
+    def yaw_rad(self) -> float:
+        return self.x[YAW]
+
+    @property
+    def vx_m_s(self) -> float:
+        return self.x[VX]
+
+    @property
+    def vy_m_s(self) -> float:
+        return self.x[VY]
+
+    @property
+    def vyaw_rad_s(self) -> float:
+        return self.x[VYAW]
+
+    @property
+    def ax_m_s2(self) -> float:
+        return self.x[AX]
+
+    @property
+    def p_xx(self) -> float:
+        return self.covariance_diagonal[X]
+
+    @property
+    def p_yy(self) -> float:
+        return self.covariance_diagonal[Y]
+
+    @property
+    def p_yawyaw(self) -> float:
+        return self.covariance_diagonal[YAW]
+
+
+@dataclass(frozen=True)
+class Innovation:
+    """One measurement's innovation, for monitoring (accepted or not).
+
+    Attributes
+    ----------
+    sensor : str
+        "wheel", "gyro", "yaw" (or the name given to :meth:`Ekf.update_yaw`).
+    t_s : float
+        MCU time of the measurement [s].
+    y : tuple of float
+        z - H x, angles wrapped; zeros for the measurement that initialised the filter.
+    S : tuple of tuple of float
+        H P H^T + R.
+    mahalanobis_sq : float
+        y^T S^-1 y, the squared Mahalanobis distance.
+    accepted : bool
+        False when the gate rejected the measurement.
+    """
+
+    sensor: str
+    t_s: float
+    y: tuple[float, ...]
+    S: tuple[tuple[float, ...], ...]
+    mahalanobis_sq: float
+    accepted: bool
+
+
+@dataclass(frozen=True)
+class _Measurement:
+    sensor: str
+    t_s: float
+    z: Vector
+    indices: list[int]
+    variances: Vector
+    threshold: float | None
+    angular: list[bool]  # per row: wrap the innovation
+
+
+class Ekf:
+    """The planar EKF of the host (module docstring), robot_localization's behaviour on filterpy.
+
+    filterpy's ``ExtendedKalmanFilter`` holds x and P and performs the correction through its
+    ``update(z, HJacobian, Hx, R, residual=...)``. Its ``predict()`` is linear (x = F x + B u),
+    which cannot express the yaw-dependent rotation of the body velocities, so the prediction is
+    done here: x = f(x, dt) and P = F P F^T + dt Q are written into the filterpy object, with
+    F and dt Q left in its ``F`` and ``Q`` for inspection. ``predict_update`` is never used: it
+    predicts linearly and cannot wrap the yaw innovation.
+
+    Like robot_localization, the filter starts uninitialised (state 0, P = 1e-9 I) and does not
+    predict; the first measurement writes its components and their covariance straight into
+    x and P and initialises it; from then on every measurement first predicts to its own time
+    (never backwards: an older one is corrected without prediction) and then corrects.
+
+    Attributes
+    ----------
+    config : EkfConfig
+    rejected : dict of str to int
+        Measurements the Mahalanobis gate rejected, per sensor.
+    innovations : dict of str to Innovation
+        The last innovation per sensor.
+    """
+
+    def __init__(self, config: EkfConfig | None = None) -> None:
+        self.config = config if config is not None else EkfConfig()
+        self._kf = ExtendedKalmanFilter(dim_x=STATE_SIZE, dim_z=1)
+        self._q_per_s: Matrix = np.diag(np.asarray(self.config.process_noise, dtype=np.float64))
+        self.rejected: dict[str, int] = {}
+        self.innovations: dict[str, Innovation] = {}
+        self.reset()
+
+    # ---- state -------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Back to the uninitialised filter: x = 0, P = initial_covariance I, no time."""
+        kf = self._kf
+        kf.x = np.zeros((STATE_SIZE, 1))
+        kf.P = np.eye(STATE_SIZE) * self.config.initial_covariance
+        kf.F = np.eye(STATE_SIZE)
+        kf.Q = np.zeros((STATE_SIZE, STATE_SIZE))
+        self._t_s: float | None = None
+        self._last_measurement_t_s: float | None = None
+        self._initialized = False
+        self._y: Vector = np.zeros(0)
+        self._S: Matrix = np.zeros((0, 0))
+        self._mahalanobis_sq = 0.0
+        self.rejected = {SENSOR_WHEEL: 0, SENSOR_GYRO: 0, SENSOR_YAW: 0}
+        self.innovations = {}
+
+    def set_state(
+        self, t_s: float, x: Sequence[float], covariance_diagonal: Sequence[float] | None = None
+    ) -> None:
+        """Start the filter at a known state without a measurement (robot_localization's set_pose).
+
+        Parameters
+        ----------
+        t_s : float
+            MCU time of the state [s].
+        x : sequence of 7 float
+            [x, y, yaw, vx, vy, vyaw, ax]; yaw is wrapped.
+        covariance_diagonal : sequence of 7 float, optional
+            diag(P); default initial_covariance for every state. Off-diagonal terms are zero.
+        """
+        state = np.asarray(x, dtype=np.float64).reshape(STATE_SIZE)
+        state[YAW] = wrap_angle(float(state[YAW]))
+        if covariance_diagonal is None:
+            p_diag = np.full(STATE_SIZE, self.config.initial_covariance)
+        else:
+            p_diag = np.asarray(covariance_diagonal, dtype=np.float64).reshape(STATE_SIZE)
+        self._kf.x = state.reshape(STATE_SIZE, 1)
+        self._kf.P = np.diag(p_diag)
+        self._t_s = t_s
+        self._last_measurement_t_s = t_s
+        self._initialized = True
+
+    @property
+    def initialized(self) -> bool:
+        """True once a measurement (or :meth:`set_state`) has set the state."""
+        return self._initialized
+
+    @property
+    def t_s(self) -> float | None:
+        """MCU time the state refers to [s]; None before initialisation."""
+        return self._t_s
+
+    @property
+    def last_measurement_t_s(self) -> float | None:
+        """MCU time of the newest measurement processed, accepted or rejected [s]."""
+        return self._last_measurement_t_s
+
+    @property
+    def x(self) -> Vector:
+        """A copy of the state vector (7,)."""
+        return np.asarray(self._kf.x, dtype=np.float64).reshape(STATE_SIZE).copy()
+
+    @property
+    def P(self) -> Matrix:  # noqa: N802 - named as in the maths
+        """A copy of the state covariance (7, 7)."""
+        return np.array(self._kf.P, dtype=np.float64)
+
+    @property
+    def F(self) -> Matrix:  # noqa: N802
+        """The Jacobian of the last prediction step (7, 7)."""
+        return np.array(self._kf.F, dtype=np.float64)
+
+    @property
+    def Q(self) -> Matrix:  # noqa: N802
+        """Process noise per second, diagonal (7, 7); a step of dt adds dt Q."""
+        return self._q_per_s.copy()
+
+    @property
+    def y(self) -> Vector:
+        """Innovation of the last measurement, accepted or not (angles wrapped)."""
+        return self._y.copy()
+
+    @property
+    def S(self) -> Matrix:  # noqa: N802
+        """Innovation covariance H P H^T + R of the last measurement."""
+        return self._S.copy()
+
+    @property
+    def mahalanobis_sq(self) -> float:
+        """Squared Mahalanobis distance y^T S^-1 y of the last measurement (what is gated)."""
+        return self._mahalanobis_sq
+
+    @property
+    def mahalanobis(self) -> float:
+        """Mahalanobis distance sqrt(y^T S^-1 y) of the last measurement (filterpy's meaning)."""
+        return math.sqrt(self._mahalanobis_sq)
+
+    def _component(self, i: int) -> float:
+        return float(self._kf.x[i, 0])
+
+    @property
+    def x_m(self) -> float:
+        return self._component(X)
+
+    @property
+    def y_m(self) -> float:
+        return self._component(Y)
+
+    @property
+    def yaw_rad(self) -> float:
+        return self._component(YAW)
+
+    @property
+    def vx_m_s(self) -> float:
+        return self._component(VX)
+
+    @property
+    def vy_m_s(self) -> float:
+        return self._component(VY)
+
+    @property
+    def vyaw_rad_s(self) -> float:
+        return self._component(VYAW)
+
+    @property
+    def ax_m_s2(self) -> float:
+        return self._component(AX)
+
+    def state(self) -> EkfState:
+        """A frozen snapshot of the estimate."""
+        return EkfState(
+            t_s=self._t_s,
+            x=tuple(float(v) for v in self.x),
+            covariance_diagonal=tuple(float(v) for v in np.diag(self._kf.P)),
+            initialized=self._initialized,
+        )
+
+    def state_at(self, t_s: float) -> EkfState:
+        """The snapshot predicted to MCU time t_s, leaving the filter untouched.
+
+        For publishing at the output rate between measurements: the estimate is extrapolated
+        (x = f(x, dt), P = F P F^T + dt Q) without moving the filter's own time, so a
+        measurement stamped before t_s is still predicted to and corrected at its own time.
+        Equals :meth:`state` when t_s is not after the state's time or before initialisation.
+        """
+        if not self._initialized or self._t_s is None or not t_s - self._t_s > 0.0:
+            return self.state()
+        dt_s = t_s - self._t_s
+        x = self.x
+        jac = transition_jacobian(x, dt_s)
+        p = jac @ np.asarray(self._kf.P, dtype=np.float64) @ jac.T + dt_s * self._q_per_s
+        return EkfState(
+            t_s=t_s,
+            x=tuple(float(v) for v in transition(x, dt_s)),
+            covariance_diagonal=tuple(float(v) for v in np.diag(p)),
+            initialized=True,
+        )
+
+    # ---- prediction --------------------------------------------------------------------------
+    def predict_to(self, t_s: float) -> None:
+        """Advance the estimate to MCU time t_s: x = f(x, dt), P = F P F^T + dt Q.
+
+        A no-op when t_s is not after the state's time, and before initialisation (like
+        robot_localization, the filter does not predict until it has a state).
+        """
+        if not self._initialized or self._t_s is None:
+            return
+        dt_s = t_s - self._t_s
+        if not dt_s > 0.0:  # also NaN
+            return
+        kf = self._kf
+        x = self.x
+        jac = transition_jacobian(x, dt_s)
+        q_step = dt_s * self._q_per_s
+        kf.F = jac
+        kf.Q = q_step
+        kf.x = transition(x, dt_s).reshape(STATE_SIZE, 1)
+        kf.P = jac @ kf.P @ jac.T + q_step
+        kf.x_prior = kf.x.copy()
+        kf.P_prior = kf.P.copy()
+        self._t_s = t_s
+
+    def timed_out(self, t_s: float) -> bool:
+        """True when no measurement arrived within sensor_timeout_s before t_s.
+
+        Also True before any measurement. The comparison allows TIME_EPSILON_S, so exactly
+        0.2 s of silence counts even when the timestamps are sums of 0.05 s steps.
+        """
+        if self._last_measurement_t_s is None:
+            return True
+        silence_s = t_s - self._last_measurement_t_s
+        return silence_s >= self.config.sensor_timeout_s - TIME_EPSILON_S
+
+    # ---- measurements ------------------------------------------------------------------------
+    def update_wheel(self, t_s: float, vx: float, vy: float = 0.0) -> bool:
+        """Fuse the wheel odometry's body velocity: z = [vx, vy], R = diag(r_vx, r_vy).
+
+        vy is the non-holonomic constraint (0 for a differential drive). Gated with
+        mahalanobis_threshold_wheel.
+
+        Returns
+        -------
+        bool
+            False when the gate rejected the measurement (or every value was non-finite).
+        """
+        cfg = self.config
+        return self._process(
+            _Measurement(
+                sensor=SENSOR_WHEEL,
+                t_s=t_s,
+                z=np.array([vx, vy], dtype=np.float64),
+                indices=[VX, VY],
+                variances=np.array([cfg.r_vx, cfg.r_vy], dtype=np.float64),
+                threshold=cfg.mahalanobis_threshold_wheel,
+                angular=[False, False],
+            )
+        )
+
+    def update_gyro(self, t_s: float, wz: float) -> bool:
+        """Fuse the IMU's yaw rate [rad/s] (bias already removed): z = [vyaw], R = r_wz.
+
+        Gated with mahalanobis_threshold_imu. Returns False when rejected.
+        """
+        cfg = self.config
+        return self._process(
+            _Measurement(
+                sensor=SENSOR_GYRO,
+                t_s=t_s,
+                z=np.array([wz], dtype=np.float64),
+                indices=[VYAW],
+                variances=np.array([cfg.r_wz], dtype=np.float64),
+                threshold=cfg.mahalanobis_threshold_imu,
+                angular=[False],
+            )
+        )
+
+    def update_yaw(
+        self,
+        t_s: float,
+        yaw: float,
+        variance: float,
+        mahalanobis_threshold: float | None = None,
+        sensor: str = SENSOR_YAW,
+    ) -> bool:
+        """Fuse an absolute heading [rad]: z = [yaw], R = variance [rad^2].
+
+        The innovation is wrapped to [-pi, pi): a measurement 350 deg from the state is a
+        -10 deg innovation. For tests and future absolute-heading sensors; the paper fuses
+        no orientation.
+
+        Parameters
+        ----------
+        t_s : float
+            MCU time of the measurement [s].
+        yaw : float
+            Measured heading [rad], any range.
+        variance : float
+            Its variance [rad^2].
+        mahalanobis_threshold : float or None
+            Gate n for this measurement (None = off).
+        sensor : str
+            Name the rejections and the innovation are filed under.
+
+        Returns
+        -------
+        bool
+            False when the gate rejected the measurement.
+        """
+        _check_threshold("mahalanobis_threshold", mahalanobis_threshold)
+        return self._process(
+            _Measurement(
+                sensor=sensor,
+                t_s=t_s,
+                z=np.array([yaw], dtype=np.float64),
+                indices=[YAW],
+                variances=np.array([variance], dtype=np.float64),
+                threshold=mahalanobis_threshold,
+                angular=[True],
+            )
+        )
+
+    def _process(self, m: _Measurement) -> bool:
+        # robot_localization: non-finite values are left out of the update; variances are
+        # taken as absolute values with a floor of 1e-9.
+        keep = [i for i in range(len(m.indices)) if math.isfinite(float(m.z[i]))]
+        if not keep:
+            return False
+        z = m.z[keep]
+        indices = [m.indices[i] for i in keep]
+        angular = [m.angular[i] for i in keep]
+        variances = np.maximum(np.abs(m.variances[keep]), MIN_MEASUREMENT_VARIANCE)
+        r_matrix = np.diag(variances)
+        for i, is_angle in enumerate(angular):
+            if is_angle:
+                z[i] = wrap_angle(float(z[i]))
+
+        if self._last_measurement_t_s is None or m.t_s >= self._last_measurement_t_s:
+            self._last_measurement_t_s = m.t_s
+
+        if not self._initialized:
+            self._initialize_from(m, z, indices, r_matrix)
+            return True
+
+        self.predict_to(m.t_s)
+        h_matrix = np.zeros((len(indices), STATE_SIZE))
+        for row, col in enumerate(indices):
+            h_matrix[row, col] = 1.0
+        residual = _residual_function(angular)
+        x_col = np.asarray(self._kf.x, dtype=np.float64)
+        y = residual(z.reshape(-1, 1), h_matrix @ x_col).reshape(-1)
+        s_matrix = h_matrix @ self._kf.P @ h_matrix.T + r_matrix
+        d2 = float(y @ np.linalg.solve(s_matrix, y))
+        accepted = m.threshold is None or d2 < m.threshold * m.threshold
+        self._record(m.sensor, m.t_s, y, s_matrix, d2, accepted)
+        if not accepted:
+            self.rejected[m.sensor] = self.rejected.get(m.sensor, 0) + 1
+            return False
+
+        self._kf.update(
+            z.reshape(-1, 1),
+            HJacobian=lambda _x: h_matrix,
+            Hx=lambda state: h_matrix @ state,
+            R=r_matrix,
+            residual=residual,
+        )
+        self._kf.x[YAW, 0] = wrap_angle(float(self._kf.x[YAW, 0]))
+        return True
+
+    def _initialize_from(
+        self, m: _Measurement, z: Vector, indices: list[int], r_matrix: Matrix
+    ) -> None:
+        """robot_localization's first measurement: measured states and their covariance block
+        are copied from the measurement, the rest stay at 0 and initial_covariance."""
+        kf = self._kf
+        for row, i in enumerate(indices):
+            kf.x[i, 0] = z[row]
+            for col, j in enumerate(indices):
+                kf.P[i, j] = r_matrix[row, col]
+        self._t_s = m.t_s
+        self._initialized = True
+        self._record(m.sensor, m.t_s, np.zeros(len(indices)), r_matrix, 0.0, True)
+
+    def _record(
+        self, sensor: str, t_s: float, y: Vector, s_matrix: Matrix, d2: float, accepted: bool
+    ) -> None:
+        self._y = np.array(y, dtype=np.float64)
+        self._S = np.array(s_matrix, dtype=np.float64)
+        self._mahalanobis_sq = d2
+        self.innovations[sensor] = Innovation(
+            sensor=sensor,
+            t_s=t_s,
+            y=tuple(float(v) for v in y),
+            S=tuple(tuple(float(v) for v in row) for row in s_matrix),
+            mahalanobis_sq=d2,
+            accepted=accepted,
+        )
+
+
+def _residual_function(angular: list[bool]) -> Callable[[Matrix, Matrix], Matrix]:
+    """z - h(x) with the rows flagged in ``angular`` wrapped to [-pi, pi)."""
+
+    def residual(z: Matrix, hx: Matrix) -> Matrix:
+        y = np.asarray(z, dtype=np.float64) - np.asarray(hx, dtype=np.float64)
+        for row, is_angle in enumerate(angular):
+            if is_angle:
+                y[row, 0] = wrap_angle(float(y[row, 0]))
+        return y
+
+    return residual
+
+
+class GyroBiasEstimator:
+    """The gyro z bias, averaged while the robot stands still at start-up.
+
+    Samples are averaged while ``standing_still`` holds (both wheel velocities zero); the
+    estimate is ready once the window spans at least ``window_s`` of MCU time and holds at
+    least ``min_samples`` samples, and is frozen from then on. Motion (or time running
+    backwards) before that restarts the window. The daemon subtracts :attr:`bias_rad_s` from
+    the gyro rate before :meth:`Ekf.update_gyro`.
+
+    Parameters
+    ----------
+    window_s : float
+        Standstill needed [s] (default 2 s: 41 frames at 20 Hz).
+    min_samples : int
+        Fewest samples averaged.
+    """
+
+    def __init__(self, window_s: float = 2.0, min_samples: int = 20) -> None:
+        if not 0.0 < window_s < math.inf:
+            raise ValueError(f"window_s must be finite and > 0, got {window_s}")
+        if min_samples < 1:
+            raise ValueError(f"min_samples must be >= 1, got {min_samples}")
+        self.window_s = window_s
+        self.min_samples = min_samples
+        self.reset()
+
+    def reset(self) -> None:
+        """Drop the samples and any estimate."""
+        self._samples: list[float] = []
+        self._t_first_s = 0.0
+        self._t_last_s = 0.0
+        self._bias_rad_s: float | None = None
+
+    @property
+    def bias_rad_s(self) -> float | None:
+        """The mean gyro z rate over the still window [rad/s]; None until ready."""
+        return self._bias_rad_s
+
+    @property
+    def ready(self) -> bool:
+        return self._bias_rad_s is not None
+
+    @property
+    def sample_count(self) -> int:
+        """Samples in the current window."""
+        return len(self._samples)
+
+    def add(self, t_s: float, wz: float, standing_still: bool) -> None:
+        """Offer one gyro z sample [rad/s] taken at MCU time t_s [s]."""
+        if self._bias_rad_s is not None:
+            return
+        if not math.isfinite(wz):
+            return
+        if not standing_still:
+            self._samples.clear()
+            return
+        if self._samples and t_s < self._t_last_s:
+            self._samples.clear()
+        if not self._samples:
+            self._t_first_s = t_s
+        self._samples.append(wz)
+        self._t_last_s = t_s
+        span_s = t_s - self._t_first_s
+        if len(self._samples) >= self.min_samples and span_s >= self.window_s - TIME_EPSILON_S:
+            self._bias_rad_s = math.fsum(self._samples) / len(self._samples)

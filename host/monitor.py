@@ -1,0 +1,140 @@
+"""``jackson monitor``: a live view of the link for the first-boot check.
+
+Works against the robot and the twin alike: it sends HELLO, then shows the device's identity,
+the frame rate, CRC errors and sequence gaps, encoder counts, the IMU in SI units and the
+health bits. It sends heartbeats (so the device's failsafe stays calm) and no motor commands.
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+import time
+from dataclasses import dataclass, field
+
+from rich.console import Group
+from rich.live import Live
+from rich.table import Table
+
+from jackson.host.transport import LinkEvent, SerialTransport
+from jackson.protocol import (
+    Heartbeat,
+    HostState,
+    Info,
+    Log,
+    Status,
+    Telemetry,
+    TelemetryFlags,
+    check_peer,
+    decode_message,
+)
+
+ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
+GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+G_M_S2 = 9.81
+
+
+def imu_si(t: Telemetry) -> tuple[tuple[float, ...], tuple[float, ...], float]:
+    """(accel m/s^2, gyro rad/s, temperature deg C) of a telemetry frame, at its ranges."""
+    a_fs, g_fs = (t.flags >> 8) & 3, (t.flags >> 10) & 3
+    accel = tuple(v / ACCEL_LSB_PER_G[a_fs] * G_M_S2 for v in t.accel)
+    gyro = tuple(math.radians(v / GYRO_LSB_PER_DPS[g_fs]) for v in t.gyro)
+    return accel, gyro, t.temp / 340.0 + 36.53
+
+
+def flag_names(flags: int) -> str:
+    names = [f.name or "" for f in TelemetryFlags if flags & f]
+    return " ".join(names) or "-"
+
+
+@dataclass
+class MonitorState:
+    info: Info | None = None
+    status: Status | None = None
+    last: Telemetry | None = None
+    frames: int = 0
+    times: list[float] = field(default_factory=list)  # host receive times, last 2 s
+    logs: list[str] = field(default_factory=list)
+    link: str = "connecting"
+
+    def rate_hz(self) -> float:
+        if len(self.times) < 2:
+            return 0.0
+        return (len(self.times) - 1) / (self.times[-1] - self.times[0])
+
+
+def render(s: MonitorState, transport: SerialTransport) -> Group:
+    c = transport.decoder.counters
+    head = Table.grid(padding=(0, 2))
+    if s.info is not None:
+        i = s.info
+        fw = ".".join(str(v) for v in i.firmware_version)
+        head.add_row(
+            "device",
+            f"firmware {fw}, protocol v{i.protocol_version}, "
+            f"schema {i.schema_hash:#010x}, {i.telemetry_rate_hz} Hz, failsafe "
+            f"{i.failsafe_ms} ms",
+        )
+    head.add_row("link", f"{s.link}; {s.frames} telemetry frames, {s.rate_hz():.1f} Hz")
+    head.add_row(
+        "receive",
+        f"CRC errors {c.crc_errors}, SEQ gaps {c.seq_gaps} "
+        f"({c.seq_lost} lost), bytes skipped {c.bytes_skipped}, timeouts {c.timeouts}",
+    )
+    if s.last is not None:
+        t = s.last
+        accel, gyro, temp = imu_si(t)
+        head.add_row("encoders", f"left {t.enc_left}, right {t.enc_right} ticks")
+        head.add_row("accel", " ".join(f"{v:+7.3f}" for v in accel) + " m/s^2")
+        head.add_row("gyro", " ".join(f"{v:+8.4f}" for v in gyro) + f" rad/s   {temp:.1f} C")
+        head.add_row("health", flag_names(t.flags))
+    if s.status is not None:
+        st = s.status
+        head.add_row(
+            "device counts",
+            f"rx ok {st.rx_frames_ok}, rx CRC {st.rx_crc_errors}, "
+            f"bad commands {st.rx_bad_commands}, tx dropped {st.tx_dropped}, "
+            f"I2C errors {st.i2c_errors}",
+        )
+    for line in s.logs[-3:]:
+        head.add_row("log", line)
+    return Group(head)
+
+
+def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = None) -> MonitorState:
+    """Show the live view until Ctrl-C (or ``duration_s``); returns the final state."""
+    transport = SerialTransport(port, baudrate)
+    transport.open()
+    s = MonitorState()
+    end = None if duration_s is None else time.monotonic() + duration_s
+    try:
+        with Live(render(s, transport), refresh_per_second=4, transient=False) as live:
+            while end is None or time.monotonic() < end:
+                try:
+                    item = transport.items.get(timeout=0.25)
+                except queue.Empty:
+                    live.update(render(s, transport))
+                    continue
+                if isinstance(item, LinkEvent):
+                    s.link = "up" if item.kind == "up" else f"down ({item.detail}), retrying"
+                    continue
+                rx_ns, frame = item
+                msg = decode_message(frame)
+                if isinstance(msg, Telemetry):
+                    s.frames += 1
+                    s.last = msg
+                    now = rx_ns / 1e9
+                    s.times = [t for t in s.times if t > now - 2.0] + [now]
+                    transport.send(Heartbeat(ack_seq=frame.seq, host_state=HostState.IDLE))
+                elif isinstance(msg, Info):
+                    check_peer(msg)
+                    s.info = msg
+                elif isinstance(msg, Status):
+                    s.status = msg
+                elif isinstance(msg, Log):
+                    s.logs.append(msg.text)
+                live.update(render(s, transport))
+    finally:
+        transport.send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
+        transport.close()
+    return s

@@ -1,0 +1,140 @@
+"""Run folders: everything the host received and sent, and what it computed.
+
+A run folder holds
+
+- ``log.jrec``: every frame received from the MCU (with the host's receive time), every frame
+  sent, and every external velocity command, in order, so ``jackson replay RUN`` can feed the
+  run back through the host offline;
+- ``odometry.csv`` (one row per telemetry frame) and ``ekf.csv`` (30 Hz of MCU time): the
+  outputs, floats written with ``repr`` so a replay can be compared bit for bit;
+- ``meta.json``: mission, configuration file, start time, versions.
+
+``log.jrec`` is a little-endian binary file: the 8-byte magic ``b"JREC0001"``, then records of
+``u8 kind, u64 host_time_ns, u16 length, payload``. Kinds: 1 frame received (payload: TYPE, SEQ,
+then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity command
+(payload: two f64, v [m/s] and w [rad/s]), 4 link event (payload: UTF-8 text).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import struct
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+MAGIC = b"JREC0001"
+KIND_RX = 1
+KIND_TX = 2
+KIND_CMD = 3
+KIND_LINK = 4
+_HEADER = struct.Struct("<BQH")
+_CMD = struct.Struct("<dd")
+
+ODOMETRY_COLUMNS = ("t_s", "x_m", "y_m", "yaw_rad", "v_m_s", "w_rad_s", "enc_left", "enc_right")
+EKF_COLUMNS = (
+    "t_s",
+    "x_m",
+    "y_m",
+    "yaw_rad",
+    "vx_m_s",
+    "vy_m_s",
+    "vyaw_rad_s",
+    "ax_m_s2",
+    "p_xx",
+    "p_yy",
+    "p_yawyaw",
+)
+COMMAND_COLUMNS = ("t_s", "v_cmd", "w_cmd", "duty_left", "duty_right", "braked")
+
+
+class RecordingError(ValueError):
+    """A run folder is missing or damaged."""
+
+
+@dataclass(frozen=True)
+class LogRecord:
+    kind: int
+    host_time_ns: int
+    payload: bytes
+
+
+def _fmt(row: tuple[Any, ...]) -> list[str]:
+    return [repr(v) if isinstance(v, float) else str(v) for v in row]
+
+
+class RunRecorder:
+    """Writes one run folder; every write is flushed, so a killed daemon leaves a usable run."""
+
+    def __init__(self, folder: Path, meta: dict[str, Any]) -> None:
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        self._log: IO[bytes] = open(folder / "log.jrec", "wb")  # noqa: SIM115 - closed in close()
+        self._log.write(MAGIC)
+        self._files: list[IO[str]] = []
+        self.odometry = self._csv("odometry.csv", ODOMETRY_COLUMNS)
+        self.ekf = self._csv("ekf.csv", EKF_COLUMNS)
+        self.commands = self._csv("commands.csv", COMMAND_COLUMNS)
+
+    def _csv(self, name: str, columns: tuple[str, ...]) -> Any:
+        f = open(self.folder / name, "w", newline="", encoding="utf-8")  # noqa: SIM115
+        self._files.append(f)
+        w = csv.writer(f)
+        w.writerow(columns)
+        return w
+
+    def record(self, kind: int, host_time_ns: int, payload: bytes) -> None:
+        self._log.write(_HEADER.pack(kind, host_time_ns, len(payload)) + payload)
+
+    def rx(self, host_time_ns: int, ftype: int, seq: int, payload: bytes) -> None:
+        self.record(KIND_RX, host_time_ns, bytes((ftype, seq)) + payload)
+
+    def tx(self, host_time_ns: int, frame: bytes) -> None:
+        self.record(KIND_TX, host_time_ns, frame)
+
+    def command(self, host_time_ns: int, v: float, w: float) -> None:
+        self.record(KIND_CMD, host_time_ns, _CMD.pack(v, w))
+
+    def link(self, host_time_ns: int, text: str) -> None:
+        self.record(KIND_LINK, host_time_ns, text.encode())
+
+    def row(self, writer: Any, values: tuple[Any, ...]) -> None:
+        writer.writerow(_fmt(values))
+
+    def flush(self) -> None:
+        self._log.flush()
+        for f in self._files:
+            f.flush()
+
+    def close(self) -> None:
+        self.flush()
+        self._log.close()
+        for f in self._files:
+            f.close()
+
+
+def read_log(folder: Path) -> Iterator[LogRecord]:
+    """The records of ``folder/log.jrec``; a truncated last record (a killed run) is ignored."""
+    path = folder / "log.jrec"
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read it ({exc.strerror})") from exc
+    if not data.startswith(MAGIC):
+        raise RecordingError(f"{path}: not a jackson run log (bad magic)")
+    pos = len(MAGIC)
+    while pos + _HEADER.size <= len(data):
+        kind, t_ns, n = _HEADER.unpack_from(data, pos)
+        pos += _HEADER.size
+        if pos + n > len(data):
+            break
+        yield LogRecord(kind, t_ns, data[pos : pos + n])
+        pos += n
+
+
+def unpack_command(payload: bytes) -> tuple[float, float]:
+    v, w = _CMD.unpack(payload)
+    return float(v), float(w)

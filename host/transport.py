@@ -1,0 +1,169 @@
+"""The serial link to the MCU: a pyserial reader thread, the handshake, reconnection.
+
+The reader thread owns the port: it opens it, sends HELLO, reads, decodes and hands every frame
+to the daemon through a queue with the host's receive time. When the port disappears (USB
+unplugged, the twin's pty closed) it reports the link down, retries with backoff from 0.1 s to
+2 s, and on success sends HELLO again; the daemon never restarts. Writes come from the daemon's
+thread and never block: a write to a link that is down is dropped and counted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import queue
+import threading
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import serial
+
+from jackson.protocol import Frame, FrameDecoder, Message, encode_frame, hello
+
+FIRST_BACKOFF_S = 0.1
+MAX_BACKOFF_S = 2.0
+
+
+class LinkError(RuntimeError):
+    """The serial port cannot be used at all (missing, no permission): one line for the user."""
+
+
+@dataclass(frozen=True)
+class LinkEvent:
+    """A change of the link's state, in the frame queue between frames."""
+
+    kind: Literal["up", "down"]
+    rx_time_ns: int
+    detail: str = ""
+
+
+Item = tuple[int, Frame] | LinkEvent
+
+
+def open_error(port: str, exc: BaseException) -> LinkError:
+    """A one-line explanation of why ``port`` cannot be opened."""
+    text = str(exc)
+    code = getattr(exc, "errno", None)
+    if code == errno.EACCES or "Permission denied" in text:
+        return LinkError(
+            f"permission denied on {port}: add yourself to the dialout group "
+            "(sudo usermod -aG dialout $USER) and log in again"
+        )
+    if code == errno.ENOENT or "No such file" in text:
+        return LinkError(
+            f"serial port {port} does not exist: is the robot plugged in? "
+            "(look for /dev/ttyACM* or /dev/jackson-mcu)"
+        )
+    return LinkError(f"cannot open serial port {port}: {text}")
+
+
+class SerialTransport:
+    """One serial link to the MCU (or the twin's pty)."""
+
+    def __init__(self, port: str, baudrate: int = 921600) -> None:
+        self.port_name = port
+        self.baudrate = baudrate
+        self.items: queue.Queue[Item] = queue.Queue()
+        self.decoder = FrameDecoder()
+        self._port: serial.Serial | None = None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._seq = 0
+        self.link_up = False
+        self.reconnects = 0
+        self.writes_dropped = 0
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def open(self) -> None:
+        """Open the port once (raises :class:`LinkError`), send HELLO, start the reader."""
+        self._connect()
+        self._thread = threading.Thread(target=self._run, name="jackson-serial", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        with self._lock:
+            if self._port is not None:
+                self._port.close()
+                self._port = None
+
+    def _connect(self) -> None:
+        try:
+            port = serial.Serial(self.port_name, self.baudrate, timeout=0.02, write_timeout=0)
+        except (serial.SerialException, OSError) as exc:
+            raise open_error(self.port_name, exc) from exc
+        with self._lock:
+            self._port = port
+        self.decoder = FrameDecoder()  # a new session starts a new stream
+        self.link_up = True
+        self.send(hello())
+        self.items.put(LinkEvent("up", time.monotonic_ns()))
+
+    def _drop(self, detail: str) -> None:
+        with self._lock:
+            if self._port is not None:
+                with contextlib.suppress(OSError):
+                    self._port.close()
+                self._port = None
+        if self.link_up:
+            self.link_up = False
+            self.items.put(LinkEvent("down", time.monotonic_ns(), detail))
+
+    # ------------------------------------------------------------------ reader thread
+
+    def _run(self) -> None:
+        backoff = FIRST_BACKOFF_S
+        while not self._stop.is_set():
+            port = self._port
+            if port is None:
+                if self._stop.wait(backoff):
+                    return
+                try:
+                    self._connect()
+                    self.reconnects += 1
+                    backoff = FIRST_BACKOFF_S
+                except LinkError:
+                    backoff = min(MAX_BACKOFF_S, backoff * 2)
+                continue
+            try:
+                data = port.read(max(1, port.in_waiting))
+            except (serial.SerialException, OSError, TypeError) as exc:
+                self._drop(str(exc))
+                continue
+            if data:
+                now = time.monotonic_ns()
+                for frame in self.decoder.feed(data, now // 1000):
+                    self.items.put((now, frame))
+
+    # ------------------------------------------------------------------ writing
+
+    def encode(self, msg: Message) -> bytes:
+        """The frame of ``msg`` with this link's next SEQ."""
+        frame = encode_frame(msg, self._seq)
+        self._seq = (self._seq + 1) & 0xFF
+        return frame
+
+    def send(self, msg: Message) -> bool:
+        """Send one message; False (dropped, counted) when the link is down or full."""
+        return self.send_raw(self.encode(msg))
+
+    def send_raw(self, frame: bytes) -> bool:
+        with self._lock:
+            port = self._port
+            if port is None:
+                self.writes_dropped += 1
+                return False
+            try:
+                written = port.write(frame)
+            except (serial.SerialException, OSError):
+                self.writes_dropped += 1
+                return False
+        if written != len(frame):
+            self.writes_dropped += 1
+            return False
+        return True
