@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import selectors
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from threading import Event
@@ -60,6 +61,7 @@ class TwinRunner:
         mcu_motors: bool = False,
         heartbeat_timeout_s: float = 1.0,
         serial_link: str | None = None,
+        drop_telemetry: Callable[[int], bool] | None = None,
     ) -> None:
         self.twin = twin
         self.lockstep = lockstep
@@ -80,19 +82,63 @@ class TwinRunner:
             self.link = PtyLink(serial_link)
             self.serial_path = self.link.path
             self.mcu = McuEmulator(
-                self.link.write,
+                self._write,
                 self.sensors,
                 motor_output=mcu_motors,
                 imu_present=twin.robot_spec.imu.present,
             )
         self.frames = 0
         self.heartbeat_timeouts = 0
+        self.drop_telemetry = drop_telemetry  # test hook: lose telemetry frame n on the line
+        self.telemetry_written = 0
+        self.dropped: list[int] = []
+        self._lost = False
+        self._serial_link = serial_link
+        self._outage_request: float | None = None
+        self._outage_until: float | None = None
+        self.outage_outputs: list[tuple[BridgeOutput, BridgeOutput]] = []
         self._host_gone: int | None = None  # heartbeats seen when the host went silent
         self._pace_origin = (0.0, 0.0)
         self._sel = selectors.DefaultSelector()
         self._sel.register(self.i2c, selectors.EVENT_READ, "i2c")
         if self.link is not None:
             self._sel.register(self.link, selectors.EVENT_READ, "serial")
+
+    def _write(self, frame: bytes) -> bool:
+        if self.link is None or self._outage_until is not None:
+            return False  # the port is gone: nothing reaches the host
+        if frame[3] == 0x01:  # telemetry
+            n = self.telemetry_written
+            self.telemetry_written += 1
+            if self.drop_telemetry is not None and self.drop_telemetry(n):
+                self.dropped.append(n)
+                self._lost = True
+                return True  # sent by the MCU, lost on the line
+        return self.link.write(frame)
+
+    def request_outage(self, seconds: float) -> None:
+        """Test hook: remove the serial port for ``seconds`` of wall time, then bring it back
+        at the same path (``serial_link``), like a USB cable pulled and plugged back."""
+        self._outage_request = seconds
+
+    def _check_outage(self) -> None:
+        if self._outage_request is not None and self._outage_until is None:
+            assert self.link is not None
+            self._sel.unregister(self.link)
+            self.link.close()
+            self._outage_until = time.monotonic() + self._outage_request
+            self._pace_origin = (time.monotonic(), self.twin.t_s)  # the world runs on meanwhile
+            self._outage_request = None
+        elif self._outage_until is not None and time.monotonic() >= self._outage_until:
+            self.outage_outputs.append(
+                bridge_outputs(
+                    self.pca, self._wiring.left, self._wiring.right, self._wiring.stby_channel
+                )
+            )
+            self.link = PtyLink(self._serial_link)
+            self.serial_path = self.link.path
+            self._sel.register(self.link, selectors.EVENT_READ, "serial")
+            self._outage_until = None
 
     # ------------------------------------------------------------------ sensors and actuation
 
@@ -130,7 +176,7 @@ class TwinRunner:
         for key, _ in self._sel.select(timeout_s):
             if key.data == "i2c":
                 self.i2c.service(0.0)
-            elif self.link is not None and self.mcu is not None:
+            elif self.link is not None and self.mcu is not None and self._outage_until is None:
                 data = self.link.read()
                 if data:
                     self.mcu.receive(data, self.twin.t_us)
@@ -187,12 +233,16 @@ class TwinRunner:
         wall0, sim0 = time.monotonic(), self.twin.t_s
         while not self._done(end_s, stop):
             now = self.twin.t_us
+            self._check_outage()
             self._serve(0.0)  # like the firmware's tick: what has arrived is handled first
             frames_before = mcu.telemetry_frames
+            self._lost = False
             mcu.tick(now)
             if mcu.telemetry_frames != frames_before:
                 self.frames += 1
-                if self.lockstep:
+                if self._lost:
+                    self._serve(0.0)  # nobody will acknowledge a frame lost on the line
+                elif self.lockstep:
                     self._wait_heartbeat(mcu.last_telemetry_seq)
                 else:
                     self._serve(0.0)
@@ -206,7 +256,9 @@ class TwinRunner:
             if end_s is not None:
                 step_us = min(step_us, max(1, round((end_s - self.twin.t_s) * 1e6)))
             self.twin.advance(step_us / 1e6)
-            if not self.lockstep:
+            if self._outage_until is not None:
+                self._pace(*self._pace_origin)
+            elif not self.lockstep:
                 self._pace(wall0, sim0)
 
     def _pace(self, wall0: float, sim0: float) -> None:
