@@ -20,6 +20,7 @@ SUITES: dict[str, str] = {
     "twin": "jackson.sim.bench",
     "lidar": "jackson.sim.bench_lidar",
     "lockstep": "jackson.lockstep_bench",
+    "host": "jackson.host_bench",
 }
 """Suite name -> module with a ``run(quick)`` function, in the order they run."""
 

@@ -97,6 +97,7 @@ class TwinRunner:
         self._outage_request: float | None = None
         self._outage_until: float | None = None
         self.outage_outputs: list[tuple[BridgeOutput, BridgeOutput]] = []
+        self._stop: Event | None = None
         self._host_gone: int | None = None  # heartbeats seen when the host went silent
         self._pace_origin = (0.0, 0.0)
         self._sel = selectors.DefaultSelector()
@@ -195,6 +196,8 @@ class TwinRunner:
             return
         deadline = time.monotonic() + self.heartbeat_timeout_s
         while not (mcu.heartbeat_seen and mcu.heartbeat_ack == seq):
+            if self._stop is not None and self._stop.is_set():
+                return
             left = deadline - time.monotonic()
             if left <= 0:
                 self.heartbeat_timeouts += 1
@@ -209,6 +212,7 @@ class TwinRunner:
         """Run until ``duration_s`` of simulated time after the HELLO, or until ``stop``."""
         wall0 = time.monotonic()
         start_s = self.twin.t_s
+        self._stop = stop
         if self.firmware is not None:
             self._run_firmware(duration_s, stop)
         else:
@@ -256,14 +260,14 @@ class TwinRunner:
             if end_s is not None:
                 step_us = min(step_us, max(1, round((end_s - self.twin.t_s) * 1e6)))
             self.twin.advance(step_us / 1e6)
-            if self._outage_until is not None:
-                self._pace(*self._pace_origin)
+            if self._outage_until is not None or self._host_gone is not None:
+                self._pace(*self._pace_origin)  # nobody to wait for: the world runs in real time
             elif not self.lockstep:
                 self._pace(wall0, sim0)
 
     def _pace(self, wall0: float, sim0: float) -> None:
         """Real time: serve the host until the wall clock catches up with the twin."""
-        while True:
+        while not (self._stop is not None and self._stop.is_set()):
             ahead = (self.twin.t_s - sim0) - (time.monotonic() - wall0)
             if ahead <= 0:
                 return
