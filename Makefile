@@ -11,7 +11,7 @@ JOBS   ?= 2
         firmware flash firmware-test
 
 help:
-	@echo "make demo    set up, then show the C++ encoder's frames decoded by the Python decoder"
+	@echo "make demo    set up, then drive the 1 m square on the twin with the real host"
 	@echo "make test    set up, then ruff, mypy, generated-code check, C++ tests (ASan+UBSan), pytest"
 	@echo "make bench   benchmarks: table on screen, JSON in build/bench.json"
 	@echo "make setup   only install what is missing (.venv, Debian packages)"
@@ -54,9 +54,10 @@ pytest:
 bench: setup
 	$(BIN)/jackson bench
 
-demo: setup native
-	@echo "== C++ encoder (jackson_emit_frames) | Python decoder (jackson decode) =="
-	@$(NATIVE)/protocol/jackson_emit_frames | $(BIN)/jackson decode --summary -
+# The newcomer's first command: the twin and the real host daemon over a pty drive the paper's
+# 1 m square; a table, a plot and the run folder.
+demo: setup
+	@$(BIN)/jackson run square --out build/demo/square
 
 # ---- firmware ---------------------------------------------------------------------------------
 PORT ?= /dev/ttyACM0

@@ -21,6 +21,7 @@ SUITES: dict[str, str] = {
     "lidar": "jackson.sim.bench_lidar",
     "lockstep": "jackson.lockstep_bench",
     "host": "jackson.host_bench",
+    "campaign": "jackson.calibration.bench",
 }
 """Suite name -> module with a ``run(quick)`` function, in the order they run."""
 

@@ -94,6 +94,61 @@ def _print_summary(per_type: Counter[str], telemetry: list[Any]) -> None:
         )
 
 
+def _cmd_run(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from rich.console import Console
+    from rich.table import Table
+
+    from jackson.calibration.report import plot_trajectories
+    from jackson.calibration.trial import TrialSpec, run_trial
+
+    world = args.world or ("square_room" if args.mission == "square" else "open_floor")
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = args.out or Path("runs") / f"{stamp}-{args.mission}"
+    r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out))
+    png = out / "trajectory.png"
+    plot_trajectories(png, args.mission, [out])
+    table = Table(title=f"{args.mission} on the twin ({args.robot}, {world}, seed {args.seed})")
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    for label, value in (
+        ("ground-truth closure", f"{r['gt_closure_cm']:.2f} cm"),
+        ("EKF closure", f"{r['ekf_closure_cm']:.2f} cm"),
+        ("raw-odometry closure", f"{r['odom_closure_cm']:.2f} cm"),
+        ("EKF position RMSE vs ground truth", f"{r['ekf_position_rmse_vs_gt_cm']:.2f} cm"),
+        ("EKF cross-track RMSE", f"{r['ekf_cross_track_rmse_cm']:.2f} cm"),
+        ("duration (from time zero)", f"{r['duration_s']:.1f} s"),
+        ("real-time factor", f"x{r['real_time_factor']:.0f}"),
+    ):
+        table.add_row(label, value)
+    Console().print(table)
+    print(f"plot: {png}\nrun folder: {out}")
+    return 0 if r["completed"] else 1
+
+
+def _cmd_campaign(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from jackson.calibration.campaign import run_campaign
+
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = args.out or Path("reports") / f"{stamp}-{args.mission}-x{args.trials}"
+    results = run_campaign(
+        args.mission,
+        args.trials,
+        out,
+        robot=args.robot,
+        world=args.world,
+        seed=args.seed,
+        workers=args.workers,
+    )
+    done = sum(1 for r in results if r["completed"])
+    print((out / "summary.md").read_text())
+    print(f"report: {out}/summary.md ({done}/{len(results)} trials completed)")
+    return 0 if done == len(results) else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="jackson", description="Firmware-plus-host stack for differential-drive robots."
@@ -123,6 +178,23 @@ def build_parser() -> argparse.ArgumentParser:
         "--summary", action="store_true", help="a table of message counts instead of each message"
     )
     p.set_defaults(func=_cmd_decode)
+
+    for name, helptext in (
+        ("run", "one mission on the twin with the real host; a table, a plot and a run folder"),
+        ("campaign", "many trials on the twin in parallel; a report folder like the paper's"),
+    ):
+        p = sub.add_parser(name, help=helptext)
+        p.add_argument("mission", choices=["square", "figure8"])
+        if name == "campaign":
+            p.add_argument("--trials", type=int, default=10, help="number of trials (10)")
+            p.add_argument("--workers", type=int, default=2, help="worker processes (2)")
+        p.add_argument(
+            "--robot", default="jackson_physical", help="twin robot file (default jackson_physical)"
+        )
+        p.add_argument("--world", help="world (default: square_room / open_floor)")
+        p.add_argument("--seed", type=int, default=0, help="noise seed (deterministic)")
+        p.add_argument("--out", type=Path, help="output folder")
+        p.set_defaults(func=_cmd_run if name == "run" else _cmd_campaign)
 
     from jackson.host import cli as host_cli
     from jackson.sim import cli as sim_cli

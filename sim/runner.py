@@ -204,7 +204,7 @@ class TwinRunner:
                 self._host_gone = mcu.heartbeats
                 self._pace_origin = (time.monotonic(), self.twin.t_s)
                 return
-            self._serve(left)
+            self._serve(min(left, 0.05))  # wakes often enough to notice a stop request
 
     # ------------------------------------------------------------------ the loop
 

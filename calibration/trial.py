@@ -1,0 +1,185 @@
+"""One trial on the twin: the real host daemon drives a mission against the twin over a pty.
+
+The twin runs in a thread of this process in lockstep; the host is the daemon's own classes
+(serial transport on the pty, PCA9685 driver on the twin's I2C socket), so a trial exercises
+exactly what runs on the robot. A trial writes the daemon's run folder plus the twin's ground
+truth (``ground_truth.csv``, every physics step) and returns its metrics.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from jackson.calibration import metrics as m
+from jackson.host.actuation.output import MotorOutput, Pca9685Output
+from jackson.host.actuation.pca9685 import Pca9685
+from jackson.host.config import HostConfig, dump_config, load_config
+from jackson.host.daemon import Daemon
+from jackson.host.i2c import open_bus
+from jackson.host.transport import SerialTransport
+
+MISSIONS = ("square", "figure8")
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    mission: str
+    index: int
+    seed: int
+    robot: str
+    world: str
+    out: Path
+    config: Path | None = None
+
+
+def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
+    with path.open() as f:
+        rows = list(csv.reader(f))
+    cols = rows[0]
+    data = np.array([[float(v) for v in r] for r in rows[1:]], dtype=float).reshape(-1, len(cols))
+    return {c: data[:, i] for i, c in enumerate(cols)}
+
+
+def run_trial(spec: TrialSpec) -> dict[str, Any]:
+    """Drive one mission on the twin and return its metrics (also written to metrics.json)."""
+    from jackson.sim.config import load_robot, load_world
+    from jackson.sim.runner import TwinRunner
+    from jackson.sim.twin import Twin
+
+    run_dir = spec.out
+    run_dir.mkdir(parents=True, exist_ok=True)
+    cfg = load_config(spec.config) if spec.config else HostConfig()
+    twin = Twin(load_world(spec.world), load_robot(spec.robot), lidar=False, seed=spec.seed)
+    with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp:
+        sock = Path(tmp) / "i2c.sock"
+        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=5.0)
+        cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
+        stop = threading.Event()
+        thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
+        thread.start()
+        wall0 = time.perf_counter()
+        pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
+        pca.init(cfg.pca9685.frequency_hz)
+
+        def output(send: Any) -> MotorOutput:
+            return Pca9685Output(pca, cfg.pca9685.left, cfg.pca9685.right, cfg.pca9685.stby_channel)
+
+        transport = SerialTransport(runner.serial_path, cfg.serial.baudrate)
+        transport.open()
+        (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
+        meta = {
+            "mission": spec.mission,
+            "trial": spec.index,
+            "seed": spec.seed,
+            "robot": spec.robot,
+            "world": spec.world,
+        }
+        daemon = Daemon(
+            cfg, output, transport, mission_name=spec.mission, run_folder=run_dir, meta=meta
+        )
+        try:
+            daemon.run(max_s=300.0)
+            wall = time.perf_counter() - wall0
+        finally:
+            transport.close()
+            stop.set()
+            thread.join(timeout=30)
+            runner.close()
+    done = bool(daemon.core.mission is not None and daemon.core.mission.done)
+    write_ground_truth(run_dir / "ground_truth.csv", twin.truth_log)
+    result = trial_metrics(run_dir, spec.mission)
+    result.update(
+        trial=spec.index,
+        seed=spec.seed,
+        completed=done,
+        wall_s=wall,
+        collisions=twin.collisions,
+        sim_s=twin.t_s,
+        real_time_factor=twin.t_s / wall if wall > 0 else math.inf,
+    )
+    (run_dir / "metrics.json").write_text(__import__("json").dumps(result, indent=2) + "\n")
+    return result
+
+
+def write_ground_truth(path: Path, truth: list[Any]) -> None:
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(("t_s", "x_m", "y_m", "yaw_rad", "vx_m_s", "vy_m_s", "wz_rad_s"))
+        for s in truth:
+            w.writerow(
+                (repr(s.t_s), repr(s.x), repr(s.y), repr(s.yaw), repr(s.vx), repr(s.vy), repr(s.wz))
+            )
+
+
+def _anchor(
+    x: NDArray[np.float64], y: NDArray[np.float64], yaw: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], ...]:
+    """Anchor a trajectory at (0, 0, 0): the paper's alignment of every run."""
+    c, s = math.cos(-yaw[0]), math.sin(-yaw[0])
+    dx, dy = x - x[0], y - y[0]
+    return c * dx - s * dy, s * dx + c * dy, np.unwrap(yaw - yaw[0])
+
+
+def _at(
+    t_src: NDArray[np.float64], values: NDArray[np.float64], t: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    return np.asarray(np.interp(t, t_src, values), dtype=np.float64)
+
+
+def trial_metrics(run_dir: Path, mission: str) -> dict[str, Any]:
+    """The paper's per-run metrics of a trial folder (ground truth, EKF, raw odometry)."""
+    gt = read_csv(run_dir / "ground_truth.csv")
+    ekf = read_csv(run_dir / "ekf.csv")
+    odo = read_csv(run_dir / "odometry.csv")
+    cmd = read_csv(run_dir / "commands.csv")
+    # time zero: the first command with v > 0.01 m/s (MCU time = twin time)
+    i0 = m.time_zero_index(cmd["t_s"], cmd["v_cmd"])
+    t0 = float(cmd["t_s"][i0])
+    moving = cmd["t_s"][(np.abs(cmd["v_cmd"]) > 1e-9) | (np.abs(cmd["w_cmd"]) > 1e-9)]
+    t_end = float(moving[-1]) if len(moving) else t0
+    gx, gy, gyaw = _anchor(gt["x_m"], gt["y_m"], gt["yaw_rad"])
+    ex, ey, eyaw = _anchor(ekf["x_m"], ekf["y_m"], ekf["yaw_rad"])
+    ox, oy, oyaw = _anchor(odo["x_m"], odo["y_m"], odo["yaw_rad"])
+    gxy, exy, oxy = np.c_[gx, gy], np.c_[ex, ey], np.c_[ox, oy]
+    # EKF against ground truth on the EKF's 30 Hz samples
+    gx_e, gy_e = _at(gt["t_s"], gx, ekf["t_s"]), _at(gt["t_s"], gy, ekf["t_s"])
+    gyaw_e = _at(gt["t_s"], gyaw, ekf["t_s"])
+    out: dict[str, Any] = {
+        "mission": mission,
+        "duration_s": t_end - t0,
+        "gt_closure_cm": m.closure_error(gxy) * 100,
+        "ekf_closure_cm": m.closure_error(exy) * 100,
+        "odom_closure_cm": m.closure_error(oxy) * 100,
+        "ekf_position_rmse_vs_gt_cm": m.d_trans(exy, np.c_[gx_e, gy_e]) * 100,
+        "ekf_yaw_rmse_vs_gt_deg": math.degrees(m.d_rot(eyaw, gyaw_e)),
+        "gt_final_heading_deg": math.degrees(abs(m.final_heading_error(gyaw[0], gyaw[-1]))),
+        "ekf_final_heading_deg": math.degrees(abs(m.final_heading_error(eyaw[0], eyaw[-1]))),
+        "odom_final_heading_deg": math.degrees(abs(m.final_heading_error(oyaw[0], oyaw[-1]))),
+    }
+    out["optimism_gap_cm"] = (
+        m.optimism_gap(out["ekf_closure_cm"] / 100, out["gt_closure_cm"] / 100) * 100
+    )
+    path = m.square_path() if mission == "square" else m.figure_eight_path()
+    out["gt_cross_track_rmse_cm"] = m.cross_track_rmse(gxy, path) * 100
+    out["ekf_cross_track_rmse_cm"] = m.cross_track_rmse(exy, path) * 100
+    out["odom_cross_track_rmse_cm"] = m.cross_track_rmse(oxy, path) * 100
+    if mission == "figure8":
+        split = m.figure_eight_split(gyaw)
+        ccw, cw = m.loop_diameters(gxy, split)
+        out["gt_loop_diameter_ccw_m"], out["gt_loop_diameter_cw_m"] = ccw, cw
+        split_e = m.figure_eight_split(eyaw)
+        eccw, ecw = m.loop_diameters(exy, split_e)
+        out["ekf_loop_diameter_ccw_m"], out["ekf_loop_diameter_cw_m"] = eccw, ecw
+    return out
