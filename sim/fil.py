@@ -43,6 +43,16 @@ class FeedStatus:
     next_telemetry_us: int
 
 
+def parse_status(line: bytes | str) -> FeedStatus:
+    """One status line of the POSIX firmware (docs/firmware.md)."""
+    parts = line.split()
+    if not parts or parts[0] not in (b"s", "s") or len(parts) != 13:
+        raise FirmwareError(f"unexpected status line from the firmware: {parts!r}")
+    v = [int(x) for x in parts[1:]]
+    flags = [bool(x) for x in v[6:9]]
+    return FeedStatus(v[0], v[1], v[2], v[3], v[4], v[5], *flags, v[9], v[10], v[11])
+
+
 class FirmwareProcess:
     """One running POSIX firmware, driven through its sensor feed."""
 
@@ -89,24 +99,7 @@ class FirmwareProcess:
 
     def _command(self, text: str, timeout_s: float = 10.0, on_wait: object = None) -> FeedStatus:
         self._in.write(text.encode() + b"\n")
-        parts = self._line(timeout_s, on_wait).split()
-        if not parts or parts[0] != b"s" or len(parts) != 13:
-            raise FirmwareError(f"unexpected status line from the firmware: {parts!r}")
-        v = [int(x) for x in parts[1:]]
-        return FeedStatus(
-            v[0],
-            v[1],
-            v[2],
-            v[3],
-            v[4],
-            v[5],
-            bool(v[6]),
-            bool(v[7]),
-            bool(v[8]),
-            v[9],
-            v[10],
-            v[11],
-        )
+        return parse_status(self._line(timeout_s, on_wait))
 
     def step(self, t_us: int, s: SensorSample) -> FeedStatus:
         """Sensors read ``s`` at ``t_us``; the firmware runs everything due up to then."""

@@ -25,20 +25,20 @@ from pathlib import Path
 from types import TracebackType
 from typing import Protocol
 
-from jackson.sim.pca9685 import DEFAULT_ADDRESS, Pca9685
-
 # ---- wire format (protocol/i2c-socket.md) -----------------------------------------------------
-OP_WRITE_BYTE_DATA = 0x01
-OP_READ_BYTE_DATA = 0x02
-OP_WRITE_I2C_BLOCK_DATA = 0x03
-OP_READ_I2C_BLOCK_DATA = 0x04
-STATUS_OK = 0
-STATUS_NACK = 1
-STATUS_BAD_REQUEST = 2
-REQUEST_HEADER_SIZE = 4  # op, addr, reg, len
-RESPONSE_HEADER_SIZE = 2  # status, len
-MAX_BLOCK = 32  # bytes in one i2c block transfer (I2C_SMBUS_BLOCK_MAX)
-MAX_ADDRESS = 0x7F  # 7-bit addressing
+from jackson.protocol.i2c_socket import (
+    MAX_ADDRESS,
+    MAX_BLOCK,
+    OP_READ_BYTE_DATA,
+    OP_READ_I2C_BLOCK_DATA,
+    OP_WRITE_BYTE_DATA,
+    OP_WRITE_I2C_BLOCK_DATA,
+    REQUEST_HEADER_SIZE,
+    STATUS_BAD_REQUEST,
+    STATUS_NACK,
+    STATUS_OK,
+)
+from jackson.sim.pca9685 import DEFAULT_ADDRESS, Pca9685
 
 _WRITE_OPS = (OP_WRITE_BYTE_DATA, OP_WRITE_I2C_BLOCK_DATA)  # the only requests carrying data
 _RECV_SIZE = 4096  # [bytes] per recv call

@@ -5,12 +5,12 @@ from __future__ import annotations
 import os
 import subprocess
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import serial  # type: ignore[import-untyped]
 
 from jackson.protocol import FrameDecoder, Message, decode_message, encode_frame
+from jackson.sim.fil import FeedStatus, parse_status
 
 ROOT = Path(__file__).resolve().parents[2]
 BINARY = Path(
@@ -20,22 +20,7 @@ BINARY = Path(
 )
 
 
-@dataclass(frozen=True)
-class FeedReply:
-    """One status line of the POSIX firmware."""
-
-    t_us: int
-    telemetry_seq: int
-    frames_sent: int
-    heartbeat_ack: int
-    motor_left: int
-    motor_right: int
-    braked: bool
-    failsafe: bool
-    session: bool
-    tx_dropped: int
-    rx_crc_errors: int
-    next_telemetry_us: int
+FeedReply = FeedStatus
 
 
 def imu_registers(accel: tuple[int, int, int], temp: int, gyro: tuple[int, int, int]) -> str:
@@ -77,23 +62,7 @@ class PosixFirmware:
         assert self.proc.stdin is not None and self.proc.stdout is not None
         self.proc.stdin.write(line + "\n")
         self.proc.stdin.flush()
-        parts = self.proc.stdout.readline().split()
-        assert parts and parts[0] == "s", parts
-        v = [int(x) for x in parts[1:]]
-        return FeedReply(
-            v[0],
-            v[1],
-            v[2],
-            v[3],
-            v[4],
-            v[5],
-            bool(v[6]),
-            bool(v[7]),
-            bool(v[8]),
-            v[9],
-            v[10],
-            v[11],
-        )
+        return parse_status(self.proc.stdout.readline())
 
     def step(
         self,

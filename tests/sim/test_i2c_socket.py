@@ -12,9 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from jackson.host import i2c as host_i2c
 from jackson.host.i2c import I2cError, SocketI2cBus
-from jackson.sim import i2c_server
 from jackson.sim.i2c_server import I2cServerError, I2cSocketServer
 from jackson.sim.pca9685 import (
     LED_FULL,
@@ -269,23 +267,6 @@ def test_a_regular_file_is_not_replaced(tmp_path: Path) -> None:
     with pytest.raises(I2cServerError, match="not a socket"):
         I2cSocketServer(path)
     assert path.read_text() == "keep me"
-
-
-def test_client_and_server_agree_on_the_wire_constants() -> None:
-    names = [
-        "OP_WRITE_BYTE_DATA",
-        "OP_READ_BYTE_DATA",
-        "OP_WRITE_I2C_BLOCK_DATA",
-        "OP_READ_I2C_BLOCK_DATA",
-        "STATUS_OK",
-        "STATUS_NACK",
-        "STATUS_BAD_REQUEST",
-        "REQUEST_HEADER_SIZE",
-        "RESPONSE_HEADER_SIZE",
-        "MAX_BLOCK",
-        "MAX_ADDRESS",
-    ]
-    assert [getattr(host_i2c, n) for n in names] == [getattr(i2c_server, n) for n in names]
 
 
 # ---- end to end: the host's client against the twin's server ----------------------------------
