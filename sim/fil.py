@@ -49,8 +49,10 @@ def parse_status(line: bytes | str) -> FeedStatus:
     if not parts or parts[0] not in (b"s", "s") or len(parts) != 13:
         raise FirmwareError(f"unexpected status line from the firmware: {parts!r}")
     v = [int(x) for x in parts[1:]]
-    flags = [bool(x) for x in v[6:9]]
-    return FeedStatus(v[0], v[1], v[2], v[3], v[4], v[5], *flags, v[9], v[10], v[11])
+    braked, failsafe, session = (bool(x) for x in v[6:9])
+    return FeedStatus(
+        v[0], v[1], v[2], v[3], v[4], v[5], braked, failsafe, session, v[9], v[10], v[11]
+    )
 
 
 class FirmwareProcess:
