@@ -196,7 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--out", type=Path, help="output folder")
         p.set_defaults(func=_cmd_run if name == "run" else _cmd_campaign)
 
+    from jackson.calibration import cli as calibrate_cli
     from jackson.host import cli as host_cli
+
+    calibrate_cli.add_parser(sub)
     from jackson.sim import cli as sim_cli
 
     host_cli.add_parsers(sub)
