@@ -97,6 +97,19 @@ def gyro_z_rad_s(t: Telemetry) -> float:
     return math.radians(t.gyro[2] / GYRO_LSB_PER_DPS[fs])
 
 
+class CoreListener:
+    """Receives what the core computes (the ROS bridge, the rosbag2 recorder); no-op defaults."""
+
+    def on_frame(self, frame: Frame, host_time_ns: int) -> None:
+        """Every frame received, before it is handled."""
+
+    def on_telemetry(self, core: HostCore, telemetry: Telemetry) -> None:
+        """After a telemetry frame was handled (odometry, EKF, command are current)."""
+
+    def on_filtered(self, t_s: float, state: EkfState) -> None:
+        """Each 30 Hz EKF output."""
+
+
 class HostCore:
     """The daemon's computation; see the module docstring for the order of work per frame."""
 
@@ -159,6 +172,8 @@ class HostCore:
         self.braked = True
         self.ekf_outputs = 0
         self.last_output: EkfState | None = None
+        self.listeners: list[CoreListener] = []
+        self.last_telemetry: Telemetry | None = None
 
     # ------------------------------------------------------------------ inputs
 
@@ -174,6 +189,8 @@ class HostCore:
         """One decoded frame from the MCU."""
         if self.recorder is not None:
             self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
+        for listener in self.listeners:
+            listener.on_frame(frame, host_time_ns)
         msg = decode_message(frame)
         if isinstance(msg, Info):
             check_peer(msg)  # raises ProtocolMismatchError naming both versions
@@ -241,6 +258,9 @@ class HostCore:
         v_cmd, w_cmd, brake = self._command(t_s, odo)
         self._actuate(t_s, v_cmd, w_cmd, brake, odo)
         self.send(Heartbeat(ack_seq=seq, host_state=HostState.ACTIVE))
+        self.last_telemetry = t
+        for listener in self.listeners:
+            listener.on_telemetry(self, t)
         if self.recorder is not None:
             self.recorder.row(
                 self.recorder.odometry,
@@ -260,6 +280,8 @@ class HostCore:
         """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""
         self.ekf_outputs += 1
         self.last_output = s = self.ekf.state_at(t_s)
+        for listener in self.listeners:
+            listener.on_filtered(t_s, s)
         if self.recorder is None:
             return
         self.recorder.row(
