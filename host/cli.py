@@ -31,6 +31,17 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument("--run-dir", type=Path, help="run folder (default: RECORDING/<time>-<mission>)")
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
     p.add_argument("--max-seconds", type=float, help="stop after this much wall time")
+    p.add_argument(
+        "--ros",
+        action="store_true",
+        help="also run the ROS 2 node: topics, TF, /cmd_vel (docs/ros2.md)",
+    )
+    p.add_argument(
+        "--ros-args",
+        nargs=argparse.REMAINDER,
+        default=[],
+        help="arguments for rclpy after this flag, e.g. -p cmd_vel_stamped:=true",
+    )
     p.set_defaults(func=cmd_daemon)
 
     p = sub.add_parser("monitor", help="live view of the link: rate, errors, counts, IMU, health")
@@ -67,6 +78,12 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
     cfg = _load(args.config)
     assert isinstance(cfg, HostConfig)
+    if args.ros:
+        from jackson.host.ros.bridge import ros_available
+
+        problem = ros_available()
+        if problem is not None:
+            raise HostCliError(problem)
     cfg = with_port(cfg, args.port)
     if args.i2c:
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=args.i2c))
@@ -108,6 +125,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         mission_name=args.mission,
         run_folder=run_dir,
         meta=meta,
+        ros_args=(["--ros-args", *args.ros_args] if args.ros_args else []) if args.ros else None,
     )
     if run_dir is not None:
         import yaml

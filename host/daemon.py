@@ -110,6 +110,19 @@ class CoreListener:
         """Each 30 Hz EKF output."""
 
 
+class _BridgeListener(CoreListener):
+    """Hands what the core computes to the ROS bridge."""
+
+    def __init__(self, bridge: Any) -> None:
+        self.bridge = bridge
+
+    def on_telemetry(self, core: HostCore, telemetry: Telemetry) -> None:
+        self.bridge.on_telemetry(core, telemetry)
+
+    def on_filtered(self, t_s: float, state: EkfState) -> None:
+        self.bridge.on_filtered(t_s, state)
+
+
 class HostCore:
     """The daemon's computation; see the module docstring for the order of work per frame."""
 
@@ -166,7 +179,8 @@ class HostCore:
         self.t_s: float | None = None
         self.last_odometry: OdometryState | None = None
         self.external: tuple[float, float] = (0.0, 0.0)
-        self._external_pending: tuple[float, float] | None = None
+        self._external_pending: tuple[float, float, int] | None = None
+        self._taken: tuple[float, float, int] | None = None
         self._next_output_s: float | None = None
         self.frames = 0
         self.braked = True
@@ -178,15 +192,22 @@ class HostCore:
     # ------------------------------------------------------------------ inputs
 
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None:
-        """An external velocity command (``/cmd_vel``); stamped on MCU time at the next frame."""
+        """An external velocity command (``/cmd_vel``); it takes effect, stamped on MCU time, at
+        the next telemetry frame. Safe to call from another thread (the ROS executor)."""
         if not (math.isfinite(v_m_s) and math.isfinite(w_rad_s)):
             return  # a NaN must never become a duty
-        self._external_pending = (v_m_s, w_rad_s)
-        if self.recorder is not None:
-            self.recorder.command(host_time_ns, v_m_s, w_rad_s)
+        self._external_pending = (v_m_s, w_rad_s, host_time_ns)
 
     def on_frame(self, frame: Frame, host_time_ns: int = 0) -> None:
         """One decoded frame from the MCU."""
+        self._taken = None
+        if frame.type == Telemetry.TYPE and self._external_pending is not None:
+            # taken once, on this thread; logged before the frame that applies it, so a replay
+            # applies it to the same frame
+            self._taken, self._external_pending = self._external_pending, None
+            if self.recorder is not None:
+                v, w, t_ns = self._taken
+                self.recorder.command(t_ns, v, w)
         if self.recorder is not None:
             self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
         for listener in self.listeners:
@@ -306,9 +327,9 @@ class HostCore:
         return NavState(self.t_s or 0.0, e.x_m, e.y_m, e.yaw_rad, e.vx_m_s, e.vyaw_rad_s)
 
     def _command(self, t_s: float, odo: OdometryState) -> tuple[float, float, bool]:
-        if self._external_pending is not None:
-            self.external = self._external_pending
-            self._external_pending = None
+        if self._taken is not None:
+            self.external = (self._taken[0], self._taken[1])
+            self._taken = None
             self.watchdog.feed(t_s)
         if self.mission is not None:
             if self.gyro_bias.bias_rad_s is None:
@@ -384,6 +405,7 @@ class Daemon:
         mission_name: str | None = None,
         run_folder: Path | None = None,
         meta: dict[str, Any] | None = None,
+        ros_args: list[str] | None = None,
     ) -> None:
         self.cfg = cfg
         self.transport = transport
@@ -392,6 +414,19 @@ class Daemon:
         self.core = HostCore(
             cfg, output_factory(self._send), self._send, mission=mission, recorder=self.recorder
         )
+        self.bag: Any = None
+        if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
+            from jackson.host.ros.bag import BagRecorder
+            from jackson.host.ros.bag_listener import BagListener
+
+            self.bag = BagRecorder(run_folder / "bag")
+            self.core.listeners.append(BagListener(self.bag))
+        self.bridge: Any = None
+        if ros_args is not None:  # --ros: rclpy is imported only here
+            from jackson.host.ros.bridge import RosBridge
+
+            self.bridge = RosBridge(self.core, args=ros_args)
+            self.core.listeners.append(_BridgeListener(self.bridge))
         self.stop = threading.Event()
         self.link_downs = 0
 
@@ -413,6 +448,8 @@ class Daemon:
 
         core = self.core
         deadline = None if max_s is None else time.monotonic() + max_s
+        if self.bridge is not None:
+            self.bridge.start()
         try:
             while not self.stop.is_set():
                 if deadline is not None and time.monotonic() > deadline:
@@ -430,13 +467,31 @@ class Daemon:
                     continue
                 rx_ns, frame = item
                 core.on_frame(frame, rx_ns)
+                if self.bridge is not None and core.last_telemetry is not None:
+                    from jackson.host.ros.bridge import diagnostic_values
+
+                    self.bridge.diagnostics(
+                        diagnostic_values(
+                            core,
+                            core.last_telemetry,
+                            link_up=self.transport.link_up,
+                            crc_errors=self.transport.decoder.counters.crc_errors,
+                        )
+                    )
                 if core.mission is not None and core.mission.done and core.braked:
                     break
         finally:
             core.brake()
+            if self.bridge is not None:
+                self.bridge.stop()
             self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
             if self.recorder is not None:
                 self.recorder.close()
+            if self.bag is not None:
+                try:
+                    self.bag.close()
+                except Exception as exc:
+                    print(f"daemon: the run's bag did not close cleanly: {exc}", flush=True)
         return 0
 
 

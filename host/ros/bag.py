@@ -1,0 +1,846 @@
+"""rosbag2 recording of a run in MCAP storage, without a ROS installation.
+
+:class:`BagRecorder` writes the topics the ROS 2 bridge publishes (Appendix C) into a rosbag2
+folder that ``ros2 bag play``, Foxglove and :func:`read_bag` open:
+
+======================  =======================================  =============================
+topic                   type                                     content
+======================  =======================================  =============================
+``/wheel/odom``         ``nav_msgs/msg/Odometry``                dead-reckoned pose, v, w
+``/imu/data``           ``sensor_msgs/msg/Imu``                  gyro and accelerometer (SI)
+``/odometry/filtered``  ``nav_msgs/msg/Odometry``                EKF estimate (30 Hz)
+``/joint_states``       ``sensor_msgs/msg/JointState``           wheel angles and speeds
+``/diagnostics``        ``diagnostic_msgs/msg/DiagnosticArray``  link and sensor health (1 Hz)
+``/tf``                 ``tf2_msgs/msg/TFMessage``               odom -> base_footprint (EKF)
+``/tf_static``          ``tf2_msgs/msg/TFMessage``               the mounting transforms
+``/jackson/telemetry``  ``std_msgs/msg/UInt8MultiArray``         every received frame's bytes
+======================  =======================================  =============================
+
+The raw frames use ``std_msgs/msg/UInt8MultiArray`` (empty layout, the bytes in ``data``):
+ROS 2 has no plain byte-string message, and a standard type keeps the bag readable by any
+tool without a custom message package; the frame format itself is the protocol's
+(``protocol/spec.md``).
+
+Time. ``header.stamp`` and the bag's receive timestamp both come from the ``t_s`` the caller
+passes: the MCU's unwrapped clock on the robot, the simulated clock on the twin (never the
+host's wall clock, so a replayed run's bag carries the original's times). The bag
+timestamp is ``round(t_s * 1e9)`` ns; it starts near zero, so tools that show absolute dates
+show 1970. Within a topic the bag timestamp never decreases: a sample older than the previous
+one of its topic keeps its true ``header.stamp`` but is filed at the previous timestamp.
+
+Crash safety. The MCAP writer keeps the open chunk in memory and writes the summary, the
+footer and ``metadata.yaml`` in :meth:`BagRecorder.close`; a bag that was never closed has
+no ``metadata.yaml`` and no readable index. Three things keep a run's bag:
+
+* The daemon's SIGINT and SIGTERM handlers only stop its loop, and the loop's ``finally:``
+  closes the recorders (the run folder's and this one): a stopped daemon leaves a complete
+  bag. ``close()`` is idempotent; called from a signal handler while a message is being
+  written, it waits for that write to finish; writes after ``close()`` are ignored.
+* Every ``flush_interval_s`` of message time the open chunk is written out and the file
+  flushed, so a process killed outright (SIGKILL, power loss) loses at most that much.
+* :func:`repair_bag` turns such a folder into a complete bag holding every message of the
+  chunks that reached the disk.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import struct
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.interfaces import (
+    Connection,
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
+from rosbags.rosbag2 import ReaderError, StoragePlugin, Writer, WriterError
+from rosbags.rosbag2.storage_mcap import McapWriter, decompress, get_qos
+from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys.stores import ros2_jazzy as jazzy
+
+from jackson.host.odometry import OdometryConfig
+
+# ROS 2 Jazzy message classes (typed dataclasses shipped with rosbags)
+DiagnosticArray = jazzy.diagnostic_msgs__msg__DiagnosticArray
+DiagnosticStatus = jazzy.diagnostic_msgs__msg__DiagnosticStatus
+Header = jazzy.std_msgs__msg__Header
+Imu = jazzy.sensor_msgs__msg__Imu
+JointState = jazzy.sensor_msgs__msg__JointState
+KeyValue = jazzy.diagnostic_msgs__msg__KeyValue
+MultiArrayLayout = jazzy.std_msgs__msg__MultiArrayLayout
+Odometry = jazzy.nav_msgs__msg__Odometry
+Point = jazzy.geometry_msgs__msg__Point
+Pose = jazzy.geometry_msgs__msg__Pose
+PoseWithCovariance = jazzy.geometry_msgs__msg__PoseWithCovariance
+Quaternion = jazzy.geometry_msgs__msg__Quaternion
+TFMessage = jazzy.tf2_msgs__msg__TFMessage
+Time = jazzy.builtin_interfaces__msg__Time
+Transform = jazzy.geometry_msgs__msg__Transform
+TransformStamped = jazzy.geometry_msgs__msg__TransformStamped
+Twist = jazzy.geometry_msgs__msg__Twist
+TwistWithCovariance = jazzy.geometry_msgs__msg__TwistWithCovariance
+UInt8MultiArray = jazzy.std_msgs__msg__UInt8MultiArray
+Vector3 = jazzy.geometry_msgs__msg__Vector3
+
+BAG_VERSION: Literal[9] = 9  # rosbag2 metadata version of ROS 2 Jazzy
+GYRO_SIGMA_RAD_S = 3.999e-4  # [rad/s] MPU-6050 gyro noise (Allan deviation, calibration)
+ACCEL_SIGMA_M_S2 = 1.7976e-2  # [m/s^2] MPU-6050 accelerometer noise
+DEFAULT_FLUSH_INTERVAL_S = 1.0  # [s] of message time between chunk flushes
+NS_PER_S = 1_000_000_000
+
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x03, 0x04, 0x05, 0x06
+_LEVEL_TEXT = ("OK", "WARN", "ERROR", "STALE")
+
+
+class BagError(RuntimeError):
+    """A bag cannot be created, written or repaired (the message names the folder)."""
+
+
+@dataclass(frozen=True)
+class TopicNames:
+    """The topics a bag holds (the bridge's names by default, Appendix C)."""
+
+    wheel_odom: str = "/wheel/odom"
+    imu: str = "/imu/data"
+    filtered: str = "/odometry/filtered"
+    joint_states: str = "/joint_states"
+    diagnostics: str = "/diagnostics"
+    tf: str = "/tf"
+    tf_static: str = "/tf_static"
+    telemetry: str = "/jackson/telemetry"
+
+
+@dataclass(frozen=True)
+class FrameIds:
+    """Frame and joint names (REP 105; Appendix C's tree odom -> base_footprint -> base_link)."""
+
+    odom: str = "odom"
+    base_footprint: str = "base_footprint"
+    base_link: str = "base_link"
+    imu_link: str = "imu_link"
+    laser: str = "laser"
+    left_wheel_joint: str = "left_wheel_joint"
+    right_wheel_joint: str = "right_wheel_joint"
+
+
+@dataclass(frozen=True)
+class StaticTransform:
+    """A fixed transform published once on /tf_static.
+
+    Attributes:
+        parent: Parent frame id.
+        child: Child frame id.
+        xyz_m: Translation of the child in the parent frame [m].
+        rpy_rad: Roll, pitch and yaw of the child in the parent frame [rad].
+    """
+
+    parent: str
+    child: str
+    xyz_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+def default_static_transforms(frames: FrameIds) -> tuple[StaticTransform, ...]:
+    """Identity mounting transforms: base_footprint -> base_link -> {imu_link, laser}.
+
+    Args:
+        frames: The frame names.
+
+    Returns:
+        The three transforms, parent first.
+    """
+    return (
+        StaticTransform(frames.base_footprint, frames.base_link),
+        StaticTransform(frames.base_link, frames.imu_link),
+        StaticTransform(frames.base_link, frames.laser),
+    )
+
+
+@dataclass(frozen=True)
+class _TopicSpec:
+    msgtype: str
+    reliability: QosReliability
+    durability: QosDurability
+    depth: int
+
+
+def _topic_specs(topics: TopicNames) -> dict[str, _TopicSpec]:
+    """Type and offered QoS (Appendix C) of each topic, in the order they are registered."""
+    rel, be = QosReliability.RELIABLE, QosReliability.BEST_EFFORT
+    vol, latched = QosDurability.VOLATILE, QosDurability.TRANSIENT_LOCAL
+    odom, tf = "nav_msgs/msg/Odometry", "tf2_msgs/msg/TFMessage"
+    return {
+        topics.wheel_odom: _TopicSpec(odom, rel, vol, 10),
+        topics.imu: _TopicSpec("sensor_msgs/msg/Imu", be, vol, 5),
+        topics.filtered: _TopicSpec(odom, rel, vol, 10),
+        topics.joint_states: _TopicSpec("sensor_msgs/msg/JointState", rel, vol, 10),
+        topics.diagnostics: _TopicSpec("diagnostic_msgs/msg/DiagnosticArray", rel, vol, 10),
+        topics.tf: _TopicSpec(tf, rel, vol, 100),
+        topics.tf_static: _TopicSpec(tf, rel, latched, 1),
+        topics.telemetry: _TopicSpec("std_msgs/msg/UInt8MultiArray", rel, vol, 10),
+    }
+
+
+def _qos(spec: _TopicSpec) -> Qos:
+    never = QosTime(0, 0)
+    return Qos(
+        QosHistory.KEEP_LAST,
+        spec.depth,
+        spec.reliability,
+        spec.durability,
+        never,
+        never,
+        QosLiveliness.AUTOMATIC,
+        never,
+        False,
+    )
+
+
+def stamp_ns(t_s: float) -> int:
+    """The bag timestamp of a sample at ``t_s`` [s]: whole nanoseconds, rounded.
+
+    Args:
+        t_s: MCU (or simulated) time [s], not negative.
+
+    Returns:
+        The timestamp [ns].
+
+    Raises:
+        BagError: ``t_s`` is negative or not finite.
+    """
+    if not math.isfinite(t_s) or t_s < 0.0:
+        raise BagError(f"bag time must be a finite time >= 0 s, got {t_s!r}")
+    return round(t_s * NS_PER_S)
+
+
+def _time(ns: int) -> Time:
+    sec, nanosec = divmod(ns, NS_PER_S)
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def yaw_quaternion(yaw_rad: float) -> Quaternion:
+    """The rotation by ``yaw_rad`` about z as a unit quaternion.
+
+    Args:
+        yaw_rad: Heading [rad], CCW positive.
+
+    Returns:
+        ``(x, y, z, w) = (0, 0, sin(yaw / 2), cos(yaw / 2))``.
+    """
+    half = 0.5 * yaw_rad
+    return Quaternion(x=0.0, y=0.0, z=math.sin(half), w=math.cos(half))
+
+
+def _rpy_quaternion(roll: float, pitch: float, yaw: float) -> Quaternion:
+    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
+    return Quaternion(
+        x=sr * cp * cy - cr * sp * sy,
+        y=cr * sp * cy + sr * cp * sy,
+        z=cr * cp * sy - sr * sp * cy,
+        w=cr * cp * cy + sr * sp * sy,
+    )
+
+
+def _planar_covariance(x: float, y: float, yaw: float) -> np.ndarray[Any, np.dtype[np.float64]]:
+    """A row-major 6 x 6 covariance over (x, y, z, roll, pitch, yaw) with a planar diagonal.
+
+    z, roll and pitch are not estimated (the robot is planar) and stay 0.
+    """
+    cov = np.zeros(36, dtype=np.float64)
+    cov[0], cov[7], cov[35] = x, y, yaw
+    return cov
+
+
+def _diag3(value: float) -> np.ndarray[Any, np.dtype[np.float64]]:
+    cov = np.zeros(9, dtype=np.float64)
+    cov[0] = cov[4] = cov[8] = value
+    return cov
+
+
+@dataclass
+class _State:
+    last_ns: dict[str, int] = field(default_factory=dict)
+    flushed_ns: int | None = None
+    static_written: bool = False
+    busy: bool = False
+    close_requested: bool = False
+    closed: bool = False
+
+
+class BagRecorder:
+    """Writes a run's ROS 2 topics into a rosbag2 folder with MCAP storage.
+
+    The methods take plain values (no dependency on the daemon), one message each; /tf_static
+    is written once, stamped with the first message's time. See the module docstring for the
+    time base and the crash safety. Usable as a context manager (``close()`` on exit).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        frame_ids: FrameIds | None = None,
+        *,
+        topics: TopicNames | None = None,
+        odometry: OdometryConfig | None = None,
+        static_transforms: Sequence[StaticTransform] | None = None,
+        gyro_sigma_rad_s: float = GYRO_SIGMA_RAD_S,
+        accel_sigma_m_s2: float = ACCEL_SIGMA_M_S2,
+        flush_interval_s: float | None = DEFAULT_FLUSH_INTERVAL_S,
+        hardware_id: str = "jackson",
+    ) -> None:
+        """Create the bag folder ``path`` and register every topic.
+
+        Args:
+            path: The rosbag2 folder to create (it must not exist; its parent may not either).
+            frame_ids: Frame and joint names (defaults: :class:`FrameIds`).
+            topics: Topic names (defaults: :class:`TopicNames`).
+            odometry: Source of the /wheel/odom covariances (defaults: ``OdometryConfig()``).
+            static_transforms: The /tf_static transforms (default: identity mounting,
+                :func:`default_static_transforms`).
+            gyro_sigma_rad_s: Gyro noise sigma [rad/s]; its square fills the diagonal of
+                ``angular_velocity_covariance``.
+            accel_sigma_m_s2: Accelerometer noise sigma [m/s^2]; its square fills the diagonal
+                of ``linear_acceleration_covariance``.
+            flush_interval_s: Message time [s] between writes of the open chunk to disk (None:
+                only at close).
+            hardware_id: ``hardware_id`` of the /diagnostics status.
+
+        Raises:
+            BagError: The folder exists already or cannot be created.
+        """
+        self.path = Path(path)
+        self.frames = frame_ids or FrameIds()
+        self.topics = topics or TopicNames()
+        odo = odometry or OdometryConfig()
+        self.hardware_id = hardware_id
+        self.flush_interval_ns = (
+            None if flush_interval_s is None else stamp_ns(max(flush_interval_s, 0.0))
+        )
+        self._static = tuple(
+            default_static_transforms(self.frames)
+            if static_transforms is None
+            else static_transforms
+        )
+        self._odom_pose_cov = _planar_covariance(
+            odo.pose_covariance_xy, odo.pose_covariance_xy, odo.pose_covariance_yaw
+        )
+        self._odom_twist_cov = _planar_covariance(
+            odo.twist_covariance_vx, odo.twist_covariance_vy, odo.twist_covariance_wz
+        )
+        self._gyro_cov = _diag3(gyro_sigma_rad_s**2)
+        self._accel_cov = _diag3(accel_sigma_m_s2**2)
+        self._store = get_typestore(Stores.ROS2_JAZZY)
+        self._state = _State()
+        self._connections: dict[str, Connection] = {}
+        try:
+            self._writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+            self._writer.open()
+            for topic, spec in _topic_specs(self.topics).items():
+                self._connections[topic] = self._writer.add_connection(
+                    topic,
+                    spec.msgtype,
+                    typestore=self._store,
+                    offered_qos_profiles=(_qos(spec),),
+                )
+        except (WriterError, OSError) as exc:
+            self._state.closed = True
+            raise BagError(f"{self.path}: cannot create the bag: {exc}") from exc
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` has run (or been requested during a write)."""
+        return self._state.closed or self._state.close_requested
+
+    # ---- messages -------------------------------------------------------------------------
+
+    def wheel_odom(self, t_s: float, x: float, y: float, yaw: float, v: float, w: float) -> None:
+        """Wheel odometry on /wheel/odom (Eq. 2, 3, 9), odom -> base_footprint.
+
+        Args:
+            t_s: MCU time of the frame [s].
+            x: Position x [m].
+            y: Position y [m].
+            yaw: Heading [rad].
+            v: Body velocity v_x [m/s] (v_y is 0: no lateral slip).
+            w: Yaw rate [rad/s].
+        """
+        self._write(
+            self.topics.wheel_odom,
+            t_s,
+            lambda h: self._odometry(
+                h, x, y, yaw, v, 0.0, w, self._odom_pose_cov, self._odom_twist_cov
+            ),
+        )
+
+    def imu(
+        self,
+        t_s: float,
+        accel_xyz: Sequence[float],
+        gyro_xyz: Sequence[float],
+    ) -> None:
+        """An IMU sample on /imu/data in imu_link, without orientation.
+
+        Args:
+            t_s: MCU time of the frame [s].
+            accel_xyz: Specific force [m/s^2], 3 values.
+            gyro_xyz: Angular velocity [rad/s], 3 values.
+        """
+        ax, ay, az = (float(a) for a in accel_xyz)
+        gx, gy, gz = (float(g) for g in gyro_xyz)
+
+        def build(header: Header) -> Imu:
+            orientation_cov = np.zeros(9, dtype=np.float64)
+            orientation_cov[0] = -1.0  # REP 145: no orientation estimate
+            return Imu(
+                header=header,
+                orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
+                orientation_covariance=orientation_cov,
+                angular_velocity=Vector3(x=gx, y=gy, z=gz),
+                angular_velocity_covariance=self._gyro_cov.copy(),
+                linear_acceleration=Vector3(x=ax, y=ay, z=az),
+                linear_acceleration_covariance=self._accel_cov.copy(),
+            )
+
+        self._write(self.topics.imu, t_s, build, frame_id=self.frames.imu_link)
+
+    def filtered(
+        self,
+        t_s: float,
+        x: float,
+        y: float,
+        yaw: float,
+        vx: float,
+        vy: float,
+        vyaw: float,
+        p_diag: Sequence[float] | None,
+    ) -> None:
+        """An EKF output on /odometry/filtered and the matching odom -> base_footprint on /tf.
+
+        Args:
+            t_s: MCU time the estimate refers to [s].
+            x: Position x [m].
+            y: Position y [m].
+            yaw: Heading [rad].
+            vx: Body velocity x [m/s].
+            vy: Body velocity y [m/s].
+            vyaw: Yaw rate [rad/s].
+            p_diag: diag(P) in the EKF's state order (x, y, yaw[, vx, vy, vyaw[, ax]]): the
+                first three fill the pose covariance, the next three the twist covariance;
+                None leaves both 0 (unknown).
+
+        Raises:
+            ValueError: ``p_diag`` has fewer than 3 values, or 4 or 5.
+        """
+        pose_cov = _planar_covariance(0.0, 0.0, 0.0)
+        twist_cov = _planar_covariance(0.0, 0.0, 0.0)
+        if p_diag is not None:
+            p = [float(v) for v in p_diag]
+            if len(p) < 3 or 3 < len(p) < 6:
+                raise ValueError(f"p_diag needs 3 or at least 6 values, got {len(p)}")
+            pose_cov = _planar_covariance(p[0], p[1], p[2])
+            if len(p) >= 6:
+                twist_cov = _planar_covariance(p[3], p[4], p[5])
+        self._write(
+            self.topics.filtered,
+            t_s,
+            lambda h: self._odometry(h, x, y, yaw, vx, vy, vyaw, pose_cov, twist_cov),
+        )
+
+        def transform(header: Header) -> TFMessage:
+            return TFMessage(
+                transforms=[
+                    TransformStamped(
+                        header=header,
+                        child_frame_id=self.frames.base_footprint,
+                        transform=Transform(
+                            translation=Vector3(x=x, y=y, z=0.0), rotation=yaw_quaternion(yaw)
+                        ),
+                    )
+                ]
+            )
+
+        self._write(self.topics.tf, t_s, transform)
+
+    def joint_states(
+        self, t_s: float, angle_l: float, angle_r: float, vel_l: float, vel_r: float
+    ) -> None:
+        """Wheel rotations on /joint_states (left_wheel_joint, right_wheel_joint).
+
+        Args:
+            t_s: MCU time of the frame [s].
+            angle_l: Left wheel angle [rad].
+            angle_r: Right wheel angle [rad].
+            vel_l: Left wheel speed [rad/s].
+            vel_r: Right wheel speed [rad/s].
+        """
+        self._write(
+            self.topics.joint_states,
+            t_s,
+            lambda h: JointState(
+                header=h,
+                name=[self.frames.left_wheel_joint, self.frames.right_wheel_joint],
+                position=np.array([angle_l, angle_r], dtype=np.float64),
+                velocity=np.array([vel_l, vel_r], dtype=np.float64),
+                effort=np.zeros(0, dtype=np.float64),
+            ),
+            frame_id="",
+        )
+
+    def diagnostics(
+        self,
+        t_s: float,
+        values: Mapping[str, str],
+        level: int = 0,
+        *,
+        name: str = "jackson: host",
+        message: str | None = None,
+    ) -> None:
+        """One status on /diagnostics (the daemon's 1 Hz summary).
+
+        Args:
+            t_s: MCU time [s].
+            values: Key-value pairs, e.g. link state, IMU health, CRC errors, rejected
+                measurements, watchdog state.
+            level: ``DiagnosticStatus`` level: 0 OK, 1 WARN, 2 ERROR, 3 STALE.
+            name: The status name.
+            message: The status message (default: the level's name).
+
+        Raises:
+            ValueError: ``level`` is not 0 to 3.
+        """
+        if level not in range(len(_LEVEL_TEXT)):
+            raise ValueError(f"diagnostic level must be 0 to 3, got {level}")
+        pairs = [KeyValue(key=str(k), value=str(v)) for k, v in values.items()]
+        status = DiagnosticStatus(
+            level=level,
+            name=name,
+            message=_LEVEL_TEXT[level] if message is None else message,
+            hardware_id=self.hardware_id,
+            values=pairs,
+        )
+        self._write(
+            self.topics.diagnostics,
+            t_s,
+            lambda h: DiagnosticArray(header=h, status=[status]),
+            frame_id="",
+        )
+
+    def raw_frame(self, t_s: float, data: bytes) -> None:
+        """A received frame's bytes on /jackson/telemetry as ``std_msgs/msg/UInt8MultiArray``.
+
+        Args:
+            t_s: MCU time of the frame [s] (or the last known one for non-telemetry frames).
+            data: The frame, as received.
+        """
+        payload = np.frombuffer(bytes(data), dtype=np.uint8).copy()
+        self._write(
+            self.topics.telemetry,
+            t_s,
+            lambda _h: UInt8MultiArray(
+                layout=MultiArrayLayout(dim=[], data_offset=0), data=payload
+            ),
+        )
+
+    # ---- lifecycle ------------------------------------------------------------------------
+
+    def flush(self) -> None:
+        """Write the open chunk and flush the file, so the messages so far survive a kill."""
+        st = self._state
+        if self.closed or st.busy:
+            return
+        st.busy = True
+        try:
+            self._flush_chunk()
+        finally:
+            st.busy = False
+        self._close_if_requested()
+
+    def close(self) -> None:
+        """Finish the bag: the last chunk, the MCAP summary and ``metadata.yaml``.
+
+        Idempotent. Called while a write is in progress (from a signal handler), it only
+        marks the bag and the write in progress closes it when done. If finishing fails the
+        file is closed anyway and the error is raised once; :func:`repair_bag` recovers it.
+
+        Raises:
+            BagError: The bag could not be finished (the disk is full, the folder vanished).
+        """
+        st = self._state
+        if st.closed:
+            return
+        if st.busy:
+            st.close_requested = True
+            return
+        st.closed = True
+        st.busy = True
+        try:
+            if not st.static_written:
+                self._write_static(max(st.last_ns.values(), default=0))
+            self._writer.close()
+        except Exception as exc:
+            storage = self._writer.storage
+            if storage is not None:
+                self._writer.storage = None
+                if isinstance(storage, McapWriter):
+                    storage.abort()
+            raise BagError(f"{self.path}: cannot finish the bag: {exc}") from exc
+        finally:
+            st.busy = False
+
+    def __enter__(self) -> BagRecorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ---- internals ------------------------------------------------------------------------
+
+    def _odometry(
+        self,
+        header: Header,
+        x: float,
+        y: float,
+        yaw: float,
+        vx: float,
+        vy: float,
+        vyaw: float,
+        pose_cov: np.ndarray[Any, np.dtype[np.float64]],
+        twist_cov: np.ndarray[Any, np.dtype[np.float64]],
+    ) -> Odometry:
+        return Odometry(
+            header=header,
+            child_frame_id=self.frames.base_footprint,
+            pose=PoseWithCovariance(
+                pose=Pose(position=Point(x=x, y=y, z=0.0), orientation=yaw_quaternion(yaw)),
+                covariance=pose_cov,
+            ),
+            twist=TwistWithCovariance(
+                twist=Twist(
+                    linear=Vector3(x=vx, y=vy, z=0.0), angular=Vector3(x=0.0, y=0.0, z=vyaw)
+                ),
+                covariance=twist_cov,
+            ),
+        )
+
+    def _write(
+        self,
+        topic: str,
+        t_s: float,
+        build: Callable[[Header], Any],
+        *,
+        frame_id: str | None = None,
+    ) -> None:
+        """Serialise ``build(header)`` and file it under ``topic`` at ``t_s``."""
+        st = self._state
+        if self.closed or st.busy:
+            return
+        ns = stamp_ns(t_s)
+        st.busy = True
+        try:
+            if not st.static_written:
+                self._write_static(ns)
+            header = Header(
+                stamp=_time(ns), frame_id=self.frames.odom if frame_id is None else frame_id
+            )
+            msg = build(header)
+            self._put(topic, ns, msg)
+            if self.flush_interval_ns is not None:
+                if st.flushed_ns is None:
+                    st.flushed_ns = ns
+                elif ns - st.flushed_ns >= self.flush_interval_ns:
+                    self._flush_chunk()
+                    st.flushed_ns = ns
+        finally:
+            st.busy = False
+        self._close_if_requested()
+
+    def _close_if_requested(self) -> None:
+        """Run a :meth:`close` that a signal handler asked for during a write."""
+        if self._state.close_requested:
+            self._state.close_requested = False
+            self.close()
+
+    def _put(self, topic: str, ns: int, msg: Any) -> None:
+        st = self._state
+        ns = max(ns, st.last_ns.get(topic, 0))
+        st.last_ns[topic] = ns
+        data = self._store.serialize_cdr(msg, msg.__msgtype__)
+        try:
+            self._writer.write(self._connections[topic], ns, data)
+        except (WriterError, OSError) as exc:
+            raise BagError(f"{self.path}: cannot write {topic}: {exc}") from exc
+
+    def _write_static(self, ns: int) -> None:
+        self._state.static_written = True
+        stamp = _time(ns)
+        msg = TFMessage(
+            transforms=[
+                TransformStamped(
+                    header=Header(stamp=stamp, frame_id=s.parent),
+                    child_frame_id=s.child,
+                    transform=Transform(
+                        translation=Vector3(x=s.xyz_m[0], y=s.xyz_m[1], z=s.xyz_m[2]),
+                        rotation=_rpy_quaternion(*s.rpy_rad),
+                    ),
+                )
+                for s in self._static
+            ]
+        )
+        self._put(self.topics.tf_static, ns, msg)
+
+    def _flush_chunk(self) -> None:
+        storage = self._writer.storage
+        if isinstance(storage, McapWriter) and storage.chunk.msgs:
+            storage.close_chunk()
+            storage.bio.flush()
+
+
+# ---- reading and repair -------------------------------------------------------------------
+
+
+def read_bag(path: Path | str) -> dict[str, list[tuple[int, Any]]]:
+    """Read a rosbag2 folder back: the deserialised messages per topic, in time order.
+
+    Args:
+        path: The bag folder (with ``metadata.yaml``).
+
+    Returns:
+        ``{topic: [(timestamp_ns, message), ...]}`` for every topic the bag declares (a topic
+        without messages maps to an empty list).
+
+    Raises:
+        BagError: The folder is not a readable bag (e.g. never closed: see :func:`repair_bag`).
+    """
+    out: dict[str, list[tuple[int, Any]]] = {}
+    try:
+        with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+            for conn in reader.connections:
+                out.setdefault(conn.topic, [])
+            for conn, ns, raw in reader.messages():
+                out[conn.topic].append((ns, reader.deserialize(raw, conn.msgtype)))
+    except (AnyReaderError, ReaderError, FileNotFoundError) as exc:
+        raise BagError(f"{path}: not a readable bag: {exc}") from exc
+    return out
+
+
+def _records(buf: bytes | memoryview, pos: int) -> Iterator[tuple[int, memoryview]]:
+    """The complete MCAP records of ``buf`` from ``pos``; stops at a truncated one."""
+    view = memoryview(buf)
+    while pos + 9 <= len(view):
+        op = view[pos]
+        (length,) = struct.unpack_from("<Q", view, pos + 1)
+        end = pos + 9 + length
+        if end > len(view):
+            return
+        yield op, view[pos + 9 : end]
+        pos = end
+
+
+def _string(body: memoryview, pos: int) -> tuple[str, int]:
+    (n,) = struct.unpack_from("<I", body, pos)
+    return bytes(body[pos + 4 : pos + 4 + n]).decode(), pos + 4 + n
+
+
+@dataclass
+class _Salvage:
+    schemas: dict[int, str] = field(default_factory=dict)  # id -> message type
+    channels: dict[int, tuple[str, str, bytes]] = field(default_factory=dict)  # topic, type, meta
+    messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # channel, ns, data
+
+    def take(self, op: int, body: memoryview) -> None:
+        if op == _OP_SCHEMA:
+            (sid,) = struct.unpack_from("<H", body, 0)
+            self.schemas[sid], _ = _string(body, 2)
+        elif op == _OP_CHANNEL:
+            cid, sid = struct.unpack_from("<HH", body, 0)
+            topic, pos = _string(body, 4)
+            _, pos = _string(body, pos)  # message encoding (cdr)
+            (n,) = struct.unpack_from("<I", body, pos)
+            meta = bytes(body[pos + 4 : pos + 4 + n])
+            self.channels[cid] = (topic, self.schemas.get(sid, ""), meta)
+        elif op == _OP_MESSAGE:
+            cid, _, log_ns, _ = struct.unpack_from("<HIQQ", body, 0)
+            self.messages.append((cid, log_ns, bytes(body[22:])))
+        elif op == _OP_CHUNK:
+            _, _, size, crc = struct.unpack_from("<QQQI", body, 0)
+            compression, pos = _string(body, 28)
+            (n,) = struct.unpack_from("<Q", body, pos)
+            data = decompress(bytes(body[pos + 8 : pos + 8 + n]), compression, size, crc)
+            for inner_op, inner in _records(data, 0):
+                self.take(inner_op, inner)
+
+
+def repair_bag(path: Path | str) -> int:
+    """Make a bag whose writer died before :meth:`BagRecorder.close` readable.
+
+    Keeps every message of the records that reached the disk whole (chunks are written every
+    ``flush_interval_s`` of message time) and rewrites the folder as a complete bag with the
+    same topics, types, offered QoS and timestamps; the partial file is replaced. A bag that
+    already has ``metadata.yaml`` is left as it is.
+
+    Args:
+        path: The bag folder.
+
+    Returns:
+        The number of messages in the (repaired) bag.
+
+    Raises:
+        BagError: The folder holds no MCAP file, or not one this function can read.
+    """
+    path = Path(path)
+    if (path / "metadata.yaml").exists():
+        return sum(len(v) for v in read_bag(path).values())
+    files = sorted(path.glob("*.mcap"))
+    if len(files) != 1:
+        raise BagError(f"{path}: expected one .mcap file to repair, found {len(files)}")
+    buf = files[0].read_bytes()
+    if not buf.startswith(_MCAP_MAGIC):
+        raise BagError(f"{files[0]}: not an MCAP file")
+    salvage = _Salvage()
+    try:
+        for op, body in _records(buf, len(_MCAP_MAGIC)):
+            salvage.take(op, body)
+    except (ReaderError, struct.error, UnicodeDecodeError) as exc:
+        raise BagError(f"{files[0]}: cannot be repaired: {exc}") from exc
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    staging = path.parent / f".{path.name}.repair"
+    if staging.exists():
+        shutil.rmtree(staging)
+    staging.mkdir()
+    writer = Writer(staging / path.name, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+    try:
+        writer.open()
+        conns: dict[int, Connection] = {}
+        for cid, (topic, msgtype, meta) in sorted(salvage.channels.items()):
+            if msgtype not in store.fielddefs:
+                raise BagError(f"{files[0]}: unknown message type {msgtype!r} on {topic}")
+            conns[cid] = writer.add_connection(
+                topic, msgtype, typestore=store, offered_qos_profiles=get_qos(meta)
+            )
+        count = 0
+        for cid, ns, data in salvage.messages:
+            if cid in conns:
+                writer.write(conns[cid], ns, data)
+                count += 1
+        writer.close()
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    shutil.rmtree(path)
+    (staging / path.name).rename(path)
+    staging.rmdir()
+    return count

@@ -1,0 +1,336 @@
+"""rosbag2 recording (host/ros/bag.py): every topic round-trips through AnyReader."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from rosbags.highlevel import AnyReader
+
+from jackson.host.odometry import OdometryConfig
+from jackson.host.ros.bag import (
+    ACCEL_SIGMA_M_S2,
+    GYRO_SIGMA_RAD_S,
+    BagError,
+    BagRecorder,
+    FrameIds,
+    StaticTransform,
+    TopicNames,
+    read_bag,
+    repair_bag,
+)
+
+ALL_TOPICS = {
+    "/wheel/odom": "nav_msgs/msg/Odometry",
+    "/imu/data": "sensor_msgs/msg/Imu",
+    "/odometry/filtered": "nav_msgs/msg/Odometry",
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "/tf_static": "tf2_msgs/msg/TFMessage",
+    "/jackson/telemetry": "std_msgs/msg/UInt8MultiArray",
+}
+FRAME = bytes([0xA5, 0x5A, 0x01, 0x10, 0x00, 0xFF, 0x00, 0x7E])
+
+
+def write_one_of_each(path: Path) -> None:
+    with BagRecorder(path) as bag:
+        bag.raw_frame(1.25, FRAME)
+        bag.wheel_odom(1.25, 0.5, -0.25, math.pi / 2, 0.2, 0.1)
+        bag.imu(1.25, (0.1, -0.2, 9.81), (0.001, -0.002, 0.3))
+        bag.joint_states(1.25, 3.0, -1.5, 6.0, -2.0)
+        bag.filtered(1.25, 0.5, -0.25, math.pi / 2, 0.2, 0.01, 0.1, (1, 2, 3, 4, 5, 6, 7))
+        bag.diagnostics(1.25, {"link": "up", "crc_errors": "0"}, level=1)
+
+
+@pytest.fixture
+def bag_messages(tmp_path: Path) -> dict[str, list[tuple[int, Any]]]:
+    write_one_of_each(tmp_path / "bag")
+    return read_bag(tmp_path / "bag")
+
+
+def test_every_topic_is_written_with_its_type(tmp_path: Path) -> None:
+    write_one_of_each(tmp_path / "bag")
+    with AnyReader([tmp_path / "bag"]) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+        assert types == ALL_TOPICS
+        assert all(c.msgcount == 1 for c in reader.connections)
+    assert (tmp_path / "bag" / "metadata.yaml").exists()
+    assert (tmp_path / "bag" / "bag.mcap").exists()
+
+
+def test_stamp_and_bag_time_come_from_t_s(bag_messages: dict[str, list[tuple[int, Any]]]) -> None:
+    for topic, msgs in bag_messages.items():
+        ns, msg = msgs[0]
+        assert ns == 1_250_000_000, topic
+        if hasattr(msg, "header"):
+            assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1, 250_000_000)
+
+
+def test_wheel_odom_pose_quaternion_and_covariances(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, odom = bag_messages["/wheel/odom"][0]
+    assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_footprint")
+    p = odom.pose.pose
+    assert (p.position.x, p.position.y, p.position.z) == (0.5, -0.25, 0.0)
+    q = p.orientation
+    half = math.sqrt(0.5)
+    assert (q.x, q.y) == (0.0, 0.0)
+    assert q.z == pytest.approx(half) and q.w == pytest.approx(half)  # yaw 90 deg
+    t = odom.twist.twist
+    assert (t.linear.x, t.linear.y, t.angular.z) == (0.2, 0.0, 0.1)
+    cfg = OdometryConfig()
+    twist = odom.twist.covariance.reshape(6, 6)
+    assert np.array_equal(np.diag(twist), [0.01, 0.001, 0, 0, 0, 0.02])
+    assert np.count_nonzero(twist - np.diag(np.diag(twist))) == 0
+    pose = np.diag(odom.pose.covariance.reshape(6, 6))
+    assert np.array_equal(
+        pose,
+        [cfg.pose_covariance_xy, cfg.pose_covariance_xy, 0, 0, 0, cfg.pose_covariance_yaw],
+    )
+
+
+def test_imu_has_si_values_noise_covariances_and_no_orientation(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, imu = bag_messages["/imu/data"][0]
+    assert imu.header.frame_id == "imu_link"
+    assert imu.orientation_covariance[0] == -1.0
+    a, w = imu.linear_acceleration, imu.angular_velocity
+    assert (a.x, a.y, a.z) == (0.1, -0.2, 9.81)
+    assert (w.x, w.y, w.z) == (0.001, -0.002, 0.3)
+    assert np.array_equal(
+        imu.angular_velocity_covariance.reshape(3, 3), np.eye(3) * GYRO_SIGMA_RAD_S**2
+    )
+    assert np.array_equal(
+        imu.linear_acceleration_covariance.reshape(3, 3), np.eye(3) * ACCEL_SIGMA_M_S2**2
+    )
+    assert GYRO_SIGMA_RAD_S == 3.999e-4 and ACCEL_SIGMA_M_S2 == 1.7976e-2
+
+
+def test_filtered_takes_the_ekf_p_diagonal(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, est = bag_messages["/odometry/filtered"][0]
+    assert (est.header.frame_id, est.child_frame_id) == ("odom", "base_footprint")
+    assert est.pose.pose.orientation.z == pytest.approx(math.sqrt(0.5))
+    t = est.twist.twist
+    assert (t.linear.x, t.linear.y, t.angular.z) == (0.2, 0.01, 0.1)
+    pose = est.pose.covariance.reshape(6, 6)
+    twist = est.twist.covariance.reshape(6, 6)
+    assert (pose[0, 0], pose[1, 1], pose[5, 5]) == (1, 2, 3)
+    assert (twist[0, 0], twist[1, 1], twist[5, 5]) == (4, 5, 6)
+    assert pose.sum() == 6 and twist.sum() == 15  # nothing else, ax's variance not published
+
+
+def test_filtered_also_writes_odom_to_base_footprint_on_tf(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, tf = bag_messages["/tf"][0]
+    (t,) = tf.transforms
+    assert (t.header.frame_id, t.child_frame_id) == ("odom", "base_footprint")
+    assert (t.transform.translation.x, t.transform.translation.y) == (0.5, -0.25)
+    assert t.transform.rotation.w == pytest.approx(math.sqrt(0.5))
+
+
+def test_filtered_without_p_diag_or_with_pose_only(tmp_path: Path) -> None:
+    with BagRecorder(tmp_path / "bag") as bag:
+        bag.filtered(0.0, 0, 0, 0, 0, 0, 0, None)
+        bag.filtered(0.1, 0, 0, 0, 0, 0, 0, (0.1, 0.2, 0.3))
+        with pytest.raises(ValueError, match="p_diag"):
+            bag.filtered(0.2, 0, 0, 0, 0, 0, 0, (0.1, 0.2, 0.3, 0.4))
+    (_, none), (_, pose_only) = read_bag(tmp_path / "bag")["/odometry/filtered"]
+    assert not none.pose.covariance.any() and not none.twist.covariance.any()
+    assert pose_only.pose.covariance[35] == 0.3 and not pose_only.twist.covariance.any()
+
+
+def test_joint_states_names_angles_and_speeds(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, js = bag_messages["/joint_states"][0]
+    assert js.name == ["left_wheel_joint", "right_wheel_joint"]
+    assert list(js.position) == [3.0, -1.5]
+    assert list(js.velocity) == [6.0, -2.0]
+    assert len(js.effort) == 0
+
+
+def test_diagnostics_key_values_and_level(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, arr = bag_messages["/diagnostics"][0]
+    (status,) = arr.status
+    assert status.level == 1 and status.message == "WARN"
+    assert {kv.key: kv.value for kv in status.values} == {"link": "up", "crc_errors": "0"}
+
+
+def test_raw_frame_bytes_are_kept_exactly(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    _, raw = bag_messages["/jackson/telemetry"][0]
+    assert bytes(raw.data) == FRAME
+
+
+def test_tf_static_is_written_once_with_identity_mounting(
+    bag_messages: dict[str, list[tuple[int, Any]]],
+) -> None:
+    ((ns, tf),) = bag_messages["/tf_static"]
+    assert ns == 1_250_000_000
+    pairs = [(t.header.frame_id, t.child_frame_id) for t in tf.transforms]
+    assert pairs == [
+        ("base_footprint", "base_link"),
+        ("base_link", "imu_link"),
+        ("base_link", "laser"),
+    ]
+    for t in tf.transforms:
+        assert t.transform.rotation.w == 1.0
+        assert (t.transform.translation.x, t.transform.translation.z) == (0.0, 0.0)
+
+
+def test_names_and_static_transforms_are_configurable(tmp_path: Path) -> None:
+    frames = FrameIds(odom="world", base_footprint="base", imu_link="imu")
+    topics = TopicNames(wheel_odom="/jackson/odom", telemetry="/raw")
+    mount = [StaticTransform("base", "laser", (0.1, 0.0, 0.2), (0.0, 0.0, math.pi))]
+    with BagRecorder(tmp_path / "bag", frames, topics=topics, static_transforms=mount) as bag:
+        bag.wheel_odom(0.0, 0, 0, 0, 0, 0)
+        bag.raw_frame(0.0, b"\x00")
+    msgs = read_bag(tmp_path / "bag")
+    assert {"/jackson/odom", "/raw"} <= msgs.keys() and "/wheel/odom" not in msgs
+    _, odom = msgs["/jackson/odom"][0]
+    assert (odom.header.frame_id, odom.child_frame_id) == ("world", "base")
+    (t,) = msgs["/tf_static"][0][1].transforms
+    assert (t.transform.translation.x, t.transform.translation.z) == (0.1, 0.2)
+    assert t.transform.rotation.z == pytest.approx(1.0)
+
+
+def test_bag_time_never_decreases_within_a_topic(tmp_path: Path) -> None:
+    with BagRecorder(tmp_path / "bag") as bag:
+        bag.wheel_odom(2.0, 0, 0, 0, 0, 0)
+        bag.wheel_odom(1.5, 0, 0, 0, 0, 0)
+        bag.imu(1.0, (0, 0, 0), (0, 0, 0))
+    msgs = read_bag(tmp_path / "bag")
+    (ns0, _), (ns1, late) = msgs["/wheel/odom"]
+    assert ns0 == ns1 == 2_000_000_000
+    assert late.header.stamp.sec == 1 and late.header.stamp.nanosec == 500_000_000
+    assert msgs["/imu/data"][0][0] == 1_000_000_000
+
+
+def test_close_is_idempotent_and_later_writes_are_ignored(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag")
+    bag.wheel_odom(0.1, 0, 0, 0, 0, 0)
+    bag.close()
+    bag.close()
+    assert bag.closed
+    bag.wheel_odom(0.2, 0, 0, 0, 0, 0)
+    bag.close()
+    assert len(read_bag(tmp_path / "bag")["/wheel/odom"]) == 1
+
+
+def test_an_empty_bag_closes_with_every_topic(tmp_path: Path) -> None:
+    BagRecorder(tmp_path / "bag").close()
+    msgs = read_bag(tmp_path / "bag")
+    assert msgs.keys() == ALL_TOPICS.keys()
+    assert len(msgs["/tf_static"]) == 1 and not msgs["/wheel/odom"]
+
+
+def test_an_existing_folder_is_not_overwritten(tmp_path: Path) -> None:
+    (tmp_path / "bag").mkdir()
+    with pytest.raises(BagError, match="cannot create"):
+        BagRecorder(tmp_path / "bag")
+
+
+def test_negative_time_is_refused(tmp_path: Path) -> None:
+    with BagRecorder(tmp_path / "bag") as bag, pytest.raises(BagError, match=">= 0"):
+        bag.imu(-0.1, (0, 0, 0), (0, 0, 0))
+
+
+def test_an_unclosed_bag_is_not_readable_until_repaired(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag", flush_interval_s=0.5)
+    for k in range(40):  # 2 s at 20 Hz: chunks flushed every 0.5 s
+        t = k * 0.05
+        bag.wheel_odom(t, k * 0.01, 0, 0, 0.2, 0)
+        bag.raw_frame(t, FRAME)
+    # the process dies here: no close(), no metadata.yaml
+    assert not (tmp_path / "bag" / "metadata.yaml").exists()
+    with pytest.raises(BagError, match="not a readable bag"):
+        read_bag(tmp_path / "bag")
+    count = repair_bag(tmp_path / "bag")
+    msgs = read_bag(tmp_path / "bag")
+    assert count == sum(len(v) for v in msgs.values())
+    odom = msgs["/wheel/odom"]
+    assert len(odom) >= 30  # all but the last unflushed half second
+    assert [m.pose.pose.position.x for _, m in odom] == pytest.approx(
+        [k * 0.01 for k in range(len(odom))]
+    )
+    assert all(bytes(m.data) == FRAME for _, m in msgs["/jackson/telemetry"])
+    assert repair_bag(tmp_path / "bag") == count  # a complete bag is left alone
+
+
+CHILD = textwrap.dedent(
+    """
+    import math, signal, sys, threading
+    from pathlib import Path
+    from jackson.host.ros.bag import BagRecorder
+
+    stop = threading.Event()
+    bag = BagRecorder(Path(sys.argv[1]))
+    if sys.argv[2] == "stop-loop":  # as the daemon: the handler stops the loop
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    else:  # the handler closes the bag itself, possibly in the middle of a write
+        signal.signal(signal.SIGTERM, lambda *_: bag.close())
+    k = 0
+    try:
+        while not stop.is_set() and not bag.closed:
+            t = k * 0.05
+            bag.raw_frame(t, bytes([k % 256]) * 16)
+            bag.wheel_odom(t, 0.01 * k, 0.0, 0.0, 0.2, 0.0)
+            bag.imu(t, (0.0, 0.0, 9.81), (0.0, 0.0, 0.1))
+            bag.joint_states(t, 0.1 * k, 0.1 * k, 2.0, 2.0)
+            if k % 2 == 0:
+                bag.filtered(t, 0.01 * k, 0.0, 0.0, 0.2, 0.0, 0.0, [1e-3] * 7)
+            if k % 20 == 0:
+                bag.diagnostics(t, {"link": "up"})
+            if k == 50:
+                print("ready", flush=True)
+            k += 1
+    finally:
+        bag.close()
+    print("closed", k, flush=True)
+    """
+)
+
+
+@pytest.mark.parametrize("handler", ["stop-loop", "close-in-handler"])
+def test_sigterm_leaves_a_complete_bag(tmp_path: Path, handler: str) -> None:
+    script = tmp_path / "child.py"
+    script.write_text(CHILD)
+    bag_path = tmp_path / "bag"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(bag_path), handler],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == "ready"
+    time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    written = int(out.split()[-1])
+    msgs = read_bag(bag_path)
+    assert msgs.keys() == ALL_TOPICS.keys()
+    assert all(msgs[topic] for topic in ALL_TOPICS), {t: len(v) for t, v in msgs.items()}
+    assert written - 1 <= len(msgs["/jackson/telemetry"]) <= written
+    assert len(msgs["/wheel/odom"]) >= written - 1

@@ -1,0 +1,89 @@
+"""Every run folder holds a rosbag2 (MCAP) that ROS tools open; a killed run's bag still reads."""
+
+from __future__ import annotations
+
+import math
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jackson.calibration import metrics
+from jackson.calibration.trial import read_csv
+from jackson.host.ros.bag import read_bag
+
+from .harness import JACKSON, TwinThread, run_daemon_cli
+
+TOPICS = (
+    "/wheel/odom",
+    "/imu/data",
+    "/odometry/filtered",
+    "/joint_states",
+    "/diagnostics",
+    "/tf",
+    "/tf_static",
+    "/jackson/telemetry",
+)
+
+
+def test_sigterm_mid_run_leaves_a_readable_bag(tmp_path: Path) -> None:
+    twin = TwinThread(tmp_path, world="open_floor")
+    try:
+        proc = subprocess.Popen(
+            [
+                JACKSON,
+                "daemon",
+                "--port",
+                twin.serial,
+                "--i2c",
+                twin.i2c,
+                "--mission",
+                "figure8",
+                "--run-dir",
+                str(tmp_path / "run"),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        time.sleep(1.5)  # mid-way through the figure-eight
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+    finally:
+        twin.stop()
+    assert proc.returncode in (0, 1), err  # 1: the mission did not finish
+    bag = read_bag(tmp_path / "run" / "bag")
+    assert set(TOPICS) <= set(bag)
+    assert len(bag["/wheel/odom"]) > 20
+    assert len(bag["/jackson/telemetry"]) >= len(bag["/wheel/odom"])
+    _, imu = bag["/imu/data"][0]
+    assert imu.orientation_covariance[0] == -1
+
+
+def test_a_square_runs_bag_reproduces_its_metrics(tmp_path: Path) -> None:
+    twin = TwinThread(tmp_path)
+    try:
+        out = run_daemon_cli(twin, "--mission", "square", "--run-dir", str(tmp_path / "run"))
+    finally:
+        twin.stop()
+    assert out.returncode == 0, out.stderr
+    bag = read_bag(tmp_path / "run" / "bag")
+
+    def xy(topic: str) -> np.ndarray:
+        return np.array([(m.pose.pose.position.x, m.pose.pose.position.y) for _, m in bag[topic]])
+
+    ekf = read_csv(tmp_path / "run" / "ekf.csv")
+    odo = read_csv(tmp_path / "run" / "odometry.csv")
+    assert metrics.closure_error(xy("/odometry/filtered")) == metrics.closure_error(
+        np.c_[ekf["x_m"], ekf["y_m"]]
+    )
+    assert metrics.closure_error(xy("/wheel/odom")) == metrics.closure_error(
+        np.c_[odo["x_m"], odo["y_m"]]
+    )
+    path = metrics.square_path()
+    assert math.isclose(
+        metrics.cross_track_rmse(xy("/odometry/filtered"), path),
+        metrics.cross_track_rmse(np.c_[ekf["x_m"], ekf["y_m"]], path),
+    )
