@@ -1,0 +1,106 @@
+"""Latency of the ROS 2 bridge (run by ``jackson bench``).
+
+From the moment a telemetry frame is received to the delivery of the /odometry/filtered message
+it produces at a local subscriber (another rclpy context in this process, the paper's reliable
+depth-10 QoS). Frames of a 20 s drive in the twin are fed through the daemon's core with the
+bridge attached, a few milliseconds apart. Reported: median and p99. The figure is informative:
+the issue sets no target, so the target printed is the 50 ms command-transport latency the
+paper observed on its robot.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import threading
+import time
+from typing import Any
+
+from jackson.benchmark import BenchResult
+from jackson.host.actuation.output import NullOutput
+from jackson.host.config import HostConfig
+from jackson.host.daemon import HostCore
+from jackson.protocol import FrameDecoder
+
+
+def _isolated_ros_env() -> None:
+    os.environ.setdefault("ROS_DOMAIN_ID", str(150 + os.getpid() % 80))
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_STATIC_PEERS", "127.0.0.1")
+
+
+def filtered_latencies(seconds: float) -> list[float]:
+    from jackson.host.daemon import _BridgeListener
+    from jackson.host.ros.bridge import RosBridge, ros_available
+    from jackson.host.ros.qos import odometry_qos
+    from jackson.host_bench import telemetry_stream
+
+    problem = ros_available()
+    if problem is not None:
+        raise RuntimeError(problem)
+    _isolated_ros_env()
+    import rclpy
+    from nav_msgs.msg import Odometry
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    frames = telemetry_stream(seconds)
+    core = HostCore(HostConfig(), NullOutput(), lambda m: None)
+    bridge = RosBridge(core)
+    core.listeners.append(_BridgeListener(bridge))
+    ctx = Context()
+    rclpy.init(context=ctx)
+    node = rclpy.create_node("jackson_bench_listener", context=ctx)
+    received: dict[int, int] = {}  # stamp [ns] -> receive time [ns]
+
+    def on_msg(msg: Any) -> None:
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        received[stamp] = time.monotonic_ns()
+
+    node.create_subscription(Odometry, "/odometry/filtered", on_msg, odometry_qos())
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    stop = threading.Event()
+
+    def spin() -> None:
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.05)
+
+    thread = threading.Thread(target=spin, daemon=True)
+    thread.start()
+    produced: dict[int, int] = {}  # stamp of each output -> receipt of the frame producing it
+    decoder = FrameDecoder()
+    try:
+        deadline = time.monotonic() + 10.0
+        while node.count_publishers("/odometry/filtered") == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.5)  # discovery settles
+        for raw in frames:
+            t_rx = time.monotonic_ns()
+            before = core.ekf_outputs
+            for frame in decoder.feed(raw):
+                core.on_frame(frame, t_rx)
+            out = core.last_output
+            if core.ekf_outputs != before and out is not None and out.t_s is not None:
+                produced[round(out.t_s * 1e9)] = t_rx
+            time.sleep(0.004)
+        time.sleep(0.5)
+    finally:
+        stop.set()
+        thread.join(timeout=2)
+        bridge.stop()
+        listener: Any = node
+        listener.destroy_node()
+        rclpy.shutdown(context=ctx)
+    return [(received[s] - t) / 1e9 for s, t in produced.items() if s in received]
+
+
+def run(quick: bool = False) -> list[BenchResult]:
+    lat = sorted(filtered_latencies(10.0 if quick else 30.0))
+    p99 = lat[min(len(lat) - 1, int(0.99 * len(lat)))]
+    return [
+        BenchResult(
+            "ros.frame_to_filtered_median", statistics.median(lat) * 1e3, "ms", 50.0, "lower"
+        ),
+        BenchResult("ros.frame_to_filtered_p99", p99 * 1e3, "ms", 50.0, "lower"),
+    ]
