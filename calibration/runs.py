@@ -55,9 +55,7 @@ from jackson.protocol import (
     FrameDecoder,
     Info,
     Message,
-    SetConfig,
     SetImuCalibration,
-    SetRate,
     Telemetry,
     TelemetryFlags,
     TimestampUnwrapper,
@@ -656,21 +654,12 @@ class DutyScript(Protocol):
 
 
 def _configure(host: ScriptedHost, info: Info, cfg: HostConfig) -> None:
-    """The daemon's SET_RATE and SET_CONFIG, so counts and ranges are as the host expects."""
-    if info.telemetry_rate_hz != cfg.serial.telemetry_rate_hz:
-        host.send(SetRate(rate_hz=cfg.serial.telemetry_rate_hz))
-    failsafe_ms = round(cfg.watchdog_s * 1000)
-    want = (cfg.imu.accel_fs, cfg.imu.gyro_fs, cfg.imu.direction_flags, failsafe_ms)
-    if (info.accel_fs, info.gyro_fs, info.direction_flags, info.failsafe_ms) != want:
-        host.send(
-            SetConfig(
-                accel_fs=want[0],
-                gyro_fs=want[1],
-                direction_flags=want[2],
-                failsafe_ms=failsafe_ms,
-                persist=0,
-            )
-        )
+    """The daemon's SET_RATE and SET_CONFIG, so counts and ranges are as the host expects (no
+    IMU calibration: the procedures read raw IMU values)."""
+    from jackson.host.daemon import device_setup
+
+    for msg in device_setup(cfg, info, calibration=False):
+        host.send(msg)
 
 
 def duty_run(

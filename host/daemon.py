@@ -97,6 +97,37 @@ def gyro_z_rad_s(t: Telemetry) -> float:
     return math.radians(t.gyro[2] / GYRO_LSB_PER_DPS[fs])
 
 
+def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
+    """The commands that bring a device (its INFO) to the configuration: SET_RATE and SET_CONFIG
+    where they differ, and SET_IMU_CALIBRATION when the config holds one (and ``calibration``)."""
+    out: list[Message] = []
+    if info.telemetry_rate_hz != cfg.serial.telemetry_rate_hz:
+        out.append(SetRate(rate_hz=cfg.serial.telemetry_rate_hz))
+    failsafe_ms = round(cfg.watchdog_s * 1000)
+    wanted = (cfg.imu.accel_fs, cfg.imu.gyro_fs, cfg.imu.direction_flags, failsafe_ms)
+    if (info.accel_fs, info.gyro_fs, info.direction_flags, info.failsafe_ms) != wanted:
+        out.append(
+            SetConfig(
+                accel_fs=wanted[0],
+                gyro_fs=wanted[1],
+                direction_flags=wanted[2],
+                failsafe_ms=failsafe_ms,
+                persist=0,
+            )
+        )
+    cal = cfg.imu.calibration
+    if calibration and cal is not None:
+        out.append(
+            SetImuCalibration(
+                imu_rotation=cal.rotation,
+                gyro_bias=cal.gyro_bias_rad_s,
+                accel_scale=cal.accel_scale,
+                persist=0,
+            )
+        )
+    return out
+
+
 class CoreListener:
     """Receives what the core computes (the ROS bridge, the rosbag2 recorder); no-op defaults."""
 
@@ -222,33 +253,9 @@ class HostCore:
 
     def _configure_device(self) -> None:
         """Bring the device's rate, ranges, direction flags and failsafe to the config."""
-        c = self.cfg
-        info = self.info
-        assert info is not None
-        if info.telemetry_rate_hz != c.serial.telemetry_rate_hz:
-            self.send(SetRate(rate_hz=c.serial.telemetry_rate_hz))
-        failsafe_ms = round(c.watchdog_s * 1000)
-        wanted = (c.imu.accel_fs, c.imu.gyro_fs, c.imu.direction_flags, failsafe_ms)
-        if (info.accel_fs, info.gyro_fs, info.direction_flags, info.failsafe_ms) != wanted:
-            self.send(
-                SetConfig(
-                    accel_fs=wanted[0],
-                    gyro_fs=wanted[1],
-                    direction_flags=wanted[2],
-                    failsafe_ms=failsafe_ms,
-                    persist=0,
-                )
-            )
-        cal = c.imu.calibration
-        if cal is not None:
-            self.send(
-                SetImuCalibration(
-                    imu_rotation=cal.rotation,
-                    gyro_bias=cal.gyro_bias_rad_s,
-                    accel_scale=cal.accel_scale,
-                    persist=0,
-                )
-            )
+        assert self.info is not None
+        for msg in device_setup(self.cfg, self.info):
+            self.send(msg)
 
     # ------------------------------------------------------------------ the frame
 
