@@ -39,6 +39,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--i2c", type=Path, help="I2C socket path (default: a fresh temporary path)")
     p.add_argument("--link", help="also make this symlink to the serial port (e.g. /tmp/robot)")
     p.add_argument("--no-lidar", action="store_true", help="do not simulate the LiDAR")
+    p.add_argument(
+        "--ros",
+        action="store_true",
+        help="publish /scan, /ground_truth/odom and /clock (sim time) over ROS 2",
+    )
     p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
     p.add_argument(
         "--heartbeat-timeout",
@@ -58,6 +63,13 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"jackson sim: {exc}", file=sys.stderr)
         return 2
+    if args.ros:
+        from jackson.sim.ros import ros_available
+
+        problem = ros_available()
+        if problem is not None:
+            print(f"jackson sim: {problem}", file=sys.stderr)
+            return 2
     tmp = None
     i2c_path = args.i2c
     if i2c_path is None:
@@ -66,6 +78,11 @@ def run(args: argparse.Namespace) -> int:
     twin = Twin(
         world, robot, seed=args.seed, lidar=False if args.no_lidar else None, record_truth=False
     )
+    publisher = None
+    if args.ros:
+        from jackson.sim.ros import TwinRosPublisher
+
+        publisher = TwinRosPublisher(twin)
     try:
         runner = TwinRunner(
             twin,
@@ -75,8 +92,11 @@ def run(args: argparse.Namespace) -> int:
             mcu_motors=args.mcu_motors,
             heartbeat_timeout_s=args.heartbeat_timeout,
             serial_link=args.link,
+            observer=publisher.on_advance if publisher is not None else None,
         )
     except (I2cServerError, FirmwareError, OSError) as exc:
+        if publisher is not None:
+            publisher.close()
         print(f"jackson sim: {exc}", file=sys.stderr)
         return 2
     stop = threading.Event()
@@ -90,6 +110,10 @@ def run(args: argparse.Namespace) -> int:
     print(f"i2c: unix:{i2c_path}", flush=True)
     mode = "real time" if args.realtime else "lockstep"
     mcu = "POSIX firmware" if args.firmware else "MCU emulator"
+    if publisher is not None:
+        scan = ", /scan" if publisher.scan_pub is not None else ""
+        topics = f"/clock, /ground_truth/odom{scan}"
+        print(f"ros: publishing {topics} on sim time", flush=True)
     print(
         f"twin: world {world.name}, robot {robot.name}, {mode}, {mcu}; waiting for HELLO",
         flush=True,
@@ -98,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
         stats = runner.run(args.duration, stop)
     finally:
         runner.close()
+        if publisher is not None:
+            publisher.close()
         if tmp is not None:
             tmp.cleanup()
     print(

@@ -9,6 +9,9 @@ simulated time. **Real time** paces the same steps on the wall clock and never w
 
 The MCU is the Python emulator (:mod:`jackson.sim.mcu`) or, with ``firmware=True``, the compiled
 POSIX firmware (:mod:`jackson.sim.fil`) fed the same sensor values at the same instants.
+An optional ``observer`` is called with the twin after each advance of its clock (in real
+time, once the wall clock has caught up); ``jackson sim --ros`` publishes from it
+(:mod:`jackson.sim.ros`).
 """
 
 from __future__ import annotations
@@ -62,8 +65,10 @@ class TwinRunner:
         heartbeat_timeout_s: float = 1.0,
         serial_link: str | None = None,
         drop_telemetry: Callable[[int], bool] | None = None,
+        observer: Callable[[Twin], None] | None = None,
     ) -> None:
         self.twin = twin
+        self.observer = observer  # called with the twin after each advance (and its pacing)
         self.lockstep = lockstep
         self.mcu_motors = mcu_motors
         self.heartbeat_timeout_s = heartbeat_timeout_s
@@ -264,6 +269,8 @@ class TwinRunner:
                 self._pace(*self._pace_origin)  # nobody to wait for: the world runs in real time
             elif not self.lockstep:
                 self._pace(wall0, sim0)
+            if self.observer is not None:
+                self.observer(self.twin)
 
     def _pace(self, wall0: float, sim0: float) -> None:
         """Real time: serve the host until the wall clock catches up with the twin."""
@@ -310,6 +317,8 @@ class TwinRunner:
             if not self.lockstep:
                 while (self.twin.t_s - sim0) > (time.monotonic() - wall0):
                     self.i2c.service(0.001)
+            if self.observer is not None:
+                self.observer(self.twin)
 
     def close(self) -> None:
         self.i2c.close()
