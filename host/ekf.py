@@ -602,15 +602,16 @@ class Ekf:
         for row, col in enumerate(indices):
             h_matrix[row, col] = 1.0
         residual = _residual_function(angular)
-        x_col = np.asarray(self._kf.x, dtype=np.float64)
-        y = residual(z.reshape(-1, 1), h_matrix @ x_col).reshape(-1)
-        s_matrix = h_matrix @ self._kf.P @ h_matrix.T + r_matrix
-        d2 = float(y @ np.linalg.solve(s_matrix, y))
-        accepted = m.threshold is None or d2 < m.threshold * m.threshold
-        self._record(m.sensor, m.t_s, y, s_matrix, d2, accepted)
-        if not accepted:
-            self.rejected[m.sensor] = self.rejected.get(m.sensor, 0) + 1
-            return False
+        if m.threshold is not None:  # gating: the innovation is judged before the update
+            x_col = np.asarray(self._kf.x, dtype=np.float64)
+            y = residual(z.reshape(-1, 1), h_matrix @ x_col).reshape(-1)
+            s_matrix = h_matrix @ self._kf.P @ h_matrix.T + r_matrix
+            d2 = float(y @ np.linalg.solve(s_matrix, y))
+            accepted = d2 < m.threshold * m.threshold
+            self._record(m.sensor, m.t_s, y, s_matrix, d2, accepted)
+            if not accepted:
+                self.rejected[m.sensor] = self.rejected.get(m.sensor, 0) + 1
+                return False
 
         self._kf.update(
             z.reshape(-1, 1),
@@ -619,6 +620,10 @@ class Ekf:
             R=r_matrix,
             residual=residual,
         )
+        if m.threshold is None:  # no gate: filterpy's own innovation, its covariance and inverse
+            y_u = np.asarray(self._kf.y, dtype=np.float64).reshape(-1)
+            d2 = float(y_u @ np.asarray(self._kf.SI, dtype=np.float64) @ y_u)
+            self._record(m.sensor, m.t_s, y_u, np.asarray(self._kf.S, dtype=np.float64), d2, True)
         self._kf.x[YAW, 0] = wrap_angle(float(self._kf.x[YAW, 0]))
         return True
 
