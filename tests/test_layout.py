@@ -50,3 +50,15 @@ def test_console_script_runs() -> None:
     exe = Path(sys.executable).parent / "jackson"
     out = subprocess.run([str(exe), "--version"], capture_output=True, text=True, check=True)
     assert out.stdout.startswith("jackson ")
+
+
+def test_nothing_imports_rclpy_without_ros() -> None:
+    """The daemon, its bag recorder and the command line load without rclpy (only --ros may)."""
+    code = (
+        "import sys, jackson.main as m; m.build_parser(); "
+        "import jackson.host.daemon, jackson.host.ros.bag, jackson.host.ros.bag_listener, "
+        "jackson.host.ros.bridge, jackson.sim.ros, jackson.sim.runner; "
+        "print(sorted(k for k in sys.modules if k.split('.')[0] in ('rclpy', 'rosidl_runtime_py')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
