@@ -558,15 +558,12 @@ class BagRecorder:
 
     def flush(self) -> None:
         """Write the open chunk and flush the file, so the messages so far survive a kill."""
-        st = self._state
-        if self.closed or st.busy:
+        if not self._claim():
             return
-        st.busy = True
         try:
             self._flush_chunk()
         finally:
-            st.busy = False
-        self._close_if_requested()
+            self._release()
 
     def close(self) -> None:
         """Finish the bag: the last chunk, the MCAP summary and ``metadata.yaml``.
@@ -584,8 +581,14 @@ class BagRecorder:
         if st.busy:
             st.close_requested = True
             return
-        st.closed = True
+        # Claim first, then re-check: a handler that ran between the checks above and the
+        # claim has already finished the bag.
         st.busy = True
+        if st.closed:
+            st.busy = False
+            return
+        st.closed = True
+        st.close_requested = False
         try:
             if not st.static_written:
                 self._write_static(max(st.last_ns.values(), default=0))
@@ -645,11 +648,10 @@ class BagRecorder:
     ) -> None:
         """Serialise ``build(header)`` and file it under ``topic`` at ``t_s``."""
         st = self._state
-        if self.closed or st.busy:
+        if not self._claim():
             return
-        ns = stamp_ns(t_s)
-        st.busy = True
         try:
+            ns = stamp_ns(t_s)
             if not st.static_written:
                 self._write_static(ns)
             header = Header(
@@ -664,13 +666,30 @@ class BagRecorder:
                     self._flush_chunk()
                     st.flushed_ns = ns
         finally:
-            st.busy = False
-        self._close_if_requested()
+            self._release()
 
-    def _close_if_requested(self) -> None:
-        """Run a :meth:`close` that a signal handler asked for during a write."""
-        if self._state.close_requested:
-            self._state.close_requested = False
+    def _claim(self) -> bool:
+        """Mark a write in progress; False if the bag is closed (or another write is on).
+
+        A signal handler may call :meth:`close` between any two bytecodes of the main thread.
+        ``busy`` is set *before* ``closed`` is checked: a close that runs before the claim
+        finishes the bag and the check below sees it; one that runs after it only sets
+        ``close_requested``, which :meth:`_release` carries out.
+        """
+        st = self._state
+        if st.busy:
+            return False
+        st.busy = True
+        if st.closed or st.close_requested:
+            self._release()
+            return False
+        return True
+
+    def _release(self) -> None:
+        """End a write and run a :meth:`close` that a signal handler asked for meanwhile."""
+        st = self._state
+        st.busy = False
+        if st.close_requested and not st.closed:
             self.close()
 
     def _put(self, topic: str, ns: int, msg: Any) -> None:
