@@ -7,6 +7,7 @@ and never knows which bus it got: ``open_bus("/dev/i2c-1")`` on the robot,
 
 from __future__ import annotations
 
+import functools
 import os
 import socket
 import struct
@@ -27,6 +28,7 @@ from jackson.protocol.i2c_socket import (
     STATUS_NACK,
     STATUS_OK,
 )
+from jackson.protocol.spin import DEFAULT_SPIN_S, peer_is_this_process, spin_poll
 
 SOCKET_PREFIX = "unix:"
 DEFAULT_TIMEOUT_S = 2.0  # [s] longest wait for one response
@@ -81,12 +83,20 @@ class SocketI2cBus:
         path: The twin's I²C socket file.
         timeout_s: Longest wait for a response [s]; after a timeout the bus is closed, since a
             late response would be taken for the next one.
+        spin_s: How long to poll for a response before blocking [s] (jackson.protocol.spin);
+            None: :data:`~jackson.protocol.spin.DEFAULT_SPIN_S` when the twin is another
+            process, 0 when it runs in this one.
 
     Raises:
         I2cError: The socket cannot be connected.
     """
 
-    def __init__(self, path: str | os.PathLike[str], timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        timeout_s: float = DEFAULT_TIMEOUT_S,
+        spin_s: float | None = None,
+    ) -> None:
         self.path = os.fspath(path)
         self.timeout_s = timeout_s
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -98,6 +108,9 @@ class SocketI2cBus:
             reason = exc.strerror or str(exc)
             raise I2cError(f"cannot connect to I2C socket {self.path}: {reason}") from exc
         self._sock: socket.socket | None = sock
+        if spin_s is None:
+            spin_s = 0.0 if peer_is_this_process(sock) else DEFAULT_SPIN_S
+        self.spin_s = spin_s
 
     def write_byte_data(self, i2c_addr: int, register: int, value: int) -> None:
         """Write one byte to ``register`` of the device at ``i2c_addr``.
@@ -200,12 +213,22 @@ class SocketI2cBus:
     def _receive(self, sock: socket.socket, n: int, what: str) -> bytes:
         buf = bytearray()
         while len(buf) < n:
-            chunk = sock.recv(n - len(buf))
+            want = n - len(buf)
+            got = spin_poll(functools.partial(_recv_now, sock, want), self.spin_s)
+            chunk = got[0] if got else sock.recv(want)
             if not chunk:
                 self.close()
                 raise I2cError(f"{what}: I2C socket {self.path} closed by the other end")
             buf += chunk
         return bytes(buf)
+
+
+def _recv_now(sock: socket.socket, n: int) -> tuple[bytes] | tuple[()]:
+    """``(chunk,)`` if the socket has data or is closed (``b""``), ``()`` if it would block."""
+    try:
+        return (sock.recv(n, socket.MSG_DONTWAIT),)
+    except (BlockingIOError, InterruptedError):
+        return ()
 
 
 def open_bus(spec: str) -> I2cBus:

@@ -16,7 +16,7 @@ import serial
 
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.actuation.tb6612 import BridgeChannels, bridge_duties
-from jackson.host.i2c import open_bus
+from jackson.host.i2c import SocketI2cBus, open_bus
 from jackson.protocol import (
     Ack,
     FrameDecoder,
@@ -30,6 +30,7 @@ from jackson.protocol import (
     encode_frame,
     hello,
 )
+from jackson.protocol.spin import spin_poll
 
 LEFT = BridgeChannels(pwm=0, in1=1, in2=2)
 RIGHT = BridgeChannels(pwm=5, in1=3, in2=4)
@@ -46,6 +47,9 @@ class ScriptedHost:
     def __init__(self, serial_path: str, i2c_spec: str, address: int = 0x40) -> None:
         self.port = serial.Serial(serial_path, baudrate=921600, timeout=0.05)
         self.bus = open_bus(i2c_spec)
+        # poll the port briefly before blocking, as the twin's socket bus does (and not when
+        # the twin runs in this process: jackson.protocol.spin)
+        self.spin_s = self.bus.spin_s if isinstance(self.bus, SocketI2cBus) else 0.0
         self.pca = Pca9685(self.bus, address)
         self.decoder = FrameDecoder()
         self.seq = 0
@@ -57,14 +61,22 @@ class ScriptedHost:
         self.received = bytearray()  # every byte from the robot, for recordings and tests
 
     def send(self, msg: Message) -> None:
-        self.port.write(encode_frame(msg, self.seq))
+        # os.write on the port's descriptor, as _pump reads: pyserial's write adds a select
+        frame = memoryview(encode_frame(msg, self.seq))
+        fd = self.port.fileno()
+        while frame:
+            try:
+                frame = frame[os.write(fd, frame) :]
+            except BlockingIOError:
+                select.select([], [fd], [], 0.05)
         self.seq = (self.seq + 1) & 0xFF
 
     def _pump(self, timeout_s: float = 0.05) -> None:
         # select + os.read on the port's descriptor: pyserial's read adds an ioctl and a
         # second select per call, which shows in lockstep round trips
         fd = self.port.fileno()
-        if not select.select([fd], [], [], timeout_s)[0]:
+        ready = spin_poll(lambda: select.select([fd], [], [], 0)[0], min(self.spin_s, timeout_s))
+        if not ready and not select.select([fd], [], [], timeout_s)[0]:
             return
         try:
             data = os.read(fd, 4096)

@@ -10,6 +10,7 @@ import threading
 from pathlib import Path
 from types import FrameType
 
+from jackson.protocol.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
 from jackson.sim.fil import FirmwareError
 from jackson.sim.i2c_server import I2cServerError
@@ -50,6 +51,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=float,
         default=1.0,
         help="lockstep: wall seconds to wait for the host before moving on",
+    )
+    p.add_argument(
+        "--spin-us",
+        type=float,
+        default=DEFAULT_SPIN_S * 1e6,
+        help="lockstep: poll this many microseconds for the host before blocking "
+        "(0: block at once, for a busy machine; default %(default).0f)",
     )
 
 
@@ -93,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
             heartbeat_timeout_s=args.heartbeat_timeout,
             serial_link=args.link,
             observer=publisher.on_advance if publisher is not None else None,
+            spin_s=0.0 if args.realtime else max(0.0, args.spin_us) / 1e6,
         )
     except (I2cServerError, FirmwareError, OSError) as exc:
         if publisher is not None:

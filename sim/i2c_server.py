@@ -78,6 +78,7 @@ class _Connection:
     sock: socket.socket
     inbox: bytearray = field(default_factory=bytearray)  # received, not yet handled
     outbox: bytearray = field(default_factory=bytearray)  # responses not yet sent
+    events: int = selectors.EVENT_READ  # what the selector waits for on this socket
 
 
 class I2cSocketServer:
@@ -219,14 +220,20 @@ class I2cSocketServer:
                 conn.outbox += self._answer(*request)
                 answered += 1
             if not conn.outbox:
-                self._selector.modify(conn.sock, selectors.EVENT_READ, conn)
+                self._watch(conn, selectors.EVENT_READ)
                 return answered
             if not self._flush(conn):
                 return answered
             if conn.outbox:
                 # The client is not reading: stop reading from it until its answers drain.
-                self._selector.modify(conn.sock, selectors.EVENT_WRITE, conn)
+                self._watch(conn, selectors.EVENT_WRITE)
                 return answered
+
+    def _watch(self, conn: _Connection, events: int) -> None:
+        """Wait for ``events`` on the client's socket (a system call only on a change)."""
+        if conn.events != events:
+            self._selector.modify(conn.sock, events, conn)
+            conn.events = events
 
     def _flush(self, conn: _Connection) -> bool:
         """Send as much of the outbox as the socket takes; False if the peer is gone."""

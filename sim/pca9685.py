@@ -145,8 +145,12 @@ class Pca9685:
         self.extclk_hz = extclk_hz
         self.reset()
 
+    generation: int = 0
+    """Counts register writes and resets: outputs can only have changed when it has."""
+
     def reset(self) -> None:
         """Return every register to its power-on value (power cycle or SWRST, §7.6)."""
+        self.generation += 1
         self._mode1 = MODE1_POWER_ON
         self._mode2 = MODE2_POWER_ON
         self._addresses = [
@@ -174,6 +178,17 @@ class Pca9685:
             data: The bytes the master sent after the register address.
         """
         pointer = _check_register(reg)
+        self.generation += 1
+        end = pointer + len(data) - 1
+        if self._mode1 & MODE1_AI and LED0_ON_L <= pointer and end <= LED15_OFF_H and data:
+            # the common case, a run of LEDn registers: one slice, H registers masked
+            start = pointer - LED0_ON_L
+            block = bytearray(data)
+            first_h = (start + 1) % 2  # the first odd offset (an _H register) in the block
+            block[first_h::2] = bytes(v & LED_H_WRITABLE for v in block[first_h::2])
+            self._leds[start : start + len(block)] = block
+            self._restart_pending = False
+            return
         touched_pwm = False
         for value in data:
             touched_pwm |= _is_pwm_register(pointer)

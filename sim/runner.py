@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from threading import Event
 
+from jackson.protocol.spin import spin_poll
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.link import PtyLink
@@ -66,8 +67,12 @@ class TwinRunner:
         serial_link: str | None = None,
         drop_telemetry: Callable[[int], bool] | None = None,
         observer: Callable[[Twin], None] | None = None,
+        spin_s: float = 0.0,
     ) -> None:
         self.twin = twin
+        # lockstep waits poll this long before blocking (jackson.protocol.spin); only worth it
+        # when the host is another process
+        self.spin_s = spin_s
         self.observer = observer  # called with the twin after each advance (and its pacing)
         self.lockstep = lockstep
         self.mcu_motors = mcu_motors
@@ -76,6 +81,8 @@ class TwinRunner:
         self.pca = Pca9685()
         self.i2c = I2cSocketServer(i2c_path, {wiring.pca9685_address: self.pca})
         self._wiring = wiring
+        # bridge outputs of the last PCA9685 state (generation), recomputed after a write
+        self._bridges: tuple[int, tuple[BridgeOutput, BridgeOutput]] | None = None
         self._sample: tuple[int, SensorSample] | None = None
         self.firmware: FirmwareProcess | None = None
         self.link: PtyLink | None = None
@@ -170,16 +177,22 @@ class TwinRunner:
             else:
                 self.twin.command(WheelDrive(left, 1.0), WheelDrive(right, 1.0))
             return
-        b_left, b_right = bridge_outputs(
-            self.pca, self._wiring.left, self._wiring.right, self._wiring.stby_channel
-        )
+        pca = self.pca
+        if self._bridges is None or self._bridges[0] != pca.generation:
+            w = self._wiring
+            self._bridges = (pca.generation, bridge_outputs(pca, w.left, w.right, w.stby_channel))
+        b_left, b_right = self._bridges[1]
         self.twin.command(_wheel(b_left), _wheel(b_right))
 
     # ------------------------------------------------------------------ serving the host
 
     def _serve(self, timeout_s: float) -> None:
         """Serve the serial link and the I2C bus for at most ``timeout_s``."""
-        for key, _ in self._sel.select(timeout_s):
+        sel = self._sel
+        events = spin_poll(lambda: sel.select(0), min(self.spin_s, timeout_s))
+        if not events and timeout_s > 0:
+            events = sel.select(timeout_s)
+        for key, _ in events:
             if key.data == "i2c":
                 self.i2c.service(0.0)
             elif self.link is not None and self.mcu is not None and self._outage_until is None:

@@ -157,6 +157,49 @@ def test_auto_increment_crosses_channel_boundaries() -> None:
     assert pca.channel_duty(1) == 0.75
 
 
+def test_led_block_writes_equal_byte_by_byte_writes() -> None:
+    # Auto-increment blocks inside LED0..LED15 take a sliced fast path; every start, length
+    # and value must store what one-byte writes with AI off (the general path) store: H
+    # registers keep bits 4:0 only, and a pending restart ends.
+    import random
+
+    rng = random.Random(7)
+    n = LED15_OFF_H - LED0_ON_L + 1
+    for k in range(300):
+        start = rng.randrange(LED0_ON_L, LED15_OFF_H + 1)
+        data = bytes(rng.randrange(256) for _ in range(rng.randrange(1, LED15_OFF_H - start + 2)))
+        block, single = running_pca(), running_pca()
+        for pca in (block, single):
+            pca.write(LED0_ON_L, counts(0, 2048))
+            if k % 2:  # sleep with a channel running, wake: outputs held, restart pending
+                pca.write(MODE1, bytes((MODE1_AI | MODE1_ALLCALL | MODE1_SLEEP,)))
+                pca.write(MODE1, bytes((MODE1_AI | MODE1_ALLCALL,)))
+                assert pca.restart_pending
+        single.write(MODE1, bytes((MODE1_ALLCALL,)))  # AI off
+        block.write(start, data)
+        for i, value in enumerate(data):
+            single.write(start + i, bytes((value,)))
+        assert block.read(LED0_ON_L, n) == b"".join(
+            single.read(LED0_ON_L + i, 1)
+            for i in range(n)  # AI off: one register at a time
+        )
+        assert not block.restart_pending and not single.restart_pending
+        assert [block.channel_duty(c) for c in range(16)] == [
+            single.channel_duty(c) for c in range(16)
+        ]
+
+
+def test_generation_counts_every_write_and_reset() -> None:
+    pca = Pca9685()
+    g = pca.generation
+    pca.write(LED0_ON_L, counts(0, 1024))
+    pca.write(MODE1, bytes((MODE1_ALLCALL,)))
+    pca.reset()
+    assert pca.generation == g + 3
+    pca.read(LED0_ON_L, 4)
+    assert pca.generation == g + 3
+
+
 def test_auto_increment_pointer_wraps_from_0xff_to_0x00() -> None:
     pca = running_pca()
     assert pca.read(TESTMODE, 2) == bytes((0x00, MODE1_AI | MODE1_ALLCALL))
