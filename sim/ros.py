@@ -140,7 +140,7 @@ class TwinRosPublisher:
         except BaseException:
             self.context.try_shutdown()
             raise
-        self._scans_done = len(twin.scans)
+        self._scans_done = twin.scans_taken
         self._next_truth_us: int | None = None
         self._last_clock_us: int | None = None
         self._closed = False
@@ -153,11 +153,13 @@ class TwinRosPublisher:
         if self._closed:
             return
         t_us = twin.t_us
-        scans = twin.scans
-        if self.scan_pub is not None:
-            for scan in scans[self._scans_done :]:
+        new = twin.scans_taken - self._scans_done
+        if self.scan_pub is not None and new > 0:
+            # the twin keeps only its newest scans (jackson sim: SCAN_HISTORY); an observer
+            # called after every advance never falls that far behind
+            for scan in list(twin.scans)[-new:]:
                 self.publish_scan(round(scan.t_s * 1e6), scan.ranges)
-        self._scans_done = len(scans)
+        self._scans_done = twin.scans_taken
         if self._next_truth_us is None or t_us >= self._next_truth_us:
             self.publish_ground_truth(twin)
             period_us = round(GROUND_TRUTH_PERIOD_S * 1e6)

@@ -63,6 +63,7 @@ class Twin:
         physics_hz: int = PHYSICS_HZ,
         lidar: bool | None = None,
         record_truth: bool = True,
+        scan_history: int | None = None,
     ) -> None:
         self.world_spec = world
         self.robot_spec = robot
@@ -89,7 +90,10 @@ class Twin:
         ] = []
         self._truth_cache: list[Truth] = []
         self.record_truth = record_truth
-        self.scans: list[Scan] = []
+        # the newest scans (all of them with scan_history None: about 115 MB per hour);
+        # scans_taken counts every scan, kept or not
+        self.scans: deque[Scan] = deque(maxlen=scan_history)
+        self.scans_taken = 0
         use_lidar = robot.lidar.enabled if lidar is None else lidar
         self._lidar = self._make_lidar() if use_lidar else None
         self._next_scan_s = 0.0
@@ -235,6 +239,7 @@ class Twin:
         assert self._lidar is not None
         ranges = self._lidar.scan(r.x, r.y, r.yaw, self._obstacles)
         self.scans.append(Scan(self.t_s, ranges))
+        self.scans_taken += 1
         self._next_scan_s += self.scan_period_s
 
     def truth(self) -> Truth:

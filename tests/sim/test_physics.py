@@ -218,3 +218,17 @@ def test_free_space_shortcut_matches_pymunk_step_for_step(monkeypatch: pytest.Mo
         max(abs(a - b) for p, q in zip(fast, slow, strict=True) for a, b in zip(p, q, strict=True))
         < 1e-9
     )
+
+
+def test_scan_history_keeps_the_newest_scans_and_counts_all() -> None:
+    everything = Twin(FLOOR, robot(), lidar=True)
+    bounded = Twin(FLOOR, robot(), lidar=True, scan_history=5)
+    for tw in (everything, bounded):
+        tw.command(WheelDrive(0.5, 1.0), WheelDrive(0.6, 1.0))
+        tw.advance(3.0)  # 7.43 Hz: 23 scans
+    assert everything.scans_taken == bounded.scans_taken == len(everything.scans) >= 22
+    assert len(bounded.scans) == 5
+    newest = list(everything.scans)[-5:]
+    assert [s.t_s for s in bounded.scans] == [s.t_s for s in newest]
+    pairs = zip(bounded.scans, newest, strict=True)
+    assert all(np.array_equal(a.ranges, b.ranges) for a, b in pairs)
