@@ -41,28 +41,45 @@ class FeedStatus:
     tx_dropped: int
     rx_crc_errors: int
     next_telemetry_us: int
+    accel_fs: int  # the MPU-6050's ranges as the firmware set them (0-3)
+    gyro_fs: int
 
 
 def parse_status(line: bytes | str) -> FeedStatus:
     """One status line of the POSIX firmware (docs/firmware.md)."""
     parts = line.split()
-    if not parts or parts[0] not in (b"s", "s") or len(parts) != 13:
+    if not parts or parts[0] not in (b"s", "s") or len(parts) != 15:
         raise FirmwareError(f"unexpected status line from the firmware: {parts!r}")
     v = [int(x) for x in parts[1:]]
     braked, failsafe, session = (bool(x) for x in v[6:9])
     return FeedStatus(
-        v[0], v[1], v[2], v[3], v[4], v[5], braked, failsafe, session, v[9], v[10], v[11]
+        v[0],
+        v[1],
+        v[2],
+        v[3],
+        v[4],
+        v[5],
+        braked,
+        failsafe,
+        session,
+        v[9],
+        v[10],
+        v[11],
+        v[12],
+        v[13],
     )
 
 
 class FirmwareProcess:
     """One running POSIX firmware, driven through its sensor feed."""
 
-    def __init__(self, binary: Path | None = None, *, motors: bool = False) -> None:
+    def __init__(
+        self, binary: Path | None = None, *, motors: bool = False, imu_present: bool = True
+    ) -> None:
         exe = Path(os.environ.get("JACKSON_FIRMWARE_POSIX", binary or DEFAULT_BINARY))
         if not exe.exists():
             raise FirmwareError(f"{exe} is missing: build it with `make native`")
-        args = [str(exe)] + (["--motors"] if motors else [])
+        args = [str(exe)] + (["--motors"] if motors else []) + ([] if imu_present else ["--no-imu"])
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
         assert self.proc.stdin is not None and self.proc.stdout is not None
         self._out = self.proc.stdout
@@ -73,6 +90,7 @@ class FirmwareProcess:
         if len(first) != 2 or first[0] != b"serial":
             raise FirmwareError(f"unexpected first line from the firmware: {first!r}")
         self.serial_path = first[1].decode()
+        self.last_status: FeedStatus | None = None  # the answer to the latest record
 
     def fileno(self) -> int:
         return self._out.fileno()
@@ -101,7 +119,8 @@ class FirmwareProcess:
 
     def _command(self, text: str, timeout_s: float = 10.0, on_wait: object = None) -> FeedStatus:
         self._in.write(text.encode() + b"\n")
-        return parse_status(self._line(timeout_s, on_wait))
+        self.last_status = parse_status(self._line(timeout_s, on_wait))
+        return self.last_status
 
     def step(self, t_us: int, s: SensorSample) -> FeedStatus:
         """Sensors read ``s`` at ``t_us``; the firmware runs everything due up to then."""

@@ -49,6 +49,9 @@ from jackson.protocol import (
 FIRMWARE_VERSION = (0, 1, 0)
 PCNT_LIMIT = 30000  # as firmware/esp32/board_config.hpp
 STATUS_PERIOD_US = 1_000_000
+IMU_PERIOD_US = 10_000  # 100 Hz MPU-6050 polling (faster with faster telemetry), firmware.hpp
+IMU_FIRST_BACKOFF_US = 50_000  # retry schedule of an absent MPU-6050, mpu6050.hpp
+IMU_MAX_BACKOFF_US = 2_000_000
 MIN_RATE_HZ, MAX_RATE_HZ = 1, 500
 MIN_FAILSAFE_MS, MAX_FAILSAFE_MS = 50, 10_000
 _GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
@@ -130,6 +133,7 @@ class McuEmulator:
         *,
         motor_output: bool = False,
         imu_present: bool = True,
+        boot_us: int = 0,
     ) -> None:
         self._write = write
         self._sensors = sensors
@@ -169,6 +173,19 @@ class McuEmulator:
         self.telemetry_frames = 0
         self.heartbeats = 0
         self._imu_ok = imu_present
+        # The MPU-6050 driver's retries (firmware/core/mpu6050.cpp), which only an absent IMU
+        # exercises here: each attempt fails and counts an I2C error, then waits 50 ms, 100 ms,
+        # ... 2 s. Attempts happen at the firmware's IMU polls (every IMU_PERIOD_US from boot),
+        # evaluated lazily up to the MCU time of each tick and each received frame.
+        self.i2c_errors = 0
+        self.i2c_error_flag = False
+        self._i2c_errors_seen = 0
+        self._imu_next_us = (boot_us + IMU_PERIOD_US) & 0xFFFFFFFF
+        self._imu_waiting = False
+        self._imu_retry_us = 0
+        self._imu_backoff_us = IMU_FIRST_BACKOFF_US
+        if not imu_present:
+            self._imu_attempt(boot_us)  # the firmware learns presence at boot
         self._last_imu: tuple[tuple[int, int, int], tuple[int, int, int], int] = (
             (0, 0, 0),
             (0, 0, 0),
@@ -180,6 +197,33 @@ class McuEmulator:
     @property
     def period_us(self) -> int:
         return 1_000_000 // self.rate_hz
+
+    @property
+    def imu_period_us(self) -> int:
+        return min(IMU_PERIOD_US, self.period_us)
+
+    def _imu_attempt(self, now: int) -> None:
+        """One poll of the absent MPU-6050: init fails, the error counts, backoff grows."""
+        if self._imu_waiting and not _reached(now, self._imu_retry_us):
+            return
+        self.i2c_errors += 1
+        self._imu_waiting = True
+        self._imu_retry_us = (now + self._imu_backoff_us) & 0xFFFFFFFF
+        half = IMU_MAX_BACKOFF_US // 2
+        b = self._imu_backoff_us
+        self._imu_backoff_us = IMU_MAX_BACKOFF_US if b >= half else b * 2
+
+    def _imu_polls_until(self, now: int, *, inclusive: bool) -> None:
+        """Run the IMU polls due before ``now`` (and at ``now`` if ``inclusive``)."""
+        if self.imu_present:
+            return  # a present IMU never fails here: nothing to count
+        while _reached(now, self._imu_next_us) and (inclusive or self._imu_next_us != now):
+            t = self._imu_next_us
+            self._imu_attempt(t)
+            if self.i2c_errors != self._i2c_errors_seen:
+                self._i2c_errors_seen = self.i2c_errors
+                self.i2c_error_flag = True
+            self._imu_next_us = (t + self.imu_period_us) & 0xFFFFFFFF
 
     def next_deadline(self, now: int) -> int | None:
         """The next instant tick() has something to do, or None before a session."""
@@ -198,6 +242,7 @@ class McuEmulator:
         the bytes after it (which STATUS counters can show). A chunk that is exactly one frame
         is decoded at once (nothing can follow it); anything else is fed byte by byte.
         """
+        self._imu_polls_until(now, inclusive=False)  # those ran in earlier firmware ticks
         dec = self.decoder
         if not dec.pending and len(data) >= 10 and data[0] == 0xA5 and len(data) == data[5] + 10:
             for frame in dec.feed(data, now):
@@ -210,6 +255,7 @@ class McuEmulator:
     def tick(self, now: int) -> None:
         """Everything scheduled at or before ``now`` (the firmware's tick)."""
         self.decoder.poll(now)
+        self._imu_polls_until(now, inclusive=True)
         self._update_motors(now)
         if not self.session:
             return
@@ -248,6 +294,8 @@ class McuEmulator:
             f |= TelemetryFlags.FAILSAFE_ACTIVE
         if self.decoder.counters.crc_errors + self.rx_bad_commands != self.rx_errors_at_status:
             f |= TelemetryFlags.RX_ERRORS
+        if self.i2c_error_flag:
+            f |= TelemetryFlags.I2C_ERRORS
         if self.tx_dropped_flag:
             f |= TelemetryFlags.TX_DROPPED
         if self.motor_output:
@@ -287,6 +335,7 @@ class McuEmulator:
         self._send(Telemetry(now & 0xFFFFFFFF, enc_l, enc_r, flags, accel, temp, gyro))
         if self.tx_dropped == dropped:
             self.tx_dropped_flag = False
+            self.i2c_error_flag = False
             self.telemetry_sent = True
             self.last_telemetry_seq = seq
             self.telemetry_frames += 1
@@ -301,7 +350,7 @@ class McuEmulator:
                 rx_crc_errors=c.crc_errors,
                 rx_bad_commands=self.rx_bad_commands,
                 tx_dropped=self.tx_dropped,
-                i2c_errors=0,
+                i2c_errors=self.i2c_errors,
                 pcnt_overflows=self.left.overflows + self.right.overflows,
                 telemetry_rate_hz=self.rate_hz,
                 flags=self._flags(now, imu_ok),
@@ -463,6 +512,7 @@ class McuEmulator:
                 self._nack(f, NackError.BAD_VALUE)
                 return
             self.accel_fs, self.gyro_fs = msg.accel_fs, msg.gyro_fs
+            self._imu_waiting = False  # the driver re-initialises at its next poll
             self.direction_flags = msg.direction_flags
             self.failsafe_ms = msg.failsafe_ms
             self.left.set_inverted(bool(msg.direction_flags & 1))

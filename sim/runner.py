@@ -88,7 +88,9 @@ class TwinRunner:
         self.link: PtyLink | None = None
         self.mcu: McuEmulator | None = None
         if firmware:
-            self.firmware = FirmwareProcess(motors=mcu_motors)
+            self.firmware = FirmwareProcess(
+                motors=mcu_motors, imu_present=twin.robot_spec.imu.present
+            )
             self.serial_path = self.firmware.serial_path
         else:
             self.link = PtyLink(serial_link)
@@ -98,6 +100,7 @@ class TwinRunner:
                 self.sensors,
                 motor_output=mcu_motors,
                 imu_present=twin.robot_spec.imu.present,
+                boot_us=twin.t_us,
             )
         self.frames = 0
         self.heartbeat_timeouts = 0
@@ -159,8 +162,12 @@ class TwinRunner:
         """The sensors at the current instant (read once per instant, then cached)."""
         now = self.twin.t_us
         if self._sample is None or self._sample[0] != now:
-            if self.mcu is not None:  # the MCU's configured ranges scale the registers
+            # the ranges the MCU set the MPU-6050 to scale its registers
+            if self.mcu is not None:
                 self.twin.imu.accel_fs, self.twin.imu.gyro_fs = self.mcu.accel_fs, self.mcu.gyro_fs
+            elif self.firmware is not None and self.firmware.last_status is not None:
+                st = self.firmware.last_status
+                self.twin.imu.accel_fs, self.twin.imu.gyro_fs = st.accel_fs, st.gyro_fs
             self._sample = (now, self.twin.sensors())
         return self._sample[1]
 

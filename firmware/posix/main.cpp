@@ -12,7 +12,11 @@
 // Each reply is one line:
 //   s <t_us> <telemetry_seq|-1> <frames_sent> <heartbeat_ack|-1> <motor_left> <motor_right>
 //     <braked> <failsafe> <session> <tx_dropped> <rx_crc_errors> <next_telemetry_us|-1>
-// With --realtime the clock follows CLOCK_MONOTONIC and t lines only update the sensors.
+//     <accel_fs> <gyro_fs>
+// where the last two are the MPU-6050 ranges of the firmware's driver (written to the chip at
+// its next init, within one IMU period), which a simulator scales the registers it feeds by.
+// With --realtime the clock follows CLOCK_MONOTONIC and t lines only update the sensors;
+// --no-imu starts with the MPU-6050 absent (t lines may bring it later).
 #include <poll.h>
 #include <unistd.h>
 
@@ -32,6 +36,7 @@ namespace {
 struct Options {
   bool realtime = false;
   bool motors = false;
+  bool imu = true;
   std::string storage_dir;
   std::string link;
 };
@@ -39,7 +44,7 @@ struct Options {
 [[noreturn]] void usage_error(const char* what) {
   std::fprintf(stderr,
                "jackson-firmware-posix: %s\nusage: jackson-firmware-posix [--realtime] "
-               "[--motors] [--storage DIR] [--link PATH]\n",
+               "[--motors] [--no-imu] [--storage DIR] [--link PATH]\n",
                what);
   std::exit(2);
 }
@@ -52,6 +57,8 @@ Options parse(int argc, char** argv) {
       o.realtime = true;
     } else if (a == "--motors") {
       o.motors = true;
+    } else if (a == "--no-imu") {
+      o.imu = false;
     } else if (a == "--storage" && i + 1 < argc) {
       o.storage_dir = argv[++i];
     } else if (a == "--link" && i + 1 < argc) {
@@ -111,11 +118,12 @@ struct Process {
     const bool seen = fw.last_heartbeat_ack(hb);
     const long long next =
         fw.session_active() ? static_cast<long long>(fw.next_telemetry_us()) : -1;
-    std::printf("s %llu %d %u %d %d %d %d %d %d %u %u %lld\n",
+    std::printf("s %llu %d %u %d %d %d %d %d %d %u %u %lld %u %u\n",
                 static_cast<unsigned long long>(clock.now64()), sent ? seq : -1,
                 fw.frames_sent(), seen ? hb : -1, motors.left_, motors.right_,
                 motors.braked_ ? 1 : 0, fw.motors().failsafe ? 1 : 0, fw.session_active() ? 1 : 0,
-                fw.tx_dropped(), fw.rx_counters().crc_errors, next);
+                fw.tx_dropped(), fw.rx_counters().crc_errors, next, fw.imu().accel_fs(),
+                fw.imu().gyro_fs());
     std::fflush(stdout);
   }
 
@@ -154,6 +162,7 @@ int main(int argc, char** argv) {
     }
   }
   p.clock.follow_monotonic(opt.realtime);
+  p.i2c.set_present(opt.imu);
   p.fw.begin();
   std::printf("serial %s\n", path.c_str());
   std::fflush(stdout);

@@ -49,6 +49,7 @@ class FeedI2c : public I2cBus {
   bool write_reg(uint8_t addr, uint8_t reg, uint8_t value) override;
   bool read_regs(uint8_t addr, uint8_t reg, uint8_t* out, size_t n) override;
   void set(bool present, const std::array<uint8_t, 14>& burst);
+  void set_present(bool present) { present_ = present; }
   uint8_t reg(uint8_t r) const { return regs_[r]; }
 
  private:
