@@ -13,16 +13,15 @@ Every problem is reported as one :class:`ConfigError` line naming the file and t
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-
 from jackson.host.actuation.tb6612 import BridgeChannels
 from jackson.host.i2c import SOCKET_PREFIX
+from jackson.protocol.fields import ConfigError as ConfigError  # re-exported
+from jackson.protocol.fields import Fields, read_yaml, show
 
 DEFAULT_CONFIG = Path(__file__).resolve().parent / "config" / "jackson.yaml"
 
@@ -41,10 +40,6 @@ LEFT_CHANNELS = BridgeChannels(pwm=0, in1=1, in2=2)  # PWMA, AIN1, AIN2 (the com
 RIGHT_CHANNELS = BridgeChannels(pwm=5, in1=3, in2=4)  # PWMB, BIN1, BIN2
 Rotation = tuple[float, float, float, float, float, float, float, float, float]  # row-major 3x3
 IDENTITY: Rotation = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-
-
-class ConfigError(ValueError):
-    """The configuration file is missing, unreadable, not YAML, or has a bad field."""
 
 
 # ------------------------------------------------------------------------- the configuration
@@ -208,217 +203,6 @@ class HostConfig:
 # ------------------------------------------------------------------------- validation
 
 
-def _show(value: Any) -> str:
-    """A value as the YAML author wrote it."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return repr(value)
-
-
-def _interval(lo: float | None, hi: float | None, lo_open: bool, hi_open: bool) -> str:
-    if lo is not None and hi is not None:
-        return f" in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
-    if lo is not None:
-        return f" {'>' if lo_open else '>='} {lo:g}"
-    if hi is not None:
-        return f" {'<' if hi_open else '<='} {hi:g}"
-    return ""
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-class _Section:
-    """Pulls typed fields out of one YAML mapping, naming the dotted field in errors."""
-
-    def __init__(self, where: str, data: Mapping[Any, Any], prefix: str = "") -> None:
-        self.where = where
-        self.data = data
-        self.prefix = prefix
-        self.used: set[str] = set()
-
-    def fail(self, key: str, msg: str) -> ConfigError:
-        return ConfigError(f"{self.where}: {self.prefix}{key}: {msg}")
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def number(
-        self,
-        key: str,
-        default: float,
-        lo: float | None = None,
-        hi: float | None = None,
-        *,
-        lo_open: bool = False,
-        hi_open: bool = False,
-    ) -> float:
-        self.used.add(key)
-        if key not in self.data:
-            return default
-        v = self.data[key]
-        ok = _is_number(v) and math.isfinite(v)
-        if ok and lo is not None:
-            ok = v > lo if lo_open else v >= lo
-        if ok and hi is not None:
-            ok = v < hi if hi_open else v <= hi
-        if not ok:
-            raise self.fail(
-                key, f"expected a number{_interval(lo, hi, lo_open, hi_open)}, got {_show(v)}"
-            )
-        return float(v)
-
-    def optional_number(self, key: str, lo: float, *, lo_open: bool = False) -> float | None:
-        """A number, or null (the default) for "off"."""
-        if self.data.get(key) is None:
-            self.used.add(key)
-            return None
-        v = self.data[key]
-        if not _is_number(v) or not math.isfinite(v) or (v <= lo if lo_open else v < lo):
-            interval = _interval(lo, None, lo_open, False)
-            raise self.fail(key, f"expected a number{interval} or null, got {_show(v)}")
-        self.used.add(key)
-        return float(v)
-
-    def integer(
-        self, key: str, default: int, lo: int, hi: int, *, hexadecimal: bool = False
-    ) -> int:
-        self.used.add(key)
-        if key not in self.data:
-            return default
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            got = f"0x{v:02x}" if hexadecimal and isinstance(v, int) and v >= 0 else _show(v)
-            span = f"0x{lo:02x}-0x{hi:02x}" if hexadecimal else f"{lo}-{hi}"
-            raise self.fail(key, f"expected an integer in {span}, got {got}")
-        return v
-
-    def optional_integer(self, key: str, lo: int, hi: int) -> int | None:
-        if self.data.get(key) is None:
-            self.used.add(key)
-            return None
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise self.fail(key, f"expected an integer in {lo}-{hi} or null, got {_show(v)}")
-        self.used.add(key)
-        return v
-
-    def boolean(self, key: str, default: bool) -> bool:
-        self.used.add(key)
-        v = self.data.get(key, default)
-        if not isinstance(v, bool):
-            raise self.fail(key, f"expected true or false, got {_show(v)}")
-        return v
-
-    def text(self, key: str, default: str) -> str:
-        self.used.add(key)
-        v = self.data.get(key, default)
-        if not isinstance(v, str) or not v.strip():
-            raise self.fail(key, f"expected a non-empty text, got {_show(v)}")
-        return v
-
-    def section(self, key: str) -> _Section:
-        """A nested mapping; absent or null reads as empty (all defaults)."""
-        self.used.add(key)
-        v = self.data.get(key)
-        if v is None:
-            v = {}
-        if not isinstance(v, Mapping):
-            raise self.fail(key, f"expected a mapping of fields, got {_show(v)}")
-        return _Section(self.where, v, f"{self.prefix}{key}.")
-
-    def sides(
-        self,
-        key: str,
-        default: float,
-        lo: float | None = None,
-        hi: float | None = None,
-        *,
-        lo_open: bool = False,
-    ) -> tuple[float, float]:
-        """``key: 0.033`` (both wheels) or ``key: {left: 0.033, right: 0.0331}``."""
-        if not isinstance(self.data.get(key), Mapping):
-            v = self.number(key, default, lo, hi, lo_open=lo_open)
-            return v, v
-        s = self.section(key)
-        for side in ("left", "right"):
-            if not s.has(side):
-                raise s.fail(side, "missing (give both left and right, or one number)")
-        out = (
-            s.number("left", default, lo, hi, lo_open=lo_open),
-            s.number("right", default, lo, hi, lo_open=lo_open),
-        )
-        s.finish()
-        return out
-
-    def vector(self, key: str, default: tuple[float, ...], n: int) -> tuple[float, ...]:
-        self.used.add(key)
-        if key not in self.data:
-            return default
-        v = self.data[key]
-        if (
-            not isinstance(v, list)
-            or len(v) != n
-            or not all(_is_number(x) and math.isfinite(x) for x in v)
-        ):
-            raise self.fail(key, f"expected a list of {n} numbers, got {_show(v)}")
-        return tuple(float(x) for x in v)
-
-    def finish(self) -> None:
-        unknown = sorted(str(k) for k in self.data if k not in self.used)
-        if unknown:
-            raise self.fail(unknown[0], "unknown field (check the spelling)")
-
-
-class _Loader(yaml.SafeLoader):
-    """Safe YAML that also reads ``1e-9`` as a number and refuses duplicate keys."""
-
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        seen: set[str] = set()
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)
-            if isinstance(key, str):
-                if key in seen:
-                    raise yaml.constructor.ConstructorError(
-                        None, None, f"duplicate field {key!r}", key_node.start_mark
-                    )
-                seen.add(key)
-        return super().construct_mapping(node, deep)
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
-
-
-def _read_yaml(path: Path) -> tuple[str, Mapping[Any, Any]]:
-    where = f"config {path.name}"
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"config file {path}: cannot read it ({exc.strerror or exc})") from exc
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"config file {path}: not UTF-8 text") from exc
-    try:
-        data = yaml.load(text, Loader=_Loader)  # a SafeLoader
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None)
-        line = f" line {mark.line + 1}:" if mark is not None else ""
-        detail = f" ({problem})" if problem else ""
-        raise ConfigError(f"{where}:{line} not valid YAML{detail}") from exc
-    if not isinstance(data, Mapping):
-        raise ConfigError(
-            f"{where}: expected a mapping of fields at the top level, got {_show(data)}"
-        )
-    return where, data
-
-
 def load_config(path: str | Path = DEFAULT_CONFIG) -> HostConfig:
     """Read and validate a host configuration file.
 
@@ -431,7 +215,7 @@ def load_config(path: str | Path = DEFAULT_CONFIG) -> HostConfig:
     Raises:
         ConfigError: One line naming the file and the field at fault.
     """
-    where, data = _read_yaml(Path(path))
+    where, data = read_yaml(Path(path), "config")
     return parse_config(data, where)
 
 
@@ -441,7 +225,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
     Raises:
         ConfigError: One line ``<where>: <dotted field>: <problem>``.
     """
-    top = _Section(where, data)
+    top = Fields(where, data)
     cfg = HostConfig(
         robot=_robot(top.section("robot")),
         odometry=_odometry(top.section("odometry")),
@@ -460,7 +244,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
     return cfg
 
 
-def _robot(s: _Section) -> RobotGeometry:
+def _robot(s: Fields) -> RobotGeometry:
     d = RobotGeometry()
     r_left, r_right = s.sides("wheel_radius_m", d.wheel_radius_left_m, 0.0, 1.0, lo_open=True)
     tpr_left, tpr_right = s.sides("ticks_per_rev", d.ticks_per_rev_left, 0.0, lo_open=True)
@@ -477,7 +261,7 @@ def _robot(s: _Section) -> RobotGeometry:
     return out
 
 
-def _odometry(s: _Section) -> OdometryCovariance:
+def _odometry(s: Fields) -> OdometryCovariance:
     d = OdometryCovariance()
     twist = s.section("twist_covariance")
     pose = s.section("pose_covariance")
@@ -494,7 +278,7 @@ def _odometry(s: _Section) -> OdometryCovariance:
     return out
 
 
-def _ekf(s: _Section) -> EkfSettings:
+def _ekf(s: Fields) -> EkfSettings:
     d = EkfSettings()
     q = s.section("process_noise")
     qd = ProcessNoise()
@@ -520,7 +304,7 @@ def _ekf(s: _Section) -> EkfSettings:
     return out
 
 
-def _limits(s: _Section) -> Limits:
+def _limits(s: Fields) -> Limits:
     d = Limits()
     out = Limits(
         **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
@@ -529,7 +313,7 @@ def _limits(s: _Section) -> Limits:
     return out
 
 
-def _deadband(s: _Section) -> Deadband:
+def _deadband(s: Fields) -> Deadband:
     d = Deadband()
     duty: dict[str, float] = {}
     for side in ("left", "right"):
@@ -554,7 +338,7 @@ def _deadband(s: _Section) -> Deadband:
     )
 
 
-def _wheel_pi(s: _Section) -> WheelPi:
+def _wheel_pi(s: Fields) -> WheelPi:
     d = WheelPi()
     out = WheelPi(
         enabled=s.boolean("enabled", d.enabled),
@@ -566,15 +350,15 @@ def _wheel_pi(s: _Section) -> WheelPi:
     return out
 
 
-def _actuator(s: _Section) -> Actuator:
+def _actuator(s: Fields) -> Actuator:
     s.used.add("actuator")
     v = s.data.get("actuator", "pca9685")
     if not isinstance(v, str) or v not in ACTUATORS:
-        raise s.fail("actuator", f"expected pca9685 or mcu, got {_show(v)}")
+        raise s.fail("actuator", f"expected pca9685 or mcu, got {show(v)}")
     return ACTUATORS[v]
 
 
-def _pca9685(s: _Section) -> Pca9685Settings:
+def _pca9685(s: Fields) -> Pca9685Settings:
     d = Pca9685Settings()
     bus = s.text("bus", d.bus)
     if bus.startswith(SOCKET_PREFIX):
@@ -583,12 +367,12 @@ def _pca9685(s: _Section) -> Pca9685Settings:
         number = bus.removeprefix("/dev/i2c-")
         valid_bus = number.isascii() and number.isdigit()
     if not valid_bus:
-        raise s.fail("bus", f"expected /dev/i2c-N or unix:/path/to.sock, got {_show(bus)}")
+        raise s.fail("bus", f"expected /dev/i2c-N or unix:/path/to.sock, got {show(bus)}")
     frequency = s.number("frequency_hz", d.frequency_hz, *PWM_FREQUENCY_RANGE_HZ)
     channels = s.section("channels")
     used: dict[int, str] = {}  # channel -> the field that took it
 
-    def claim(section: _Section, key: str, value: int) -> None:
+    def claim(section: Fields, key: str, value: int) -> None:
         if value in used:
             raise section.fail(key, f"channel {value} is already used by {used[value]}")
         used[value] = f"{section.prefix}{key}"
@@ -621,7 +405,7 @@ def _pca9685(s: _Section) -> Pca9685Settings:
     return out
 
 
-def _imu(s: _Section) -> ImuSettings:
+def _imu(s: Fields) -> ImuSettings:
     d = ImuSettings()
     calibration = None
     if s.data.get("calibration") is not None:
@@ -638,7 +422,7 @@ def _imu(s: _Section) -> ImuSettings:
     return out
 
 
-def _imu_calibration(s: _Section) -> ImuCalibration:
+def _imu_calibration(s: Fields) -> ImuCalibration:
     """The firmware's own acceptance test, so a bad calibration fails here, not as a NACK."""
     for key in ("rotation", "gyro_bias_rad_s", "accel_scale"):
         if not s.has(key):
@@ -679,7 +463,7 @@ def _imu_calibration(s: _Section) -> ImuCalibration:
     return out
 
 
-def _serial(s: _Section) -> SerialSettings:
+def _serial(s: Fields) -> SerialSettings:
     d = SerialSettings()
     out = SerialSettings(
         port=s.text("port", d.port),
@@ -692,7 +476,7 @@ def _serial(s: _Section) -> SerialSettings:
     return out
 
 
-def _recording(s: _Section) -> Path:
+def _recording(s: Fields) -> Path:
     out = Path(s.text("folder", "runs"))
     s.finish()
     return out
@@ -779,7 +563,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
 def _format(value: Any) -> str:
     """A leaf value for :func:`config_diff`: 621.0 as 621, None as null, tuples as lists."""
     if value is None or isinstance(value, bool):
-        return _show(value)
+        return show(value)
     if isinstance(value, float):
         return str(int(value)) if value.is_integer() and abs(value) < 1e15 else repr(value)
     if isinstance(value, (int, str, Path)):

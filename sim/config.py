@@ -12,19 +12,14 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-import yaml
-
+from jackson.protocol.fields import ConfigError as ConfigError  # re-exported
+from jackson.protocol.fields import Fields, read_yaml, show
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
 
 SIM_DIR = Path(__file__).resolve().parent
 ROBOTS_DIR = SIM_DIR / "robots"
 WORLDS_DIR = SIM_DIR / "worlds"
-
-
-class ConfigError(ValueError):
-    """A world or robot file is missing, unreadable or has a bad field."""
 
 
 @dataclass(frozen=True)
@@ -141,136 +136,6 @@ class WorldSpec:
 # ------------------------------------------------------------------------- validation
 
 
-class _Reader:
-    """Pulls typed fields out of a YAML mapping, naming the full field path in errors."""
-
-    def __init__(self, where: str, data: Mapping[str, Any], prefix: str = "") -> None:
-        self.where = where
-        self.data = data
-        self.prefix = prefix
-        self.used: set[str] = set()
-
-    def fail(self, key: str, msg: str) -> ConfigError:
-        return ConfigError(f"{self.where}: {self.prefix}{key}: {msg}")
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def number(
-        self,
-        key: str,
-        default: float,
-        lo: float | None = None,
-        *,
-        gt: bool = False,
-        hi: float | None = None,
-    ) -> float:
-        self.used.add(key)
-        if key not in self.data:
-            return default
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise self.fail(key, f"expected a number, got {v!r}")
-        if lo is not None and (v <= lo if gt else v < lo):
-            raise self.fail(key, f"expected a number {'>' if gt else '>='} {lo:g}, got {v!r}")
-        if hi is not None and v > hi:
-            raise self.fail(key, f"expected a number <= {hi:g}, got {v!r}")
-        return float(v)
-
-    def integer(self, key: str, default: int, lo: int, hi: int) -> int:
-        self.used.add(key)
-        if key not in self.data:
-            return default
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise self.fail(key, f"expected an integer in {lo}-{hi}, got {v!r}")
-        return v
-
-    def optional_integer(self, key: str, lo: int, hi: int) -> int | None:
-        if self.data.get(key) is None:
-            self.used.add(key)
-            return None
-        return self.integer(key, 0, lo, hi)
-
-    def boolean(self, key: str, default: bool) -> bool:
-        self.used.add(key)
-        v = self.data.get(key, default)
-        if not isinstance(v, bool):
-            raise self.fail(key, f"expected true or false, got {v!r}")
-        return v
-
-    def text(self, key: str, default: str) -> str:
-        self.used.add(key)
-        v = self.data.get(key, default)
-        if not isinstance(v, str):
-            raise self.fail(key, f"expected text, got {v!r}")
-        return v
-
-    def sub(self, key: str) -> _Reader:
-        self.used.add(key)
-        v = self.data.get(key, {})
-        if not isinstance(v, Mapping):
-            raise self.fail(key, f"expected a mapping, got {v!r}")
-        return _Reader(self.where, v, f"{self.prefix}{key}.")
-
-    def sides(
-        self, key: str, default: Sides, lo: float, *, gt: bool = False, hi: float | None = None
-    ) -> Sides:
-        """``key: 0.5`` (both sides) or ``key: {left: 0.5, right: 0.6}``."""
-        if isinstance(self.data.get(key), Mapping):
-            r = self.sub(key)
-            out = Sides(
-                r.number("left", default.left, lo, gt=gt, hi=hi),
-                r.number("right", default.right, lo, gt=gt, hi=hi),
-            )
-            r.finish()
-            return out
-        v = self.number(key, math.nan, lo, gt=gt, hi=hi) if key in self.data else None
-        return default if v is None else Sides(v, v)
-
-    def vector(self, key: str, default: tuple[float, ...], n: int) -> tuple[float, ...]:
-        self.used.add(key)
-        if key not in self.data:
-            return default
-        v = self.data[key]
-        if (
-            not isinstance(v, list)
-            or len(v) != n
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
-        ):
-            raise self.fail(key, f"expected a list of {n} numbers, got {v!r}")
-        return tuple(float(x) for x in v)
-
-    def items(self, key: str) -> list[Any]:
-        self.used.add(key)
-        v = self.data.get(key, [])
-        if v is None:
-            return []
-        if not isinstance(v, list):
-            raise self.fail(key, f"expected a list, got {v!r}")
-        return v
-
-    def finish(self) -> None:
-        unknown = sorted(set(self.data) - self.used)
-        if unknown:
-            raise self.fail(unknown[0], "unknown field (check the spelling)")
-
-
-def _load_yaml(path: Path, kind: str) -> tuple[str, Mapping[str, Any]]:
-    where = f"{kind} {path.name}"
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"{kind} file {path}: cannot read it ({exc.strerror})") from exc
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f" line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{where}:{line} is not valid YAML") from exc
-    if not isinstance(data, Mapping):
-        raise ConfigError(f"{where}: expected a mapping of fields at the top level")
-    return where, data
-
-
 def resolve(name_or_path: str | Path, folder: Path, kind: str = "file") -> Path:
     """A bundled name (``jackson``) or a path to a YAML file."""
     p = Path(name_or_path)
@@ -286,27 +151,27 @@ def resolve(name_or_path: str | Path, folder: Path, kind: str = "file") -> Path:
 def load_robot(name_or_path: str | Path) -> RobotSpec:
     """Read and validate a robot file (a bundled name like ``jackson`` or a path)."""
     path = resolve(name_or_path, ROBOTS_DIR, "robot")
-    where, data = _load_yaml(path, "robot")
-    r = _Reader(where, data)
-    m = r.sub("motor")
+    where, data = read_yaml(path, "robot")
+    r = Fields(where, data)
+    m = r.section("motor")
     motor = MotorSpec(
-        battery_v=m.number("battery_v", 6.0, 0, gt=True),
-        nominal_v=m.number("nominal_v", 6.0, 0, gt=True),
-        no_load_rpm=m.number("no_load_rpm", 100.0, 0, gt=True),
-        stall_torque_nm=m.number("stall_torque_nm", 0.6, 0, gt=True),
+        battery_v=m.number("battery_v", 6.0, 0, lo_open=True),
+        nominal_v=m.number("nominal_v", 6.0, 0, lo_open=True),
+        no_load_rpm=m.number("no_load_rpm", 100.0, 0, lo_open=True),
+        stall_torque_nm=m.number("stall_torque_nm", 0.6, 0, lo_open=True),
         time_constant_s=m.number("time_constant_s", 0.02, 0),
-        deadband_duty=m.sides("deadband_duty", Sides(0.10, 0.10), 0, hi=0.9),
-        gain=m.sides("gain", Sides(1.0, 1.0), 0, gt=True, hi=2.0),
-        wheel_inertia_kg_m2=m.number("wheel_inertia_kg_m2", 2.0e-4, 0, gt=True),
+        deadband_duty=Sides(*m.sides("deadband_duty", 0.10, 0, hi=0.9)),
+        gain=Sides(*m.sides("gain", 1.0, 0, lo_open=True, hi=2.0)),
+        wheel_inertia_kg_m2=m.number("wheel_inertia_kg_m2", 2.0e-4, 0, lo_open=True),
     )
     m.finish()
-    w = r.sub("wiring")
+    w = r.section("wiring")
 
     def wheel(key: str, default: MotorWiring) -> MotorWiring:
         if not w.has(key):
             w.used.add(key)
             return default
-        s = w.sub(key)
+        s = w.section(key)
         out = MotorWiring(
             s.integer("pwm", default.pwm, 0, 15),
             s.integer("in1", default.in1, 0, 15),
@@ -322,18 +187,18 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         stby_channel=w.optional_integer("stby_channel", 0, 15),
     )
     w.finish()
-    i = r.sub("imu")
+    i = r.section("imu")
     imu = ImuSpec(
         gyro_bias_rad_s=_v3(i.vector("gyro_bias_rad_s", (0.0, 0.0, 0.0), 3)),
         accel_bias_m_s2=_v3(i.vector("accel_bias_m_s2", (0.0, 0.0, 0.0), 3)),
         gyro_noise_sigma_rad_s=i.number("gyro_noise_sigma_rad_s", 3.999e-4, 0),
         accel_noise_sigma_m_s2=i.number("accel_noise_sigma_m_s2", 1.7976e-2, 0),
-        gravity_scale=i.number("gravity_scale", 1.0, 0, gt=True),
-        yaw_scale=i.number("yaw_scale", 1.0, 0, gt=True),
+        gravity_scale=i.number("gravity_scale", 1.0, 0, lo_open=True),
+        yaw_scale=i.number("yaw_scale", 1.0, 0, lo_open=True),
         present=i.boolean("present", True),
     )
     i.finish()
-    li = r.sub("lidar")
+    li = r.section("lidar")
     lidar = LidarMount(
         enabled=li.boolean("enabled", True),
         noise_sigma_m=li.number("noise_sigma_m", 0.01, 0),
@@ -351,11 +216,11 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
             raise r.fail(key, f"expected [min < 0, max > 0] around the axle centre, got {[lo, hi]}")
     spec = RobotSpec(
         name=r.text("name", path.stem),
-        mass_kg=r.number("mass_kg", 2.0, 0, gt=True),
-        inertia_kg_m2=r.number("inertia_kg_m2", 0.021, 0, gt=True),
-        wheel_radius_m=r.sides("wheel_radius_m", Sides(0.033, 0.033), 0, gt=True, hi=0.5),
-        track_width_m=r.number("track_width_m", 0.198, 0, gt=True, hi=2.0),
-        ticks_per_rev=r.sides("ticks_per_rev", Sides(621.0, 621.0), 0, gt=True),
+        mass_kg=r.number("mass_kg", 2.0, 0, lo_open=True),
+        inertia_kg_m2=r.number("inertia_kg_m2", 0.021, 0, lo_open=True),
+        wheel_radius_m=Sides(*r.sides("wheel_radius_m", 0.033, 0, lo_open=True, hi=0.5)),
+        track_width_m=r.number("track_width_m", 0.198, 0, lo_open=True, hi=2.0),
+        ticks_per_rev=Sides(*r.sides("ticks_per_rev", 621.0, 0, lo_open=True)),
         envelope_x_m=(ex[0], ex[1]),
         envelope_y_m=(ey[0], ey[1]),
         caster_load_fraction=r.number("caster_load_fraction", 0.2, 0, hi=0.9),
@@ -377,11 +242,11 @@ def _v3(v: tuple[float, ...]) -> tuple[float, float, float]:
 def load_world(name_or_path: str | Path) -> WorldSpec:
     """Read and validate a world file (a bundled name like ``open_floor`` or a path)."""
     path = resolve(name_or_path, WORLDS_DIR, "world")
-    where, data = _load_yaml(path, "world")
-    r = _Reader(where, data)
-    f = r.sub("floor")
-    mu_s = f.number("mu_static", 0.8, 0, gt=True)
-    mu_d = f.number("mu_dynamic", 0.7, 0, gt=True)
+    where, data = read_yaml(path, "world")
+    r = Fields(where, data)
+    f = r.section("floor")
+    mu_s = f.number("mu_static", 0.8, 0, lo_open=True)
+    mu_d = f.number("mu_dynamic", 0.7, 0, lo_open=True)
     f.finish()
     if mu_d > mu_s:
         raise r.fail("floor.mu_dynamic", f"must not exceed mu_static ({mu_s:g}), got {mu_d:g}")
@@ -392,14 +257,14 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
             or len(w) != 4
             or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
         ):
-            raise r.fail(f"walls[{k}]", f"expected [x1, y1, x2, y2] in metres, got {w!r}")
+            raise r.fail(f"walls[{k}]", f"expected [x1, y1, x2, y2] in metres, got {show(w)}")
         walls.append((float(w[0]), float(w[1]), float(w[2]), float(w[3])))
 
-    def cylinder(reader: _Reader) -> Cylinder:
+    def cylinder(reader: Fields) -> Cylinder:
         c = Cylinder(
             reader.number("x", math.nan),
             reader.number("y", math.nan),
-            reader.number("radius", math.nan, 0, gt=True),
+            reader.number("radius", math.nan, 0, lo_open=True),
         )
         for key in ("x", "y", "radius"):
             if not reader.has(key):
@@ -410,19 +275,20 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
     cylinders = []
     for k, c in enumerate(r.items("cylinders")):
         if not isinstance(c, Mapping):
-            raise r.fail(f"cylinders[{k}]", f"expected {{x, y, radius}}, got {c!r}")
-        cylinders.append(cylinder(_Reader(where, c, f"cylinders[{k}].")))
+            raise r.fail(f"cylinders[{k}]", f"expected {{x, y, radius}}, got {show(c)}")
+        cylinders.append(cylinder(Fields(where, c, f"cylinders[{k}].")))
     triggers = []
     for k, t in enumerate(r.items("triggers")):
         if not isinstance(t, Mapping):
-            raise r.fail(f"triggers[{k}]", f"expected {{when_moved_m, add_cylinder}}, got {t!r}")
-        tr = _Reader(where, t, f"triggers[{k}].")
+            expected = "expected {when_moved_m, add_cylinder}"
+            raise r.fail(f"triggers[{k}]", f"{expected}, got {show(t)}")
+        tr = Fields(where, t, f"triggers[{k}].")
         if not tr.has("when_moved_m") or not tr.has("add_cylinder"):
             raise tr.fail(
                 "when_moved_m" if not tr.has("when_moved_m") else "add_cylinder", "missing"
             )
         triggers.append(
-            Trigger(tr.number("when_moved_m", 0.0, 0), cylinder(tr.sub("add_cylinder")))
+            Trigger(tr.number("when_moved_m", 0.0, 0), cylinder(tr.section("add_cylinder")))
         )
         tr.finish()
     start = r.vector("start_pose", (0.0, 0.0, 0.0), 3)
