@@ -2,9 +2,10 @@
 
 Subscribes /wheel/odom and /odometry/filtered (reliable, depth 10), /imu/data (best effort,
 depth 5) and /diagnostics; once the daemon's topics arrive it publishes /cmd_vel (reliable,
-depth 1) at 20 Hz for ``--drive-s`` seconds, then stops and keeps listening for ``--after-s``
-seconds. Prints one JSON object: the message counts, the largest /wheel/odom speed, and the
-wall time from its last /cmd_vel to the first /wheel/odom at rest.
+depth 1; geometry_msgs/Twist, or TwistStamped with ``--stamped``) at 20 Hz for ``--drive-s``
+seconds, then stops and keeps listening for ``--after-s`` seconds. Prints one JSON object: the
+message counts, the largest /wheel/odom speed, and the wall time from its last /cmd_vel to the
+first /wheel/odom at rest.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
@@ -41,6 +42,7 @@ def main() -> int:
     ap.add_argument("--drive-s", type=float, default=1.0)
     ap.add_argument("--after-s", type=float, default=2.0)
     ap.add_argument("--ready-timeout-s", type=float, default=20.0)
+    ap.add_argument("--stamped", action="store_true", help="publish TwistStamped on /cmd_vel")
     a = ap.parse_args()
 
     rclpy.init()
@@ -66,7 +68,7 @@ def main() -> int:
     node.create_subscription(Odometry, "/odometry/filtered", counter("filtered"), qos(10, True))
     node.create_subscription(Imu, "/imu/data", counter("imu"), qos(5, False))
     node.create_subscription(DiagnosticArray, "/diagnostics", counter("diagnostics"), 10)
-    cmd = node.create_publisher(Twist, "/cmd_vel", qos(1, True))
+    cmd = node.create_publisher(TwistStamped if a.stamped else Twist, "/cmd_vel", qos(1, True))
 
     deadline = time.monotonic() + a.ready_timeout_s
     while counts["wheel_odom"] == 0 or cmd.get_subscription_count() == 0:
@@ -80,9 +82,16 @@ def main() -> int:
     next_cmd = time.monotonic()
     while time.monotonic() < t_end:
         if time.monotonic() >= next_cmd:
-            msg = Twist()
-            msg.linear.x = a.v
-            cmd.publish(msg)
+            twist = Twist()
+            twist.linear.x = a.v
+            if a.stamped:
+                stamped = TwistStamped()
+                stamped.header.stamp = node.get_clock().now().to_msg()
+                stamped.header.frame_id = "base_link"
+                stamped.twist = twist
+                cmd.publish(stamped)
+            else:
+                cmd.publish(twist)
             sent += 1
             next_cmd += CMD_PERIOD_S
         rclpy.spin_once(node, timeout_sec=0.005)

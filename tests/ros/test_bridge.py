@@ -73,11 +73,13 @@ def test_stamps_are_mcu_time_split_into_seconds_and_nanoseconds() -> None:
     assert (x, y) == (0.0, 0.0) and abs(z * z + w * w - 1.0) < 1e-12
 
 
+@pytest.mark.parametrize("stamped", [False, True], ids=["Twist", "TwistStamped"])
 def test_cmd_vel_drives_and_silence_brakes_within_0_6_s(
-    tmp_path: Path, ros_env: dict[str, str]
+    tmp_path: Path, ros_env: dict[str, str], stamped: bool
 ) -> None:
     """`jackson daemon --ros` against the twin; an rclpy client in another process listens with
-    the paper's QoS, drives through /cmd_vel for 1 s, then goes silent."""
+    the paper's QoS, drives through /cmd_vel for 1 s, then goes silent. /cmd_vel is a Twist, or
+    a TwistStamped with the daemon's ``cmd_vel_stamped`` parameter."""
     twin = TwinThread(tmp_path, world="open_floor", lockstep=False)
     run = tmp_path / "run"
     daemon = subprocess.Popen(
@@ -93,6 +95,7 @@ def test_cmd_vel_drives_and_silence_brakes_within_0_6_s(
             str(run),
             "--max-seconds",
             "30",
+            *(["--ros-args", "-p", "cmd_vel_stamped:=true"] if stamped else []),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -101,7 +104,8 @@ def test_cmd_vel_drives_and_silence_brakes_within_0_6_s(
     )
     try:
         out = subprocess.run(
-            [sys.executable, str(CLIENT), "--v", "0.15", "--drive-s", "1.0", "--after-s", "1.5"],
+            [sys.executable, str(CLIENT), "--v", "0.15", "--drive-s", "1.0", "--after-s", "1.5"]
+            + (["--stamped"] if stamped else []),
             capture_output=True,
             text=True,
             timeout=60,
