@@ -37,6 +37,7 @@ MCU's unwrapped clock in seconds, passed in by the caller: the filter never read
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -70,6 +71,9 @@ def wrap_angle(angle_rad: float) -> float:
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
+_IDENTITY = np.eye(STATE_SIZE)
+
+
 def transition(x: Vector, dt_s: float) -> Vector:
     """The process model f(x, dt) (module docstring); returns a new (7,) state."""
     yaw = x[YAW]
@@ -88,7 +92,7 @@ def transition_jacobian(x: Vector, dt_s: float) -> Matrix:
     yaw = x[YAW]
     c, s = math.cos(yaw), math.sin(yaw)
     half_dt2 = 0.5 * dt_s * dt_s
-    jac = np.eye(STATE_SIZE)
+    jac = _IDENTITY.copy()
     jac[X, YAW] = -(x[VX] * s + x[VY] * c) * dt_s - x[AX] * s * half_dt2
     jac[X, VX] = c * dt_s
     jac[X, VY] = -s * dt_s
@@ -426,8 +430,8 @@ class Ekf:
         """A frozen snapshot of the estimate."""
         return EkfState(
             t_s=self._t_s,
-            x=tuple(float(v) for v in self.x),
-            covariance_diagonal=tuple(float(v) for v in np.diag(self._kf.P)),
+            x=tuple(self.x.tolist()),
+            covariance_diagonal=tuple(np.diagonal(self._kf.P).tolist()),
             initialized=self._initialized,
         )
 
@@ -444,11 +448,13 @@ class Ekf:
         dt_s = t_s - self._t_s
         x = self.x
         jac = transition_jacobian(x, dt_s)
-        p = jac @ np.asarray(self._kf.P, dtype=np.float64) @ jac.T + dt_s * self._q_per_s
+        # only the diagonal of F P F^T + dt Q: row i of F P times row i of F
+        jp = jac @ np.asarray(self._kf.P, dtype=np.float64)
+        p_diag = np.einsum("ij,ij->i", jp, jac) + dt_s * np.diagonal(self._q_per_s)
         return EkfState(
             t_s=t_s,
-            x=tuple(float(v) for v in transition(x, dt_s)),
-            covariance_diagonal=tuple(float(v) for v in np.diag(p)),
+            x=tuple(transition(x, dt_s).tolist()),
+            covariance_diagonal=tuple(p_diag.tolist()),
             initialized=True,
         )
 
@@ -598,10 +604,7 @@ class Ekf:
             return True
 
         self.predict_to(m.t_s)
-        h_matrix = np.zeros((len(indices), STATE_SIZE))
-        for row, col in enumerate(indices):
-            h_matrix[row, col] = 1.0
-        residual = _residual_function(angular)
+        h_matrix, residual = _observation(tuple(indices), tuple(angular))
         if m.threshold is not None:  # gating: the innovation is judged before the update
             x_col = np.asarray(self._kf.x, dtype=np.float64)
             y = residual(z.reshape(-1, 1), h_matrix @ x_col).reshape(-1)
@@ -650,11 +653,24 @@ class Ekf:
         self.innovations[sensor] = Innovation(
             sensor=sensor,
             t_s=t_s,
-            y=tuple(float(v) for v in y),
-            S=tuple(tuple(float(v) for v in row) for row in s_matrix),
+            y=tuple(self._y.tolist()),
+            S=tuple(tuple(row) for row in self._S.tolist()),
             mahalanobis_sq=d2,
             accepted=accepted,
         )
+
+
+@functools.lru_cache(maxsize=64)
+def _observation(
+    indices: tuple[int, ...], angular: tuple[bool, ...]
+) -> tuple[Matrix, Callable[[Matrix, Matrix], Matrix]]:
+    """H selecting the measured state components, and the residual for them (one per sensor
+    layout, built once: the daemon measures the same components every frame)."""
+    h_matrix = np.zeros((len(indices), STATE_SIZE))
+    for row, col in enumerate(indices):
+        h_matrix[row, col] = 1.0
+    h_matrix.flags.writeable = False  # shared between calls
+    return h_matrix, _residual_function(list(angular))
 
 
 def _residual_function(angular: list[bool]) -> Callable[[Matrix, Matrix], Matrix]:
