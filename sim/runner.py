@@ -115,6 +115,7 @@ class TwinRunner:
         self._stop: Event | None = None
         self._host_gone: int | None = None  # heartbeats seen when the host went silent
         self._pace_origin = (0.0, 0.0)
+        self._session_wall0 = 0.0  # wall time of the HELLO (run() statistics)
         self._sel = selectors.DefaultSelector()
         self._sel.register(self.i2c, selectors.EVENT_READ, "i2c")
         if self.link is not None:
@@ -234,8 +235,12 @@ class TwinRunner:
     # ------------------------------------------------------------------ the loop
 
     def run(self, duration_s: float | None = None, stop: Event | None = None) -> RunnerStats:
-        """Run until ``duration_s`` of simulated time after the HELLO, or until ``stop``."""
-        wall0 = time.monotonic()
+        """Run until ``duration_s`` of simulated time after the HELLO, or until ``stop``.
+
+        The wall time in the returned stats counts from the HELLO (the clock stands still
+        before it), so its real-time factor is the loop's own.
+        """
+        self._session_wall0 = time.monotonic()  # replaced at the HELLO
         start_s = self.twin.t_s
         self._stop = stop
         if self.firmware is not None:
@@ -243,7 +248,10 @@ class TwinRunner:
         else:
             self._run_emulator(duration_s, stop)
         return RunnerStats(
-            self.twin.t_s - start_s, time.monotonic() - wall0, self.frames, self.heartbeat_timeouts
+            self.twin.t_s - start_s,
+            time.monotonic() - self._session_wall0,
+            self.frames,
+            self.heartbeat_timeouts,
         )
 
     def _done(self, end_s: float | None, stop: Event | None) -> bool:
@@ -260,6 +268,7 @@ class TwinRunner:
             self._serve(0.05)
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
+        self._session_wall0 = wall0
         while not self._done(end_s, stop):
             now = self.twin.t_us
             self._check_outage()
@@ -310,6 +319,7 @@ class TwinRunner:
             status = fw.wait_heartbeat(256, 50, on_wait=lambda: self.i2c.service(0.0))
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
+        self._session_wall0 = wall0
         last_seq = status.telemetry_seq
         while not self._done(end_s, stop):
             now = self.twin.t_us
