@@ -86,9 +86,12 @@ class PcntEncoders final : public Encoders {
                           pcnt_channel_edge_action_t on_rise, pcnt_channel_edge_action_t on_fall) {
     pcnt_chan_config_t cfg{};
     cfg.edge_gpio_num = edge;
-    cfg.level_gpio_num = level;  // the driver enables the input pull-ups
+    cfg.level_gpio_num = level;
     pcnt_channel_handle_t chan = nullptr;
     ESP_ERROR_CHECK(pcnt_new_channel(unit, &cfg, &chan));
+    // Pull-ups for open-collector encoders: not every ESP-IDF 5.x PCNT driver enables them.
+    ESP_ERROR_CHECK(gpio_pullup_en(pin(edge)));
+    ESP_ERROR_CHECK(gpio_pullup_en(pin(level)));
     ESP_ERROR_CHECK(pcnt_channel_set_edge_action(chan, on_rise, on_fall));
     ESP_ERROR_CHECK(pcnt_channel_set_level_action(chan, PCNT_CHANNEL_LEVEL_ACTION_KEEP,
                                                   PCNT_CHANNEL_LEVEL_ACTION_INVERSE));
@@ -259,7 +262,6 @@ class Tb6612Motors final : public MotorOutput {
       ch.gpio_num = b.pwm;
       ch.speed_mode = LEDC_LOW_SPEED_MODE;
       ch.channel = b.channel;
-      ch.intr_type = LEDC_INTR_DISABLE;
       ch.timer_sel = LEDC_TIMER_0;
       ch.duty = 0;
       ESP_ERROR_CHECK(ledc_channel_config(&ch));
@@ -321,7 +323,11 @@ void init_nvs() {
 void watch_this_task() {
   esp_task_wdt_config_t cfg{};
   cfg.timeout_ms = kTaskWatchdogMs;
+#ifdef CONFIG_FREERTOS_NUMBER_OF_CORES  // ESP-IDF 5.3 and later
+  cfg.idle_core_mask = (1u << CONFIG_FREERTOS_NUMBER_OF_CORES) - 1u;
+#else
   cfg.idle_core_mask = (1u << portNUM_PROCESSORS) - 1u;
+#endif
   cfg.trigger_panic = true;
   if (esp_task_wdt_reconfigure(&cfg) == ESP_ERR_INVALID_STATE) {
     ESP_ERROR_CHECK(esp_task_wdt_init(&cfg));
