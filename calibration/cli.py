@@ -244,6 +244,19 @@ def _per_run(values: Sequence[float] | None, n: int, option: str) -> list[float]
     return list(values)
 
 
+def _measured(
+    data: Sequence[proc.RunData], given: list[float] | None, note: str, what: str, option: str
+) -> list[float]:
+    """Each run's measured value: from the command line, else from the note its recording
+    kept (the value the user typed in during the run)."""
+    if given is not None:
+        return given
+    missing = next((r for r in data if note not in r.notes), None)
+    if missing is not None:
+        raise CalibrateCliError(f"run {missing.name}: no {what}: give {option}")
+    return [float(r.notes[note]) for r in data]
+
+
 def _load(folders: Sequence[Path]) -> list[proc.RunData]:
     from jackson.calibration import runs
 
@@ -302,15 +315,8 @@ def cmd_encoders(args: argparse.Namespace) -> int:
         folders = list(args.runs)
     data = _load(folders)
     given = _per_run(args.distance, len(data), "--distance")
-    straight = []
-    for k, run_data in enumerate(data):
-        if given is not None:
-            d = given[k]
-        elif "measured_distance_m" in run_data.notes:
-            d = run_data.notes["measured_distance_m"]
-        else:
-            raise CalibrateCliError(f"run {run_data.name}: no measured distance: give --distance")
-        straight.append(proc.straight_run(run_data, d))
+    distances = _measured(data, given, "measured_distance_m", "measured distance", "--distance")
+    straight = [proc.straight_run(r, d) for r, d in zip(data, distances, strict=True)]
     g = cfg.robot
     res = proc.calibrate_encoders(straight, g)
     print(f"encoder resolution (Eq. A6, C_0 = {g.ticks_per_rev_left:g}/{g.ticks_per_rev_right:g})")
@@ -370,15 +376,10 @@ def cmd_track(args: argparse.Namespace) -> int:
         folders = list(args.runs)
     data = _load(folders)
     given = _per_run(args.true_turns, len(data), "--true-turns")
-    rotations = []
-    for k, run_data in enumerate(data):
-        if given is not None:
-            rot = given[k] * TWO_PI
-        elif "true_rotation_rad" in run_data.notes:
-            rot = run_data.notes["true_rotation_rad"]
-        else:
-            raise CalibrateCliError(f"run {run_data.name}: no true rotation: give --true-turns")
-        rotations.append(proc.rotation_run(run_data, rot))
+    if given is not None:
+        given = [turns * TWO_PI for turns in given]
+    true_rad = _measured(data, given, "true_rotation_rad", "true rotation", "--true-turns")
+    rotations = [proc.rotation_run(r, rot) for r, rot in zip(data, true_rad, strict=True)]
     g = cfg.robot
     res = proc.calibrate_track(rotations, g)
     print(f"wheel separation (Eq. A12, r = {g.wheel_radius_left_m:g}/{g.wheel_radius_right_m:g} m)")

@@ -432,6 +432,20 @@ def test_a_zero_distance_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert "measured distance must be > 0 m, got 0" in one_error_line(capsys)
 
 
+def test_a_run_without_its_measurement_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = make_run(tmp_path / "r", [(0, 0), (3000, 3000)])
+    assert calibrate("encoders", "--runs", str(run)) == 2
+    assert one_error_line(capsys) == (
+        "jackson calibrate encoders: run r: no measured distance: give --distance"
+    )
+    assert calibrate("track", "--runs", str(run)) == 2
+    assert one_error_line(capsys) == (
+        "jackson calibrate track: run r: no true rotation: give --true-turns"
+    )
+
+
 def test_a_robot_that_did_not_move_is_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
