@@ -201,14 +201,14 @@ def straight_run(run: RunData, measured_m: float) -> StraightRun:
     Raises:
         CalibrationError: The run has fewer than two frames.
     """
+    return StraightRun(run.name, *_count_change(run), measured_m)
+
+
+def _count_change(run: RunData) -> tuple[int, int]:
+    """Left and right count change from the run's first to its last telemetry frame."""
     if run.frames < 2:
         raise CalibrationError(f"run {run.name}: fewer than two telemetry frames")
-    return StraightRun(
-        run.name,
-        int(run.enc_left[-1] - run.enc_left[0]),
-        int(run.enc_right[-1] - run.enc_right[0]),
-        measured_m,
-    )
+    return int(run.enc_left[-1] - run.enc_left[0]), int(run.enc_right[-1] - run.enc_right[0])
 
 
 def calibrate_encoders(runs: Sequence[StraightRun], geometry: RobotGeometry) -> EncoderCalibration:
@@ -324,14 +324,7 @@ def rotation_run(run: RunData, true_rotation_rad: float) -> RotationRun:
     Raises:
         CalibrationError: The run has fewer than two frames.
     """
-    if run.frames < 2:
-        raise CalibrationError(f"run {run.name}: fewer than two telemetry frames")
-    return RotationRun(
-        run.name,
-        int(run.enc_left[-1] - run.enc_left[0]),
-        int(run.enc_right[-1] - run.enc_right[0]),
-        true_rotation_rad,
-    )
+    return RotationRun(run.name, *_count_change(run), true_rotation_rad)
 
 
 def calibrate_track(runs: Sequence[RotationRun], geometry: RobotGeometry) -> TrackCalibration:
