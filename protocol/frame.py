@@ -40,6 +40,7 @@ class Frame(NamedTuple):
     type: int
     seq: int
     payload: bytes
+    crc: int = 0  # the frame's CRC-32C; ACK and NACK echo it as acked_crc
 
 
 @dataclass(slots=True)
@@ -194,7 +195,8 @@ class FrameDecoder:
                     pos += 1
                     continue
                 break
-            if crc32c(buf[pos + 2 : end]) != _U32.unpack_from(buf, end)[0]:
+            crc = _U32.unpack_from(buf, end)[0]
+            if crc32c(buf[pos + 2 : end]) != crc:
                 c.crc_errors += 1
                 skipped += 1
                 pos += 1
@@ -209,12 +211,12 @@ class FrameDecoder:
             if ftype not in MESSAGES:
                 c.unknown_type += 1
                 if self.deliver_unknown:
-                    frames.append(Frame(ftype, seq, bytes(buf[pos + HEADER_SIZE : end])))
+                    frames.append(Frame(ftype, seq, bytes(buf[pos + HEADER_SIZE : end]), crc))
                 skipped += end + CRC_SIZE - pos
                 pos = end + CRC_SIZE
                 continue
             c.frames_ok += 1
-            frames.append(Frame(ftype, seq, bytes(buf[pos + HEADER_SIZE : end])))
+            frames.append(Frame(ftype, seq, bytes(buf[pos + HEADER_SIZE : end]), crc))
             pos = end + CRC_SIZE
         c.bytes_skipped += skipped
         if pos:

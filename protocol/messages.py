@@ -1,4 +1,4 @@
-"""Message classes generated from protocol/schema.yaml (schema 0x118cdaf8).
+"""Message classes generated from protocol/schema.yaml (schema 0x7a8c5dff).
 
 Do not edit: change the schema and run ``python -m jackson.protocol.codegen``.
 """
@@ -13,7 +13,7 @@ from typing import ClassVar
 Buffer = bytes | bytearray | memoryview
 
 PROTOCOL_VERSION = 1
-SCHEMA_HASH = 0x118cdaf8
+SCHEMA_HASH = 0x7a8c5dff
 MAX_PAYLOAD = 120
 PARTIAL_TIMEOUT_US = 20000
 
@@ -58,6 +58,7 @@ class TelemetryFlags(enum.IntFlag):
     I2C_ERRORS = 1 << 6
     TX_DROPPED = 1 << 7
     MOTOR_OUTPUT = 1 << 12
+    MOTOR_ENABLE = 1 << 13
 
 
 class Capabilities(enum.IntFlag):
@@ -69,9 +70,9 @@ class Capabilities(enum.IntFlag):
 
 _TELEMETRY = struct.Struct("<IiiH3hh3h")
 _STATUS = struct.Struct("<IIIIIIIHH")
-_INFO = struct.Struct("<BI3BHHBBBB9f3ff")
-_ACK = struct.Struct("<BB")
-_NACK = struct.Struct("<BBB")
+_INFO = struct.Struct("<BI3BHHBBBB9f3ffI")
+_ACK = struct.Struct("<BBI")
+_NACK = struct.Struct("<BBBI")
 _LOG = struct.Struct("<B")
 _HELLO = struct.Struct("<BI")
 _HEARTBEAT = struct.Struct("<BB")
@@ -146,7 +147,7 @@ class Info:
 
     TYPE: ClassVar[int] = 0x03
     NAME: ClassVar[str] = 'info'
-    SIZE: ClassVar[int] = 68
+    SIZE: ClassVar[int] = 72
     protocol_version: int = 0
     schema_hash: int = 0
     firmware_version: tuple[int, int, int] = (0, 0, 0)
@@ -159,18 +160,19 @@ class Info:
     imu_rotation: tuple[float, float, float, float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     gyro_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
     accel_scale: float = 0.0
+    boot_id: int = 0
 
     def pack(self) -> bytes:
         """Payload bytes of this message."""
-        return _INFO.pack(self.protocol_version, self.schema_hash, *self.firmware_version, self.telemetry_rate_hz, self.failsafe_ms, self.accel_fs, self.gyro_fs, self.direction_flags, self.capabilities, *self.imu_rotation, *self.gyro_bias, self.accel_scale)
+        return _INFO.pack(self.protocol_version, self.schema_hash, *self.firmware_version, self.telemetry_rate_hz, self.failsafe_ms, self.accel_fs, self.gyro_fs, self.direction_flags, self.capabilities, *self.imu_rotation, *self.gyro_bias, self.accel_scale, self.boot_id)
 
     @classmethod
     def unpack(cls, payload: Buffer) -> Info:
         """Decode a payload; missing trailing bytes read as zero, extra bytes are ignored."""
-        if len(payload) < 68:
-            payload = bytes(payload) + bytes(68 - len(payload))
+        if len(payload) < 72:
+            payload = bytes(payload) + bytes(72 - len(payload))
         v = _INFO.unpack_from(payload)
-        return cls(v[0], v[1], (v[2], v[3], v[4]), v[5], v[6], v[7], v[8], v[9], v[10], (v[11], v[12], v[13], v[14], v[15], v[16], v[17], v[18], v[19]), (v[20], v[21], v[22]), v[23])
+        return cls(v[0], v[1], (v[2], v[3], v[4]), v[5], v[6], v[7], v[8], v[9], v[10], (v[11], v[12], v[13], v[14], v[15], v[16], v[17], v[18], v[19]), (v[20], v[21], v[22]), v[23], v[24])
 
 
 @dataclass(frozen=True, slots=True)
@@ -179,21 +181,22 @@ class Ack:
 
     TYPE: ClassVar[int] = 0x04
     NAME: ClassVar[str] = 'ack'
-    SIZE: ClassVar[int] = 2
+    SIZE: ClassVar[int] = 6
     acked_type: int = 0
     acked_seq: int = 0
+    acked_crc: int = 0
 
     def pack(self) -> bytes:
         """Payload bytes of this message."""
-        return _ACK.pack(self.acked_type, self.acked_seq)
+        return _ACK.pack(self.acked_type, self.acked_seq, self.acked_crc)
 
     @classmethod
     def unpack(cls, payload: Buffer) -> Ack:
         """Decode a payload; missing trailing bytes read as zero, extra bytes are ignored."""
-        if len(payload) < 2:
-            payload = bytes(payload) + bytes(2 - len(payload))
+        if len(payload) < 6:
+            payload = bytes(payload) + bytes(6 - len(payload))
         v = _ACK.unpack_from(payload)
-        return cls(v[0], v[1])
+        return cls(v[0], v[1], v[2])
 
 
 @dataclass(frozen=True, slots=True)
@@ -202,22 +205,23 @@ class Nack:
 
     TYPE: ClassVar[int] = 0x05
     NAME: ClassVar[str] = 'nack'
-    SIZE: ClassVar[int] = 3
+    SIZE: ClassVar[int] = 7
     acked_type: int = 0
     acked_seq: int = 0
     error: int = 0
+    acked_crc: int = 0
 
     def pack(self) -> bytes:
         """Payload bytes of this message."""
-        return _NACK.pack(self.acked_type, self.acked_seq, self.error)
+        return _NACK.pack(self.acked_type, self.acked_seq, self.error, self.acked_crc)
 
     @classmethod
     def unpack(cls, payload: Buffer) -> Nack:
         """Decode a payload; missing trailing bytes read as zero, extra bytes are ignored."""
-        if len(payload) < 3:
-            payload = bytes(payload) + bytes(3 - len(payload))
+        if len(payload) < 7:
+            payload = bytes(payload) + bytes(7 - len(payload))
         v = _NACK.unpack_from(payload)
-        return cls(v[0], v[1], v[2])
+        return cls(v[0], v[1], v[2], v[3])
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,6 +20,16 @@ SCAN_HISTORY = 64
 them after every advance of the clock, and a constant memory use however long it runs."""
 
 
+def _boot_id(text: str) -> int:
+    try:
+        value = int(text, 0)
+    except ValueError:
+        value = -1
+    if not 0 < value < 1 << 32:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number in 1..2^32-1")
+    return value
+
+
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "sim",
@@ -41,6 +51,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="the MCU drives the motors (MOTOR_PWM) instead of the PCA9685",
     )
     p.add_argument("--seed", type=int, default=0, help="noise seed (runs are deterministic)")
+    p.add_argument(
+        "--boot-id",
+        type=_boot_id,
+        help="the MCU's boot_id in INFO (default: random, as each boot of the robot)",
+    )
     p.add_argument("--i2c", type=Path, help="I2C socket path (default: a fresh temporary path)")
     p.add_argument("--link", help="also make this symlink to the serial port (e.g. /tmp/robot)")
     p.add_argument("--no-lidar", action="store_true", help="do not simulate the LiDAR")
@@ -111,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
             serial_link=args.link,
             observer=publisher.on_advance if publisher is not None else None,
             spin_s=0.0 if args.realtime else max(0.0, args.spin_us) / 1e6,
+            boot_id=args.boot_id,
         )
     except (I2cServerError, FirmwareError, OSError) as exc:
         if publisher is not None:

@@ -74,12 +74,19 @@ class FirmwareProcess:
     """One running POSIX firmware, driven through its sensor feed."""
 
     def __init__(
-        self, binary: Path | None = None, *, motors: bool = False, imu_present: bool = True
+        self,
+        binary: Path | None = None,
+        *,
+        motors: bool = False,
+        imu_present: bool = True,
+        boot_id: int | None = None,
     ) -> None:
         exe = Path(os.environ.get("JACKSON_FIRMWARE_POSIX", binary or DEFAULT_BINARY))
         if not exe.exists():
             raise FirmwareError(f"{exe} is missing: build it with `make native`")
         args = [str(exe)] + (["--motors"] if motors else []) + ([] if imu_present else ["--no-imu"])
+        if boot_id:
+            args += ["--boot-id", str(boot_id)]
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
         assert self.proc.stdin is not None and self.proc.stdout is not None
         self._out = self.proc.stdout

@@ -134,11 +134,13 @@ class McuEmulator:
         motor_output: bool = False,
         imu_present: bool = True,
         boot_us: int = 0,
+        boot_id: int = 1,
     ) -> None:
         self._write = write
         self._sensors = sensors
         self.motor_output = motor_output
         self.imu_present = imu_present
+        self.boot_id = boot_id  # INFO's boot_id: a new one means the MCU was reset
         self.decoder = FrameDecoder(deliver_unknown=True)
         self.rate_hz = 20
         self.failsafe_ms = 600
@@ -385,6 +387,7 @@ class McuEmulator:
                     float(self.gyro_bias[2]),
                 ),
                 accel_scale=float(self.accel_scale),
+                boot_id=self.boot_id,
             )
         )
 
@@ -414,11 +417,11 @@ class McuEmulator:
     # ------------------------------------------------------------------ commands
 
     def _ack(self, f: Frame) -> None:
-        self._send(Ack(acked_type=f.type, acked_seq=f.seq))
+        self._send(Ack(acked_type=f.type, acked_seq=f.seq, acked_crc=f.crc))
 
     def _nack(self, f: Frame, e: NackError) -> None:
         self.rx_bad_commands += 1
-        self._send(Nack(acked_type=f.type, acked_seq=f.seq, error=int(e)))
+        self._send(Nack(acked_type=f.type, acked_seq=f.seq, error=int(e), acked_crc=f.crc))
 
     def _handle(self, f: Frame, now: int) -> None:
         if f.type not in MESSAGES or f.type < 0x80:

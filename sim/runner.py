@@ -16,6 +16,7 @@ time, once the wall clock has caught up); ``jackson sim --ros`` publishes from i
 
 from __future__ import annotations
 
+import secrets
 import selectors
 import time
 from collections.abc import Callable
@@ -68,8 +69,11 @@ class TwinRunner:
         drop_telemetry: Callable[[int], bool] | None = None,
         observer: Callable[[Twin], None] | None = None,
         spin_s: float = 0.0,
+        boot_id: int | None = None,
     ) -> None:
         self.twin = twin
+        # INFO's boot_id (protocol/spec.md §8.6): random like the ESP32's unless given
+        self.boot_id = boot_id if boot_id else (secrets.randbits(32) | 1)
         # lockstep waits poll this long before blocking (jackson.protocol.spin); only worth it
         # when the host is another process
         self.spin_s = spin_s
@@ -89,7 +93,7 @@ class TwinRunner:
         self.mcu: McuEmulator | None = None
         if firmware:
             self.firmware = FirmwareProcess(
-                motors=mcu_motors, imu_present=twin.robot_spec.imu.present
+                motors=mcu_motors, imu_present=twin.robot_spec.imu.present, boot_id=self.boot_id
             )
             self.serial_path = self.firmware.serial_path
         else:
@@ -101,6 +105,7 @@ class TwinRunner:
                 motor_output=mcu_motors,
                 imu_present=twin.robot_spec.imu.present,
                 boot_us=twin.t_us,
+                boot_id=self.boot_id,
             )
         self.frames = 0
         self.heartbeat_timeouts = 0

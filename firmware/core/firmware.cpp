@@ -228,6 +228,7 @@ void Firmware::send_info() {
   info.imu_rotation = cal_.rotation_row_major();
   info.gyro_bias = {cal_.gyro_bias_rad_s[0], cal_.gyro_bias_rad_s[1], cal_.gyro_bias_rad_s[2]};
   info.accel_scale = cal_.accel_scale;
+  info.boot_id = hal_.boot_id;
   send(info);
 }
 
@@ -248,6 +249,7 @@ void Firmware::ack(const proto::Frame& f) {
   proto::Ack a;
   a.acked_type = f.type;
   a.acked_seq = f.seq;
+  a.acked_crc = f.crc;
   send(a);
 }
 
@@ -257,6 +259,7 @@ void Firmware::nack(const proto::Frame& f, proto::NackError e) {
   n.acked_type = f.type;
   n.acked_seq = f.seq;
   n.error = static_cast<uint8_t>(e);
+  n.acked_crc = f.crc;
   send(n);
 }
 

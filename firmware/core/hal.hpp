@@ -71,6 +71,8 @@ class MotorOutput {
 };
 
 /// Everything the core needs from a board. `motors` may be null (no motor output).
+/// `boot_id` is a random non-zero number drawn at every boot (the ESP32's hardware RNG); INFO
+/// reports it, so the host tells an MCU reset from a reconnect.
 struct Hal {
   Clock& clock;
   Encoders& encoders;
@@ -78,6 +80,7 @@ struct Hal {
   SerialPort& serial;
   Storage& storage;
   MotorOutput* motors;
+  uint32_t boot_id = 1;
 };
 
 }  // namespace jackson::fw

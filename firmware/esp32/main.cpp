@@ -13,6 +13,7 @@
 #include "driver/pulse_cnt.h"
 #include "driver/usb_serial_jtag.h"
 #include "esp_err.h"
+#include "esp_random.h"
 #include "esp_task_wdt.h"
 #include "esp_timer.h"
 #include "firmware.hpp"
@@ -352,7 +353,8 @@ extern "C" void app_main(void) {
     static Tb6612Motors tb6612;
     motors = &tb6612;
   }
-  static Hal hal{clock, encoders, i2c, serial, storage, motors};
+  // a new random boot_id each boot lets the host tell a reset from a reconnect
+  static Hal hal{clock, encoders, i2c, serial, storage, motors, esp_random() | 1u};
   static Firmware firmware(hal);
   firmware.begin();
   watch_this_task();

@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <random>
 #include <string>
 
 #include "firmware.hpp"
@@ -39,12 +40,13 @@ struct Options {
   bool imu = true;
   std::string storage_dir;
   std::string link;
+  uint32_t boot_id = 0;  ///< 0: draw one from std::random_device
 };
 
 [[noreturn]] void usage_error(const char* what) {
   std::fprintf(stderr,
                "jackson-firmware-posix: %s\nusage: jackson-firmware-posix [--realtime] "
-               "[--motors] [--no-imu] [--storage DIR] [--link PATH]\n",
+               "[--motors] [--no-imu] [--storage DIR] [--link PATH] [--boot-id N]\n",
                what);
   std::exit(2);
 }
@@ -63,6 +65,8 @@ Options parse(int argc, char** argv) {
       o.storage_dir = argv[++i];
     } else if (a == "--link" && i + 1 < argc) {
       o.link = argv[++i];
+    } else if (a == "--boot-id" && i + 1 < argc) {
+      o.boot_id = static_cast<uint32_t>(std::strtoul(argv[++i], nullptr, 0));
     } else {
       usage_error(("unknown argument " + a).c_str());
     }
@@ -93,7 +97,9 @@ struct Process {
 
   explicit Process(const Options& o)
       : storage(o.storage_dir),
-        hal{clock, encoders, i2c, serial, storage, o.motors ? &motors : nullptr},
+        hal{clock, encoders, i2c,
+            serial, storage, o.motors ? &motors : nullptr,
+            o.boot_id != 0 ? o.boot_id : (std::random_device{}() | 1u)},
         fw(hal) {}
 
   // Runs tick() at every deadline of the core up to `t` (lockstep), then at `t` itself.

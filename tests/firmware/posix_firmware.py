@@ -49,6 +49,7 @@ class PosixFirmware:
         self.port = serial.Serial(self.path, baudrate=921600, timeout=0)
         self.decoder = FrameDecoder()
         self.host_seq = 0
+        self.last_crc = 0
 
     def close(self) -> None:
         self.port.close()
@@ -79,10 +80,13 @@ class PosixFirmware:
         return self._command(f"w {seq} {timeout_ms}")
 
     def send(self, msg: Message) -> int:
+        """Send ``msg``; its SEQ (the frame's CRC, which ACK/NACK echo, is in ``last_crc``)."""
         seq = self.host_seq
-        self.port.write(encode_frame(msg, seq))
+        frame = encode_frame(msg, seq)
+        self.port.write(frame)
         self.port.flush()
         self.host_seq = (seq + 1) & 0xFF
+        self.last_crc = int.from_bytes(frame[-4:], "little")
         return seq
 
     def receive(self, settle_s: float = 0.05) -> list[Message]:

@@ -80,19 +80,19 @@ def test_commands_are_acknowledged_and_take_effect(fw: PosixFirmware) -> None:
     t += 1_000
     fw.step(t, 500, 500)
     got = fw.receive()
-    assert Ack(acked_type=SetRate.TYPE, acked_seq=seq) in got
+    assert Ack(acked_type=SetRate.TYPE, acked_seq=seq, acked_crc=fw.last_crc) in got
     fw.step(t + 100_000, 500, 500)
     tel = [m for m in fw.receive() if isinstance(m, Telemetry)]
     assert len(tel) == 10  # 100 Hz
     seq = fw.send(ZeroCounters(mask=3))
     fw.step(t + 101_000, 500, 500)
-    assert Ack(acked_type=ZeroCounters.TYPE, acked_seq=seq) in fw.receive()
+    assert Ack(acked_type=ZeroCounters.TYPE, acked_seq=seq, acked_crc=fw.last_crc) in fw.receive()
     fw.step(t + 120_000, 520, 490)
     tel = [m for m in fw.receive() if isinstance(m, Telemetry)]
     assert (tel[-1].enc_left, tel[-1].enc_right) == (20, -10)
     bad = fw.send(SetRate(rate_hz=0))
     fw.step(t + 121_000, 520, 490)
-    assert Nack(acked_type=SetRate.TYPE, acked_seq=bad, error=2) in fw.receive()
+    assert Nack(acked_type=SetRate.TYPE, acked_seq=bad, error=2, acked_crc=fw.last_crc) in fw.receive()
 
 
 def test_calibration_turns_raw_into_flagged_base_frame_values(fw: PosixFirmware) -> None:
@@ -153,7 +153,7 @@ def test_garbage_on_the_link_is_counted_not_fatal(fw: PosixFirmware) -> None:
     assert reply.session
     seq = fw.send(SetRate(rate_hz=20))
     fw.step(t + PERIOD_US + 1_000)
-    assert Ack(acked_type=SetRate.TYPE, acked_seq=seq) in fw.receive()
+    assert Ack(acked_type=SetRate.TYPE, acked_seq=seq, acked_crc=fw.last_crc) in fw.receive()
 
 
 def test_client_can_close_and_reopen_the_port(fw: PosixFirmware) -> None:

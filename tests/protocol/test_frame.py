@@ -26,9 +26,10 @@ def test_crc32c_check_value() -> None:
 
 
 def test_ack_frame_bytes_by_hand() -> None:
-    body = bytes([0x01, 0x04, 0x09, 0x02, 0x83, 0x09])  # VER TYPE SEQ LEN payload
+    # VER TYPE SEQ LEN payload (acked_type, acked_seq, acked_crc)
+    body = bytes([0x01, 0x04, 0x09, 0x06, 0x83, 0x09, 0x44, 0x33, 0x22, 0x11])
     expected = b"\xa5\x5a" + body + struct.pack("<I", crc32c(body))
-    assert encode_frame(Ack(acked_type=0x83, acked_seq=9), 9) == expected
+    assert encode_frame(Ack(acked_type=0x83, acked_seq=9, acked_crc=0x11223344), 9) == expected
 
 
 def test_telemetry_frame_is_38_bytes_little_endian() -> None:

@@ -65,6 +65,7 @@ struct Frame {
   uint8_t seq;
   uint8_t len;
   const uint8_t* payload;
+  uint32_t crc = 0;  ///< the frame's CRC-32C (ACK and NACK echo it as acked_crc)
 
   /// Decodes the payload into `msg` (zero-filling missing trailing fields); false on type mismatch.
   template <class Msg>
@@ -183,12 +184,14 @@ class FrameDecoder {
       last_seq_ = seq;
       if (!is_known_type(type)) {
         ++counters_.unknown_type;
-        if (deliver_unknown_) sink(Frame{type, seq, static_cast<uint8_t>(len), buf_.data() + kHeaderSize});
+        if (deliver_unknown_) {
+          sink(Frame{type, seq, static_cast<uint8_t>(len), buf_.data() + kHeaderSize, crc});
+        }
         skip(total);
         continue;
       }
       ++counters_.frames_ok;
-      sink(Frame{type, seq, static_cast<uint8_t>(len), buf_.data() + kHeaderSize});
+      sink(Frame{type, seq, static_cast<uint8_t>(len), buf_.data() + kHeaderSize, crc});
       drop(total);
     }
     if (final) {

@@ -1,4 +1,4 @@
-// Message structs generated from protocol/schema.yaml (schema 0x118cdaf8).
+// Message structs generated from protocol/schema.yaml (schema 0x7a8c5dff).
 // Do not edit: change the schema and run `python -m jackson.protocol.codegen`.
 #pragma once
 
@@ -12,7 +12,7 @@
 namespace jackson::protocol {
 
 constexpr uint8_t kProtocolVersion = 1;
-constexpr uint32_t kSchemaHash = 0x118cdaf8u;
+constexpr uint32_t kSchemaHash = 0x7a8c5dffu;
 constexpr size_t kMaxPayload = 120;
 constexpr uint32_t kPartialTimeoutUs = 20000;
 
@@ -48,6 +48,7 @@ constexpr uint16_t kRxErrors = 1u << 5;
 constexpr uint16_t kI2cErrors = 1u << 6;
 constexpr uint16_t kTxDropped = 1u << 7;
 constexpr uint16_t kMotorOutput = 1u << 12;
+constexpr uint16_t kMotorEnable = 1u << 13;
 }  // namespace telemetry_flags
 
 namespace capabilities {
@@ -206,8 +207,8 @@ struct Status {
 struct Info {
   static constexpr uint8_t kType = 0x03;
   static constexpr const char* kName = "info";
-  static constexpr size_t kSize = 68;  ///< fixed part, bytes
-  static constexpr size_t kMaxSize = 68;
+  static constexpr size_t kSize = 72;  ///< fixed part, bytes
+  static constexpr size_t kMaxSize = 72;
   uint8_t protocol_version = 0;
   uint32_t schema_hash = 0;
   std::array<uint8_t, 3> firmware_version{};
@@ -220,6 +221,7 @@ struct Info {
   std::array<float, 9> imu_rotation{};
   std::array<float, 3> gyro_bias{};
   float accel_scale = 0;
+  uint32_t boot_id = 0;
 
   /// Writes the payload to `out` (at least kMaxSize bytes); returns its length.
   size_t encode(uint8_t* out) const noexcept {
@@ -236,6 +238,7 @@ struct Info {
     o += wire::put(out + o, imu_rotation);
     o += wire::put(out + o, gyro_bias);
     o += wire::put(out + o, accel_scale);
+    o += wire::put(out + o, boot_id);
     (void)out;
     return o;
   }
@@ -257,6 +260,7 @@ struct Info {
     o += wire::get(buf + o, imu_rotation);
     o += wire::get(buf + o, gyro_bias);
     o += wire::get(buf + o, accel_scale);
+    o += wire::get(buf + o, boot_id);
     (void)buf;
     (void)o;
   }
@@ -275,6 +279,7 @@ struct Info {
     f("imu_rotation", imu_rotation);
     f("gyro_bias", gyro_bias);
     f("accel_scale", accel_scale);
+    f("boot_id", boot_id);
     (void)f;
   }
   template <class F>
@@ -291,6 +296,7 @@ struct Info {
     f("imu_rotation", imu_rotation);
     f("gyro_bias", gyro_bias);
     f("accel_scale", accel_scale);
+    f("boot_id", boot_id);
     (void)f;
   }
 };
@@ -299,16 +305,18 @@ struct Info {
 struct Ack {
   static constexpr uint8_t kType = 0x04;
   static constexpr const char* kName = "ack";
-  static constexpr size_t kSize = 2;  ///< fixed part, bytes
-  static constexpr size_t kMaxSize = 2;
+  static constexpr size_t kSize = 6;  ///< fixed part, bytes
+  static constexpr size_t kMaxSize = 6;
   uint8_t acked_type = 0;
   uint8_t acked_seq = 0;
+  uint32_t acked_crc = 0;
 
   /// Writes the payload to `out` (at least kMaxSize bytes); returns its length.
   size_t encode(uint8_t* out) const noexcept {
     size_t o = 0;
     o += wire::put(out + o, acked_type);
     o += wire::put(out + o, acked_seq);
+    o += wire::put(out + o, acked_crc);
     (void)out;
     return o;
   }
@@ -320,6 +328,7 @@ struct Ack {
     size_t o = 0;
     o += wire::get(buf + o, acked_type);
     o += wire::get(buf + o, acked_seq);
+    o += wire::get(buf + o, acked_crc);
     (void)buf;
     (void)o;
   }
@@ -328,12 +337,14 @@ struct Ack {
   void for_each_field(F&& f) {
     f("acked_type", acked_type);
     f("acked_seq", acked_seq);
+    f("acked_crc", acked_crc);
     (void)f;
   }
   template <class F>
   void for_each_field(F&& f) const {
     f("acked_type", acked_type);
     f("acked_seq", acked_seq);
+    f("acked_crc", acked_crc);
     (void)f;
   }
 };
@@ -342,11 +353,12 @@ struct Ack {
 struct Nack {
   static constexpr uint8_t kType = 0x05;
   static constexpr const char* kName = "nack";
-  static constexpr size_t kSize = 3;  ///< fixed part, bytes
-  static constexpr size_t kMaxSize = 3;
+  static constexpr size_t kSize = 7;  ///< fixed part, bytes
+  static constexpr size_t kMaxSize = 7;
   uint8_t acked_type = 0;
   uint8_t acked_seq = 0;
   uint8_t error = 0;
+  uint32_t acked_crc = 0;
 
   /// Writes the payload to `out` (at least kMaxSize bytes); returns its length.
   size_t encode(uint8_t* out) const noexcept {
@@ -354,6 +366,7 @@ struct Nack {
     o += wire::put(out + o, acked_type);
     o += wire::put(out + o, acked_seq);
     o += wire::put(out + o, error);
+    o += wire::put(out + o, acked_crc);
     (void)out;
     return o;
   }
@@ -366,6 +379,7 @@ struct Nack {
     o += wire::get(buf + o, acked_type);
     o += wire::get(buf + o, acked_seq);
     o += wire::get(buf + o, error);
+    o += wire::get(buf + o, acked_crc);
     (void)buf;
     (void)o;
   }
@@ -375,6 +389,7 @@ struct Nack {
     f("acked_type", acked_type);
     f("acked_seq", acked_seq);
     f("error", error);
+    f("acked_crc", acked_crc);
     (void)f;
   }
   template <class F>
@@ -382,6 +397,7 @@ struct Nack {
     f("acked_type", acked_type);
     f("acked_seq", acked_seq);
     f("error", error);
+    f("acked_crc", acked_crc);
     (void)f;
   }
 };
