@@ -92,7 +92,9 @@ def test_commands_are_acknowledged_and_take_effect(fw: PosixFirmware) -> None:
     assert (tel[-1].enc_left, tel[-1].enc_right) == (20, -10)
     bad = fw.send(SetRate(rate_hz=0))
     fw.step(t + 121_000, 520, 490)
-    assert Nack(acked_type=SetRate.TYPE, acked_seq=bad, error=2, acked_crc=fw.last_crc) in fw.receive()
+    assert (
+        Nack(acked_type=SetRate.TYPE, acked_seq=bad, error=2, acked_crc=fw.last_crc) in fw.receive()
+    )
 
 
 def test_calibration_turns_raw_into_flagged_base_frame_values(fw: PosixFirmware) -> None:

@@ -39,9 +39,7 @@ CORRUPT = b"\x00\xa5\x5a\x01\x82\x00\x02\x14\x00\xde\xad\xbe\xef"
 def scenario(robot: str, *args: str) -> bytes:
     """120 frames of lockstep with commands; a host's commands go before its heartbeat, as the
     daemon sends them, so both MCUs see them at the same instant."""
-    twin = TwinProcess(
-        "--no-lidar", "--seed", "3", "--boot-id", "0x5eed", "--robot", robot, *args
-    )
+    twin = TwinProcess("--no-lidar", "--seed", "3", "--boot-id", "0x5eed", "--robot", robot, *args)
     host = twin.host()
     try:
         host.connect()
