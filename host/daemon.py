@@ -19,12 +19,14 @@ replay``. Per telemetry frame, on MCU time (the unwrapped ``t_us``, never the wa
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import queue
 import signal
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -35,13 +37,17 @@ from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.actuation.watchdog import CommandWatchdog
 from jackson.host.actuation.wheel_pi import WheelPiConfig, WheelSpeedPi
+from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS, Mission, NavState
+from jackson.host.control.guard import MissionGuard
 from jackson.host.ekf import Ekf, EkfConfig, EkfState, GyroBiasEstimator
 from jackson.host.odometry import OdometryConfig, OdometryState, WheelOdometry
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
+    PROTOCOL_VERSION,
     Frame,
+    FrameVersionError,
     Heartbeat,
     HostState,
     Info,
@@ -165,12 +171,20 @@ class HostCore:
         *,
         mission: Mission | None = None,
         recorder: RunRecorder | None = None,
+        mission_timeout_s: float | None = None,
     ) -> None:
         self.cfg = cfg
         self.output = output
         self.send = send
         self.mission = mission
         self.recorder = recorder
+        self.guard = MissionGuard(mission.name, mission_timeout_s) if mission is not None else None
+        self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
+        self.mcu_resets = 0  # INFO with another boot_id: counts and clock re-anchored
+        self.host_state = HostState.ACTIVE  # sent in every HEARTBEAT (SHUTDOWN drops the interlock)
+        self._reanchor = False
+        self._wheel_cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] commanded at the last frame
+        self._rx_ns = 0
         self.unwrapper = TimestampUnwrapper()
         self.odometry = WheelOdometry(odometry_config(cfg))
         self.ekf = Ekf(ekf_config(cfg))
@@ -243,13 +257,30 @@ class HostCore:
             self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
         for listener in self.listeners:
             listener.on_frame(frame, host_time_ns)
+        self._rx_ns = host_time_ns
         msg = decode_message(frame)
         if isinstance(msg, Info):
             check_peer(msg)  # raises ProtocolMismatchError naming both versions
+            if self.info is not None and msg.boot_id != self.info.boot_id:
+                # an MCU reset: its counts and clock restart; the next frame is a new origin
+                self.mcu_resets += 1
+                self._reanchor = True
+                self.event(f"mcu reset: boot_id {self.info.boot_id:#010x} -> {msg.boot_id:#010x}")
             self.info = msg
             self._configure_device()
         elif isinstance(msg, Telemetry):
             self._on_telemetry(msg, frame.seq)
+
+    def event(self, text: str) -> None:
+        """Something the operator should know, in the run's log (a link record)."""
+        if self.recorder is not None:
+            self.recorder.link(self._rx_ns, text)
+
+    def abort(self, reason: str) -> None:
+        """Stop the mission for good: brake from now on; the daemon exits naming ``reason``."""
+        if self.abort_reason is None:
+            self.abort_reason = reason
+            self.event(f"mission aborted: {reason}")
 
     def _configure_device(self) -> None:
         """Bring the device's rate, ranges, direction flags and failsafe to the config."""
@@ -260,6 +291,10 @@ class HostCore:
     # ------------------------------------------------------------------ the frame
 
     def _on_telemetry(self, t: Telemetry, seq: int) -> None:
+        if self._reanchor:
+            self._reanchor = False
+            self.unwrapper.reanchor()
+            self.odometry.reanchor()
         t_s = self.unwrapper.unwrap(t.t_us) / 1e6
         self.t_s = t_s
         self.frames += 1
@@ -283,9 +318,9 @@ class HostCore:
             if bias is not None:
                 ekf.update_gyro(t_s, wz - bias)
         # command and actuation
-        v_cmd, w_cmd, brake = self._command(t_s, odo)
+        v_cmd, w_cmd, brake = self._command(t_s, odo, t)
         self._actuate(t_s, v_cmd, w_cmd, brake, odo)
-        self.send(Heartbeat(ack_seq=seq, host_state=HostState.ACTIVE))
+        self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
         self.last_telemetry = t
         for listener in self.listeners:
             listener.on_telemetry(self, t)
@@ -333,13 +368,27 @@ class HostCore:
         e = self.ekf
         return NavState(self.t_s or 0.0, e.x_m, e.y_m, e.yaw_rad, e.vx_m_s, e.vyaw_rad_s)
 
-    def _command(self, t_s: float, odo: OdometryState) -> tuple[float, float, bool]:
+    def _command(self, t_s: float, odo: OdometryState, t: Telemetry) -> tuple[float, float, bool]:
         if self._taken is not None:
             self.external = (self._taken[0], self._taken[1])
             self._taken = None
             self.watchdog.feed(t_s)
         if self.mission is not None:
-            if self.gyro_bias.bias_rad_s is None:
+            if self.abort_reason is not None:
+                return 0.0, 0.0, True
+            bias_known = self.gyro_bias.bias_rad_s is not None
+            if self.guard is not None and not self.mission.done:
+                reason = self.guard.check(
+                    t_s,
+                    bool(t.flags & TelemetryFlags.IMU_OK),
+                    bias_known,
+                    (t.enc_left, t.enc_right),
+                    self._wheel_cmd,
+                )
+                if reason is not None:
+                    self.abort(reason)
+                    return 0.0, 0.0, True
+            if not bias_known:
                 return 0.0, 0.0, True  # stand still until the gyro bias is known
             v, w = self.mission.command(self.nav_state())
             return v, w, self.mission.done
@@ -359,12 +408,14 @@ class HostCore:
             self.braked = True
             duties = (0.0, 0.0)
             v = w = 0.0
+            self._wheel_cmd = (0.0, 0.0)
         else:
             v, w = self.limiter.limit(v_cmd, w_cmd, t_s)
             r = self.cfg.robot
             om_l, om_r = inverse(
                 v, w, r.wheel_radius_left_m, r.wheel_radius_right_m, r.wheel_separation_m
             )
+            self._wheel_cmd = (om_l, om_r)
             d_l = wheel_duty(om_l, "left", self.deadband)
             d_r = wheel_duty(om_r, "right", self.deadband)
             if self.pi is not None:
@@ -400,8 +451,80 @@ class HostCore:
         self.braked = True
 
 
+class DaemonError(RuntimeError):
+    """The daemon cannot go on (a device that refuses its commands, another protocol)."""
+
+
+@dataclass(frozen=True)
+class LinkHealth:
+    """What the link and the motor path went through, for /diagnostics and the run folder.
+
+    Attributes
+    ----------
+    link_up : bool
+        The serial port is open.
+    reconnects, silences : int
+        Port reopened after a loss; HELLO re-sent after a silent second on an open port.
+    frames_lost, crc_errors, resyncs, unknown_version : int
+        From the host's decoder: frames missing by SEQ, candidates failing their CRC, partial
+        frames dropped after 20 ms of silence, candidates of another frame version.
+    mcu_resets : int
+        INFO with another boot_id (counts and clock re-anchored).
+    nacks, retries, unanswered_motor : int
+        Commands refused, sent again, MOTOR_PWM without an ACK.
+    i2c_errors, i2c_reinits, i2c_foreign_writes : int
+        The PCA9685 path's faults (0 with the MCU driving the motors).
+    i2c_bus_up : bool
+        The PCA9685 path is working.
+    motor_enable : bool
+        The MCU's interlock line (telemetry MOTOR_ENABLE).
+    """
+
+    link_up: bool = False
+    reconnects: int = 0
+    silences: int = 0
+    frames_lost: int = 0
+    crc_errors: int = 0
+    resyncs: int = 0
+    unknown_version: int = 0
+    mcu_resets: int = 0
+    nacks: int = 0
+    retries: int = 0
+    unanswered_motor: int = 0
+    i2c_errors: int = 0
+    i2c_reinits: int = 0
+    i2c_foreign_writes: int = 0
+    i2c_bus_up: bool = True
+    motor_enable: bool = False
+
+    def problems(self) -> list[str]:
+        """What an operator should look at, one phrase each (empty when all is well)."""
+        out = [] if self.link_up else ["serial link down"]
+        for name, text in (
+            ("frames_lost", "frames lost"),
+            ("crc_errors", "CRC errors"),
+            ("resyncs", "partial frames dropped"),
+            ("mcu_resets", "MCU resets"),
+            ("nacks", "commands refused"),
+            ("i2c_errors", "I2C errors"),
+            ("i2c_foreign_writes", "PCA9685 registers changed by someone else"),
+        ):
+            n = getattr(self, name)
+            if n:
+                out.append(f"{n} {text}")
+        if not self.i2c_bus_up:
+            out.append("PCA9685 bus down: braked by the MCU interlock")
+        return out
+
+
+VERSION_SILENCE_S = 1.0  # [s] frames of another version and no INFO: report the mismatch
+
+
 class Daemon:
-    """The process: transport, core, recorder, signals. ``run()`` returns an exit status."""
+    """The process: transport, core, recorder, signals. ``run()`` returns an exit status:
+    0 when it stopped as asked or the mission is done, 1 when the mission was aborted
+    (:attr:`HostCore.abort_reason`). A device that refuses a command, never answers one, or
+    speaks another protocol raises :class:`DaemonError` (or ProtocolMismatchError)."""
 
     def __init__(
         self,
@@ -413,14 +536,27 @@ class Daemon:
         run_folder: Path | None = None,
         meta: dict[str, Any] | None = None,
         ros_args: list[str] | None = None,
+        mission_timeout_s: float | None = None,
+        notifier: Any = None,
     ) -> None:
         self.cfg = cfg
         self.transport = transport
+        self.run_folder = run_folder
         self.recorder = RunRecorder(run_folder, meta or {}) if run_folder is not None else None
+        self.commands = CommandTracker(transport.encode, self._send_frame)
         mission = MISSIONS[mission_name]() if mission_name else None
+        self.output = output_factory(self._send)
         self.core = HostCore(
-            cfg, output_factory(self._send), self._send, mission=mission, recorder=self.recorder
+            cfg,
+            self.output,
+            self._send,
+            mission=mission,
+            recorder=self.recorder,
+            mission_timeout_s=mission_timeout_s,
         )
+        self.notifier = notifier  # systemd sd_notify (host/sdnotify.py), or None
+        # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
+        transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         self.bag: Any = None
         if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
             from jackson.host.ros.bag import BagRecorder
@@ -436,9 +572,14 @@ class Daemon:
             self.core.listeners.append(_BridgeListener(self.bridge))
         self.stop = threading.Event()
         self.link_downs = 0
+        self.events: list[str] = []  # what the operator was told, in order
 
     def _send(self, msg: Message) -> object:
-        frame = self.transport.encode(msg)
+        if isinstance(msg, Heartbeat):
+            return self._send_frame(self.transport.encode(msg))
+        return self.commands.send(msg)
+
+    def _send_frame(self, frame: bytes) -> object:
         if self.recorder is not None:
             self.recorder.tx(time.monotonic_ns(), frame)
         return self.transport.send_raw(frame)
@@ -450,56 +591,160 @@ class Daemon:
         signal.signal(signal.SIGINT, on_signal)
         signal.signal(signal.SIGTERM, on_signal)
 
+    def tell(self, text: str) -> None:
+        """One line for the operator: printed, and in the run's log."""
+        self.events.append(text)
+        print(f"daemon: {text}", flush=True)
+        if self.recorder is not None:
+            self.recorder.link(time.monotonic_ns(), text)
+
+    def health(self) -> LinkHealth:
+        """The link's and the motor path's state now."""
+        c = self.transport.decoder.counters
+        out = self.output
+        h = out.health() if hasattr(out, "health") else None
+        last = self.core.last_telemetry
+        return LinkHealth(
+            link_up=bool(self.transport.link_up),
+            reconnects=self.transport.reconnects,
+            silences=getattr(self.transport, "silences", 0),
+            frames_lost=c.seq_lost,
+            crc_errors=c.crc_errors,
+            resyncs=c.timeouts,
+            unknown_version=c.unknown_version,
+            mcu_resets=self.core.mcu_resets,
+            nacks=self.commands.counters.nacked,
+            retries=self.commands.counters.retried,
+            unanswered_motor=self.commands.counters.motor_unacked,
+            i2c_errors=getattr(h, "i2c_errors", 0),
+            i2c_reinits=getattr(h, "reinits", 0),
+            i2c_foreign_writes=getattr(h, "foreign_writes", 0),
+            i2c_bus_up=not getattr(h, "bus_down", False),
+            motor_enable=bool(last is not None and last.flags & TelemetryFlags.MOTOR_ENABLE),
+        )
+
+    def _check_version(self, started_s: float) -> None:
+        """Frames of another frame version and no INFO for a second: say so, once."""
+        dec = self.transport.decoder
+        if self.core.info is not None or dec.counters.unknown_version == 0:
+            return
+        if time.monotonic() - started_s < VERSION_SILENCE_S:
+            return
+        where = f"device on {getattr(self.transport, 'port_name', 'the link')}"
+        raise FrameVersionError(getattr(dec, "last_unknown_version", None), PROTOCOL_VERSION, where)
+
+    def _motor_path(self, was_up: bool) -> bool:
+        """Follow the PCA9685 path's health; while its bus is down the heartbeats say SHUTDOWN,
+        so the MCU drops the interlock line and the bridge brakes without the bus."""
+        h = self.output.health() if hasattr(self.output, "health") else None
+        up = not getattr(h, "bus_down", False)
+        if up != was_up:
+            if up:
+                self.core.host_state = HostState.ACTIVE
+                self.tell("PCA9685 bus back: motor output re-initialised")
+            else:
+                self.core.host_state = HostState.SHUTDOWN
+                err = getattr(h, "last_error", "")
+                self.tell(f"PCA9685 bus down ({err}): braking through the MCU interlock")
+        return up
+
     def run(self, max_s: float | None = None) -> int:
         from jackson.host.transport import LinkEvent
 
         core = self.core
-        deadline = None if max_s is None else time.monotonic() + max_s
+        started = time.monotonic()
+        deadline = None if max_s is None else started + max_s
+        bus_up = True
         if self.bridge is not None:
             self.bridge.start()
+        if self.notifier is not None:
+            self.notifier.ready()
         try:
             while not self.stop.is_set():
                 if deadline is not None and time.monotonic() > deadline:
                     break
+                if self.notifier is not None:
+                    self.notifier.watchdog()
+                try:
+                    self.commands.poll()
+                except CommandError as exc:
+                    raise DaemonError(str(exc)) from exc
+                self._check_version(started)
+                bus_up = self._motor_path(bus_up)
                 try:
                     item = self.transport.items.get(timeout=0.1)
                 except queue.Empty:
                     continue
                 if isinstance(item, LinkEvent):
-                    if self.recorder is not None:
-                        self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     if item.kind == "down":
                         self.link_downs += 1
                         core.brake()
+                        self.tell(f"serial link down ({item.detail}): braked, reconnecting")
+                    elif item.kind == "up":
+                        self.commands.forget()
+                        if self.link_downs:
+                            self.tell("serial link up again")
+                    elif self.recorder is not None:
+                        self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     continue
                 rx_ns, frame = item
+                try:
+                    self.commands.on_frame(frame)
+                except CommandError as exc:
+                    raise DaemonError(str(exc)) from exc
+                resets = core.mcu_resets
                 core.on_frame(frame, rx_ns)
+                if core.mcu_resets != resets:
+                    self.tell(
+                        "the MCU was reset: odometry and time re-anchored, device set up again"
+                    )
+                if core.abort_reason is not None:
+                    self.tell(f"mission aborted: {core.abort_reason}")
+                    break
                 if self.bridge is not None and core.last_telemetry is not None:
                     from jackson.host.ros.bridge import diagnostic_values
 
                     self.bridge.diagnostics(
-                        diagnostic_values(
-                            core,
-                            core.last_telemetry,
-                            link_up=self.transport.link_up,
-                            crc_errors=self.transport.decoder.counters.crc_errors,
-                        )
+                        diagnostic_values(core, core.last_telemetry, link=self.health())
                     )
                 if core.mission is not None and core.mission.done and core.braked:
                     break
         finally:
             core.brake()
+            if self.notifier is not None:
+                self.notifier.stopping()
             if self.bridge is not None:
                 self.bridge.stop()
             self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
             if self.recorder is not None:
+                self._write_health()
                 self.recorder.close()
             if self.bag is not None:
                 try:
                     self.bag.close()
                 except Exception as exc:
                     print(f"daemon: the run's bag did not close cleanly: {exc}", flush=True)
-        return 0
+        return 1 if core.abort_reason is not None else 0
+
+    def _write_health(self) -> None:
+        assert self.run_folder is not None
+        h = self.health()
+        doc = {
+            "link": dataclasses.asdict(h),
+            "problems": h.problems(),
+            "abort_reason": self.core.abort_reason,
+            "events": self.events,
+            "commands": {
+                "acked": self.commands.counters.acked,
+                "nacked": self.commands.counters.nacked,
+                "retried": self.commands.counters.retried,
+                "errors": self.commands.counters.errors,
+            },
+        }
+        try:
+            (self.run_folder / "health.json").write_text(json.dumps(doc, indent=2) + "\n")
+        except OSError as exc:
+            print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
 
 
 def with_port(cfg: HostConfig, port: str | None) -> HostConfig:

@@ -38,6 +38,7 @@ velocities, and its counts are carried into the next frame's velocity.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, fields
 
@@ -227,6 +228,16 @@ class WheelOdometry:
         self._pending_left_rad = 0.0  # rotation since _t_ref_s not yet turned into a velocity
         self._pending_right_rad = 0.0
         self._state = OdometryState()
+        self._reanchored = False
+
+    def reanchor(self) -> None:
+        """Keep the pose, forget the reference counts: the next update is a new reference with
+        no motion. For counters that restarted under the host (an MCU reset, protocol/spec.md
+        §8.6), whose first counts would otherwise be integrated as a jump."""
+        if self._enc_left is None:
+            return
+        self._enc_left = self._enc_right = None
+        self._reanchored = True
 
     @property
     def state(self) -> OdometryState:
@@ -252,7 +263,19 @@ class WheelOdometry:
         if self._enc_left is None or self._enc_right is None:
             self._enc_left, self._enc_right = enc_left, enc_right
             self._t_ref_s = t_s
-            self._state = OdometryState(t_s=t_s)
+            if self._reanchored:  # same pose and wheel angles, standing still
+                self._reanchored = False
+                self._pending_left_rad = self._pending_right_rad = 0.0
+                self._state = dataclasses.replace(
+                    self._state,
+                    t_s=t_s,
+                    v_m_s=0.0,
+                    w_rad_s=0.0,
+                    wheel_velocity_left_rad_s=0.0,
+                    wheel_velocity_right_rad_s=0.0,
+                )
+            else:
+                self._state = OdometryState(t_s=t_s)
             return self._state
 
         n_left = tick_delta(self._enc_left, enc_left)

@@ -1,10 +1,15 @@
 """The serial link to the MCU: a pyserial reader thread, the handshake, reconnection.
 
-The reader thread owns the port: it opens it, sends HELLO, reads, decodes and hands every frame
-to the daemon through a queue with the host's receive time. When the port disappears (USB
-unplugged, the twin's pty closed) it reports the link down, retries with backoff from 0.1 s to
-2 s, and on success sends HELLO again; the daemon never restarts. Writes come from the daemon's
-thread and never block: a write to a link that is down is dropped and counted.
+The reader thread owns the port: it opens it exclusively (a second program opening the same
+port gets one clear line instead of stealing frames), discards whatever was buffered, sends
+HELLO, reads, decodes and hands every frame to the daemon through a queue with the host's
+receive time. While no byte arrives it polls the decoder every few milliseconds, so a partial
+frame is dropped 20 ms after its last byte arrived (protocol/spec.md §5.2). When the port
+disappears (USB unplugged, the twin's pty closed) it reports the link down and retries forever
+with backoff from 0.1 s to 2 s; on success it sends HELLO again. When the port stays open but
+the device falls silent (an MCU reset behind a UART bridge ends the session), it re-sends HELLO
+every ``silence_s``. The daemon never restarts. Writes come from the daemon's thread and never
+block: a write to a link that is down is dropped and counted.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import queue
 import threading
 import time
 from dataclasses import dataclass
+from termios import error as termios_error
 from typing import Literal
 
 import serial
@@ -23,6 +29,8 @@ from jackson.protocol import Frame, FrameDecoder, Message, encode_frame, hello
 
 FIRST_BACKOFF_S = 0.1
 MAX_BACKOFF_S = 2.0
+READ_TIMEOUT_S = 0.005  # [s] the reader's longest block: the decoder is polled this often
+SILENCE_S = 1.0  # [s] no frame for this long on an open port: send HELLO again
 
 
 class LinkError(RuntimeError):
@@ -33,7 +41,7 @@ class LinkError(RuntimeError):
 class LinkEvent:
     """A change of the link's state, in the frame queue between frames."""
 
-    kind: Literal["up", "down"]
+    kind: Literal["up", "down", "silent"]
     rx_time_ns: int
     detail: str = ""
 
@@ -49,6 +57,11 @@ def open_error(port: str, exc: BaseException) -> LinkError:
         return LinkError(
             f"permission denied on {port}: add yourself to the dialout group "
             "(sudo usermod -aG dialout $USER) and log in again"
+        )
+    if code in (errno.EAGAIN, errno.EWOULDBLOCK) or "exclusively lock" in text:
+        return LinkError(
+            f"serial port {port} is in use by another program (a running jackson daemon or "
+            "monitor?): stop it first, or look with: fuser -v " + port
         )
     if code == errno.ENOENT or "No such file" in text:
         return LinkError(
@@ -74,6 +87,10 @@ class SerialTransport:
         self.link_up = False
         self.reconnects = 0
         self.writes_dropped = 0
+        self.hellos = 0  # HELLOs sent (first, after reconnects, after silence)
+        self.silences = 0  # times the open port fell silent for silence_s
+        self.silence_s = SILENCE_S
+        self._last_rx_s = 0.0
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -94,15 +111,32 @@ class SerialTransport:
 
     def _connect(self) -> None:
         try:
-            port = serial.Serial(self.port_name, self.baudrate, timeout=0.02, write_timeout=0)
+            port = serial.Serial(
+                self.port_name,
+                self.baudrate,
+                timeout=READ_TIMEOUT_S,
+                write_timeout=0,
+                exclusive=True,
+            )
         except (serial.SerialException, OSError) as exc:
+            raise open_error(self.port_name, exc) from exc
+        try:
+            port.reset_input_buffer()  # bytes of an earlier session are not this one's
+        except (serial.SerialException, OSError, termios_error) as exc:
+            port.close()
             raise open_error(self.port_name, exc) from exc
         with self._lock:
             self._port = port
         self.decoder = FrameDecoder()  # a new session starts a new stream
         self.link_up = True
-        self.send(hello())
+        self._last_rx_s = time.monotonic()
         self.items.put(LinkEvent("up", time.monotonic_ns()))
+        self.send_hello()
+
+    def send_hello(self) -> None:
+        """HELLO: starts (or restarts) the device's session."""
+        self.hellos += 1
+        self.send(hello())
 
     def _drop(self, detail: str) -> None:
         with self._lock:
@@ -135,10 +169,19 @@ class SerialTransport:
             except (serial.SerialException, OSError, TypeError) as exc:
                 self._drop(str(exc))
                 continue
-            if data:
-                now = time.monotonic_ns()
-                for frame in self.decoder.feed(data, now // 1000):
-                    self.items.put((now, frame))
+            now = time.monotonic_ns()
+            dec = self.decoder
+            frames = dec.feed(data, now // 1000) if data else dec.poll(now // 1000)
+            for frame in frames:
+                self.items.put((now, frame))
+            if frames:
+                self._last_rx_s = now / 1e9
+            elif now / 1e9 - self._last_rx_s >= self.silence_s:
+                # an open port and a silent device: its session ended (reset) or never began
+                self.silences += 1
+                self._last_rx_s = now / 1e9
+                self.items.put(LinkEvent("silent", now, f"no frame for {self.silence_s:.2f} s"))
+                self.send_hello()
 
     # ------------------------------------------------------------------ writing
 

@@ -10,7 +10,12 @@ and on a sender ``port.write(encode_frame(msg, seq))``.
 """
 
 from jackson.protocol.crc import crc32c
-from jackson.protocol.errors import EncodeError, ProtocolError, ProtocolMismatchError
+from jackson.protocol.errors import (
+    EncodeError,
+    FrameVersionError,
+    ProtocolError,
+    ProtocolMismatchError,
+)
 from jackson.protocol.frame import (
     MAX_FRAME,
     DecoderCounters,
@@ -60,6 +65,7 @@ __all__ = [
     "EncodeError",
     "Frame",
     "FrameDecoder",
+    "FrameVersionError",
     "Heartbeat",
     "Hello",
     "HostState",

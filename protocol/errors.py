@@ -24,3 +24,16 @@ class ProtocolMismatchError(ProtocolError):
             f"speaks v{own_version} (schema {own_hash:#010x}); flash the firmware built from "
             "this release (make flash) or install the host release that matches the firmware"
         )
+
+
+class FrameVersionError(ProtocolError):
+    """The peer's frames carry another VER byte: no frame of it can be decoded at all."""
+
+    def __init__(self, peer_version: int | None, own_version: int, where: str = "device") -> None:
+        self.peer_version = peer_version
+        self.own_version = own_version
+        theirs = "?" if peer_version is None else str(peer_version)
+        super().__init__(
+            f"{where} speaks frame version {theirs}, this host {own_version}: flash the "
+            "firmware from this checkout (make flash)"
+        )

@@ -94,6 +94,8 @@ class FrameDecoder:
         self._buf = bytearray()
         self._last_us: int | None = None
         self._last_seq: int | None = None
+        # the VER byte of the newest candidate rejected for its version (to name it to a user)
+        self.last_unknown_version: int | None = None
 
     def copy(self) -> FrameDecoder:
         """An independent decoder in the same state (to try input and roll back)."""
@@ -102,6 +104,7 @@ class FrameDecoder:
         twin._buf = bytearray(self._buf)
         twin._last_us = self._last_us
         twin._last_seq = self._last_seq
+        twin.last_unknown_version = self.last_unknown_version
         return twin
 
     @property
@@ -165,6 +168,7 @@ class FrameDecoder:
                     continue
                 if avail >= 3 and buf[pos + 2] != PROTOCOL_VERSION:
                     c.unknown_version += 1
+                    self.last_unknown_version = buf[pos + 2]
                     skipped += 1
                     pos += 1
                     continue
@@ -179,6 +183,7 @@ class FrameDecoder:
                 continue
             if buf[pos + 2] != PROTOCOL_VERSION:
                 c.unknown_version += 1
+                self.last_unknown_version = buf[pos + 2]
                 skipped += 1
                 pos += 1
                 continue

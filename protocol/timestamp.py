@@ -22,11 +22,20 @@ class TimestampUnwrapper:
         self._last_raw: int | None = None
         self.value_us = 0
         self.resets = 0
+        self._reanchor = False
+
+    def reanchor(self) -> None:
+        """The next stamp belongs to a new MCU clock (a reset the host knows of, e.g. a new
+        ``boot_id``): it is placed 1 us after the last value, whatever its raw value."""
+        self._reanchor = self._last_raw is not None
 
     def unwrap(self, t_us: int) -> int:
         """The unwrapped time of a raw u32 stamp."""
         if self._last_raw is None:
             self.value_us = t_us
+        elif self._reanchor:
+            self._reanchor = False
+            self.value_us += 1
         else:
             delta = (t_us - self._last_raw) % WRAP_US
             if delta >= WRAP_US // 2:

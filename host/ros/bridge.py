@@ -31,6 +31,7 @@ marks the second start). Nothing else is needed: no ``AMENT_PREFIX_PATH``, and F
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import importlib.util
 import math
@@ -157,6 +158,10 @@ class DiagnosticValues:
         No external velocity command within the watchdog time (0.6 s).
     braked : bool
         The motors are braked.
+    link : tuple of (str, object)
+        The link's and motor path's counters (``LinkHealth`` of the daemon), as key/values.
+    problems : tuple of str
+        What the operator should look at (empty when all is well).
     """
 
     t_s: float
@@ -168,24 +173,28 @@ class DiagnosticValues:
     rejected: tuple[tuple[str, int], ...] = field(default=())
     watchdog_expired: bool = True
     braked: bool = True
+    link: tuple[tuple[str, object], ...] = field(default=())
+    problems: tuple[str, ...] = field(default=())
 
 
 def diagnostic_values(
-    core: HostCore, telemetry: Telemetry | None, *, link_up: bool, crc_errors: int
+    core: HostCore, telemetry: Telemetry | None, *, link: Any
 ) -> DiagnosticValues:
-    """The diagnostics of a running core (the link figures come from the transport)."""
+    """The diagnostics of a running core; ``link`` is the daemon's ``LinkHealth``."""
     t_s = core.t_s or 0.0
     flags = telemetry.flags if telemetry is not None else 0
     return DiagnosticValues(
         t_s=t_s,
-        link_up=link_up,
+        link_up=link.link_up,
         frames=core.frames,
-        crc_errors=crc_errors,
+        crc_errors=link.crc_errors,
         imu_ok=bool(flags & TelemetryFlags.IMU_OK),
         imu_calibrated=bool(flags & TelemetryFlags.IMU_CALIBRATED),
         rejected=tuple(sorted(core.ekf.rejected.items())),
         watchdog_expired=core.watchdog.expired(t_s),
         braked=core.braked,
+        link=tuple(dataclasses.asdict(link).items()),
+        problems=tuple(link.problems()),
     )
 
 
@@ -456,8 +465,9 @@ class RosBridge:
     def diagnostics(self, values: DiagnosticValues) -> bool:
         """Publish /diagnostics at most once per second of MCU time; True when it did.
 
-        Four statuses: the link (frames, CRC errors), the IMU, the EKF (rejected measurements)
-        and the command watchdog.
+        Four statuses: the link (its state, frames lost, CRC errors, resyncs, MCU resets, NACKs,
+        I2C errors, the interlock: WARN naming what went wrong since the start, ERROR when
+        down), the IMU, the EKF (rejected measurements) and the command watchdog.
         """
         m = self._msgs
         if self.diagnostics_pub is None or self._stop.is_set():
@@ -466,13 +476,20 @@ class RosBridge:
             return False
         self._next_diagnostics_s = values.t_s + DIAGNOSTICS_PERIOD_S
         hw = "jackson"
+        if not values.link_up:
+            link_level, link_text = LEVEL_ERROR, "down"
+        elif values.problems:
+            link_level, link_text = LEVEL_WARN, "up; " + "; ".join(values.problems)
+        else:
+            link_level, link_text = LEVEL_OK, "up"
         link = self._status(
             "jackson: link",
             hw,
-            LEVEL_OK if values.link_up else LEVEL_ERROR,
-            "up" if values.link_up else "down",
+            link_level,
+            link_text,
             frames=values.frames,
             crc_errors=values.crc_errors,
+            **{k: v for k, v in values.link if k not in ("crc_errors",)},
         )
         imu_level = (
             LEVEL_ERROR

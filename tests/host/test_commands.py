@@ -1,0 +1,115 @@
+"""Commands are matched to their ACK/NACK by TYPE, SEQ and CRC, retried, and refused loudly."""
+
+from __future__ import annotations
+
+import pytest
+
+from jackson.host.commands import ANSWER_TIMEOUT_S, RETRIES, CommandError, CommandTracker
+from jackson.protocol import (
+    Ack,
+    FrameDecoder,
+    MotorPwm,
+    Nack,
+    NackError,
+    SetConfig,
+    SetRate,
+    encode_frame,
+)
+
+
+class Link:
+    """A host side with a stepped clock; what it sent, decoded as the device sees it."""
+
+    def __init__(self) -> None:
+        self.seq = 0
+        self.now = 0.0
+        self.sent: list[bytes] = []
+        self.tracker = CommandTracker(self.encode, self.sent.append, lambda: self.now)
+
+    def encode(self, msg: object) -> bytes:
+        frame = encode_frame(msg, self.seq)  # type: ignore[arg-type]
+        self.seq = (self.seq + 1) & 0xFF
+        return frame
+
+    def device_frames(self) -> list:
+        return FrameDecoder(deliver_unknown=True).feed(b"".join(self.sent))
+
+    def answer(self, msg: object) -> None:
+        (frame,) = FrameDecoder().feed(encode_frame(msg, 0))  # type: ignore[arg-type]
+        self.tracker.on_frame(frame)
+
+
+def ack_of(frame: bytes) -> Ack:
+    return Ack(
+        acked_type=frame[3], acked_seq=frame[4], acked_crc=int.from_bytes(frame[-4:], "little")
+    )
+
+
+def test_an_ack_clears_its_command() -> None:
+    link = Link()
+    frame = link.tracker.send(SetRate(rate_hz=50))
+    link.answer(ack_of(frame))
+    assert not link.tracker.pending
+    assert link.tracker.counters.acked == 1
+
+
+def test_a_late_answer_to_an_old_command_never_matches_a_new_one_with_the_same_seq() -> None:
+    link = Link()
+    old = link.tracker.send(SetRate(rate_hz=50))
+    link.tracker.pending.clear()  # the old command was given up
+    link.seq = old[4]  # 256 frames later the SEQ comes round again
+    new = link.tracker.send(SetRate(rate_hz=100))
+    assert new[4] == old[4]
+    link.answer(ack_of(old))  # the old command's ACK arrives late
+    assert link.tracker.pending  # the new command still waits for its own answer
+    assert link.tracker.counters.unmatched == 1
+    link.answer(ack_of(new))
+    assert not link.tracker.pending
+
+
+def test_a_command_without_answer_is_sent_again_then_reported() -> None:
+    link = Link()
+    link.tracker.send(SetConfig(failsafe_ms=600))
+    for k in range(RETRIES):
+        link.now += ANSWER_TIMEOUT_S
+        link.tracker.poll()
+        assert len(link.sent) == 2 + k
+    assert link.sent[1] == link.sent[0]  # the same frame: the same SEQ and CRC
+    link.now += ANSWER_TIMEOUT_S
+    with pytest.raises(CommandError, match=r"never answered SET_CONFIG\(.*failsafe_ms=600"):
+        link.tracker.poll()
+
+
+def test_an_answer_to_a_retry_clears_the_command() -> None:
+    link = Link()
+    link.tracker.send(SetRate(rate_hz=20))
+    link.now += ANSWER_TIMEOUT_S
+    link.tracker.poll()
+    link.answer(ack_of(link.sent[-1]))
+    assert not link.tracker.pending
+
+
+def test_a_nack_names_the_command_and_the_firmware_reason() -> None:
+    link = Link()
+    frame = link.tracker.send(SetRate(rate_hz=0))
+    nack = Nack(
+        acked_type=frame[3],
+        acked_seq=frame[4],
+        error=NackError.BAD_VALUE,
+        acked_crc=ack_of(frame).acked_crc,
+    )
+    with pytest.raises(CommandError, match=r"refused SET_RATE\(rate_hz=0\): BAD_VALUE"):
+        link.answer(nack)
+
+
+def test_a_refused_motor_command_is_an_error_and_a_missing_ack_only_counts() -> None:
+    link = Link()
+    link.tracker.send(MotorPwm(left=100, right=100))
+    link.now += ANSWER_TIMEOUT_S
+    link.tracker.poll()
+    assert link.tracker.counters.motor_unacked == 1
+    assert len(link.sent) == 1  # never retried
+    frame = link.tracker.send(MotorPwm(left=100, right=100))
+    a = ack_of(frame)
+    with pytest.raises(CommandError, match=r"MOTOR_PWM.*NOT_SUPPORTED"):
+        link.answer(Nack(a.acked_type, a.acked_seq, NackError.NOT_SUPPORTED, a.acked_crc))

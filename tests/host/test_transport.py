@@ -1,0 +1,105 @@
+"""The serial transport over a real pty: exclusive, flushed, polled, and it says HELLO again."""
+
+from __future__ import annotations
+
+import os
+import queue
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from jackson.host.transport import LinkError, LinkEvent, SerialTransport
+from jackson.protocol import FrameDecoder, Hello, Telemetry, decode_message, encode_frame
+
+
+@pytest.fixture
+def pty() -> Iterator[tuple[int, str]]:
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    yield master, path
+    os.close(master)
+    os.close(slave)
+
+
+def device_reads(master: int, want: int, timeout_s: float = 10.0) -> list:
+    """Frames the device side reads until ``want`` arrived (or the deadline)."""
+    dec = FrameDecoder()
+    got: list = []
+    deadline = time.monotonic() + timeout_s
+    os.set_blocking(master, False)
+    while len(got) < want and time.monotonic() < deadline:
+        try:
+            got += [decode_message(f) for f in dec.feed(os.read(master, 4096))]
+        except BlockingIOError:
+            time.sleep(0.002)
+    return got
+
+
+def next_frame(t: SerialTransport, timeout_s: float = 10.0) -> object:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        item = t.items.get(timeout=timeout_s)
+        if not isinstance(item, LinkEvent):
+            return item
+    raise AssertionError("no frame")
+
+
+def test_a_second_opener_gets_one_clear_line(pty: tuple[int, str]) -> None:
+    _, path = pty
+    first = SerialTransport(path)
+    first.open()
+    try:
+        with pytest.raises(LinkError, match="in use by another program"):
+            SerialTransport(path).open()
+    finally:
+        first.close()
+
+
+def test_bytes_buffered_before_the_session_are_discarded(pty: tuple[int, str]) -> None:
+    master, path = pty
+    os.write(master, encode_frame(Telemetry(t_us=1), 0))  # a stale frame in the buffer
+    t = SerialTransport(path)
+    t.open()
+    try:
+        os.write(master, encode_frame(Telemetry(t_us=2), 1))
+        _, frame = next_frame(t)  # type: ignore[misc]
+        assert decode_message(frame) == Telemetry(t_us=2)
+    finally:
+        t.close()
+
+
+def test_a_silent_device_gets_hello_again(pty: tuple[int, str]) -> None:
+    master, path = pty
+    t = SerialTransport(path)
+    t.silence_s = 0.2
+    t.open()
+    try:
+        hellos = [m for m in device_reads(master, 3) if isinstance(m, Hello)]
+        assert len(hellos) >= 3  # the first, then one per silent period
+        kinds = []
+        while True:
+            try:
+                item = t.items.get_nowait()
+            except queue.Empty:
+                break
+            if isinstance(item, LinkEvent):
+                kinds.append(item.kind)
+        assert "silent" in kinds
+    finally:
+        t.close()
+
+
+def test_a_partial_frame_is_dropped_while_the_line_is_idle(pty: tuple[int, str]) -> None:
+    master, path = pty
+    t = SerialTransport(path)
+    t.open()
+    try:
+        os.write(master, encode_frame(Telemetry(t_us=3), 0)[:20])  # cut short: nothing follows
+        deadline = time.monotonic() + 10.0
+        while t.decoder.counters.timeouts == 0 and time.monotonic() < deadline:
+            time.sleep(0.005)
+        assert t.decoder.counters.timeouts == 1  # expired by polling, not by the next byte
+        assert t.decoder.pending == 0
+    finally:
+        t.close()
