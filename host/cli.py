@@ -32,6 +32,12 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
     p.add_argument("--max-seconds", type=float, help="stop after this much wall time")
     p.add_argument(
+        "--mission-timeout",
+        type=float,
+        help="abort the mission after this many seconds of MCU time "
+        "(default: square 150, figure8 300)",
+    )
+    p.add_argument(
         "--ros",
         action="store_true",
         help="also run the ROS 2 node: topics, TF, /cmd_vel (docs/ros2.md)",
@@ -71,11 +77,13 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
     from jackson.host.actuation.pca9685 import Pca9685
     from jackson.host.config import HostConfig
-    from jackson.host.daemon import Daemon, with_port
+    from jackson.host.daemon import Daemon, DaemonError, with_port
     from jackson.host.i2c import I2cError, open_bus
     from jackson.host.transport import LinkError, SerialTransport
-    from jackson.protocol import Message, ProtocolMismatchError
+    from jackson.protocol import Message, ProtocolError
 
+    if args.mission_timeout is not None and not args.mission_timeout > 0:
+        raise HostCliError(f"--mission-timeout {args.mission_timeout}: give a positive number")
     cfg = _load(args.config)
     assert isinstance(cfg, HostConfig)
     if args.ros:
@@ -126,6 +134,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         run_folder=run_dir,
         meta=meta,
         ros_args=(["--ros-args", *args.ros_args] if args.ros_args else []) if args.ros else None,
+        mission_timeout_s=args.mission_timeout,
     )
     if run_dir is not None:
         import yaml
@@ -142,13 +151,20 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         flush=True,
     )
     try:
-        daemon.run(args.max_seconds)
-    except ProtocolMismatchError as exc:
+        status = daemon.run(args.max_seconds)
+    except (ProtocolError, DaemonError) as exc:
         raise HostCliError(str(exc)) from exc
     finally:
         transport.close()
     core = daemon.core
     e = core.ekf
+    if core.abort_reason is not None:
+        print(
+            f"mission {core.mission.name if core.mission else ''} aborted: {core.abort_reason}; "
+            f"braked at EKF pose x={e.x_m:+.4f} m y={e.y_m:+.4f} m",
+            flush=True,
+        )
+        return status
     if core.mission is not None:
         state = "done" if core.mission.done else "stopped before the end"
         print(
