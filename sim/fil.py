@@ -43,12 +43,13 @@ class FeedStatus:
     next_telemetry_us: int
     accel_fs: int  # the MPU-6050's ranges as the firmware set them (0-3)
     gyro_fs: int
+    motor_enable: bool = False  # the interlock line (docs/firmware.md, "Motor interlock")
 
 
 def parse_status(line: bytes | str) -> FeedStatus:
     """One status line of the POSIX firmware (docs/firmware.md)."""
     parts = line.split()
-    if not parts or parts[0] not in (b"s", "s") or len(parts) != 15:
+    if not parts or parts[0] not in (b"s", "s") or len(parts) != 16:
         raise FirmwareError(f"unexpected status line from the firmware: {parts!r}")
     v = [int(x) for x in parts[1:]]
     braked, failsafe, session = (bool(x) for x in v[6:9])
@@ -67,6 +68,7 @@ def parse_status(line: bytes | str) -> FeedStatus:
         v[11],
         v[12],
         v[13],
+        bool(v[14]),
     )
 
 

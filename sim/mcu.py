@@ -172,6 +172,8 @@ class McuEmulator:
         self.cmd = (0, 0)
         self.cmd_expiry_us = 0
         self.motors = MotorOutput()
+        self.host_shutdown = False  # the newest HEARTBEAT said SHUTDOWN
+        self.motor_enable = False  # the interlock line (firmware.cpp update_interlock)
         self.telemetry_frames = 0
         self.heartbeats = 0
         self._imu_ok = imu_present
@@ -232,7 +234,12 @@ class McuEmulator:
         if not self.session:
             return None
         t = self.next_telemetry_us
-        for d in (self.next_status_us,):
+        deadlines = [self.next_status_us]
+        if self.motor_enable:  # the instant the interlock drops, if no heartbeat comes
+            lost = (self.last_heartbeat_us + 1000 * self.failsafe_ms) & 0xFFFFFFFF
+            if not _reached(now, lost):
+                deadlines.append(lost)
+        for d in deadlines:
             if ((d - t) & 0xFFFFFFFF) >= 0x80000000:
                 t = d
         return t
@@ -259,6 +266,7 @@ class McuEmulator:
         self.decoder.poll(now)
         self._imu_polls_until(now, inclusive=True)
         self._update_motors(now)
+        self._update_interlock(now)
         if not self.session:
             return
         if _reached(now, self.next_telemetry_us):
@@ -302,6 +310,8 @@ class McuEmulator:
             f |= TelemetryFlags.TX_DROPPED
         if self.motor_output:
             f |= TelemetryFlags.MOTOR_OUTPUT
+        if self.motor_enable:
+            f |= TelemetryFlags.MOTOR_ENABLE
         return int(f) | (self.accel_fs << 8) | (self.gyro_fs << 10)
 
     def _calibrate(
@@ -407,6 +417,14 @@ class McuEmulator:
         else:
             self.motors = MotorOutput(0, 0, True, self.motor_commanded)
 
+    def _update_interlock(self, now: int) -> None:
+        self.motor_enable = (
+            self.session
+            and self.heartbeat_seen
+            and not self.host_shutdown
+            and not _reached(now, self.last_heartbeat_us + 1000 * self.failsafe_ms)
+        )
+
     def wheel_duty(self) -> tuple[float, float, bool]:
         """The H-bridge output per wheel as signed duty (-1..1), with direction flags applied."""
         m = self.motors
@@ -436,9 +454,11 @@ class McuEmulator:
             self.heartbeat_seen = True
             self.heartbeat_ack = hb.ack_seq
             self.last_heartbeat_us = now
-            if hb.host_state == HostState.SHUTDOWN:
+            self.host_shutdown = hb.host_state == HostState.SHUTDOWN
+            if self.host_shutdown:
                 self.motor_commanded = False
                 self.motors = MotorOutput()
+            self._update_interlock(now)  # the firmware's tick that received it does the same
             return
         if len(f.payload) < cls.SIZE:
             self._nack(f, NackError.BAD_LENGTH)

@@ -177,6 +177,12 @@ class TwinRunner:
             self._sample = (now, self.twin.sensors())
         return self._sample[1]
 
+    def motor_enable(self, fw: FeedStatus | None = None) -> bool:
+        """The MCU's interlock line (docs/firmware.md, "Motor interlock")."""
+        if fw is not None:
+            return fw.motor_enable
+        return self.mcu is not None and self.mcu.motor_enable
+
     def _actuate(self, fw: FeedStatus | None = None) -> None:
         if self.mcu_motors:
             if fw is not None:
@@ -189,6 +195,11 @@ class TwinRunner:
                 self.twin.command(WheelDrive.brake(), WheelDrive.brake())
             else:
                 self.twin.command(WheelDrive(left, 1.0), WheelDrive(right, 1.0))
+            return
+        if not self.motor_enable(fw):
+            # OE released (pulled high): with the host's MODE2 OUTNE = 01 every PCA9685 output
+            # goes high, IN1 = IN2 = PWM = H, and both TB6612 bridges short-brake
+            self.twin.command(WheelDrive.brake(), WheelDrive.brake())
             return
         pca = self.pca
         if self._bridges is None or self._bridges[0] != pca.generation:
@@ -279,6 +290,7 @@ class TwinRunner:
             self._check_outage()
             self._serve(0.0)  # like the firmware's tick: what has arrived is handled first
             frames_before = mcu.telemetry_frames
+            enable_before = mcu.motor_enable
             self._lost = False
             mcu.tick(now)
             if mcu.telemetry_frames != frames_before:
@@ -290,7 +302,7 @@ class TwinRunner:
                 else:
                     self._serve(0.0)
                 self._actuate()
-            elif self.mcu_motors:
+            elif self.mcu_motors or mcu.motor_enable != enable_before:
                 self._actuate()
             nxt = mcu.next_deadline(now)
             step_us = ((nxt - now) & 0xFFFFFFFF) if nxt is not None else 50_000

@@ -61,6 +61,8 @@ void Firmware::begin() {
   if (imu_.poll(now, first)) averager_.add(first);  // learn presence at boot
   next_imu_us_ = now + imu_period_us();
   if (hal_.motors != nullptr) hal_.motors->brake();
+  motor_enable_ = false;
+  if (hal_.motor_enable != nullptr) hal_.motor_enable->set(false);
 }
 
 void Firmware::apply_config() {
@@ -98,6 +100,7 @@ void Firmware::tick() {
     if (reached(now, next_imu_us_)) next_imu_us_ = now + imu_period_us();  // fell behind
   }
   update_motors(now);
+  update_interlock(now);
   if (!session_) return;
   if (reached(now, next_telemetry_us_)) {
     send_telemetry(now);
@@ -147,6 +150,14 @@ void Firmware::update_motors(uint32_t now) {
   motor_ = MotorState{0, 0, true, failsafe};
 }
 
+void Firmware::update_interlock(uint32_t now) {
+  const bool enable = session_ && heartbeat_seen_ && !host_shutdown_ &&
+                      !reached(now, last_heartbeat_us_ + 1000u * cfg_.failsafe_ms);
+  if (enable == motor_enable_) return;
+  motor_enable_ = enable;
+  if (hal_.motor_enable != nullptr) hal_.motor_enable->set(enable);
+}
+
 uint16_t Firmware::telemetry_flags(uint32_t now) const noexcept {
   using namespace proto::telemetry_flags;
   uint16_t f = 0;
@@ -160,6 +171,7 @@ uint16_t Firmware::telemetry_flags(uint32_t now) const noexcept {
   if (i2c_error_flag_) f |= kI2cErrors;
   if (tx_dropped_flag_) f |= kTxDropped;
   if (hal_.motors != nullptr) f |= kMotorOutput;
+  if (motor_enable_) f |= kMotorEnable;
   f = static_cast<uint16_t>(f | (cfg_.accel_fs << 8) | (cfg_.gyro_fs << 10));
   return f;
 }
@@ -290,7 +302,8 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
     heartbeat_seen_ = true;
     heartbeat_ack_ = hb.ack_seq;
     last_heartbeat_us_ = now;
-    if (hb.host_state == static_cast<uint8_t>(proto::HostState::kShutdown)) {
+    host_shutdown_ = hb.host_state == static_cast<uint8_t>(proto::HostState::kShutdown);
+    if (host_shutdown_) {
       motor_commanded_ = false;  // an orderly goodbye: brake without flagging a failsafe
       if (hal_.motors != nullptr) hal_.motors->brake();
       motor_ = MotorState{};

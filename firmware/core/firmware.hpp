@@ -70,6 +70,8 @@ class Firmware {
     return heartbeat_seen_;
   }
   bool calibrated() const noexcept { return calibrated_; }
+  /// The interlock line: asserted while a session's heartbeats are live (and not SHUTDOWN).
+  bool motor_enable() const noexcept { return motor_enable_; }
   /// When the next telemetry frame is due (meaningful during a session).
   uint32_t next_telemetry_us() const noexcept { return next_telemetry_us_; }
   const Mpu6050& imu() const noexcept { return imu_; }
@@ -79,6 +81,7 @@ class Firmware {
   void handle(const protocol::Frame& f, uint32_t now);
   void sample_imu(uint32_t now);
   void update_motors(uint32_t now);
+  void update_interlock(uint32_t now);
   void send_telemetry(uint32_t now);
   void send_status(uint32_t now);
   void send_info();
@@ -118,6 +121,8 @@ class Firmware {
   bool heartbeat_seen_ = false;
   uint8_t heartbeat_ack_ = 0;
   uint32_t last_heartbeat_us_ = 0;
+  bool host_shutdown_ = false;  ///< the newest HEARTBEAT said SHUTDOWN
+  bool motor_enable_ = false;
 
   uint32_t next_telemetry_us_ = 0;
   uint32_t next_imu_us_ = 0;

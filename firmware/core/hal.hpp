@@ -70,6 +70,17 @@ class MotorOutput {
   virtual void brake() = 0;
 };
 
+/// The motor interlock line (docs/firmware.md, "Motor interlock"): a GPIO wired to the PCA9685's
+/// active-low OE pin (pulled up: outputs disabled) or the TB6612's STBY (pulled down). The core
+/// asserts it only while the host's heartbeats are live, so a dead or hung host, an MCU reset
+/// and an unplugged board all stop the motors whichever chip drives them.
+class MotorEnable {
+ public:
+  virtual ~MotorEnable() = default;
+  /// true: outputs enabled (OE low / STBY high); false: disabled (the pull resistor's state).
+  virtual void set(bool enabled) = 0;
+};
+
 /// Everything the core needs from a board. `motors` may be null (no motor output).
 /// `boot_id` is a random non-zero number drawn at every boot (the ESP32's hardware RNG); INFO
 /// reports it, so the host tells an MCU reset from a reconnect.
@@ -81,6 +92,7 @@ struct Hal {
   Storage& storage;
   MotorOutput* motors;
   uint32_t boot_id = 1;
+  MotorEnable* motor_enable = nullptr;  ///< the interlock line; null when not wired
 };
 
 }  // namespace jackson::fw

@@ -35,6 +35,14 @@ constexpr int kMotorBIn1 = 14;
 constexpr int kMotorBIn2 = 15;
 constexpr int kMotorStby = 16;
 
+/// Motor interlock (docs/firmware.md, "Motor interlock"): this GPIO drives the PCA9685's
+/// active-low OE pin, with a 10 kOhm pull-up to 3.3 V on the motor HAT side, so the outputs are
+/// disabled while the ESP32 is in reset, unpowered or unplugged, and whenever the firmware
+/// releases the line (no host heartbeat for failsafe_ms). -1: not wired.
+constexpr int kMotorEnablePin = 17;
+/// Level that enables the outputs: 0 for PCA9685 OE (active low), 1 for a TB6612 STBY wiring.
+constexpr int kMotorEnableActiveLevel = 0;
+
 /// PCNT: the 16-bit counter resets to 0 on reaching +-limit; the HAL counts those events.
 constexpr int16_t kPcntLimit = 30000;
 /// Pulses shorter than this are ignored (the filter holds at most 1023 APB cycles, ~12.7 us).

@@ -239,6 +239,24 @@ class NvsStorage final : public Storage {
   bool open_ = false;
 };
 
+/// The interlock line: configured as an output at its disabled level before anything else runs.
+class GpioMotorEnable final : public MotorEnable {
+ public:
+  GpioMotorEnable() {
+    const auto p = static_cast<gpio_num_t>(board::kMotorEnablePin);
+    ESP_ERROR_CHECK(gpio_set_level(p, 1 - board::kMotorEnableActiveLevel));
+    gpio_config_t out{};
+    out.pin_bit_mask = uint64_t{1} << board::kMotorEnablePin;
+    out.mode = GPIO_MODE_OUTPUT;
+    ESP_ERROR_CHECK(gpio_config(&out));
+    ESP_ERROR_CHECK(gpio_set_level(p, 1 - board::kMotorEnableActiveLevel));
+  }
+  void set(bool enabled) override {
+    const int level = enabled ? board::kMotorEnableActiveLevel : 1 - board::kMotorEnableActiveLevel;
+    gpio_set_level(static_cast<gpio_num_t>(board::kMotorEnablePin), level);
+  }
+};
+
 /// TB6612FNG: LEDC PWM, direction on IN1/IN2, STBY held high once braked. Datasheet truth table:
 /// IN1 H, IN2 L, PWM H: forward; IN1 L, IN2 H, PWM H: reverse; IN1 = IN2 = H, or PWM L: short
 /// brake; STBY L: outputs off.
@@ -341,6 +359,12 @@ void watch_this_task() {
 
 extern "C" void app_main(void) {
   using namespace jackson::fw;
+  // the interlock line first: the motors stay disabled until the host's heartbeats arrive
+  MotorEnable* enable = nullptr;
+  if constexpr (board::kMotorEnablePin >= 0) {
+    static GpioMotorEnable line;  // held at its disabled level from here on
+    enable = &line;
+  }
   init_nvs();
   // Static storage: everything is built once here, nothing is allocated afterwards.
   static EspClock clock;
@@ -354,7 +378,7 @@ extern "C" void app_main(void) {
     motors = &tb6612;
   }
   // a new random boot_id each boot lets the host tell a reset from a reconnect
-  static Hal hal{clock, encoders, i2c, serial, storage, motors, esp_random() | 1u};
+  static Hal hal{clock, encoders, i2c, serial, storage, motors, esp_random() | 1u, enable};
   static Firmware firmware(hal);
   firmware.begin();
   watch_this_task();

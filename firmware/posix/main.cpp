@@ -12,9 +12,10 @@
 // Each reply is one line:
 //   s <t_us> <telemetry_seq|-1> <frames_sent> <heartbeat_ack|-1> <motor_left> <motor_right>
 //     <braked> <failsafe> <session> <tx_dropped> <rx_crc_errors> <next_telemetry_us|-1>
-//     <accel_fs> <gyro_fs>
+//     <accel_fs> <gyro_fs> <motor_enable>
 // where the last two are the MPU-6050 ranges of the firmware's driver (written to the chip at
-// its next init, within one IMU period), which a simulator scales the registers it feeds by.
+// its next init, within one IMU period), which a simulator scales the registers it feeds by, and
+// motor_enable is the interlock line (1 asserted: host heartbeats live).
 // With --realtime the clock follows CLOCK_MONOTONIC and t lines only update the sensors;
 // --no-imu starts with the MPU-6050 absent (t lines may bring it later).
 #include <poll.h>
@@ -124,12 +125,12 @@ struct Process {
     const bool seen = fw.last_heartbeat_ack(hb);
     const long long next =
         fw.session_active() ? static_cast<long long>(fw.next_telemetry_us()) : -1;
-    std::printf("s %llu %d %u %d %d %d %d %d %d %u %u %lld %u %u\n",
+    std::printf("s %llu %d %u %d %d %d %d %d %d %u %u %lld %u %u %d\n",
                 static_cast<unsigned long long>(clock.now64()), sent ? seq : -1,
                 fw.frames_sent(), seen ? hb : -1, motors.left_, motors.right_,
                 motors.braked_ ? 1 : 0, fw.motors().failsafe ? 1 : 0, fw.session_active() ? 1 : 0,
                 fw.tx_dropped(), fw.rx_counters().crc_errors, next, fw.imu().accel_fs(),
-                fw.imu().gyro_fs());
+                fw.imu().gyro_fs(), fw.motor_enable() ? 1 : 0);
     std::fflush(stdout);
   }
 

@@ -122,6 +122,16 @@ struct FakeMotors : MotorOutput {
   }
 };
 
+/// The interlock line, recording its transitions.
+struct FakeEnable : MotorEnable {
+  bool enabled = true;  // wrong on purpose until begin() sets it
+  std::vector<bool> changes;
+  void set(bool e) override {
+    enabled = e;
+    changes.push_back(e);
+  }
+};
+
 /// A decoded frame the firmware sent.
 struct Sent {
   uint8_t type;
@@ -143,12 +153,14 @@ struct Bench {
   FakeSerial serial;
   FakeStorage storage;
   FakeMotors motors;
+  FakeEnable enable;
   Hal hal;
   Firmware fw;
   protocol::FrameDecoder host_decoder;
 
   explicit Bench(bool with_motors = true)
-      : hal{clock, enc, i2c, serial, storage, with_motors ? &motors : nullptr}, fw(hal) {
+      : hal{clock, enc, i2c, serial, storage, with_motors ? &motors : nullptr, 7, &enable},
+        fw(hal) {
     i2c.set_sample({100, -200, 16384}, -1700, {10, -20, 30});
   }
 

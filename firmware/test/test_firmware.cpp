@@ -398,6 +398,39 @@ TEST(Firmware, ShutdownHeartbeatBrakesAtOnce) {
   EXPECT_FALSE(b.fw.motors().failsafe);
 }
 
+TEST(Firmware, InterlockFollowsTheHostsHeartbeats) {
+  Bench b(false);  // the host drives the motors (PCA9685): only the line can stop them
+  b.fw.begin();
+  EXPECT_FALSE(b.enable.enabled);  // released at boot (the pull-up's state)
+  b.hello();
+  b.run_for(10'000);
+  EXPECT_FALSE(b.enable.enabled);  // a session, but no heartbeat yet
+  heartbeat(b, 1);
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);
+  b.run_for(50'000);
+  auto tel = only<proto::Telemetry>(b.take_sent());
+  ASSERT_FALSE(tel.empty());
+  EXPECT_TRUE(tel.back().as<proto::Telemetry>().flags & proto::telemetry_flags::kMotorEnable);
+  b.run_for(540'000);  // 590 ms after the heartbeat: still live
+  EXPECT_TRUE(b.enable.enabled);
+  b.run_for(10'000);  // 600 ms: the host is lost, the line drops
+  EXPECT_FALSE(b.enable.enabled);
+  b.run_for(50'000);
+  tel = only<proto::Telemetry>(b.take_sent());
+  ASSERT_FALSE(tel.empty());
+  EXPECT_FALSE(tel.back().as<proto::Telemetry>().flags & proto::telemetry_flags::kMotorEnable);
+  heartbeat(b, 2);
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);  // heartbeats again: enabled again
+  proto::Heartbeat bye;
+  bye.host_state = static_cast<uint8_t>(proto::HostState::kShutdown);
+  b.serial.host_sends(bye, 3);
+  b.fw.tick();
+  EXPECT_FALSE(b.enable.enabled);  // an orderly goodbye drops it at once
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true, false, true, false}));
+}
+
 TEST(Firmware, FullTxBufferDropsAndCountsWithoutBlocking) {
   Bench b;
   b.fw.begin();
