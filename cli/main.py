@@ -206,7 +206,28 @@ def build_parser() -> argparse.ArgumentParser:
 
     sim_cli.add_parser(sub)
     sub.choices["sim"].set_defaults(func=sim_cli.run)
+    p = sub.add_parser(
+        "faults",
+        help="the fault matrix: each fault injected into the twin under the real daemon, a report",
+    )
+    p.add_argument("--short", action="store_true", help="repeated faults 2-3 times, not 10/100")
+    p.add_argument("--out", type=Path, default=Path("build/faults"), help="report folder")
+    p.set_defaults(func=_cmd_faults)
     return parser
+
+
+def _cmd_faults(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from jackson.calibration.faults import run_matrix
+
+    console = Console(stderr=True)
+    if args.out.exists() and not args.out.is_dir():
+        raise CliError(f"--out {args.out}: exists and is not a folder")
+    rows = run_matrix(args.out, short=args.short, progress=lambda text: console.print(text))
+    print((args.out / "report.md").read_text())
+    print(f"report: {args.out / 'report.md'}, rows: {args.out / 'faults.json'}")
+    return 0 if all(r.passed for r in rows) else 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -74,7 +74,7 @@ def _load(path: Path | None) -> object:
 def cmd_daemon(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
+    from jackson.host.actuation.output import McuOutput, MotorOutput, ResilientPca9685Output
     from jackson.host.actuation.pca9685 import Pca9685
     from jackson.host.config import HostConfig
     from jackson.host.daemon import Daemon, DaemonError, with_port
@@ -108,7 +108,15 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     def output_factory(send: Callable[[Message], object]) -> MotorOutput:
         if pca is not None:
             p = cfg.pca9685
-            return Pca9685Output(pca, p.left, p.right, p.stby_channel)
+            return ResilientPca9685Output(
+                lambda: open_bus(p.bus),
+                p.address,
+                p.frequency_hz,
+                p.left,
+                p.right,
+                p.stby_channel,
+                pca=pca,
+            )
         return McuOutput(send)
 
     transport = SerialTransport(cfg.serial.port, cfg.serial.baudrate)

@@ -338,6 +338,7 @@ class HostCore:
                     t.enc_right,
                 ),
             )
+            self.recorder.frame_done()
 
     def _record_ekf(self, t_s: float) -> None:
         """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""

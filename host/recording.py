@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import json
 import struct
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +48,9 @@ EKF_COLUMNS = (
     "p_yy",
     "p_yawyaw",
 )
+FLUSH_PERIOD_S = 1.0  # [s] wall time between flushes of the whole run folder
+FLUSH_FRAMES = 100  # ... or this many frames (lockstep runs many per second)
+BUFFER_BYTES = 4 << 20  # [B] per file: never filled between two flushes, so never auto-flushed
 COMMAND_COLUMNS = ("t_s", "v_cmd", "w_cmd", "duty_left", "duty_right", "braked")
 
 
@@ -66,21 +70,25 @@ def _fmt(row: tuple[Any, ...]) -> list[str]:
 
 
 class RunRecorder:
-    """Writes one run folder; every write is flushed, so a killed daemon leaves a usable run."""
+    """Writes one run folder. All files are flushed together at a telemetry frame's end, at
+    least once a second (:meth:`frame_done`): a killed daemon leaves files that agree with each
+    other up to the last flushed frame, at most about a second before the kill."""
 
     def __init__(self, folder: Path, meta: dict[str, Any]) -> None:
         self.folder = folder
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
-        self._log: IO[bytes] = open(folder / "log.jrec", "wb")  # noqa: SIM115 - closed in close()
+        self._log: IO[bytes] = open(folder / "log.jrec", "wb", buffering=BUFFER_BYTES)  # noqa: SIM115 - closed in close()
         self._log.write(MAGIC)
         self._files: list[IO[str]] = []
         self.odometry = self._csv("odometry.csv", ODOMETRY_COLUMNS)
         self.ekf = self._csv("ekf.csv", EKF_COLUMNS)
         self.commands = self._csv("commands.csv", COMMAND_COLUMNS)
+        self._flushed_s = time.monotonic()
+        self._frames = 0
 
     def _csv(self, name: str, columns: tuple[str, ...]) -> Any:
-        f = open(self.folder / name, "w", newline="", encoding="utf-8")  # noqa: SIM115
+        f = open(self.folder / name, "w", newline="", encoding="utf-8", buffering=BUFFER_BYTES)  # noqa: SIM115
         self._files.append(f)
         w = csv.writer(f)
         w.writerow(columns)
@@ -103,6 +111,16 @@ class RunRecorder:
 
     def row(self, writer: Any, values: tuple[Any, ...]) -> None:
         writer.writerow(_fmt(values))
+
+    def frame_done(self) -> None:
+        """Every row of one telemetry frame is written: flush all files together, at most once
+        a second, so a killed run's files end at the same frame."""
+        self._frames += 1
+        now = time.monotonic()
+        if now - self._flushed_s >= FLUSH_PERIOD_S or self._frames >= FLUSH_FRAMES:
+            self._flushed_s = now
+            self._frames = 0
+            self.flush()
 
     def flush(self) -> None:
         self._log.flush()

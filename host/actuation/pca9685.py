@@ -23,6 +23,9 @@ MODE1_RESTART = 0x80
 MODE1_AI = 0x20  # register auto-increment
 MODE1_SLEEP = 0x10
 MODE1_ALLCALL = 0x01
+MODE2_OUTDRV = 0x04  # totem-pole outputs
+MODE2_OUTNE_HIGH = 0x01  # OUTNE = 01: outputs high while OE is high (datasheet §7.3.2, Table 6)
+MODE2_INTERLOCK = MODE2_OUTDRV | MODE2_OUTNE_HIGH  # the MCU's interlock brakes (docs/firmware.md)
 LED_FULL = 0x10  # bit 4 of LEDn_ON_H (full on) and LEDn_OFF_H (full off)
 
 OSC_CLOCK_HZ = 25_000_000
@@ -58,18 +61,29 @@ class Pca9685:
         self.writes = 0  # I2C transactions issued, for diagnostics
 
     def init(self, frequency_hz: float = 1000.0) -> None:
-        """Sleep, set the prescaler, wake, wait for the oscillator, restart with auto-increment.
-
-        Outputs start fully off.
+        """Sleep, set the prescaler and MODE2, wake, wait for the oscillator, restart with
+        auto-increment. Outputs start fully off; MODE2 = OUTDRV | OUTNE=01 makes every output
+        high while the MCU holds OE high, a short brake (docs/firmware.md, "Motor interlock").
         """
         prescale = prescale_for(frequency_hz)
         self._write(MODE1, MODE1_SLEEP | MODE1_AI | MODE1_ALLCALL)  # PRE_SCALE: only asleep
         self._write(PRE_SCALE, prescale)
+        # OE released by the MCU's interlock: all outputs high, both TB6612 bridges short-brake
+        self._write(MODE2, MODE2_INTERLOCK)
         self.bus.write_i2c_block_data(self.address, ALL_LED_ON_L, [0, 0, 0, LED_FULL])
         self.writes += 1
         self._write(MODE1, MODE1_AI | MODE1_ALLCALL)
         time.sleep(RESTART_WAIT_S)
         self._write(MODE1, MODE1_RESTART | MODE1_AI | MODE1_ALLCALL)
+
+    def registers_ok(self, frequency_hz: float) -> bool:
+        """Read MODE1, MODE2 and PRE_SCALE back: False when the chip was reset or someone else
+        wrote them (a sleeping chip drives nothing)."""
+        mode1 = self.bus.read_byte_data(self.address, MODE1)
+        mode2 = self.bus.read_byte_data(self.address, MODE2)
+        prescale = self.bus.read_byte_data(self.address, PRE_SCALE)
+        awake = (mode1 & (MODE1_SLEEP | MODE1_AI)) == MODE1_AI
+        return awake and mode2 == MODE2_INTERLOCK and prescale == prescale_for(frequency_hz)
 
     def _write(self, reg: int, value: int) -> None:
         self.bus.write_byte_data(self.address, reg, value)

@@ -1,0 +1,490 @@
+"""The fault matrix: each fault the robot meets in service, injected into the twin while the real
+host daemon drives the Stage 1 square, and what became of the motors, the host and the data.
+
+Each row starts a lockstep twin (:class:`~jackson.sim.runner.TwinRunner`, in a thread of this
+process, its serial port behind a fixed symlink so a replugged port comes back at the same path)
+and ``jackson daemon --mission square`` as its own process, as on the robot. At ``FAULT_AT_S`` of
+MCU time, with the robot driving its first side, the fault is injected:
+
+- host **SIGKILL**, **SIGSTOP** (for ``STOP_WALL_S`` of wall time, then SIGCONT) and **crash**
+  (SIGSEGV), with the PCA9685 or the MCU driving the motors;
+- the twin's **I2C server restarted** (its socket closed and served anew at the same path);
+- a **foreign MODE1 write** (another I2C client puts the PCA9685 to sleep);
+- the serial port **unplugged and replugged** (the pty removed for ``UNPLUG_WALL_S``);
+- an **MCU reset** (the emulator boots again: new boot_id, counts from 0, no session);
+- the **IMU dying** (no IMU_OK from then on);
+- **5 % of telemetry frames lost** on the line, and **5 % of frames with a corrupted byte**.
+
+What each row reports, from the twin's side (ground truth, on MCU time) and the host's:
+
+- *braked*: the motors received no drive (the H-bridges' average drive is 0) at some instant
+  after the fault, with the delay from the fault and the distance the robot travelled after it;
+- *host*: alive or not at the end, its exit status, and whether frames flowed again after the
+  fault (reconnected);
+- *data*: the run folder's CSV rows and whether they end at the same frame (consistent);
+- *told*: what the daemon said to the operator (its ``daemon:`` lines, health.json problems).
+
+A row passes when the motors stopped driving within ``failsafe + one period`` of the fault
+wherever the host could not command them (a dead, stopped or blind host, a broken motor path),
+the daemon survived every fault but its own death, and the data on disk is consistent.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+FAULT_AT_S = 6.0  # [s] MCU time: the robot drives the square's first side
+WINDOW_S = 4.0  # [s] MCU time watched after the fault
+FAILSAFE_S = 0.6  # [s] the MCU's heartbeat failsafe (and the interlock)
+PERIOD_S = 0.05  # [s] one telemetry period at 20 Hz
+STOP_WALL_S = 2.5  # [s] SIGSTOP lasts this long (the twin waits 1 s before it runs on alone)
+UNPLUG_WALL_S = 0.3  # [s] the port is gone this long at each unplug
+ACTUATION_LATENCY_S = 0.05  # [s] the twin robot's command-to-motor latency (robots/jackson.yaml)
+BRAKE_LIMIT_S = FAILSAFE_S + PERIOD_S + ACTUATION_LATENCY_S  # must-brake rows stop within this
+HOLD_S = 0.3  # [s] a stop counts when no drive lasts this long
+LOSS_P = 0.05  # probability of a lost / corrupted telemetry frame
+JACKSON = str(Path(sys.executable).parent / "jackson")
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One row of the matrix."""
+
+    name: str
+    actuator: str = "pca9685"  # "pca9685" (the host drives) or "mcu" (MOTOR_PWM)
+    repeat: int = 1
+    must_brake: bool = False  # the host cannot command the motors: they must stop
+
+
+@dataclass
+class FaultRow:
+    """What happened in one row."""
+
+    fault: str
+    actuator: str
+    repeat: int
+    braked: bool
+    brake_delay_s: float | None  # MCU time from the fault to the first instant without drive
+    distance_after_m: float  # ground truth travelled in the window after the fault
+    host_alive: bool
+    exit_status: int | None
+    reconnected: bool  # frames reached the host again after the fault
+    rows: dict[str, int] = field(default_factory=dict)
+    consistent: bool = False
+    told: list[str] = field(default_factory=list)
+    passed: bool = False
+    note: str = ""
+
+
+def matrix(short: bool) -> list[Fault]:
+    """The rows: every fault once (``short``: the repeated ones fewer times)."""
+    n_i2c, n_unplug = (2, 3) if short else (10, 100)
+    return [
+        Fault("host SIGKILL", "pca9685", must_brake=True),
+        Fault("host SIGKILL", "mcu", must_brake=True),
+        Fault("host SIGSTOP", "pca9685", must_brake=True),
+        Fault("host SIGSTOP", "mcu", must_brake=True),
+        Fault("host crash (SIGSEGV)", "pca9685", must_brake=True),
+        Fault("host crash (SIGSEGV)", "mcu", must_brake=True),
+        Fault("I2C server restart", "pca9685", repeat=n_i2c),
+        Fault("foreign MODE1 write", "pca9685"),
+        Fault("serial unplug/replug", "pca9685", repeat=n_unplug),
+        Fault("MCU reset", "pca9685", must_brake=True),
+        Fault("IMU death", "pca9685", must_brake=True),
+        Fault("5 % frames lost", "pca9685"),
+        Fault("5 % frames corrupted", "pca9685"),
+    ]
+
+
+class _Watch:
+    """Runs in the twin's thread after every advance: samples the motors, fires injections."""
+
+    def __init__(self) -> None:
+        self.samples: list[tuple[float, bool, float, float]] = []  # t, driving, x, y
+        self.actions: list[tuple[float, Callable[[], None]]] = []  # (MCU time, action)
+        self.lock = threading.Lock()
+        self.fault_s: float | None = None
+        self.pace_from: tuple[float, float] | None = None  # (wall, MCU) to pace from
+
+    def at(self, t_s: float, action: Callable[[], None]) -> None:
+        with self.lock:
+            self.actions.append((t_s, action))
+            self.actions.sort(key=lambda a: a[0])
+
+    def __call__(self, twin: Any) -> None:
+        left, right = twin._drive
+        r = twin.robot
+        self.samples.append((twin.t_s, left.drive != 0.0 or right.drive != 0.0, r.x, r.y))
+        with self.lock:
+            due = [a for a in self.actions if a[0] <= twin.t_s]
+            self.actions = [a for a in self.actions if a[0] > twin.t_s]
+        for _, action in due:
+            action()
+        if self.pace_from is not None:  # nobody paces a twin without a session: do it here
+            wall0, sim0 = self.pace_from
+            ahead = (twin.t_s - sim0) - (time.monotonic() - wall0)
+            if ahead > 0:
+                threading.Event().wait(ahead)
+
+    def now(self) -> float:
+        return self.samples[-1][0] if self.samples else 0.0
+
+
+def _wait(cond: Callable[[], bool], timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    ev = threading.Event()
+    while not cond():
+        if time.monotonic() > deadline:
+            return False
+        ev.wait(0.01)
+    return True
+
+
+def _config(folder: Path, actuator: str) -> Path:
+    from jackson.host.config import DEFAULT_CONFIG
+
+    text = Path(DEFAULT_CONFIG).read_text()
+    if actuator == "mcu":
+        lines = ["actuator: mcu" if ln.startswith("actuator:") else ln for ln in text.splitlines()]
+        text = "\n".join(lines) + "\n"
+    path = folder / f"host-{actuator}.yaml"
+    path.write_text(text)
+    return path
+
+
+def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
+    """Run one row in ``folder`` (twin thread + daemon process) and measure it."""
+    from jackson.sim.config import load_robot, load_world
+    from jackson.sim.i2c_server import I2cSocketServer
+    from jackson.sim.mcu import SensorSample
+    from jackson.sim.runner import TwinRunner
+    from jackson.sim.twin import Twin
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = random.Random(seed)
+    watch = _Watch()
+    twin = Twin(load_world("square_room"), load_robot("jackson"), lidar=False, seed=seed)
+    sock = folder / "i2c.sock"
+    link = folder / "serial"
+    runner = TwinRunner(
+        twin,
+        i2c_path=sock,
+        mcu_motors=fault.actuator == "mcu",
+        serial_link=str(link),
+        observer=watch,
+    )
+    stop = threading.Event()
+    thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
+    thread.start()
+    run_dir = folder / "run"
+    proc = subprocess.Popen(
+        [
+            JACKSON,
+            "daemon",
+            "--config",
+            str(_config(folder, fault.actuator)),
+            "--port",
+            str(link),
+            "--i2c",
+            f"unix:{sock}",
+            "--mission",
+            "square",
+            "--run-dir",
+            str(run_dir),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    mcu = runner.mcu
+    assert mcu is not None
+    frames_at_fault = [0]
+    killed = [False]
+    end_s = FAULT_AT_S + WINDOW_S
+
+    def mark() -> None:
+        watch.fault_s = watch.now()
+        frames_at_fault[0] = mcu.heartbeats
+
+    def restart_i2c() -> None:
+        runner._sel.unregister(runner.i2c)
+        runner.i2c.close()
+        runner.i2c = I2cSocketServer(sock, {twin.robot_spec.wiring.pca9685_address: runner.pca})
+        runner._sel.register(runner.i2c, 1, "i2c")  # selectors.EVENT_READ
+
+    def reset_mcu() -> None:
+        s = mcu._sensors()
+        mcu.__init__(  # type: ignore[misc]  # the same object boots again
+            mcu._write,
+            mcu._sensors,
+            motor_output=mcu.motor_output,
+            imu_present=mcu.imu_present,
+            boot_us=twin.t_us,
+            boot_id=(mcu.boot_id + 0x9E3779B9) & 0xFFFFFFFF or 1,
+        )
+        mcu.left.update(s.enc_left)
+        mcu.right.update(s.enc_right)
+        mcu.left.zero()  # the PCNT counts restart at 0 with the chip
+        mcu.right.zero()
+        runner._actuate()  # the line fell with the reset
+        watch.pace_from = (time.monotonic(), twin.t_s)  # a rebooting MCU takes real time
+
+    def kill_imu() -> None:
+        real = mcu._sensors
+
+        def dead() -> SensorSample:
+            s = real()
+            return SensorSample(s.enc_left, s.enc_right, False, s.accel, s.temp, s.gyro)
+
+        mcu._sensors = dead
+
+    def lose_frames() -> None:
+        runner.drop_telemetry = lambda n: rng.random() < LOSS_P
+
+    def corrupt_frames() -> None:
+        real = mcu._write
+
+        def noisy(frame: bytes) -> bool:
+            if rng.random() < LOSS_P:
+                b = bytearray(frame)
+                b[rng.randrange(len(b))] ^= 1 << rng.randrange(8)
+                frame = bytes(b)
+            return real(frame)
+
+        mcu._write = noisy
+
+    main_thread_action: list[str] = []
+    name = fault.name
+    watch.at(FAULT_AT_S, mark)
+    if name.startswith("host") or name == "foreign MODE1 write":
+        watch.at(FAULT_AT_S, lambda: main_thread_action.append(name))
+    elif name == "I2C server restart":
+        for k in range(fault.repeat):
+            watch.at(FAULT_AT_S + k * 1.0, restart_i2c)
+        end_s += fault.repeat
+    elif name == "serial unplug/replug":
+        for k in range(fault.repeat):
+            watch.at(FAULT_AT_S + k * 1.0, lambda: runner.request_outage(UNPLUG_WALL_S))
+        end_s += fault.repeat
+    elif name == "MCU reset":
+        watch.at(FAULT_AT_S, reset_mcu)
+    elif name == "IMU death":
+        watch.at(FAULT_AT_S, kill_imu)
+    elif name == "5 % frames lost":
+        watch.at(FAULT_AT_S, lose_frames)
+        end_s += 20.0
+    elif name == "5 % frames corrupted":
+        watch.at(FAULT_AT_S, corrupt_frames)
+        end_s += 20.0
+
+    output = ""
+    try:
+        if not _wait(lambda: watch.fault_s is not None or proc.poll() is not None, 120):
+            raise RuntimeError(f"{name}: the twin never reached {FAULT_AT_S} s of MCU time")
+        if main_thread_action:
+            watch.fault_s = watch.now()  # the fault is the signal, not the request for it
+            if name == "host SIGKILL":
+                proc.send_signal(signal.SIGKILL)
+                killed[0] = True
+            elif name.startswith("host crash"):
+                proc.send_signal(signal.SIGSEGV)
+                killed[0] = True
+            elif name == "host SIGSTOP":
+                proc.send_signal(signal.SIGSTOP)
+                threading.Event().wait(STOP_WALL_S)
+                proc.send_signal(signal.SIGCONT)
+            elif name == "foreign MODE1 write":
+                from jackson.host.i2c import SocketI2cBus
+
+                with SocketI2cBus(sock) as bus:
+                    bus.write_byte_data(twin.robot_spec.wiring.pca9685_address, 0x00, 0x11)
+        _wait(lambda: watch.now() >= end_s or (proc.poll() is not None and killed[0]), 300)
+        if killed[0]:
+            _wait(lambda: watch.now() >= end_s, 60)
+    finally:
+        alive = proc.poll() is None
+        if alive:
+            proc.send_signal(signal.SIGTERM)
+        try:
+            output, _ = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            output, _ = proc.communicate()
+        stop.set()
+        thread.join(timeout=30)
+        runner.close()
+    return _measure(fault, watch, run_dir, alive, proc.returncode, output, frames_at_fault[0], mcu)
+
+
+def _measure(
+    fault: Fault,
+    watch: _Watch,
+    run_dir: Path,
+    alive: bool,
+    status: int | None,
+    output: str,
+    heartbeats_at_fault: int,
+    mcu: Any,
+) -> FaultRow:
+    t_f = watch.fault_s if watch.fault_s is not None else FAULT_AT_S
+    after = [s for s in watch.samples if s[0] >= t_f]
+    delay = _brake_delay(after, t_f)
+    window = [s for s in after if s[0] <= t_f + WINDOW_S]
+    dist = sum(math.hypot(b[2] - a[2], b[3] - a[3]) for a, b in itertools.pairwise(window))
+    rows, consistent = _run_folder(run_dir)
+    told = [
+        ln.strip() for ln in output.splitlines() if ln.startswith(("daemon:", "mission", "jackson"))
+    ]
+    told = [t for t in told if not t.startswith("daemon: /")][:12]
+    health = run_dir / "health.json"
+    if health.exists():
+        try:
+            told += [f"health: {p}" for p in json.loads(health.read_text()).get("problems", [])]
+        except ValueError:
+            told.append("health.json unreadable")
+    killed = fault.name.startswith(("host SIGKILL", "host crash"))
+    braked = delay is not None
+    brake_ok = not fault.must_brake or (braked and delay is not None and delay <= BRAKE_LIMIT_S)
+    host_ok = killed or (alive or status in (0, 1))
+    row = FaultRow(
+        fault=fault.name,
+        actuator=fault.actuator,
+        repeat=fault.repeat,
+        braked=braked,
+        brake_delay_s=None if delay is None else round(delay, 3),
+        distance_after_m=round(dist, 3),
+        host_alive=alive,
+        exit_status=status,
+        reconnected=mcu.heartbeats > heartbeats_at_fault + 1,
+        rows=rows,
+        consistent=consistent,
+        told=told,
+    )
+    row.passed = bool(brake_ok and host_ok and consistent)
+    notes = []
+    if not brake_ok:
+        notes.append("motors not stopped in time")
+    if not host_ok:
+        notes.append("the daemon died")
+    if not consistent:
+        notes.append("run folder inconsistent")
+    row.note = "; ".join(notes)
+    return row
+
+
+def _brake_delay(after: list[tuple[float, bool, float, float]], t_f: float) -> float | None:
+    """MCU time from the fault to the start of the first span without drive that lasts
+    ``HOLD_S`` (or to the end of the record): a corner's momentary zero is not a brake."""
+    start: float | None = None
+    for t, driving, _, _ in after:
+        if driving:
+            start = None
+        elif start is None:
+            start = t
+        elif t - start >= HOLD_S:
+            return start - t_f
+    return None if start is None else start - t_f
+
+
+def _run_folder(run_dir: Path) -> tuple[dict[str, int], bool]:
+    """Rows per CSV, and whether odometry and commands end at the same frame."""
+    rows: dict[str, int] = {}
+    last: dict[str, float] = {}
+    for name in ("odometry.csv", "commands.csv", "ekf.csv"):
+        path = run_dir / name
+        try:
+            lines = path.read_text().splitlines()
+        except OSError:
+            rows[name] = -1
+            continue
+        complete = [ln for ln in lines[1:] if ln.count(",") >= 5]
+        rows[name] = len(complete)
+        try:
+            last[name] = float(complete[-1].split(",")[0]) if complete else 0.0
+        except ValueError:
+            last[name] = -1.0
+    odo, cmd, ekf = (rows.get(n, -1) for n in ("odometry.csv", "commands.csv", "ekf.csv"))
+    # one odometry and one command row per frame, EKF outputs at 30 Hz up to the same frame
+    consistent = (
+        odo >= 0
+        and odo == cmd
+        and (odo == 0 or last["odometry.csv"] == last["commands.csv"])
+        and (
+            ekf <= 0 or odo == 0 or abs(last["odometry.csv"] - last["ekf.csv"]) <= PERIOD_S + 1 / 30
+        )
+    )
+    return rows, consistent
+
+
+def run_matrix(
+    out: Path, short: bool = False, progress: Callable[[str], None] | None = None
+) -> list[FaultRow]:
+    """Every row of :func:`matrix`, one after the other; writes faults.json, report.md and a
+    plot into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    rows: list[FaultRow] = []
+    faults = matrix(short)
+    for k, fault in enumerate(faults):
+        if progress is not None:
+            progress(f"[{k + 1}/{len(faults)}] {fault.name} ({fault.actuator})")
+        slug = (
+            f"{k:02d}-"
+            + "".join(c if c.isalnum() else "-" for c in fault.name)
+            + f"-{fault.actuator}"
+        )
+        with tempfile.TemporaryDirectory(prefix="jf-", dir=os.environ.get("TMPDIR")) as tmp:
+            # the I2C socket path must stay short (108 bytes); the run folder is kept in out
+            row = run_row(fault, Path(tmp), seed=k)
+            kept = out / slug
+            src = Path(tmp) / "run"
+            if src.exists():
+                import shutil
+
+                shutil.copytree(src, kept, dirs_exist_ok=True)
+        rows.append(row)
+    (out / "faults.json").write_text(json.dumps([asdict(r) for r in rows], indent=2) + "\n")
+    (out / "report.md").write_text(report_markdown(rows))
+    return rows
+
+
+def report_markdown(rows: list[FaultRow]) -> str:
+    head = (
+        "| fault | actuator | n | braked | delay [s] | distance after [m] | host | exit | "
+        "reconnected | rows odo/cmd/ekf | consistent | told | pass |\n"
+        "|---|---|---:|---|---:|---:|---|---:|---|---|---|---|---|\n"
+    )
+    lines = []
+    for r in rows:
+        told = "; ".join(r.told[:4]).replace("|", "/") or "nothing"
+        lines.append(
+            f"| {r.fault} | {r.actuator} | {r.repeat} | {'yes' if r.braked else 'no'} | "
+            f"{'' if r.brake_delay_s is None else f'{r.brake_delay_s:.3f}'} | "
+            f"{r.distance_after_m:.3f} | {'alive' if r.host_alive else 'gone'} | "
+            f"{r.exit_status} | {'yes' if r.reconnected else 'no'} | "
+            f"{r.rows.get('odometry.csv')}/{r.rows.get('commands.csv')}/{r.rows.get('ekf.csv')} | "
+            f"{'yes' if r.consistent else 'no'} | {told} | {'✔' if r.passed else '✘ ' + r.note} |"
+        )
+    passed = sum(r.passed for r in rows)
+    return (
+        "# Fault matrix\n\n"
+        f"{passed} of {len(rows)} rows pass. Fault at {FAULT_AT_S} s of MCU time; delays and "
+        f"distances on MCU time from the fault; must-brake rows pass within "
+        f"{BRAKE_LIMIT_S:.2f} s (failsafe, one frame, the motors' latency).\n\n"
+        + head
+        + "\n".join(lines)
+        + "\n"
+    )

@@ -1,0 +1,27 @@
+"""The fault matrix's key rows on the twin with the real daemon (``jackson faults`` runs all)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from jackson.calibration.faults import BRAKE_LIMIT_S, Fault, run_row
+
+
+def test_a_killed_host_on_the_pca9685_path_is_braked_by_the_interlock(tmp_path: Path) -> None:
+    row = run_row(Fault("host SIGKILL", "pca9685", must_brake=True), tmp_path)
+    assert row.braked and row.brake_delay_s is not None
+    assert row.brake_delay_s <= BRAKE_LIMIT_S
+    assert row.consistent, row.rows  # files flushed together: they end at the same frame
+
+
+def test_an_imu_that_dies_mid_mission_aborts_it_with_a_reason(tmp_path: Path) -> None:
+    row = run_row(Fault("IMU death", "pca9685", must_brake=True), tmp_path)
+    assert row.exit_status == 1
+    assert any("IMU silent" in t for t in row.told)
+    assert row.brake_delay_s is not None and row.brake_delay_s <= BRAKE_LIMIT_S
+
+
+def test_the_daemon_survives_an_i2c_server_restart(tmp_path: Path) -> None:
+    row = run_row(Fault("I2C server restart", "pca9685", repeat=2), tmp_path)
+    assert row.host_alive or row.exit_status in (0, 1)
+    assert row.reconnected
