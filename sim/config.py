@@ -48,14 +48,21 @@ class MotorSpec:
         return self.no_load_rpm * 2.0 * math.pi / 60.0
 
 
+INTERLOCKS = ("pca9685_oe", "tb6612_stby", "none")
+"""Where the MCU's motor interlock line goes (docs/firmware.md, "Motor interlock"): the
+PCA9685's OE pin (pulled up), the TB6612's STBY (pulled down), or nowhere."""
+
+
 @dataclass(frozen=True)
 class WiringSpec:
-    """How the PCA9685 drives the TB6612 on this robot."""
+    """How the PCA9685 drives the TB6612 on this robot, and where the MCU's interlock line
+    goes (one of :data:`INTERLOCKS`; ``none``: nothing stops a host's last duty)."""
 
     pca9685_address: int = 0x40
     left: MotorWiring = LEFT_WIRING
     right: MotorWiring = RIGHT_WIRING
-    stby_channel: int | None = None  # None: STBY tied high
+    stby_channel: int | None = None  # None: STBY tied high (or the interlock's, tb6612_stby)
+    interlock: str = "pca9685_oe"
 
 
 @dataclass(frozen=True)
@@ -185,7 +192,17 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         left=wheel("left", MotorWiring(0, 1, 2)),
         right=wheel("right", MotorWiring(5, 3, 4)),
         stby_channel=w.optional_integer("stby_channel", 0, 15),
+        interlock=w.text("interlock", "pca9685_oe"),
     )
+    if wiring.interlock not in INTERLOCKS:
+        raise w.fail(
+            "interlock", f"expected one of {', '.join(INTERLOCKS)}, got {wiring.interlock}"
+        )
+    if wiring.interlock == "tb6612_stby" and wiring.stby_channel is not None:
+        raise w.fail(
+            "interlock",
+            f"tb6612_stby wires STBY to the MCU, but stby_channel is {wiring.stby_channel}",
+        )
     w.finish()
     i = r.section("imu")
     imu = ImuSpec(

@@ -43,7 +43,7 @@ class FeedStatus:
     next_telemetry_us: int
     accel_fs: int  # the MPU-6050's ranges as the firmware set them (0-3)
     gyro_fs: int
-    motor_enable: bool = False  # the interlock line (docs/firmware.md, "Motor interlock")
+    motor_enable: bool  # the interlock line, 1 asserted (docs/firmware.md, "Motor interlock")
 
 
 def parse_status(line: bytes | str) -> FeedStatus:

@@ -173,7 +173,9 @@ class McuEmulator:
         self.cmd_expiry_us = 0
         self.motors = MotorOutput()
         self.host_shutdown = False  # the newest HEARTBEAT said SHUTDOWN
-        self.motor_enable = False  # the interlock line (firmware.cpp update_interlock)
+        # the motor interlock line (firmware.cpp update_interlock, docs/firmware.md "Motor
+        # interlock"): True while asserted (PCA9685 OE low / TB6612 STBY high)
+        self.motor_enable = False
         self.telemetry_frames = 0
         self.heartbeats = 0
         self._imu_ok = imu_present
@@ -403,27 +405,27 @@ class McuEmulator:
 
     # ------------------------------------------------------------------ motors
 
-    def _update_motors(self, now: int) -> None:
-        if not self.motor_output:
-            return
-        host_alive = (
+    def _host_alive(self, now: int) -> bool:
+        """A session's HEARTBEATs arrive within failsafe_ms (firmware.cpp host_alive)."""
+        return (
             self.session
             and self.heartbeat_seen
             and not _reached(now, self.last_heartbeat_us + 1000 * self.failsafe_ms)
         )
+
+    def _update_motors(self, now: int) -> None:
+        if not self.motor_output:
+            return
         live = self.motor_commanded and not _reached(now, self.cmd_expiry_us)
-        if live and host_alive:
+        if live and self._host_alive(now):
             self.motors = MotorOutput(self.cmd[0], self.cmd[1], False, False)
         else:
             self.motors = MotorOutput(0, 0, True, self.motor_commanded)
 
     def _update_interlock(self, now: int) -> None:
-        self.motor_enable = (
-            self.session
-            and self.heartbeat_seen
-            and not self.host_shutdown
-            and not _reached(now, self.last_heartbeat_us + 1000 * self.failsafe_ms)
-        )
+        """The motor interlock line (firmware.cpp update_interlock): asserted exactly while the
+        host is alive and its newest HEARTBEAT is not SHUTDOWN."""
+        self.motor_enable = self._host_alive(now) and not self.host_shutdown
 
     def wheel_duty(self) -> tuple[float, float, bool]:
         """The H-bridge output per wheel as signed duty (-1..1), with direction flags applied."""
@@ -471,7 +473,9 @@ class McuEmulator:
                 self.session = False
                 return
             self.session = True
-            self.heartbeat_seen = False
+            self.heartbeat_seen = False  # the interlock drops until this session's first HEARTBEAT
+            self.host_shutdown = False
+            self._update_interlock(now)  # as the firmware's tick that handles the HELLO
             self.telemetry_sent = False
             self.last_heartbeat_us = now
             self.next_telemetry_us = (now + self.period_us) & 0xFFFFFFFF

@@ -15,6 +15,12 @@ What is modelled (section and table numbers of the datasheet):
   return 0.
 - PRE_SCALE (§7.3.5): accepted only while SLEEP = 1, forced to at least 3; update rate
   ``f = osc_clock / (4096 * (PRE_SCALE + 1))`` (Eq. 1) with the 25 MHz internal oscillator.
+- The active-low OE input (§7.4; :attr:`Pca9685.output_enable`, True while OE is low) and MODE2
+  (§7.3.2, Table 6): with OE low the outputs follow the LED registers, inverted when INVRT = 1;
+  with OE high they follow OUTNE: 00 drives every output low, 01 drives them high when OUTDRV = 1
+  (totem pole) and leaves them high-impedance when OUTDRV = 0, 1x leaves them high-impedance.
+  The robot's MCU holds OE (its motor interlock, docs/firmware.md); a high-impedance output
+  reads low at a TB6612FNG input (its internal pull-down).
 
 Simplifications, stated so nobody mistakes them for the chip:
 
@@ -24,9 +30,9 @@ Simplifications, stated so nobody mistakes them for the chip:
 - No time: the 500 µs oscillator start-up after clearing SLEEP is not enforced, output changes
   take effect at once (MODE2 OCH is stored but changes nothing), and the phase of a channel
   within the PWM period is ignored: only its duty matters.
-- MODE2 (INVRT, OCH, OUTDRV, OUTNE) and the sub-addresses are stored and read back, but the
-  outputs are modelled as non-inverted totem-pole outputs (MODE2 = 0x04, the power-on value and
-  the one motor HATs use) and the chip answers only at the address the bus gives it.
+- With OE low the outputs are modelled as totem-pole outputs whatever OUTDRV says (open-drain
+  needs external pull-ups, which motor HATs do not fit); OCH and the sub-addresses are stored
+  and read back only, and the chip answers only at the address the bus gives it.
 - Reserved registers 0x46..0xF9 and TestMode 0xFF ignore writes and read 0.
 """
 
@@ -68,7 +74,9 @@ MODE1_ALLCALL = 0x01
 MODE2_INVRT = 0x10
 MODE2_OCH = 0x08
 MODE2_OUTDRV = 0x04
-MODE2_OUTNE = 0x03  # two-bit field
+MODE2_OUTNE = 0x03  # two-bit field: output state while OE is high
+OUTNE_LOW = 0x00  # LEDn = 0 while OE = 1
+OUTNE_HIGH = 0x01  # LEDn = 1 while OE = 1 with OUTDRV = 1 (high-impedance with OUTDRV = 0)
 
 # ---- LEDn_ON_H / LEDn_OFF_H (Table 7) ---------------------------------------------------------
 LED_FULL = 0x10  # bit 4: full-on in ON_H, full-off in OFF_H
@@ -146,7 +154,26 @@ class Pca9685:
         self.reset()
 
     generation: int = 0
-    """Counts register writes and resets: outputs can only have changed when it has."""
+    """Counts register writes, resets and OE changes: outputs can only have changed when it
+    has."""
+
+    _output_enable: bool = True
+
+    @property
+    def output_enable(self) -> bool:
+        """The active-low OE pin is low: outputs follow the LED registers (§7.4).
+
+        True by default, as on boards that tie OE to ground; on the robot the MCU's interlock
+        line drives it (docs/firmware.md, "Motor interlock"). A reset leaves it alone: it is a
+        pin, not a register.
+        """
+        return self._output_enable
+
+    @output_enable.setter
+    def output_enable(self, enabled: bool) -> None:
+        if enabled != self._output_enable:
+            self._output_enable = enabled
+            self.generation += 1
 
     def reset(self) -> None:
         """Return every register to its power-on value (power cycle or SWRST, §7.6)."""
@@ -235,14 +262,40 @@ class Pca9685:
         clock_hz = self.extclk_hz if self._mode1 & MODE1_EXTCLK else OSC_CLOCK_HZ
         return clock_hz / (PWM_STEPS * (self._prescale + 1))
 
-    def channel_duty(self, channel: int) -> float:
-        """Fraction of each PWM period during which output ``channel`` is high, in [0, 1].
+    @property
+    def mode2(self) -> int:
+        """The MODE2 register (INVRT, OCH, OUTDRV, OUTNE; Table 6)."""
+        return self._mode2
 
-        0 while asleep or while a restart is pending; otherwise full-off gives 0 (it wins over
-        full-on), full-on gives 1, and else ``((OFF - ON) mod 4096) / 4096`` (§7.3.3).
+    def output(self, channel: int) -> float | None:
+        """Fraction of each PWM period output ``channel`` drives high, or None when the output
+        is high-impedance (OE high with OUTNE = 1x, or 01 with OUTDRV = 0; §7.3.2 Table 6).
+
+        With OE high: OUTNE = 00 gives 0 and OUTNE = 01 with OUTDRV = 1 gives 1, whatever the
+        LED registers hold. With OE low: 0 while asleep or while a restart is pending; otherwise
+        full-off gives 0 (it wins over full-on), full-on gives 1, and else
+        ``((OFF - ON) mod 4096) / 4096`` (§7.3.3); INVRT = 1 inverts the result.
         """
+        if not self._output_enable:
+            _ = led_on_l(channel)  # the same channel check as with OE low
+            outne = self._mode2 & MODE2_OUTNE
+            if outne == OUTNE_LOW:
+                return 0.0
+            if outne == OUTNE_HIGH and self._mode2 & MODE2_OUTDRV:
+                return 1.0
+            return None
         duty = self._programmed_duty(channel)
-        return 0.0 if self.asleep or self._restart_pending else duty
+        if self.asleep or self._restart_pending:
+            duty = 0.0
+        return 1.0 - duty if self._mode2 & MODE2_INVRT else duty
+
+    def channel_duty(self, channel: int) -> float:
+        """Fraction of each PWM period output ``channel`` reads high at a TB6612FNG input, in
+        [0, 1]: :meth:`output`, with a high-impedance output read low (the TB6612FNG's inputs
+        have internal pull-down resistors).
+        """
+        level = self.output(channel)
+        return 0.0 if level is None else level
 
     # ---- registers ----------------------------------------------------------------------------
     def _programmed_duty(self, channel: int) -> float:

@@ -9,6 +9,12 @@ simulated time. **Real time** paces the same steps on the wall clock and never w
 
 The MCU is the Python emulator (:mod:`jackson.sim.mcu`) or, with ``firmware=True``, the compiled
 POSIX firmware (:mod:`jackson.sim.fil`) fed the same sensor values at the same instants.
+
+The MCU's motor interlock line (docs/firmware.md, "Motor interlock") drives the pin the robot
+file's ``wiring.interlock`` names, the PCA9685's OE or the TB6612's STBY, before the bridge
+outputs are computed; so a host that stops sending heartbeats has its last PCA9685 duty cut at
+the instant the MCU drops the line (the emulator's next deadline includes it; the compiled
+firmware's status line shows it at the next telemetry instant, at most one period later).
 An optional ``observer`` is called with the twin after each advance of its clock (in real
 time, once the wall clock has caught up); ``jackson sim --ros`` publishes from it
 (:mod:`jackson.sim.ros`).
@@ -85,8 +91,12 @@ class TwinRunner:
         self.pca = Pca9685()
         self.i2c = I2cSocketServer(i2c_path, {wiring.pca9685_address: self.pca})
         self._wiring = wiring
-        # bridge outputs of the last PCA9685 state (generation), recomputed after a write
-        self._bridges: tuple[int, tuple[BridgeOutput, BridgeOutput]] | None = None
+        # bridge outputs of the last PCA9685 state (generation, which counts register writes and
+        # OE changes) and STBY level, recomputed when either changes
+        self._bridges: (
+            tuple[tuple[int, bool, bool | None], tuple[BridgeOutput, BridgeOutput]] | None
+        ) = None
+        self._line_applied: bool | None = None  # the interlock level the models last saw
         self._sample: tuple[int, SensorSample] | None = None
         self.firmware: FirmwareProcess | None = None
         self.link: PtyLink | None = None
@@ -118,7 +128,9 @@ class TwinRunner:
         self._outage_until: float | None = None
         self.outage_outputs: list[tuple[BridgeOutput, BridgeOutput]] = []
         self._stop: Event | None = None
-        self._host_gone: int | None = None  # heartbeats seen when the host went silent
+        # heartbeats seen (emulator) or the last heartbeat_ack (firmware) when the host went
+        # silent; None while it answers
+        self._host_gone: int | None = None
         self._pace_origin = (0.0, 0.0)
         self._session_wall0 = 0.0  # wall time of the HELLO (run() statistics)
         self._sel = selectors.DefaultSelector()
@@ -152,11 +164,7 @@ class TwinRunner:
             self._pace_origin = (time.monotonic(), self.twin.t_s)  # the world runs on meanwhile
             self._outage_request = None
         elif self._outage_until is not None and time.monotonic() >= self._outage_until:
-            self.outage_outputs.append(
-                bridge_outputs(
-                    self.pca, self._wiring.left, self._wiring.right, self._wiring.stby_channel
-                )
-            )
+            self.outage_outputs.append(self.bridges())
             self.link = PtyLink(self._serial_link)
             self.serial_path = self.link.path
             self._sel.register(self.link, selectors.EVENT_READ, "serial")
@@ -178,13 +186,35 @@ class TwinRunner:
         return self._sample[1]
 
     def motor_enable(self, fw: FeedStatus | None = None) -> bool:
-        """The MCU's interlock line (docs/firmware.md, "Motor interlock")."""
-        if fw is not None:
-            return fw.motor_enable
-        return self.mcu is not None and self.mcu.motor_enable
+        """The MCU's interlock line (docs/firmware.md, "Motor interlock"): the emulator's, or the
+        compiled firmware's as its status line ``fw`` (else its last one) reports it."""
+        if self.mcu is not None:
+            return self.mcu.motor_enable
+        if fw is None and self.firmware is not None:
+            fw = self.firmware.last_status
+        return fw is not None and fw.motor_enable
+
+    def bridges(self, fw: FeedStatus | None = None) -> tuple[BridgeOutput, BridgeOutput]:
+        """Both TB6612 bridges' outputs now: the MCU's interlock line applied to the pin it is
+        wired to (``wiring.interlock``), then the PCA9685's channels through the truth table."""
+        enable = self.motor_enable(fw)
+        w, pca = self._wiring, self.pca
+        self._line_applied = enable
+        # OE is pulled up: released (False) disables the outputs; unwired, OE is tied low
+        pca.output_enable = enable if w.interlock == "pca9685_oe" else True
+        stby = enable if w.interlock == "tb6612_stby" else None  # pulled down: released = low
+        key = (pca.generation, pca.output_enable, stby)
+        if self._bridges is None or self._bridges[0] != key:
+            outputs = bridge_outputs(pca, w.left, w.right, w.stby_channel, stby)
+            self._bridges = (key, outputs)
+        return self._bridges[1]
+
+    def _line_changed(self) -> bool:
+        return self.motor_enable() != self._line_applied
 
     def _actuate(self, fw: FeedStatus | None = None) -> None:
         if self.mcu_motors:
+            self._line_applied = self.motor_enable(fw)
             if fw is not None:
                 duties = (fw.motor_left / 1e4, fw.motor_right / 1e4, fw.braked)
             else:
@@ -196,16 +226,7 @@ class TwinRunner:
             else:
                 self.twin.command(WheelDrive(left, 1.0), WheelDrive(right, 1.0))
             return
-        if not self.motor_enable(fw):
-            # OE released (pulled high): with the host's MODE2 OUTNE = 01 every PCA9685 output
-            # goes high, IN1 = IN2 = PWM = H, and both TB6612 bridges short-brake
-            self.twin.command(WheelDrive.brake(), WheelDrive.brake())
-            return
-        pca = self.pca
-        if self._bridges is None or self._bridges[0] != pca.generation:
-            w = self._wiring
-            self._bridges = (pca.generation, bridge_outputs(pca, w.left, w.right, w.stby_channel))
-        b_left, b_right = self._bridges[1]
+        b_left, b_right = self.bridges(fw)
         self.twin.command(_wheel(b_left), _wheel(b_right))
 
     # ------------------------------------------------------------------ serving the host
@@ -290,7 +311,6 @@ class TwinRunner:
             self._check_outage()
             self._serve(0.0)  # like the firmware's tick: what has arrived is handled first
             frames_before = mcu.telemetry_frames
-            enable_before = mcu.motor_enable
             self._lost = False
             mcu.tick(now)
             if mcu.telemetry_frames != frames_before:
@@ -302,8 +322,8 @@ class TwinRunner:
                 else:
                     self._serve(0.0)
                 self._actuate()
-            elif self.mcu_motors or mcu.motor_enable != enable_before:
-                self._actuate()
+            elif self.mcu_motors or self._line_changed():
+                self._actuate()  # the MCU's own failsafe, or the interlock line, on time
             nxt = mcu.next_deadline(now)
             step_us = ((nxt - now) & 0xFFFFFFFF) if nxt is not None else 50_000
             if step_us == 0 or step_us >= 0x80000000:
@@ -350,18 +370,30 @@ class TwinRunner:
             if status.telemetry_seq != last_seq:
                 last_seq = status.telemetry_seq
                 self.frames += 1
-                if self.lockstep:
+                if self.lockstep and self._host_gone is None:
                     status = fw.wait_heartbeat(
                         status.telemetry_seq,
                         round(self.heartbeat_timeout_s * 1000),
                         on_wait=lambda: self.i2c.service(0.0),
                     )
                     if status.heartbeat_ack != last_seq:
+                        # the host is gone: run in real time until its heartbeats come back
                         self.heartbeat_timeouts += 1
+                        self._host_gone = status.heartbeat_ack
+                        self._pace_origin = (time.monotonic(), self.twin.t_s)
+                elif self._host_gone is not None:
+                    self.i2c.service(0.0)
+                    status = fw.wait_heartbeat(last_seq, 0)  # serves the link once
+                    if status.heartbeat_ack != self._host_gone:
+                        self._host_gone = None  # the host is back: lockstep again
                 else:
                     self.i2c.service(0.0)
                 self._actuate(status)
-            if not self.lockstep:
+            elif self._line_changed():
+                self._actuate(status)
+            if self._host_gone is not None:
+                self._pace(*self._pace_origin)
+            elif not self.lockstep:
                 while (self.twin.t_s - sim0) > (time.monotonic() - wall0):
                     self.i2c.service(0.001)
             if self.observer is not None:

@@ -15,7 +15,11 @@ H/L   H/L   H/L    L     OFF (Hi-Z)   OFF (Hi-Z)   STANDBY
 ====  ====  =====  ====  ===========  ===========  ===========
 
 On the robot IN1, IN2 and STBY come from PCA9685 channels driven fully on or off, and PWM from a
-PCA9685 channel at some duty. Averaged over a PWM period, a bridge in CW or CCW applies the
+PCA9685 channel at some duty. The MCU's motor interlock (docs/firmware.md, "Motor interlock")
+reaches the bridges either through the PCA9685's OE pin, which :meth:`Pca9685.channel_duty`
+honours (OE high with the host's MODE2 OUTNE = 01: every input high, SHORT_BRAKE; with the
+power-on OUTNE = 00: every input low, STOP), or through STBY wired to the MCU (``stby`` of
+:func:`bridge_outputs`; low: STANDBY). Averaged over a PWM period, a bridge in CW or CCW applies the
 supply during the high part and shorts the winding (short brake) during the low part; that is
 what :class:`BridgeOutput` reports. Dead time and switching losses are ignored.
 """
@@ -122,20 +126,31 @@ def bridge_outputs(
     left: MotorWiring = LEFT_WIRING,
     right: MotorWiring = RIGHT_WIRING,
     stby_channel: int | None = None,
+    stby: bool | None = None,
 ) -> tuple[BridgeOutput, BridgeOutput]:
     """Outputs of both bridges of one TB6612FNG driven by a PCA9685.
+
+    The PCA9685's OE pin (:attr:`Pca9685.output_enable`) acts through its channel outputs.
 
     Args:
         pca: The PWM chip whose channels drive the bridge inputs.
         left: Channels of the left motor's bridge.
         right: Channels of the right motor's bridge.
         stby_channel: Channel driving STBY (shared by both bridges), or None when STBY is tied
-            high.
+            high or driven by the MCU.
+        stby: STBY level driven by the MCU's interlock line (the pull-down wiring: False while
+            the line is released), or None when STBY is not wired to the MCU.
 
     Returns:
         ``(left, right)`` bridge outputs.
+
+    Raises:
+        ValueError: Both ``stby_channel`` and ``stby`` are given (one pin, two drivers).
     """
-    stby = True if stby_channel is None else logic_level(pca.channel_duty(stby_channel))
+    if stby_channel is not None and stby is not None:
+        raise ValueError("STBY is driven either by a PCA9685 channel or by the MCU, not both")
+    if stby is None:
+        stby = True if stby_channel is None else logic_level(pca.channel_duty(stby_channel))
     return (_one_bridge(pca, left, stby), _one_bridge(pca, right, stby))
 
 

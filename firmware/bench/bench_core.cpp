@@ -49,7 +49,8 @@ int main() {
   NullSerial serial;
   posix::FileStorage storage("");
   NullMotors motors;
-  Hal hal{clock, enc, i2c, serial, storage, &motors};
+  posix::RecordedMotorEnable line;
+  Hal hal{clock, enc, i2c, serial, storage, &motors, 1, &line};
   static Firmware fw(hal);
   clock.set(1000);
   fw.begin();

@@ -84,6 +84,7 @@ uint32_t Firmware::next_deadline() const noexcept {
   if (session_) {
     t = earliest(t, next_telemetry_us_);
     t = earliest(t, next_status_us_);
+    // HOST_LOST: the motor failsafe and the interlock line both drop at this instant
     const uint32_t host_lost = last_heartbeat_us_ + 1000u * cfg_.failsafe_ms;
     if (!reached(now, host_lost)) t = earliest(t, host_lost);
   }
@@ -130,12 +131,14 @@ void Firmware::sample_imu(uint32_t now) {
   }
 }
 
+bool Firmware::host_alive(uint32_t now) const noexcept {
+  return session_ && heartbeat_seen_ && !reached(now, last_heartbeat_us_ + 1000u * cfg_.failsafe_ms);
+}
+
 void Firmware::update_motors(uint32_t now) {
   if (hal_.motors == nullptr) return;
-  const bool host_alive = session_ && heartbeat_seen_ &&
-                          !reached(now, last_heartbeat_us_ + 1000u * cfg_.failsafe_ms);
   const bool command_live = motor_commanded_ && !reached(now, cmd_expiry_us_);
-  if (command_live && host_alive) {
+  if (command_live && host_alive(now)) {
     motor_ = MotorState{cmd_left_, cmd_right_, false, false};
     // the direction flag inverts the output with the count, so both agree on "forward"
     const int16_t l = left_.inverted() ? static_cast<int16_t>(-cmd_left_) : cmd_left_;
@@ -151,8 +154,8 @@ void Firmware::update_motors(uint32_t now) {
 }
 
 void Firmware::update_interlock(uint32_t now) {
-  const bool enable = session_ && heartbeat_seen_ && !host_shutdown_ &&
-                      !reached(now, last_heartbeat_us_ + 1000u * cfg_.failsafe_ms);
+  // the same notion of a live host as the motor failsafe, minus an orderly SHUTDOWN
+  const bool enable = host_alive(now) && !host_shutdown_;
   if (enable == motor_enable_) return;
   motor_enable_ = enable;
   if (hal_.motor_enable != nullptr) hal_.motor_enable->set(enable);
@@ -163,9 +166,7 @@ uint16_t Firmware::telemetry_flags(uint32_t now) const noexcept {
   uint16_t f = 0;
   if (imu_.ok()) f |= kImuOk;
   if (calibrated_) f |= kImuCalibrated;
-  if (session_ && (!heartbeat_seen_ || reached(now, last_heartbeat_us_ + 1000u * cfg_.failsafe_ms))) {
-    f |= kHostLost;
-  }
+  if (session_ && !host_alive(now)) f |= kHostLost;
   if (motor_.failsafe) f |= kFailsafeActive;
   if (decoder_.counters().crc_errors + rx_bad_commands_ != rx_errors_at_status_) f |= kRxErrors;
   if (i2c_error_flag_) f |= kI2cErrors;
@@ -330,7 +331,8 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
       }
       session_ = true;
       averager_ = ImuAverager{};  // the first frame averages only samples of this session
-      heartbeat_seen_ = false;
+      heartbeat_seen_ = false;  // the interlock drops until this session's first HEARTBEAT
+      host_shutdown_ = false;
       telemetry_sent_ = false;
       last_heartbeat_us_ = now;
       next_telemetry_us_ = now + telemetry_period_us();

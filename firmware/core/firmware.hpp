@@ -70,7 +70,8 @@ class Firmware {
     return heartbeat_seen_;
   }
   bool calibrated() const noexcept { return calibrated_; }
-  /// The interlock line: asserted while a session's heartbeats are live (and not SHUTDOWN).
+  /// The interlock line as last set through Hal::motor_enable: asserted exactly while a
+  /// session's HEARTBEATs arrive within failsafe_ms and the newest is not SHUTDOWN.
   bool motor_enable() const noexcept { return motor_enable_; }
   /// When the next telemetry frame is due (meaningful during a session).
   uint32_t next_telemetry_us() const noexcept { return next_telemetry_us_; }
@@ -82,6 +83,8 @@ class Firmware {
   void sample_imu(uint32_t now);
   void update_motors(uint32_t now);
   void update_interlock(uint32_t now);
+  /// A session's HEARTBEATs arrive within failsafe_ms (the motor failsafe and interlock rule).
+  bool host_alive(uint32_t now) const noexcept;
   void send_telemetry(uint32_t now);
   void send_status(uint32_t now);
   void send_info();

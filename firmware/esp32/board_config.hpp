@@ -35,13 +35,31 @@ constexpr int kMotorBIn1 = 14;
 constexpr int kMotorBIn2 = 15;
 constexpr int kMotorStby = 16;
 
-/// Motor interlock (docs/firmware.md, "Motor interlock"): this GPIO drives the PCA9685's
-/// active-low OE pin, with a 10 kOhm pull-up to 3.3 V on the motor HAT side, so the outputs are
-/// disabled while the ESP32 is in reset, unpowered or unplugged, and whenever the firmware
-/// releases the line (no host heartbeat for failsafe_ms). -1: not wired.
+/// Motor interlock (docs/firmware.md, "Motor interlock"). This GPIO drives the PCA9685's
+/// active-low OE pin (output enable), with a 10 kOhm pull-up from OE to the PCA9685's VCC, so OE
+/// is high (outputs disabled) whenever the ESP32 is in reset (its pins float as inputs),
+/// unpowered, unplugged, or simply not asserting the line. The firmware drives it low (enabled)
+/// only during a session while HEARTBEATs arrive within failsafe_ms, and releases it at boot, on
+/// HOST_LOST and on a SHUTDOWN heartbeat. With OE high the PCA9685 outputs follow MODE2 OUTNE:
+/// the host writes OUTDRV | OUTNE=01, so all go high and both TB6612 bridges short-brake (IN1 =
+/// IN2 = PWM = H); a PCA9685 back at its power-on MODE2 (OUTNE=00) drives them low: coast.
+/// Boards without OE access: wire this GPIO to the TB6612's STBY with a 10 kOhm pull-down to GND
+/// instead (STBY low = standby, outputs Hi-Z) and set kMotorEnableActiveLevel = 1.
+/// GPIO17: a plain I/O of the S3 (not strapping, USB, flash, PSRAM, LED or console, see above) and
+/// none of the pins used here; it floats at reset, so the pull resistor decides. -1: not wired.
 constexpr int kMotorEnablePin = 17;
-/// Level that enables the outputs: 0 for PCA9685 OE (active low), 1 for a TB6612 STBY wiring.
+/// GPIO level that enables the motors: 0 for PCA9685 OE (active low), 1 for TB6612 STBY.
 constexpr int kMotorEnableActiveLevel = 0;
+static_assert(kMotorEnablePin < 0 ||
+                  (kMotorEnablePin != kLeftEncoderA && kMotorEnablePin != kLeftEncoderB &&
+                   kMotorEnablePin != kRightEncoderA && kMotorEnablePin != kRightEncoderB &&
+                   kMotorEnablePin != kI2cSda && kMotorEnablePin != kI2cScl &&
+                   (!kMcuDrivesMotors ||
+                    (kMotorEnablePin < kMotorPwmA || kMotorEnablePin > kMotorStby))),
+              "the interlock pin must not share a pin with the encoders, the I2C bus or the "
+              "MCU's TB6612 outputs");
+static_assert(kMotorEnableActiveLevel == 0 || kMotorEnableActiveLevel == 1,
+              "kMotorEnableActiveLevel is a GPIO level: 0 (OE) or 1 (STBY)");
 
 /// PCNT: the 16-bit counter resets to 0 on reaching +-limit; the HAL counts those events.
 constexpr int16_t kPcntLimit = 30000;

@@ -239,21 +239,30 @@ class NvsStorage final : public Storage {
   bool open_ = false;
 };
 
-/// The interlock line: configured as an output at its disabled level before anything else runs.
+/// The interlock line (board::kMotorEnablePin, docs/firmware.md "Motor interlock"): the output
+/// latch is set to the disabled level before the pin becomes an output, so it never glitches to
+/// enabled; the external pull resistor holds that level before this runs and after any reset.
 class GpioMotorEnable final : public MotorEnable {
  public:
+  static constexpr int kEnabled = board::kMotorEnableActiveLevel;
+  static constexpr int kDisabled = 1 - board::kMotorEnableActiveLevel;
+
   GpioMotorEnable() {
-    const auto p = static_cast<gpio_num_t>(board::kMotorEnablePin);
-    ESP_ERROR_CHECK(gpio_set_level(p, 1 - board::kMotorEnableActiveLevel));
+    ESP_ERROR_CHECK(gpio_set_level(pin(), kDisabled));
     gpio_config_t out{};
-    out.pin_bit_mask = uint64_t{1} << board::kMotorEnablePin;
+    out.pin_bit_mask = uint64_t{1} << static_cast<unsigned>(pin());
     out.mode = GPIO_MODE_OUTPUT;
+    out.pull_up_en = GPIO_PULLUP_DISABLE;  // the external 10 kOhm decides while the pin floats
+    out.pull_down_en = GPIO_PULLDOWN_DISABLE;
+    out.intr_type = GPIO_INTR_DISABLE;
     ESP_ERROR_CHECK(gpio_config(&out));
-    ESP_ERROR_CHECK(gpio_set_level(p, 1 - board::kMotorEnableActiveLevel));
+    ESP_ERROR_CHECK(gpio_set_level(pin(), kDisabled));
   }
-  void set(bool enabled) override {
-    const int level = enabled ? board::kMotorEnableActiveLevel : 1 - board::kMotorEnableActiveLevel;
-    gpio_set_level(static_cast<gpio_num_t>(board::kMotorEnablePin), level);
+  void set(bool enabled) override { gpio_set_level(pin(), enabled ? kEnabled : kDisabled); }
+
+ private:
+  static constexpr gpio_num_t pin() {
+    return static_cast<gpio_num_t>(board::kMotorEnablePin >= 0 ? board::kMotorEnablePin : 0);
   }
 };
 
@@ -359,7 +368,8 @@ void watch_this_task() {
 
 extern "C" void app_main(void) {
   using namespace jackson::fw;
-  // the interlock line first: the motors stay disabled until the host's heartbeats arrive
+  // the interlock line before anything else: the motors stay disabled (OE high / STBY low)
+  // until the firmware core asserts it on the host's heartbeats
   MotorEnable* enable = nullptr;
   if constexpr (board::kMotorEnablePin >= 0) {
     static GpioMotorEnable line;  // held at its disabled level from here on

@@ -15,7 +15,8 @@
 //     <accel_fs> <gyro_fs> <motor_enable>
 // where the last two are the MPU-6050 ranges of the firmware's driver (written to the chip at
 // its next init, within one IMU period), which a simulator scales the registers it feeds by, and
-// motor_enable is the interlock line (1 asserted: host heartbeats live).
+// motor_enable is the recorded interlock line (1 asserted: host heartbeats live; 0 released:
+// PCA9685 OE high / TB6612 STBY low), as the core last set it at or before t_us.
 // With --realtime the clock follows CLOCK_MONOTONIC and t lines only update the sensors;
 // --no-imu starts with the MPU-6050 absent (t lines may bring it later).
 #include <poll.h>
@@ -93,6 +94,7 @@ struct Process {
   posix::PtySerial serial;
   posix::FileStorage storage;
   posix::RecordedMotors motors;
+  posix::RecordedMotorEnable motor_enable;
   Hal hal;
   Firmware fw;
 
@@ -100,7 +102,7 @@ struct Process {
       : storage(o.storage_dir),
         hal{clock, encoders, i2c,
             serial, storage, o.motors ? &motors : nullptr,
-            o.boot_id != 0 ? o.boot_id : (std::random_device{}() | 1u)},
+            o.boot_id != 0 ? o.boot_id : (std::random_device{}() | 1u), &motor_enable},
         fw(hal) {}
 
   // Runs tick() at every deadline of the core up to `t` (lockstep), then at `t` itself.
@@ -130,7 +132,7 @@ struct Process {
                 fw.frames_sent(), seen ? hb : -1, motors.left_, motors.right_,
                 motors.braked_ ? 1 : 0, fw.motors().failsafe ? 1 : 0, fw.session_active() ? 1 : 0,
                 fw.tx_dropped(), fw.rx_counters().crc_errors, next, fw.imu().accel_fs(),
-                fw.imu().gyro_fs(), fw.motor_enable() ? 1 : 0);
+                fw.imu().gyro_fs(), motor_enable.enabled_ ? 1 : 0);
     std::fflush(stdout);
   }
 

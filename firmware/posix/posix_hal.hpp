@@ -103,4 +103,16 @@ class RecordedMotors : public MotorOutput {
   bool braked_ = true;
 };
 
+/// Records the core's motor interlock line (PCA9685 OE / TB6612 STBY) for the feed's status
+/// line. Starts released, as the pull resistor holds it before the core sets it.
+class RecordedMotorEnable : public MotorEnable {
+ public:
+  void set(bool enabled) override {
+    enabled_ = enabled;
+    ++changes_;
+  }
+  bool enabled_ = false;
+  uint32_t changes_ = 0;
+};
+
 }  // namespace jackson::fw::posix

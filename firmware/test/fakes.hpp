@@ -122,13 +122,17 @@ struct FakeMotors : MotorOutput {
   }
 };
 
-/// The interlock line, recording its transitions.
+/// The interlock line, recording each set() call with the clock's time.
 struct FakeEnable : MotorEnable {
+  explicit FakeEnable(const FakeClock& c) : clock(c) {}
+  const FakeClock& clock;
   bool enabled = true;  // wrong on purpose until begin() sets it
   std::vector<bool> changes;
+  std::vector<uint32_t> at_us;
   void set(bool e) override {
     enabled = e;
     changes.push_back(e);
+    at_us.push_back(clock.t);
   }
 };
 
@@ -153,7 +157,7 @@ struct Bench {
   FakeSerial serial;
   FakeStorage storage;
   FakeMotors motors;
-  FakeEnable enable;
+  FakeEnable enable{clock};
   Hal hal;
   Firmware fw;
   protocol::FrameDecoder host_decoder;

@@ -398,37 +398,213 @@ TEST(Firmware, ShutdownHeartbeatBrakesAtOnce) {
   EXPECT_FALSE(b.fw.motors().failsafe);
 }
 
-TEST(Firmware, InterlockFollowsTheHostsHeartbeats) {
-  Bench b(false);  // the host drives the motors (PCA9685): only the line can stop them
+// ---- motor interlock (docs/firmware.md, "Motor interlock") ----------------------------------
+
+namespace {
+
+bool flag_set(const Sent& s, uint16_t bit) {
+  if (s.type == proto::Telemetry::kType) return (s.as<proto::Telemetry>().flags & bit) != 0;
+  return (s.as<proto::Status>().flags & bit) != 0;
+}
+
+/// A session with one heartbeat, on the PCA9685 path (no MCU motor output).
+Bench& live_session(Bench& b) {
   b.fw.begin();
-  EXPECT_FALSE(b.enable.enabled);  // released at boot (the pull-up's state)
+  b.hello();
+  heartbeat(b, 1);
+  b.fw.tick();
+  b.take_sent();
+  return b;
+}
+
+}  // namespace
+
+TEST(Interlock, ReleasedAtBootAndBeforeTheFirstHeartbeat) {
+  Bench b(false);
+  b.fw.begin();
+  EXPECT_FALSE(b.enable.enabled);  // begin() sets the pull resistor's state explicitly
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false}));
+  b.run_for(100'000);
+  b.hello();
+  b.run_for(100'000);  // a session, but no heartbeat yet
+  EXPECT_FALSE(b.enable.enabled);
+  EXPECT_FALSE(b.fw.motor_enable());
+  EXPECT_EQ(b.enable.changes.size(), 1u);  // set() only on changes
+  for (const auto& t : only<proto::Telemetry>(b.take_sent())) {
+    EXPECT_FALSE(flag_set(t, proto::telemetry_flags::kMotorEnable));
+  }
+}
+
+TEST(Interlock, HeartbeatBeforeHelloDoesNotAssert) {
+  Bench b(false);
+  b.fw.begin();
+  heartbeat(b, 0);
+  b.fw.tick();
+  b.run_for(10'000);
+  EXPECT_FALSE(b.enable.enabled);
+}
+
+TEST(Interlock, AssertedInTheTickThatReceivesTheFirstHeartbeat) {
+  Bench b(false);
+  b.fw.begin();
   b.hello();
   b.run_for(10'000);
-  EXPECT_FALSE(b.enable.enabled);  // a session, but no heartbeat yet
   heartbeat(b, 1);
   b.fw.tick();
   EXPECT_TRUE(b.enable.enabled);
-  b.run_for(50'000);
-  auto tel = only<proto::Telemetry>(b.take_sent());
-  ASSERT_FALSE(tel.empty());
-  EXPECT_TRUE(tel.back().as<proto::Telemetry>().flags & proto::telemetry_flags::kMotorEnable);
-  b.run_for(540'000);  // 590 ms after the heartbeat: still live
+  EXPECT_EQ(b.enable.at_us.back(), b.clock.t);
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true}));
+}
+
+TEST(Interlock, DropsExactlyWhenFailsafeMsPassWithoutHeartbeat) {
+  Bench b(false);
+  live_session(b);
+  const uint32_t last_hb = b.clock.t;
+  const uint32_t lost = last_hb + 1000u * b.fw.config().failsafe_ms;
+  b.run_for(599'000);
   EXPECT_TRUE(b.enable.enabled);
-  b.run_for(10'000);  // 600 ms: the host is lost, the line drops
+  b.clock.t = lost - 1;
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);  // 1 us before the deadline: still live
+  b.clock.t = lost;
+  b.fw.tick();
   EXPECT_FALSE(b.enable.enabled);
-  b.run_for(50'000);
-  tel = only<proto::Telemetry>(b.take_sent());
-  ASSERT_FALSE(tel.empty());
-  EXPECT_FALSE(tel.back().as<proto::Telemetry>().flags & proto::telemetry_flags::kMotorEnable);
+  EXPECT_EQ(b.enable.at_us.back(), lost);
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true, false}));
+}
+
+TEST(Interlock, NextDeadlineIncludesTheInstantTheLineDrops) {
+  // a lockstep run ticks only at next_deadline(): it must stop at the drop, not at the next frame
+  Bench b(false);
+  live_session(b);
+  const uint32_t lost = b.clock.t + 1000u * b.fw.config().failsafe_ms;
+  for (int i = 0; i < 1000 && b.enable.enabled; ++i) {
+    b.clock.t = b.fw.next_deadline();
+    b.fw.tick();
+  }
+  EXPECT_FALSE(b.enable.enabled);
+  EXPECT_EQ(b.enable.at_us.back(), lost);
+}
+
+TEST(Interlock, NextDeadlineFindsTheDropBetweenTelemetryFramesAtAnyFailsafe) {
+  Bench b(false);
+  b.fw.begin();
+  b.hello();
+  proto::SetConfig c;
+  c.failsafe_ms = 333;  // not a multiple of the 50 ms telemetry or 10 ms IMU period
+  b.serial.host_sends(c, 1);
+  b.fw.tick();
+  b.clock.t += 3'000;
   heartbeat(b, 2);
   b.fw.tick();
-  EXPECT_TRUE(b.enable.enabled);  // heartbeats again: enabled again
+  ASSERT_TRUE(b.enable.enabled);
+  const uint32_t lost = b.clock.t + 333'000u;
+  while (b.enable.enabled) {
+    b.clock.t = b.fw.next_deadline();
+    b.fw.tick();
+  }
+  EXPECT_EQ(b.enable.at_us.back(), lost);
+}
+
+TEST(Interlock, ShutdownHeartbeatReleasesAtOnce) {
+  Bench b(false);
+  live_session(b);
+  b.run_for(20'000);
   proto::Heartbeat bye;
   bye.host_state = static_cast<uint8_t>(proto::HostState::kShutdown);
-  b.serial.host_sends(bye, 3);
+  b.serial.host_sends(bye, 2);
   b.fw.tick();
-  EXPECT_FALSE(b.enable.enabled);  // an orderly goodbye drops it at once
-  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true, false, true, false}));
+  EXPECT_FALSE(b.enable.enabled);
+  EXPECT_EQ(b.enable.at_us.back(), b.clock.t);
+  b.run_for(200'000);  // further SHUTDOWN heartbeats keep it released
+  b.serial.host_sends(bye, 3);
+  b.run_for(200'000);
+  EXPECT_FALSE(b.enable.enabled);
+  heartbeat(b, 4);  // an ACTIVE host again
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);
+}
+
+TEST(Interlock, AssertedAgainWhenHeartbeatsResume) {
+  Bench b(false);
+  live_session(b);
+  b.run_for(700'000);
+  ASSERT_FALSE(b.enable.enabled);
+  heartbeat(b, 2);
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true, false, true}));
+}
+
+TEST(Interlock, NewHelloReleasesUntilItsFirstHeartbeat) {
+  Bench b(false);
+  live_session(b);
+  b.run_for(20'000);
+  b.hello(5);  // the host reconnects: the old session's heartbeats no longer count
+  EXPECT_FALSE(b.enable.enabled);
+  heartbeat(b, 6);
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);
+}
+
+TEST(Interlock, TelemetryAndStatusFlagMirrorTheLine) {
+  Bench b(false);
+  b.fw.begin();
+  b.hello();
+  uint8_t seq = 1;
+  uint32_t checked = 0;
+  // 3 s: heartbeats for 1 s, silence for 1 s, heartbeats again for 1 s
+  for (uint32_t ms = 0; ms < 3000; ++ms) {
+    if ((ms < 1000 || ms >= 2000) && ms % 50 == 0) heartbeat(b, seq++);
+    b.clock.t += 1000;
+    b.fw.tick();
+    for (const auto& s : b.take_sent()) {
+      if (s.type != proto::Telemetry::kType && s.type != proto::Status::kType) continue;
+      EXPECT_EQ(flag_set(s, proto::telemetry_flags::kMotorEnable), b.enable.enabled) << ms;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 55u);
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true, false, true}));
+}
+
+TEST(Interlock, MotorPathKeepsItsOwnFailsafeBesideTheLine) {
+  Bench b(true);  // the MCU drives the motors and holds the line
+  b.fw.begin();
+  b.hello();
+  heartbeat(b, 1);
+  proto::MotorPwm m;
+  m.left = 5000;
+  m.right = -5000;
+  m.timeout_ms = 2000;
+  b.serial.host_sends(m, 2);
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);
+  EXPECT_FALSE(b.motors.braked);
+  b.run_for(600'000);
+  EXPECT_FALSE(b.enable.enabled);
+  EXPECT_TRUE(b.motors.braked);
+  EXPECT_TRUE(b.fw.motors().failsafe);
+}
+
+TEST(Interlock, UnwiredLineStillReportsTheRule) {
+  FakeClock clock;
+  FakeEncoders enc;
+  FakeI2c i2c;
+  FakeSerial serial;
+  FakeStorage storage;
+  Hal hal{clock, enc, i2c, serial, storage, nullptr};  // boot_id and motor_enable defaulted
+  Firmware fw(hal);
+  fw.begin();
+  proto::Hello h;
+  h.protocol_version = proto::kProtocolVersion;
+  h.schema_hash = proto::kSchemaHash;
+  serial.host_sends(h, 0);
+  fw.tick();
+  proto::Heartbeat hb;
+  serial.host_sends(hb, 1);
+  fw.tick();
+  EXPECT_TRUE(fw.motor_enable());
 }
 
 TEST(Firmware, FullTxBufferDropsAndCountsWithoutBlocking) {

@@ -1,4 +1,5 @@
-"""The MCU emulator on its own: what the firmware does with an MPU-6050 that is not there."""
+"""The MCU emulator on its own: what the firmware does with an MPU-6050 that is not there, and
+its motor interlock line."""
 
 from __future__ import annotations
 
@@ -6,7 +7,9 @@ from jackson.protocol import (
     PROTOCOL_VERSION,
     SCHEMA_HASH,
     FrameDecoder,
+    Heartbeat,
     Hello,
+    HostState,
     SetConfig,
     Status,
     Telemetry,
@@ -78,3 +81,95 @@ def test_telemetry_and_status_report_the_errors() -> None:
     assert not any(m.flags & TelemetryFlags.IMU_OK for m in telemetry.values())
     status = [m for m in messages if isinstance(m, Status)]
     assert status[-1].t_us == 1_000_000 and status[-1].i2c_errors == 5
+
+
+# ---- the motor interlock line (firmware.cpp update_interlock) ---------------------------------
+
+
+def session(sent: list[bytes]) -> McuEmulator:
+    mcu = emulator(sent)
+    hello = Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH)
+    mcu.receive(encode_frame(hello, 0), 0)
+    mcu.tick(0)
+    return mcu
+
+
+def heartbeat(mcu: McuEmulator, seq: int, t_us: int, state: HostState = HostState.ACTIVE) -> None:
+    mcu.receive(encode_frame(Heartbeat(ack_seq=0, host_state=state), seq), t_us)
+    mcu.tick(t_us)
+
+
+def test_interlock_is_released_at_boot_and_until_the_first_heartbeat() -> None:
+    mcu = emulator([])
+    assert not mcu.motor_enable
+    mcu.receive(encode_frame(Heartbeat(ack_seq=0, host_state=HostState.ACTIVE), 0), 1000)
+    mcu.tick(1000)
+    assert not mcu.motor_enable  # a heartbeat outside a session counts for nothing
+    mcu = session([])
+    mcu.tick(300_000)
+    assert not mcu.motor_enable
+    heartbeat(mcu, 1, 310_000)
+    assert mcu.motor_enable
+
+
+def test_interlock_drops_exactly_failsafe_ms_after_the_last_heartbeat() -> None:
+    mcu = session([])
+    heartbeat(mcu, 1, 20_000)
+    lost = 20_000 + 1000 * mcu.failsafe_ms
+    mcu.tick(lost - 1)
+    assert mcu.motor_enable
+    mcu.tick(lost)
+    assert not mcu.motor_enable
+
+
+def test_next_deadline_stops_at_the_instant_the_line_drops() -> None:
+    mcu = session([])
+    heartbeat(mcu, 1, 20_000)
+    t = 20_000
+    while mcu.motor_enable:
+        nxt = mcu.next_deadline(t)
+        assert nxt is not None
+        t = nxt
+        mcu.tick(t)
+    assert t == 20_000 + 1000 * mcu.failsafe_ms
+
+
+def test_interlock_drops_at_a_shutdown_heartbeat_and_returns_with_active_ones() -> None:
+    mcu = session([])
+    heartbeat(mcu, 1, 20_000)
+    heartbeat(mcu, 2, 70_000, HostState.SHUTDOWN)
+    assert not mcu.motor_enable
+    heartbeat(mcu, 3, 120_000)
+    assert mcu.motor_enable
+    mcu.tick(900_000)
+    assert not mcu.motor_enable  # silence
+    heartbeat(mcu, 4, 950_000)
+    assert mcu.motor_enable  # heartbeats resumed
+
+
+def test_a_new_hello_releases_the_line_until_its_first_heartbeat() -> None:
+    mcu = session([])
+    heartbeat(mcu, 1, 20_000)
+    hello = Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH)
+    mcu.receive(encode_frame(hello, 2), 40_000)
+    assert not mcu.motor_enable
+    heartbeat(mcu, 3, 60_000)
+    assert mcu.motor_enable
+
+
+def test_motor_enable_flag_mirrors_the_line_in_telemetry_and_status() -> None:
+    sent: list[bytes] = []
+    mcu = session(sent)
+    line: dict[int, bool] = {}
+    for ms in range(0, 3000, 10):
+        t = ms * 1000
+        if (ms < 1000 or ms >= 2000) and ms % 50 == 0:
+            heartbeat(mcu, 1 + ms // 50, t)
+        mcu.tick(t)
+        line[t] = mcu.motor_enable
+    messages = [decode_message(f) for f in FrameDecoder().feed(b"".join(sent))]
+    flagged = [m for m in messages if isinstance(m, Telemetry | Status)]
+    assert len(flagged) > 55
+    for m in flagged:
+        assert bool(m.flags & TelemetryFlags.MOTOR_ENABLE) == line[m.t_us], m.t_us
+    assert not line[1_700_000] and line[1_500_000] and line[2_500_000]

@@ -19,6 +19,10 @@ from jackson.sim.pca9685 import (
     MODE1_RESTART,
     MODE1_SLEEP,
     MODE2,
+    MODE2_INVRT,
+    MODE2_OUTDRV,
+    MODE2_POWER_ON,
+    OUTNE_HIGH,
     PRE_SCALE,
     SUBADR1,
     TESTMODE,
@@ -324,3 +328,78 @@ def test_reset_returns_to_power_on() -> None:
 def test_channel_out_of_range_is_refused(channel: int) -> None:
     with pytest.raises(ValueError, match="channel"):
         Pca9685().channel_duty(channel)
+
+
+# ---- OE pin and MODE2 output states (§7.3.2 Table 6, §7.4) -----------------------------------
+
+
+def driving_pca() -> Pca9685:
+    """Channel 0 at 25 % duty, channel 1 full-on, channel 2 full-off."""
+    pca = running_pca()
+    pca.write(led_on_l(0), counts(0, 1024))
+    pca.write(led_on_l(1), counts(0, 0, full_on=True))
+    pca.write(led_on_l(2), counts(0, 0, full_off=True))
+    return pca
+
+
+def test_oe_is_low_by_default_and_outputs_follow_the_registers() -> None:
+    pca = driving_pca()
+    assert pca.output_enable
+    assert [pca.channel_duty(ch) for ch in (0, 1, 2)] == [0.25, 1.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("mode2", "level"),
+    [
+        (MODE2_OUTDRV, 0.0),  # power-on OUTNE = 00: every output low
+        (MODE2_OUTDRV | OUTNE_HIGH, 1.0),  # the host's MODE2 0x05: every output high
+        (OUTNE_HIGH, None),  # OUTNE = 01 with open-drain outputs: high-impedance
+        (MODE2_OUTDRV | 0x02, None),  # OUTNE = 1x: high-impedance
+        (MODE2_OUTDRV | 0x03, None),
+    ],
+)
+def test_oe_high_sets_every_output_as_outne_says(mode2: int, level: float | None) -> None:
+    pca = driving_pca()
+    pca.write(MODE2, bytes((mode2,)))
+    pca.output_enable = False
+    assert all(pca.output(ch) == level for ch in range(16))
+    # a high-impedance output reads low at a TB6612FNG input (internal pull-down)
+    assert all(pca.channel_duty(ch) == (level or 0.0) for ch in range(16))
+
+
+def test_oe_does_not_touch_the_registers_and_low_again_restores_the_outputs() -> None:
+    pca = driving_pca()
+    pca.write(MODE2, bytes((MODE2_OUTDRV | OUTNE_HIGH,)))
+    before = pca.read(led_on_l(0), 12)
+    pca.output_enable = False
+    assert pca.read(led_on_l(0), 12) == before
+    pca.output_enable = True
+    assert [pca.channel_duty(ch) for ch in (0, 1, 2)] == [0.25, 1.0, 0.0]
+
+
+def test_oe_changes_count_as_output_changes() -> None:
+    pca = driving_pca()
+    g = pca.generation
+    pca.output_enable = False
+    assert pca.generation == g + 1
+    pca.output_enable = False  # no change, no new generation
+    assert pca.generation == g + 1
+
+
+def test_oe_high_wins_over_sleep_and_a_reset_keeps_the_pin() -> None:
+    pca = Pca9685()  # asleep, MODE2 power-on
+    pca.output_enable = False
+    pca.write(MODE2, bytes((MODE2_OUTDRV | OUTNE_HIGH,)))
+    assert pca.channel_duty(0) == 1.0  # OE high drives the outputs even with SLEEP = 1
+    pca.reset()  # SWRST: MODE2 back to OUTNE = 00, the OE pin is not a register
+    assert not pca.output_enable
+    assert pca.read(MODE2, 1) == bytes((MODE2_POWER_ON,))
+    assert pca.channel_duty(0) == 0.0
+
+
+def test_invrt_inverts_the_enabled_outputs() -> None:
+    pca = driving_pca()
+    pca.write(MODE2, bytes((MODE2_INVRT | MODE2_OUTDRV,)))
+    assert [pca.channel_duty(ch) for ch in (0, 1, 2)] == [0.75, 0.0, 1.0]
+    pca.output_enable = False  # OUTNE = 00 applies as it is, not inverted
+    assert pca.channel_duty(1) == 0.0

@@ -4,7 +4,18 @@ from __future__ import annotations
 
 import pytest
 
-from jackson.sim.pca9685 import LED_FULL, MODE1, MODE1_AI, MODE1_ALLCALL, Pca9685, led_on_l
+from jackson.sim.pca9685 import (
+    LED_FULL,
+    MODE1,
+    MODE1_AI,
+    MODE1_ALLCALL,
+    MODE2,
+    MODE2_OUTDRV,
+    MODE2_POWER_ON,
+    OUTNE_HIGH,
+    Pca9685,
+    led_on_l,
+)
 from jackson.sim.tb6612 import (
     LEFT_WIRING,
     RIGHT_WIRING,
@@ -125,3 +136,53 @@ def test_stby_channel_low_puts_both_bridges_in_standby() -> None:
 def test_power_on_pca9685_leaves_both_motors_coasting() -> None:
     left, right = bridge_outputs(Pca9685())  # asleep, every channel full-off
     assert left.mode is right.mode is BridgeMode.STOP
+
+
+# ---- the MCU's interlock line (docs/firmware.md, "Motor interlock") ---------------------------
+
+
+def driving_forward(mode2: int) -> Pca9685:
+    """Both bridges commanded forward at 62.5 % by a host that wrote MODE2 = ``mode2``."""
+    pca = awake_pca()
+    pca.write(MODE2, bytes((mode2,)))
+    for w in (LEFT_WIRING, RIGHT_WIRING):
+        set_channel(pca, w.pwm, 0.625)  # 2560 / 4096: exact
+        set_channel(pca, w.in1, 1.0)
+        set_channel(pca, w.in2, 0.0)
+    return pca
+
+
+def test_oe_released_with_the_hosts_mode2_short_brakes_both_bridges() -> None:
+    pca = driving_forward(MODE2_OUTDRV | OUTNE_HIGH)  # what the host's driver writes
+    assert bridge_outputs(pca)[0] == BridgeOutput(BridgeMode.CW, 0.625, 0.375)
+    pca.output_enable = False  # the MCU released OE: the pull-up disables the outputs
+    left, right = bridge_outputs(pca)
+    assert left == right == BridgeOutput(BridgeMode.SHORT_BRAKE, 0.0, 1.0)
+    pca.output_enable = True
+    assert bridge_outputs(pca)[1] == BridgeOutput(BridgeMode.CW, 0.625, 0.375)
+
+
+def test_oe_released_after_a_pca9685_reset_leaves_both_motors_coasting() -> None:
+    pca = driving_forward(MODE2_POWER_ON)  # OUTNE = 00: a chip that lost the host's MODE2
+    pca.output_enable = False
+    left, right = bridge_outputs(pca)
+    assert left == right == BridgeOutput(BridgeMode.STOP, 0.0, 0.0)
+
+
+def test_oe_released_with_high_impedance_outputs_reads_low_and_coasts() -> None:
+    pca = driving_forward(MODE2_OUTDRV | 0x02)  # OUTNE = 1x: outputs float
+    pca.output_enable = False
+    assert all(b.mode is BridgeMode.STOP and b.drive == 0.0 for b in bridge_outputs(pca))
+
+
+def test_stby_wired_to_the_mcu_puts_both_bridges_in_standby_when_released() -> None:
+    pca = driving_forward(MODE2_OUTDRV | OUTNE_HIGH)
+    left, right = bridge_outputs(pca, stby=False)  # the pull-down holds STBY low
+    assert left.mode is right.mode is BridgeMode.STANDBY
+    assert left.drive == right.drive == 0.0
+    assert bridge_outputs(pca, stby=True)[0].mode is BridgeMode.CW
+
+
+def test_stby_cannot_have_two_drivers() -> None:
+    with pytest.raises(ValueError, match="STBY"):
+        bridge_outputs(awake_pca(), stby_channel=15, stby=True)
