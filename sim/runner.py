@@ -366,6 +366,14 @@ class TwinRunner:
             if end_s is not None:
                 step_us = min(step_us, max(1, round((end_s - self.twin.t_s) * 1e6)))
             self.twin.advance(step_us / 1e6)
+            # as with the emulator: paced and observed with the outputs of the step just run,
+            # before the MCU acts at the new instant
+            if self._host_gone is not None:
+                self._pace(*self._pace_origin)
+            elif not self.lockstep:
+                self._pace(wall0, sim0)
+            if self.observer is not None:
+                self.observer(self.twin)
             status = fw.step(self.twin.t_us, self.sensors())
             if status.telemetry_seq != last_seq:
                 last_seq = status.telemetry_seq
@@ -391,13 +399,6 @@ class TwinRunner:
                 self._actuate(status)
             elif self._line_changed():
                 self._actuate(status)
-            if self._host_gone is not None:
-                self._pace(*self._pace_origin)
-            elif not self.lockstep:
-                while (self.twin.t_s - sim0) > (time.monotonic() - wall0):
-                    self.i2c.service(0.001)
-            if self.observer is not None:
-                self.observer(self.twin)
 
     def close(self) -> None:
         self.i2c.close()
