@@ -147,6 +147,29 @@ def test_motor_failsafe_brakes_600_ms_after_the_last_heartbeat(fw: PosixFirmware
     assert tel[-1].flags & TelemetryFlags.FAILSAFE_ACTIVE
 
 
+def test_interlock_line_on_the_status_line_follows_the_heartbeats(fw: PosixFirmware) -> None:
+    assert not fw.step(50_000).motor_enable  # released at boot
+    t = start_session(fw)
+    assert not fw.step(t + 10_000).motor_enable  # a session, no heartbeat yet
+    fw.send(Heartbeat(ack_seq=0, host_state=HostState.ACTIVE))
+    reply = fw.wait_heartbeat(0)
+    assert reply.motor_enable
+    last = reply.t_us
+    assert fw.step(last + 599_000).motor_enable
+    # the drop is one of the core's deadlines: the status at 600 ms shows it released
+    reply = fw.step(last + 600_000)
+    assert not reply.motor_enable
+    fw.step(last + 650_000)  # one telemetry frame after the drop
+    tel = [m for m in fw.receive() if isinstance(m, Telemetry)]
+    assert tel[-1].t_us > last + 600_000
+    assert not tel[-1].flags & TelemetryFlags.MOTOR_ENABLE
+    assert all(m.flags & TelemetryFlags.MOTOR_ENABLE for m in tel if m.t_us < last + 600_000)
+    fw.send(Heartbeat(ack_seq=0, host_state=HostState.ACTIVE))
+    assert fw.wait_heartbeat(0).motor_enable  # heartbeats again
+    fw.send(Heartbeat(ack_seq=1, host_state=HostState.SHUTDOWN))
+    assert not fw.wait_heartbeat(1).motor_enable  # an orderly goodbye
+
+
 def test_garbage_on_the_link_is_counted_not_fatal(fw: PosixFirmware) -> None:
     t = start_session(fw)
     fw.port.write(bytes([0xA5, 0x5A, 0x01, 0x82, 0x00, 0x02, 0x14, 0x00, 1, 2, 3, 4]) * 3)
