@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import queue
+import select
+import threading
 import time
 from collections.abc import Iterator
 
@@ -27,12 +29,10 @@ def device_reads(master: int, want: int, timeout_s: float = 10.0) -> list:
     dec = FrameDecoder()
     got: list = []
     deadline = time.monotonic() + timeout_s
-    os.set_blocking(master, False)
     while len(got) < want and time.monotonic() < deadline:
-        try:
+        ready, _, _ = select.select([master], [], [], deadline - time.monotonic())
+        if ready:
             got += [decode_message(f) for f in dec.feed(os.read(master, 4096))]
-        except BlockingIOError:
-            time.sleep(0.002)
     return got
 
 
@@ -96,9 +96,10 @@ def test_a_partial_frame_is_dropped_while_the_line_is_idle(pty: tuple[int, str])
     t.open()
     try:
         os.write(master, encode_frame(Telemetry(t_us=3), 0)[:20])  # cut short: nothing follows
+        changed = threading.Event()
         deadline = time.monotonic() + 10.0
         while t.decoder.counters.timeouts == 0 and time.monotonic() < deadline:
-            time.sleep(0.005)
+            changed.wait(0.005)  # the counter has no notification: poll it until the deadline
         assert t.decoder.counters.timeouts == 1  # expired by polling, not by the next byte
         assert t.decoder.pending == 0
     finally:
