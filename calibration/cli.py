@@ -29,6 +29,14 @@ from typing import TYPE_CHECKING
 from jackson.calibration.yaml_update import Updates, YamlUpdateError, update_config
 from jackson.host.config import DEFAULT_CONFIG, IDENTITY, ConfigError, HostConfig, load_config
 from jackson.protocol import ProtocolMismatchError
+from jackson.protocol.args import (
+    fraction,
+    int_in,
+    nonneg_float,
+    nonzero_float,
+    positive_float,
+    positive_int,
+)
 
 if TYPE_CHECKING:  # numpy, scipy and the host's daemon load when a procedure runs
     from jackson.calibration import procedures as proc
@@ -85,12 +93,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "distance measured on the floor after each; C_cal = C_0 d_odom / d_meas per wheel.",
     )
     _common(e)
-    e.add_argument("--count", type=int, default=3, help="straight runs to record (default 3)")
-    e.add_argument("--length", type=float, default=1.0, help="metres per run (default 1.0)")
-    e.add_argument("--speed", type=float, default=0.15, help="m/s (default 0.15)")
+    e.add_argument(
+        "--count", type=positive_int, default=3, help="straight runs to record (default 3)"
+    )
+    e.add_argument(
+        "--length", type=positive_float, default=1.0, help="metres per run (default 1.0)"
+    )
+    e.add_argument("--speed", type=positive_float, default=0.15, help="m/s (default 0.15)")
     e.add_argument(
         "--distance",
-        type=float,
+        type=positive_float,
         nargs="+",
         metavar="M",
         help="measured floor distance [m]: one for all runs or one per run (else asked, or "
@@ -104,12 +116,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "and asks how many turns it really made; B = r (dphi_R - dphi_L) / dtheta.",
     )
     _common(t)
-    t.add_argument("--count", type=int, default=2, help="rotations to record (default 2)")
-    t.add_argument("--turns", type=float, default=2.0, help="turns per rotation (default 2)")
-    t.add_argument("--rate", type=float, default=1.0, help="turn rate [rad/s] (default 1.0)")
+    t.add_argument("--count", type=positive_int, default=2, help="rotations to record (default 2)")
+    t.add_argument(
+        "--turns", type=positive_float, default=2.0, help="turns per rotation (default 2)"
+    )
+    t.add_argument(
+        "--rate", type=positive_float, default=1.0, help="turn rate [rad/s] (default 1.0)"
+    )
     t.add_argument(
         "--true-turns",
-        type=float,
+        type=nonzero_float,
         nargs="+",
         metavar="N",
         help="the true rotation in turns: one for all runs or one per run (else asked, or "
@@ -123,8 +139,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "imu.calibration (rotation, gyro_bias_rad_s, accel_scale).",
     )
     _common(i)
-    i.add_argument("--still", type=float, default=10.0, help="seconds standing still (10)")
-    i.add_argument("--spin", type=float, default=4.0, help="seconds spinning CCW (4)")
+    i.add_argument("--still", type=positive_float, default=10.0, help="seconds standing still (10)")
+    i.add_argument("--spin", type=positive_float, default=4.0, help="seconds spinning CCW (4)")
     i.add_argument(
         "--rotation",
         help="sensor-to-base rotation, 9 numbers row by row, comma separated (default identity)",
@@ -137,8 +153,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "encoder moves, for each wheel and direction; the host's compensation is bypassed.",
     )
     _common(d)
-    d.add_argument("--max-duty", type=float, default=0.6, help="give up above this duty (0.6)")
-    d.add_argument("--persist", type=int, default=3, help="frames a count change must persist (3)")
+    d.add_argument("--max-duty", type=fraction, default=0.6, help="give up above this duty (0.6)")
+    d.add_argument(
+        "--persist", type=positive_int, default=3, help="frames a count change must persist (3)"
+    )
 
     c = procs.add_parser(
         "characterise",
@@ -147,10 +165,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "1.5 m of free floor ahead. --write sets deadband.max_wheel_rad_s (full duty only).",
     )
     _common(c)
-    c.add_argument("--duty", type=float, default=1.0, help="step duty (default 1.0)")
-    c.add_argument("--seconds", type=float, default=3.0, help="step length [s] (default 3)")
+    c.add_argument("--duty", type=fraction, default=1.0, help="step duty (default 1.0)")
     c.add_argument(
-        "--rate", type=int, default=200, help="telemetry rate [Hz] while recording (200)"
+        "--seconds", type=positive_float, default=3.0, help="step length [s] (default 3)"
+    )
+    c.add_argument(
+        "--rate", type=int_in(1, 500), default=200, help="telemetry rate [Hz] while recording (200)"
     )
 
     f = procs.add_parser(
@@ -170,7 +190,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     f.add_argument(
         "--yaw-weight",
-        type=float,
+        type=nonneg_float,
         default=0.5,
         help="metres of position residual per radian of heading residual (0.5)",
     )
@@ -401,9 +421,14 @@ def _parse_rotation(text: str | None) -> tuple[float, ...]:
         return IDENTITY
     try:
         values = tuple(float(x) for x in text.replace(",", " ").split())
-    except ValueError as exc:
-        raise CalibrateCliError(f"--rotation: expected 9 numbers, got {text!r}") from exc
-    proc.rotation_matrix(values)  # refuses a non-rotation
+    except ValueError:
+        values = ()
+    if len(values) != 9 or not all(math.isfinite(v) for v in values):
+        raise CalibrateCliError(f"--rotation: expected 9 finite numbers, got {text!r}")
+    try:
+        proc.rotation_matrix(values)  # refuses a non-rotation
+    except proc.CalibrationError as exc:
+        raise CalibrateCliError(f"--rotation: {exc}") from exc
     return values
 
 

@@ -223,6 +223,8 @@ def load_reference(path: str | Path) -> Reference:
             rows = list(csv.DictReader(f))
     except OSError as exc:
         raise CalibrationError(f"reference {p}: cannot read it ({exc.strerror})") from exc
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise CalibrationError(f"reference {p}: not a CSV text file ({exc})") from exc
     cols = ("t_s", "x_m", "y_m", "yaw_rad")
     if not rows or any(c not in rows[0] for c in cols):
         raise CalibrationError(f"reference {p}: expected a CSV header with {', '.join(cols)}")
@@ -230,6 +232,8 @@ def load_reference(path: str | Path) -> Reference:
         data = np.array([[float(r[c]) for c in cols] for r in rows], dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise CalibrationError(f"reference {p}: not a number ({exc})") from exc
+    if not np.all(np.isfinite(data)):
+        raise CalibrationError(f"reference {p}: nan or inf among the numbers")
     if len(data) < 2 or np.any(np.diff(data[:, 0]) <= 0):
         raise CalibrationError(f"reference {p}: needs two or more rows with rising t_s")
     return Reference(data[:, 0], data[:, 1], data[:, 2], data[:, 3])
@@ -471,15 +475,17 @@ def drive_run(
     cfg = link.config
     bus: I2cBus | None = None
     pca: Pca9685 | None = None
-    if cfg.actuator == "pca9685":
-        bus, pca = _open_pca(cfg)
     transport = SerialTransport(link.port, cfg.serial.baudrate)
     try:
         transport.open()
     except LinkError as exc:
-        if bus is not None:
-            bus.close()
         raise RunError(str(exc)) from exc
+    if cfg.actuator == "pca9685":
+        try:
+            bus, pca = _open_pca(cfg)
+        except RunError:
+            transport.close()
+            raise
 
     def output(send: Callable[[Message], object]) -> MotorOutput:
         if pca is not None:

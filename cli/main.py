@@ -16,6 +16,8 @@ from typing import Any, BinaryIO
 
 from jackson import __version__
 from jackson.host.cli import HostCliError
+from jackson.protocol.args import OneLineParser, nonneg_int, one_line, output_folder, positive_int
+from jackson.protocol.fields import ConfigError
 
 
 class CliError(Exception):
@@ -25,6 +27,11 @@ class CliError(Exception):
 def _cmd_bench(args: argparse.Namespace) -> int:
     from jackson.benchmark import print_table, run_all, write_json
 
+    if args.out.is_dir():
+        raise CliError(f"--out {args.out}: is a folder, give a JSON file name")
+    for parent in args.out.parents:
+        if parent.exists() and not parent.is_dir():
+            raise CliError(f"--out {args.out}: {parent} is a file, not a folder")
     results = run_all(quick=args.quick, only=args.suite)
     print_table(results)
     write_json(results, args.out)
@@ -87,11 +94,27 @@ def _print_summary(per_type: Counter[str], telemetry: list[Any]) -> None:
     if len(telemetry) >= 2:
         first, last = telemetry[0], telemetry[-1]
         span_s = (last.t_us - first.t_us) / 1e6
+        rate = f"{(len(telemetry) - 1) / span_s:.1f} Hz" if span_s > 0 else "rate unknown"
         console.print(
             f"telemetry: {len(telemetry)} frames over {span_s:.2f} s of MCU time "
-            f"({(len(telemetry) - 1) / span_s:.1f} Hz); encoder counts "
+            f"({rate}); encoder counts "
             f"left {first.enc_left} -> {last.enc_left}, right {first.enc_right} -> {last.enc_right}"
         )
+
+
+def _check_twin_files(robot: str, world: str) -> None:
+    """Read the robot and world files before anything is written or started."""
+    from jackson.sim.config import load_robot, load_world
+    from jackson.sim.twin import Twin
+
+    Twin(load_world(world), load_robot(robot), lidar=False)  # refuses a blocked start pose
+
+
+def _out(path: Path, option: str = "--out") -> Path:
+    try:
+        return output_folder(path, option)
+    except ValueError as exc:
+        raise CliError(str(exc)) from exc
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -104,8 +127,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from jackson.calibration.trial import TrialSpec, run_trial
 
     world = args.world or ("square_room" if args.mission == "square" else "open_floor")
+    _check_twin_files(args.robot, world)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    out = args.out or Path("runs") / f"{stamp}-{args.mission}"
+    out = _out(args.out or Path("runs") / f"{stamp}-{args.mission}")
     r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out))
     png = out / "trajectory.png"
     plot_trajectories(png, args.mission, [out])
@@ -132,8 +156,11 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
     from jackson.calibration.campaign import run_campaign
 
+    _check_twin_files(
+        args.robot, args.world or ("square_room" if args.mission == "square" else "open_floor")
+    )
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    out = args.out or Path("reports") / f"{stamp}-{args.mission}-x{args.trials}"
+    out = _out(args.out or Path("reports") / f"{stamp}-{args.mission}-x{args.trials}")
     results = run_campaign(
         args.mission,
         args.trials,
@@ -150,7 +177,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser: argparse.ArgumentParser = OneLineParser(
         prog="jackson", description="Firmware-plus-host stack for differential-drive robots."
     )
     parser.add_argument("--version", action="version", version=f"jackson {__version__}")
@@ -186,13 +213,13 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=helptext)
         p.add_argument("mission", choices=["square", "figure8"])
         if name == "campaign":
-            p.add_argument("--trials", type=int, default=10, help="number of trials (10)")
-            p.add_argument("--workers", type=int, default=2, help="worker processes (2)")
+            p.add_argument("--trials", type=positive_int, default=10, help="number of trials (10)")
+            p.add_argument("--workers", type=positive_int, default=2, help="worker processes (2)")
         p.add_argument(
             "--robot", default="jackson_physical", help="twin robot file (default jackson_physical)"
         )
         p.add_argument("--world", help="world (default: square_room / open_floor)")
-        p.add_argument("--seed", type=int, default=0, help="noise seed (deterministic)")
+        p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
         p.add_argument("--out", type=Path, help="output folder")
         p.set_defaults(func=_cmd_run if name == "run" else _cmd_campaign)
 
@@ -223,7 +250,10 @@ def _cmd_faults(args: argparse.Namespace) -> int:
 
     console = Console(stderr=True)
     if args.out.exists() and not args.out.is_dir():
-        raise CliError(f"--out {args.out}: exists and is not a folder")
+        raise CliError(f"--out {args.out}: is a file, give a folder")
+    for parent in args.out.parents:
+        if parent.exists() and not parent.is_dir():
+            raise CliError(f"--out {args.out}: {parent} is a file, not a folder")
     rows = run_matrix(args.out, short=args.short, progress=lambda text: console.print(text))
     print((args.out / "report.md").read_text())
     print(f"report: {args.out / 'report.md'}, rows: {args.out / 'faults.json'}")
@@ -234,8 +264,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         rc: int = args.func(args)
-    except (CliError, HostCliError) as exc:
-        print(f"jackson {args.command}: {exc}", file=sys.stderr)
+    except (CliError, HostCliError, ConfigError) as exc:
+        print(f"jackson {args.command}: {one_line(exc)}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # the machine refused: a full disk, a folder where a file goes, ...
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"jackson {args.command}: {where}{exc.strerror or one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
-import filecmp
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+from jackson.protocol.args import output_folder, positive_float, positive_int
 
 
 class HostCliError(Exception):
@@ -30,10 +31,10 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     )
     p.add_argument("--run-dir", type=Path, help="run folder (default: RECORDING/<time>-<mission>)")
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
-    p.add_argument("--max-seconds", type=float, help="stop after this much wall time")
+    p.add_argument("--max-seconds", type=positive_float, help="stop after this much wall time")
     p.add_argument(
         "--mission-timeout",
-        type=float,
+        type=positive_float,
         help="abort the mission after this many seconds of MCU time "
         "(default: square 150, figure8 300)",
     )
@@ -52,8 +53,8 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 
     p = sub.add_parser("monitor", help="live view of the link: rate, errors, counts, IMU, health")
     p.add_argument("--port", required=True, help="serial port (the robot's or the twin's)")
-    p.add_argument("--baudrate", type=int, default=921600)
-    p.add_argument("--duration", type=float, help="stop after this many seconds")
+    p.add_argument("--baudrate", type=positive_int, default=921600)
+    p.add_argument("--duration", type=positive_float, help="stop after this many seconds")
     p.set_defaults(func=cmd_monitor)
 
     p = sub.add_parser("replay", help="feed a run folder back through the host, offline")
@@ -82,8 +83,6 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     from jackson.host.transport import LinkError, SerialTransport
     from jackson.protocol import Message, ProtocolError
 
-    if args.mission_timeout is not None and not args.mission_timeout > 0:
-        raise HostCliError(f"--mission-timeout {args.mission_timeout}: give a positive number")
     cfg = _load(args.config)
     assert isinstance(cfg, HostConfig)
     if args.ros:
@@ -95,15 +94,6 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     cfg = with_port(cfg, args.port)
     if args.i2c:
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=args.i2c))
-    pca = None
-    if cfg.actuator == "pca9685":
-        try:
-            pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
-            pca.init(cfg.pca9685.frequency_hz)
-        except (I2cError, OSError) as exc:
-            raise HostCliError(
-                f"PCA9685 at {cfg.pca9685.address:#04x} on {cfg.pca9685.bus}: {exc}"
-            ) from exc
 
     def output_factory(send: Callable[[Message], object]) -> MotorOutput:
         if pca is not None:
@@ -119,15 +109,29 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             )
         return McuOutput(send)
 
+    run_dir = None
+    if not args.no_record:
+        stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+        run_dir = args.run_dir or Path(cfg.recording_folder) / f"{stamp}-{args.mission or 'drive'}"
+        try:
+            output_folder(run_dir, "--run-dir" if args.run_dir else "recording folder")
+        except ValueError as exc:
+            raise HostCliError(str(exc)) from exc
     transport = SerialTransport(cfg.serial.port, cfg.serial.baudrate)
     try:
         transport.open()
     except LinkError as exc:
         raise HostCliError(str(exc)) from exc
-    run_dir = None
-    if not args.no_record:
-        stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-        run_dir = args.run_dir or Path(cfg.recording_folder) / f"{stamp}-{args.mission or 'drive'}"
+    pca = None
+    if cfg.actuator == "pca9685":
+        try:
+            pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
+            pca.init(cfg.pca9685.frequency_hz)
+        except (I2cError, OSError) as exc:
+            transport.close()
+            raise HostCliError(
+                f"PCA9685 at {cfg.pca9685.address:#04x} on {cfg.pca9685.bus}: {exc}"
+            ) from exc
     meta = {
         "mission": args.mission,
         "config": str(args.config or "default"),
@@ -187,65 +191,41 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 def cmd_monitor(args: argparse.Namespace) -> int:
     from jackson.host.monitor import run_monitor
     from jackson.host.transport import LinkError
-    from jackson.protocol import ProtocolMismatchError
+    from jackson.protocol import FrameVersionError, ProtocolMismatchError
 
     try:
         run_monitor(args.port, args.baudrate, args.duration)
-    except LinkError as exc:
-        raise HostCliError(str(exc)) from exc
-    except ProtocolMismatchError as exc:
+    except (LinkError, ProtocolMismatchError, FrameVersionError) as exc:
         raise HostCliError(str(exc)) from exc
     return 0
-
-
-def replay(run: Path, out: Path) -> list[str]:
-    """Feed ``run`` through a fresh HostCore writing into ``out``; the files that differ."""
-    import json
-
-    from jackson.host.actuation.output import NullOutput
-    from jackson.host.config import DEFAULT_CONFIG, load_config
-    from jackson.host.control import MISSIONS
-    from jackson.host.daemon import HostCore
-    from jackson.host.recording import (
-        KIND_CMD,
-        KIND_RX,
-        RecordingError,
-        RunRecorder,
-        read_log,
-        unpack_command,
-    )
-    from jackson.protocol import Frame
-
-    try:
-        meta = json.loads((run / "meta.json").read_text())
-    except (OSError, ValueError) as exc:
-        raise RecordingError(f"{run}: not a run folder (meta.json: {exc})") from exc
-    cfg_path = run / "config.yaml"
-    cfg = load_config(cfg_path if cfg_path.exists() else DEFAULT_CONFIG)
-    mission = MISSIONS[meta["mission"]]() if meta.get("mission") else None
-    rec = RunRecorder(out, meta)
-    core = HostCore(cfg, NullOutput(), lambda m: None, mission=mission, recorder=rec)
-    for r in read_log(run):
-        if r.kind == KIND_RX:
-            core.on_frame(Frame(r.payload[0], r.payload[1], r.payload[2:]), r.host_time_ns)
-        elif r.kind == KIND_CMD:
-            core.submit_velocity(*unpack_command(r.payload), r.host_time_ns)
-    rec.close()
-    names = ("odometry.csv", "ekf.csv", "commands.csv")
-    return [n for n in names if not filecmp.cmp(run / n, out / n, shallow=False)]
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from jackson.host.config import ConfigError
     from jackson.host.recording import RecordingError
+    from jackson.host.replay import replay
+    from jackson.protocol.args import output_folder
 
-    out = args.out or Path(tempfile.mkdtemp(prefix="jackson-replay-"))
     try:
-        differ = replay(args.run, out)
-    except (RecordingError, ConfigError) as exc:
+        out = (
+            output_folder(args.out)
+            if args.out
+            else Path(tempfile.mkdtemp(prefix="jackson-replay-"))
+        )
+        r = replay(args.run, out)
+    except (RecordingError, ConfigError, ValueError) as exc:
         raise HostCliError(str(exc)) from exc
-    if differ:
-        print(f"replay differs from the run in {', '.join(differ)} (outputs in {out})")
+    how = "closed cleanly" if r.complete else "cut (no end record: killed or power lost)"
+    print(
+        f"replayed {r.frames} telemetry frames and {r.commands} commands of {args.run}, "
+        f"{r.span()}; the run was {how}"
+    )
+    for name, (kept, made) in r.rows.items():
+        extra = "" if r.complete or made == kept else f" (the log held {made - kept:+d} more)"
+        print(f"  {name}: {kept} rows in the run, {made} replayed{extra}")
+    if r.differ:
+        print(f"replay differs from the run in {', '.join(r.differ)} (outputs in {out})")
         return 1
-    print(f"replay of {args.run} reproduces odometry, EKF and commands bit for bit ({out})")
+    what = "bit for bit" if r.complete else "on every row the run kept"
+    print(f"replay reproduces odometry, EKF and commands {what} ({out})")
     return 0

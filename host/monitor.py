@@ -16,8 +16,11 @@ from rich.console import Group
 from rich.live import Live
 from rich.table import Table
 
+from jackson.host.daemon import VERSION_SILENCE_S
 from jackson.host.transport import LinkEvent, SerialTransport
 from jackson.protocol import (
+    PROTOCOL_VERSION,
+    FrameVersionError,
     Heartbeat,
     HostState,
     Info,
@@ -58,9 +61,10 @@ class MonitorState:
     link: str = "connecting"
 
     def rate_hz(self) -> float:
-        if len(self.times) < 2:
+        span = self.times[-1] - self.times[0] if self.times else 0.0
+        if span <= 0.0:  # one frame, or a burst read at once after a stall
             return 0.0
-        return (len(self.times) - 1) / (self.times[-1] - self.times[0])
+        return (len(self.times) - 1) / span
 
 
 def render(s: MonitorState, transport: SerialTransport) -> Group:
@@ -101,15 +105,27 @@ def render(s: MonitorState, transport: SerialTransport) -> Group:
     return Group(head)
 
 
+def _check_version(s: MonitorState, transport: SerialTransport, started_s: float) -> None:
+    """Frames of another frame version and nothing decodable for a second: one clear error."""
+    dec = transport.decoder
+    if s.info is not None or s.frames or dec.counters.unknown_version == 0:
+        return
+    if time.monotonic() - started_s >= VERSION_SILENCE_S:
+        where = f"device on {transport.port_name}"
+        raise FrameVersionError(dec.last_unknown_version, PROTOCOL_VERSION, where)
+
+
 def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = None) -> MonitorState:
     """Show the live view until Ctrl-C (or ``duration_s``); returns the final state."""
     transport = SerialTransport(port, baudrate)
     transport.open()
     s = MonitorState()
-    end = None if duration_s is None else time.monotonic() + duration_s
+    started = time.monotonic()
+    end = None if duration_s is None else started + duration_s
     try:
         with Live(render(s, transport), refresh_per_second=4, transient=False) as live:
             while end is None or time.monotonic() < end:
+                _check_version(s, transport, started)
                 try:
                     item = transport.items.get(timeout=0.25)
                 except queue.Empty:

@@ -12,7 +12,8 @@ A run folder holds
 ``log.jrec`` is a little-endian binary file: the 8-byte magic ``b"JREC0001"``, then records of
 ``u8 kind, u64 host_time_ns, u16 length, payload``. Kinds: 1 frame received (payload: TYPE, SEQ,
 then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity command
-(payload: two f64, v [m/s] and w [rad/s]), 4 link event (payload: UTF-8 text).
+(payload: two f64, v [m/s] and w [rad/s]), 4 link event (payload: UTF-8 text), 5 end of run
+(empty payload; written by a clean close, so a log without it was cut by a kill or power loss).
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ KIND_RX = 1
 KIND_TX = 2
 KIND_CMD = 3
 KIND_LINK = 4
+KIND_END = 5
+KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END)
 _HEADER = struct.Struct("<BQH")
 _CMD = struct.Struct("<dd")
 
@@ -128,6 +131,7 @@ class RunRecorder:
             f.flush()
 
     def close(self) -> None:
+        self.record(KIND_END, time.monotonic_ns(), b"")
         self.flush()
         self._log.close()
         for f in self._files:

@@ -10,6 +10,7 @@ import threading
 from pathlib import Path
 from types import FrameType
 
+from jackson.protocol.args import nonneg_float, nonneg_int, os_error_line, positive_float
 from jackson.protocol.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
 from jackson.sim.fil import FirmwareError
@@ -50,7 +51,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         action="store_true",
         help="the MCU drives the motors (MOTOR_PWM) instead of the PCA9685",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed (runs are deterministic)")
+    p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (runs are deterministic)")
     p.add_argument(
         "--boot-id",
         type=_boot_id,
@@ -64,16 +65,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         action="store_true",
         help="publish /scan, /ground_truth/odom and /clock (sim time) over ROS 2",
     )
-    p.add_argument("--duration", type=float, help="stop after this many simulated seconds")
+    p.add_argument("--duration", type=positive_float, help="stop after this many simulated seconds")
     p.add_argument(
         "--heartbeat-timeout",
-        type=float,
+        type=positive_float,
         default=1.0,
         help="lockstep: wall seconds to wait for the host before moving on",
     )
     p.add_argument(
         "--spin-us",
-        type=float,
+        type=nonneg_float,
         default=DEFAULT_SPIN_S * 1e6,
         help="lockstep: poll this many microseconds for the host before blocking "
         "(0: block at once, for a busy machine; default %(default).0f)",
@@ -97,19 +98,30 @@ def run(args: argparse.Namespace) -> int:
         if problem is not None:
             print(f"jackson sim: {problem}", file=sys.stderr)
             return 2
+    if args.link is not None and Path(args.link).exists() and not Path(args.link).is_symlink():
+        print(
+            f"jackson sim: --link {args.link}: is there and is not a symlink; give a new path "
+            "(it is never replaced)",
+            file=sys.stderr,
+        )
+        return 2
     tmp = None
     i2c_path = args.i2c
     if i2c_path is None:
         tmp = tempfile.TemporaryDirectory(prefix="jackson-twin-")
         i2c_path = Path(tmp.name) / "i2c.sock"
-    twin = Twin(
-        world,
-        robot,
-        seed=args.seed,
-        lidar=False if args.no_lidar else None,
-        record_truth=False,  # a long-running twin keeps no history (the host records the run)
-        scan_history=SCAN_HISTORY,
-    )
+    try:
+        twin = Twin(
+            world,
+            robot,
+            seed=args.seed,
+            lidar=False if args.no_lidar else None,
+            record_truth=False,  # a long-running twin keeps no history (the host records it)
+            scan_history=SCAN_HISTORY,
+        )
+    except ConfigError as exc:
+        print(f"jackson sim: {exc}", file=sys.stderr)
+        return 2
     publisher = None
     if args.ros:
         from jackson.sim.ros import TwinRosPublisher
@@ -131,7 +143,10 @@ def run(args: argparse.Namespace) -> int:
     except (I2cServerError, FirmwareError, OSError) as exc:
         if publisher is not None:
             publisher.close()
-        print(f"jackson sim: {exc}", file=sys.stderr)
+        if tmp is not None:
+            tmp.cleanup()
+        text = os_error_line(exc) if isinstance(exc, OSError) else str(exc)
+        print(f"jackson sim: {text}", file=sys.stderr)
         return 2
     stop = threading.Event()
 

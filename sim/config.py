@@ -256,6 +256,9 @@ def _v3(v: tuple[float, ...]) -> tuple[float, float, float]:
     return (v[0], v[1], v[2])
 
 
+MIN_WALL_M = 0.001  # [m] shortest wall: a point is no wall, and the raycaster divides by length
+
+
 def load_world(name_or_path: str | Path) -> WorldSpec:
     """Read and validate a world file (a bundled name like ``open_floor`` or a path)."""
     path = resolve(name_or_path, WORLDS_DIR, "world")
@@ -275,6 +278,12 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
             or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
         ):
             raise r.fail(f"walls[{k}]", f"expected [x1, y1, x2, y2] in metres, got {show(w)}")
+        if not all(math.isfinite(x) for x in w):
+            raise r.fail(f"walls[{k}]", f"expected finite numbers, got {show(w)}")
+        if math.hypot(w[2] - w[0], w[3] - w[1]) < MIN_WALL_M:
+            raise r.fail(
+                f"walls[{k}]", f"zero length (under {MIN_WALL_M * 1000:g} mm), got {show(w)}"
+            )
         walls.append((float(w[0]), float(w[1]), float(w[2]), float(w[3])))
 
     def cylinder(reader: Fields) -> Cylinder:

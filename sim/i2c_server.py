@@ -15,6 +15,7 @@ connection, so the device state after a run depends only on the requests.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import selectors
 import socket
@@ -68,6 +69,7 @@ class I2cServerCounters:
     bad_requests: int = 0  # answered BAD_REQUEST
     nacks: int = 0  # answered NACK (no device at the address)
     connections: int = 0  # clients accepted
+    refused: int = 0  # clients turned away while this process had no file descriptor free
 
     def as_dict(self) -> dict[str, int]:
         return asdict(self)
@@ -116,6 +118,7 @@ class I2cSocketServer:
         self._listener.setblocking(False)
         self._selector = selectors.DefaultSelector()
         self._selector.register(self._listener, selectors.EVENT_READ, None)
+        self._spare: int | None = os.open(os.devnull, os.O_RDONLY)  # for :meth:`_refuse`
         self._closed = False
 
     def fileno(self) -> int:
@@ -165,6 +168,9 @@ class I2cSocketServer:
         self._selector.unregister(self._listener)
         self._listener.close()
         self._selector.close()
+        if self._spare is not None:
+            os.close(self._spare)
+            self._spare = None
         with contextlib.suppress(FileNotFoundError):
             self.path.unlink()
 
@@ -186,11 +192,29 @@ class I2cSocketServer:
                 sock, _ = self._listener.accept()
             except (BlockingIOError, InterruptedError):
                 return
+            except OSError as exc:
+                if exc.errno not in (errno.EMFILE, errno.ENFILE):
+                    return  # the client gave up (ECONNABORTED...): nothing to serve
+                self._refuse()
+                return
             sock.setblocking(False)
             conn = _Connection(sock)
             self._connections[sock.fileno()] = conn
             self._selector.register(sock, selectors.EVENT_READ, conn)
             self.counters.connections += 1
+
+    def _refuse(self) -> None:
+        """No descriptor free: spend the spare one to accept and close the waiting client, so
+        it sees the connection end and the listener does not stay readable forever."""
+        self.counters.refused += 1
+        if self._spare is None:
+            return
+        os.close(self._spare)
+        self._spare = None
+        with contextlib.suppress(OSError):
+            self._listener.accept()[0].close()
+        with contextlib.suppress(OSError):
+            self._spare = os.open(os.devnull, os.O_RDONLY)
 
     def _drop(self, conn: _Connection) -> None:
         self._connections.pop(conn.sock.fileno(), None)

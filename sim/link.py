@@ -25,9 +25,28 @@ class PtyLink:
         self._queue = bytearray()
         self.link = Path(link) if link else None
         if self.link is not None:
-            with contextlib.suppress(FileNotFoundError):
-                self.link.unlink()
-            self.link.symlink_to(self.path)
+            try:
+                self._make_link(self.link)
+            except OSError:
+                self.link = None
+                self.close()
+                raise
+
+    def _make_link(self, link: Path) -> None:
+        """Point ``link`` at the pty. Only a symlink is replaced (a twin's link from before);
+        a file or folder the user has there is never deleted."""
+        if link.is_symlink():
+            link.unlink()
+        elif link.exists():
+            raise FileExistsError(
+                errno.EEXIST,
+                "is there and is not a symlink; give a new path for the link",
+                str(link),
+            )
+        try:
+            link.symlink_to(self.path)
+        except OSError as exc:
+            raise OSError(exc.errno, f"cannot make the link ({exc.strerror})", str(link)) from exc
 
     def fileno(self) -> int:
         return self.master
@@ -65,6 +84,6 @@ class PtyLink:
         for fd in (self.master, self._slave):
             with contextlib.suppress(OSError):
                 os.close(fd)
-        if self.link is not None:
+        if self.link is not None and self.link.is_symlink():  # ours; never a user's file
             with contextlib.suppress(FileNotFoundError):
                 self.link.unlink()

@@ -18,7 +18,7 @@ import numpy as np
 import pymunk
 from numpy.typing import NDArray
 
-from jackson.sim.config import RobotSpec, WorldSpec
+from jackson.sim.config import ConfigError, RobotSpec, WorldSpec
 from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 from jackson.sim.mcu import SensorSample
 from jackson.sim.robot import DiffDriveRobot, WheelDrive
@@ -54,6 +54,22 @@ class Scan:
 class Twin:
     """Everything physical about one simulated robot in one world."""
 
+    def _check_start(self) -> None:
+        """Refuse a start pose where the robot's footprint overlaps a wall or a cylinder."""
+        shape = self.robot.shape
+        shape.cache_bb()
+        static = self.world.space.static_body
+        hits = [
+            q for q in self.world.space.shape_query(shape) if q.shape and q.shape.body is static
+        ]
+        if hits:
+            x, y, yaw = self.world_spec.start_pose
+            raise ConfigError(
+                f"world {self.world_spec.name}: start_pose [{x:g}, {y:g}, {yaw:g}]: robot "
+                f"{self.robot_spec.name} overlaps {len(hits)} wall(s) or cylinder(s) there; "
+                "move the start pose into free space"
+            )
+
     def __init__(
         self,
         world: WorldSpec,
@@ -75,6 +91,7 @@ class Twin:
         self.robot.shape.collision_type = 1
         x0, y0, yaw0 = world.start_pose
         self.robot.place(x0, y0, yaw0)
+        self._check_start()
         (ex0, ex1), (ey0, ey1) = robot.envelope_x_m, robot.envelope_y_m
         self._radius = max(math.hypot(ex, ey) for ex in (ex0, ex1) for ey in (ey0, ey1))
         self._free_budget = -1.0  # metres the robot may move before clearance is checked again

@@ -12,6 +12,7 @@ import dataclasses
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,21 @@ class TwinThread:
         self._stop.set()
         self.thread.join(timeout=30)
         self.runner.close()
+
+
+def wait_for(condition: Callable[[], bool], *, timeout_s: float, what: str) -> None:
+    """Poll ``condition`` until it holds; fail naming ``what`` after a generous deadline."""
+    deadline = time.monotonic() + timeout_s
+    tick = threading.Event()
+    while True:
+        try:
+            if condition():
+                return
+        except (OSError, ValueError):  # a file not written yet, a row half written
+            pass
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout_s:g} s waiting for {what}")
+        tick.wait(0.02)
 
 
 def run_daemon_cli(

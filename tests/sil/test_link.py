@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import csv
 import math
+import signal
+import subprocess
 import threading
 import time
 from pathlib import Path
 
-from jackson.host.cli import replay
+from jackson.host.replay import replay
 from jackson.sim.tb6612 import BridgeMode, bridge_outputs
 
-from .harness import TwinThread, in_process_daemon, run_daemon_cli
+from .harness import JACKSON, TwinThread, in_process_daemon, run_daemon_cli, wait_for
 
 
 def odometry_rows(run: Path) -> list[dict[str, float]]:
@@ -118,9 +120,39 @@ def test_replay_reproduces_the_live_run_bit_for_bit(tmp_path: Path) -> None:
     finally:
         twin.stop()
     assert "figure8" in out.stdout
-    differ = replay(tmp_path / "run", tmp_path / "replayed")
-    assert differ == []
+    r = replay(tmp_path / "run", tmp_path / "replayed")
+    assert r.differ == []
+    assert r.complete  # the end record of a clean close
+    assert r.frames == len(odometry_rows(tmp_path / "run"))
     assert (tmp_path / "replayed" / "ekf.csv").read_bytes() == (
         tmp_path / "run" / "ekf.csv"
     ).read_bytes()
     assert len(odometry_rows(tmp_path / "run")) > 20
+
+
+def test_a_killed_run_replays_as_far_as_it_was_kept(tmp_path: Path) -> None:
+    """SIGKILL mid-mission: the run folder's files agree up to the last flush, and replay says
+    how far the log goes and reproduces every row the run kept."""
+    twin = TwinThread(tmp_path, robot="jackson_physical")
+    run = tmp_path / "run"
+    cmd = [JACKSON, "daemon", "--port", twin.serial, "--i2c", twin.i2c, "--run-dir", str(run)]
+    daemon = subprocess.Popen([*cmd, "--mission", "figure8"], stdout=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: len(odometry_rows(run)) >= 300, timeout_s=120, what="300 flushed rows")
+        daemon.send_signal(signal.SIGKILL)
+        daemon.wait(timeout=10)
+    finally:
+        if daemon.poll() is None:
+            daemon.kill()
+            daemon.wait()
+        twin.stop()
+    r = replay(run, tmp_path / "replayed")
+    assert not r.complete
+    assert r.differ == []
+    kept, made = r.rows["odometry.csv"]
+    assert kept >= 300 and made >= kept
+    assert r.frames == made
+    out = subprocess.run([JACKSON, "replay", str(run)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "cut (no end record" in out.stdout
+    assert f"replayed {r.frames} telemetry frames" in out.stdout

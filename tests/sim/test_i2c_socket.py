@@ -327,3 +327,47 @@ def test_two_host_clients_one_after_another(server: I2cSocketServer) -> None:
             bus.write_byte_data(PCA, PRE_SCALE, 0x79)
         with SocketI2cBus(server.path) as bus:
             assert bus.read_byte_data(PCA, PRE_SCALE) == 0x79
+
+
+def test_out_of_file_descriptors_a_new_client_is_refused_and_the_bus_serves_on(
+    server: I2cSocketServer,
+) -> None:
+    """With every descriptor of the process taken (EMFILE), a connecting client is accepted
+    and closed at once on the server's spare descriptor; the clients already connected are
+    still answered, and new ones are served once descriptors are free again."""
+    import errno
+    import os
+
+    first = connect(server)
+    first.sendall(bytes((0x02, PCA, MODE2, 0)))
+    assert answer(server, first, 3)[0] == 0  # accepted and served (status OK)
+    filler: list[int] = []
+    try:
+        while True:  # take every free descriptor
+            try:
+                filler.append(os.open(os.devnull, os.O_RDONLY))
+            except OSError as exc:
+                assert exc.errno == errno.EMFILE
+                break
+            if len(filler) > 1_000_000:
+                pytest.skip("no descriptor limit on this machine")
+        os.close(filler.pop())  # one for the client's socket
+        late = connect(server)  # sits in the backlog until accepted
+        served = server.counters.connections
+        server.service(0.1)
+        assert server.counters.refused >= 1
+        assert server.counters.connections == served
+        first.sendall(bytes((0x02, PCA, MODE2, 0)))  # read MODE2 with no descriptor free
+        assert answer(server, first, 3)[0] == 0
+        late.setblocking(True)
+        late.settimeout(5)
+        assert late.recv(16) == b""  # the refused client sees the connection closed
+        late.close()
+    finally:
+        for fd in filler:
+            os.close(fd)
+    again = connect(server)
+    again.sendall(bytes((0x02, PCA, MODE2, 0)))
+    assert answer(server, again, 3)[0] == 0
+    again.close()
+    first.close()

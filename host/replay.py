@@ -1,0 +1,161 @@
+"""``jackson replay``: a run folder fed back through a fresh :class:`HostCore`, offline.
+
+The log's received frames and velocity commands go through the host in their recorded order
+and the outputs (odometry, EKF, commands) are compared with the run's own files. A run that was
+closed cleanly (its log ends with the end record) must be reproduced bit for bit. A run cut by
+a kill or a power loss is compared on what both hold: every complete row the run kept must be
+reproduced; the replay says how far the log went (frames, MCU time) and how many rows each file
+kept.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from jackson.host.recording import (
+    KIND_CMD,
+    KIND_END,
+    KIND_RX,
+    KINDS,
+    RecordingError,
+    RunRecorder,
+    read_log,
+    unpack_command,
+)
+from jackson.protocol import Frame
+
+COMPARED = ("odometry.csv", "ekf.csv", "commands.csv")
+
+
+@dataclass
+class ReplayResult:
+    frames: int = 0  # telemetry frames replayed
+    commands: int = 0  # velocity commands replayed
+    t0_s: float | None = None  # MCU time of the first and last telemetry frame
+    t1_s: float | None = None
+    complete: bool = False  # the log ends with the end record
+    rows: dict[str, tuple[int, int]] = field(default_factory=dict)  # file: (run, replay)
+    differ: list[str] = field(default_factory=list)
+
+    def span(self) -> str:
+        if self.t0_s is None or self.t1_s is None:
+            return "no telemetry"
+        return f"MCU time {self.t0_s:.3f}-{self.t1_s:.3f} s"
+
+
+def _meta(run: Path) -> tuple[dict[str, object], str | None]:
+    from jackson.host.control import MISSIONS
+
+    if not run.is_dir():
+        what = "does not exist" if not run.exists() else "is a file"
+        raise RecordingError(f"{run}: {what}; give a run folder written by jackson daemon")
+    path = run / "meta.json"
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) else "not valid JSON"
+        raise RecordingError(f"{path}: {why}; not a run folder written by jackson daemon") from exc
+    if not isinstance(meta, dict):
+        raise RecordingError(f"{path}: expected a JSON object, got {type(meta).__name__}")
+    mission = meta.get("mission")
+    if mission is not None and mission not in MISSIONS:
+        known = ", ".join(sorted(MISSIONS))
+        raise RecordingError(f"{path}: mission {mission!r} is none of {known}")
+    return meta, mission
+
+
+def _checked_log(run: Path) -> tuple[list[tuple[int, Frame | tuple[float, float]]], bool]:
+    """The log's records, each received frame decoded and each command unpacked, or one line
+    naming the first damaged record."""
+    from jackson.protocol import ProtocolError, decode_message
+
+    records: list[tuple[int, Frame | tuple[float, float]]] = []
+    complete = False
+    for k, r in enumerate(read_log(run)):
+        where = f"{run / 'log.jrec'}: record {k}"
+        if r.kind not in KINDS:
+            raise RecordingError(f"{where}: unknown kind {r.kind}; the log is damaged")
+        if r.kind == KIND_RX:
+            if len(r.payload) < 2:
+                raise RecordingError(f"{where}: a received frame without TYPE and SEQ")
+            frame = Frame(r.payload[0], r.payload[1], r.payload[2:])
+            try:
+                decode_message(frame)
+            except (ProtocolError, KeyError, ValueError) as exc:
+                raise RecordingError(
+                    f"{where}: received frame of type {frame.type:#04x} does not decode ({exc})"
+                ) from exc
+            records.append((r.host_time_ns, frame))
+        elif r.kind == KIND_CMD:
+            if len(r.payload) != 16:
+                raise RecordingError(
+                    f"{where}: a velocity command of {len(r.payload)} bytes, expected 16"
+                )
+            records.append((r.host_time_ns, unpack_command(r.payload)))
+        elif r.kind == KIND_END:
+            complete = True
+    return records, complete
+
+
+def _rows(path: Path) -> list[str]:
+    """The complete rows of a CSV file (a row cut by a kill has no newline and is dropped)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
+        raise RecordingError(f"{path}: {why}") from exc
+    lines = text.split("\n")
+    return lines[:-1]  # the part after the last newline is empty or a cut row
+
+
+def replay(run: Path, out: Path) -> ReplayResult:
+    """Feed ``run`` through a fresh HostCore writing into ``out`` (a new or empty folder).
+
+    Raises:
+        RecordingError: The run folder is missing or damaged (one line naming the file).
+        ConfigError: Its config.yaml is not a valid host configuration.
+    """
+    from jackson.host.actuation.output import NullOutput
+    from jackson.host.config import DEFAULT_CONFIG, load_config
+    from jackson.host.control import MISSIONS
+    from jackson.host.daemon import HostCore
+    from jackson.protocol import Telemetry
+
+    meta, mission = _meta(run)
+    cfg_path = run / "config.yaml"
+    cfg = load_config(cfg_path if cfg_path.exists() else DEFAULT_CONFIG)
+    records, complete = _checked_log(run)
+    for name in COMPARED:
+        if not (run / name).is_file():
+            raise RecordingError(f"{run / name}: missing; the run folder is incomplete")
+    result = ReplayResult(complete=complete)
+    rec = RunRecorder(out, meta)
+    core = HostCore(
+        cfg,
+        NullOutput(),
+        lambda m: None,
+        mission=MISSIONS[mission]() if mission else None,
+        recorder=rec,
+    )
+    for t_ns, item in records:
+        if isinstance(item, Frame):
+            core.on_frame(item, t_ns)
+            if item.type == Telemetry.TYPE:
+                t_s = Telemetry.unpack(item.payload).t_us / 1e6
+                result.t0_s = t_s if result.t0_s is None else result.t0_s
+                result.t1_s = t_s
+                result.frames += 1
+        else:
+            v, w = item
+            core.submit_velocity(v, w, t_ns)
+            result.commands += 1
+    rec.close()
+    for name in COMPARED:
+        kept, made = _rows(run / name), _rows(out / name)
+        result.rows[name] = (len(kept) - 1, len(made) - 1)  # without the header
+        same = kept == made if complete else made[: len(kept)] == kept
+        if not same:
+            result.differ.append(name)
+    return result

@@ -1,0 +1,96 @@
+"""Command-line arguments checked where they are parsed, for every ``jackson`` subcommand.
+
+:class:`OneLineParser` answers a bad argument with one line on stderr (``jackson run: argument
+--seed: expected an integer >= 0, got 'x' (see jackson run --help)``) and exit status 2, instead
+of argparse's usage block. The ``*_float`` and ``*_int`` types refuse what a robot cannot use:
+NaN, infinities, zero or negative counts and durations. :func:`output_folder` refuses a path
+that is a file, or a folder that already holds files, before anything is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import NoReturn
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line on stderr and exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        message = " ".join(message.split())
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
+def _number(
+    kind: str, cast: Callable[[str], float], test: Callable[[float], bool]
+) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = cast(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and test(value)):
+            raise argparse.ArgumentTypeError(f"expected {kind}, got {text!r}")
+        return value
+
+    parse.__name__ = kind  # argparse names the type in some messages
+    return parse
+
+
+finite_float = _number("a finite number", float, lambda v: True)
+positive_float = _number("a number > 0", float, lambda v: v > 0)
+nonneg_float = _number("a number >= 0", float, lambda v: v >= 0)
+fraction = _number("a number in (0, 1]", float, lambda v: 0 < v <= 1)
+nonzero_float = _number("a finite number other than 0", float, lambda v: v != 0)
+
+
+def _int(text: str) -> float:
+    return float(int(text, 0))
+
+
+def positive_int(text: str) -> int:
+    return int(_number("an integer > 0", _int, lambda v: v > 0)(text))
+
+
+def nonneg_int(text: str) -> int:
+    return int(_number("an integer >= 0", _int, lambda v: v >= 0)(text))
+
+
+def int_in(lo: int, hi: int) -> Callable[[str], int]:
+    """An integer type for argparse that accepts ``lo``..``hi``."""
+    check = _number(f"an integer in {lo}..{hi}", _int, lambda v: lo <= v <= hi)
+    return lambda text: int(check(text))
+
+
+def output_folder(path: Path, option: str = "--out") -> Path:
+    """``path`` as a place to write a new folder: refused if it is a file, lies under a file,
+    or is a folder that already holds files (a run or report is never written over another).
+
+    Raises:
+        ValueError: One line naming the option and the path.
+    """
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option} {path}: is a file, give a folder that does not exist yet")
+    if path.is_dir() and any(path.iterdir()):
+        raise ValueError(f"{option} {path}: folder is not empty, give a new one")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ValueError(f"{option} {path}: {parent} is a file, not a folder")
+            break
+    return path
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as one line (messages of libraries sometimes span several)."""
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def os_error_line(exc: OSError) -> str:
+    """``path: reason`` of an OSError, as one line."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    return where + (exc.strerror or one_line(exc))

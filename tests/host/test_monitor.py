@@ -1,0 +1,93 @@
+"""``jackson monitor`` against a device on a real pty: a device of another frame version is one
+clear line and exit 2; frames that arrive in one burst after a stall are shown, not a crash."""
+
+from __future__ import annotations
+
+import os
+import select
+import subprocess
+import sys
+import time
+import tty
+from pathlib import Path
+
+from jackson.protocol import PROTOCOL_VERSION, SCHEMA_HASH, Hello, Info, Telemetry, encode_frame
+
+JACKSON = str(Path(sys.executable).parent / "jackson")
+
+
+def _device() -> tuple[int, str]:
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    path = os.ttyname(slave)
+    os.close(slave)
+    return master, path
+
+
+def _wait_for_hello(master: int, timeout_s: float = 30.0) -> None:
+    """Block until the monitor has opened the port and sent HELLO."""
+    hello = encode_frame(Hello(), 0)[3:4]  # the TYPE byte of HELLO
+    deadline = time.monotonic() + timeout_s
+    seen = b""
+    while hello not in seen:
+        left = deadline - time.monotonic()
+        assert left > 0, "the monitor never sent HELLO"
+        if select.select([master], [], [], left)[0]:
+            try:
+                seen += os.read(master, 4096)
+            except OSError:  # the slave side not open yet
+                continue
+
+
+def test_another_frame_version_is_one_line_and_exit_2() -> None:
+    master, path = _device()
+    monitor = subprocess.Popen(
+        [JACKSON, "monitor", "--port", path, "--duration", "30"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        _wait_for_hello(master)
+        frame = bytearray(encode_frame(Telemetry(t_us=1), 0))
+        frame[2] = PROTOCOL_VERSION + 1  # the VER byte
+        t0 = time.monotonic()
+        while monitor.poll() is None and time.monotonic() - t0 < 20:
+            os.write(master, bytes(frame) * 4)
+            select.select([], [], [], 0.02)  # about the device's own frame period
+        elapsed = time.monotonic() - t0
+        _, err = monitor.communicate(timeout=10)
+    finally:
+        if monitor.poll() is None:
+            monitor.kill()
+        os.close(master)
+    assert monitor.returncode == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert f"frame version {PROTOCOL_VERSION + 1}, this host {PROTOCOL_VERSION}" in lines[0]
+    assert "flash" in lines[0]
+    assert elapsed < 10  # a second of wrong frames, plus start-up on a slow machine
+
+
+def test_a_burst_after_a_stall_is_shown() -> None:
+    master, path = _device()
+    monitor = subprocess.Popen(
+        [JACKSON, "monitor", "--port", path, "--duration", "3"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        _wait_for_hello(master)
+        info = Info(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH, boot_id=7)
+        os.write(master, encode_frame(info, 0))
+        burst = b"".join(encode_frame(Telemetry(t_us=5000 * k), k + 1) for k in range(40))
+        os.write(master, burst)  # one read on the host: 40 frames with one receive time
+        out, err = monitor.communicate(timeout=60)
+    finally:
+        if monitor.poll() is None:
+            monitor.kill()
+        os.close(master)
+    assert monitor.returncode == 0, err
+    assert "Traceback" not in err
+    assert "40 telemetry frames" in out

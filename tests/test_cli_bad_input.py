@@ -1,0 +1,448 @@
+"""Every subcommand fed bad input as users feed it: one line on stderr that names what was
+wrong, exit status 2, no traceback, and nothing left behind (no half-written run folder, no
+deleted file).
+
+Each case runs the real ``jackson`` entry point (``jackson.main.main``) in this process, in a
+fresh working folder holding the damaged files of :func:`corpus`; the folder's tree is compared
+before and after. A few cases run as subprocesses too, to check the installed script.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from jackson.host.recording import RunRecorder
+from jackson.main import main
+from jackson.protocol import Info, Telemetry, encode_frame
+
+JACKSON = [str(Path(sys.executable).parent / "jackson")]
+
+GOOD_ROBOT = "robots/good.yaml"
+GOOD_WORLD = "worlds/good.yaml"
+
+
+# ------------------------------------------------------------------------- the corpus
+
+
+def _telemetry_run(folder: Path, frames: int = 40, *, mission: str | None = "square") -> None:
+    """A small, real run folder: telemetry frames through the recorder, then replayable."""
+    from jackson.host.actuation.output import NullOutput
+    from jackson.host.config import DEFAULT_CONFIG, load_config
+    from jackson.host.control import MISSIONS
+    from jackson.host.daemon import HostCore
+    from jackson.protocol import Frame
+
+    cfg = load_config(DEFAULT_CONFIG)
+    rec = RunRecorder(folder, {"mission": mission, "config": "default"})
+    core = HostCore(
+        cfg,
+        NullOutput(),
+        lambda m: None,
+        mission=MISSIONS[mission]() if mission else None,
+        recorder=rec,
+    )
+    for k in range(frames):
+        msg = Telemetry(t_us=5000 * k, enc_left=3 * k, enc_right=3 * k, flags=1 << 3)
+        frame = Frame(msg.TYPE, k & 0xFF, msg.pack())
+        core.on_frame(frame, k * 5_000_000)
+    rec.close()
+    (folder / "config.yaml").write_text(DEFAULT_CONFIG.read_text())
+
+
+def _log(run: Path, kind: int, payload: bytes) -> None:
+    """Replace the run's log by one record."""
+    header = bytes((kind,)) + (0).to_bytes(8, "little") + len(payload).to_bytes(2, "little")
+    (run / "log.jrec").write_bytes(b"JREC0001" + header + payload)
+
+
+def _write(root: Path, rel: str, text: str | bytes) -> None:
+    p = root / rel
+    p.parent.mkdir(parents=True, exist_ok=True)
+    if isinstance(text, bytes):
+        p.write_bytes(text)
+    else:
+        p.write_text(text)
+
+
+ROBOT = """\
+name: corpus
+wheel_radius_m: {r}
+track_width_m: {b}
+"""
+
+WORLD = """\
+name: corpus
+walls:
+{walls}
+start_pose: {start}
+"""
+
+ROOM = "  - [-2, -2, 2, -2]\n  - [2, -2, 2, 2]\n  - [2, 2, -2, 2]\n  - [-2, 2, -2, -2]\n"
+
+
+@pytest.fixture(scope="module")
+def corpus(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    root = tmp_path_factory.mktemp("corpus")
+    w = lambda rel, text: _write(root, rel, text)  # noqa: E731
+    # robots
+    w(GOOD_ROBOT, ROBOT.format(r=0.033, b=0.198))
+    w("robots/nan.yaml", ROBOT.format(r=".nan", b=0.198))
+    w("robots/inf.yaml", ROBOT.format(r=0.033, b=".inf"))
+    w("robots/negative.yaml", ROBOT.format(r=-0.033, b=0.198))
+    w("robots/text.yaml", ROBOT.format(r="thirty", b=0.198))
+    w("robots/unknown_field.yaml", ROBOT.format(r=0.033, b=0.198) + "wheel_count: 3\n")
+    w("robots/syntax.yaml", "name: [unclosed\n")
+    w("robots/list.yaml", "- 1\n- 2\n")
+    w("robots/empty.yaml", "")
+    w("robots/binary.yaml", b"\xff\xfe\x00garbage\x00")
+    # worlds
+    w(GOOD_WORLD, WORLD.format(walls=ROOM, start="[0, 0, 0]"))
+    w("worlds/nan_wall.yaml", WORLD.format(walls="  - [0, .nan, 1, 1]\n", start="[0, 0, 0]"))
+    w("worlds/inf_wall.yaml", WORLD.format(walls="  - [0, 0, .inf, 1]\n", start="[0, 0, 0]"))
+    w("worlds/zero_wall.yaml", WORLD.format(walls="  - [1, 1, 1, 1]\n", start="[0, 0, 0]"))
+    w("worlds/short_wall.yaml", WORLD.format(walls="  - [1, 1, 2]\n", start="[0, 0, 0]"))
+    w("worlds/text_wall.yaml", WORLD.format(walls="  - [a, 1, 2, 3]\n", start="[0, 0, 0]"))
+    w("worlds/nan_start.yaml", WORLD.format(walls=ROOM, start="[.nan, 0, 0]"))
+    w("worlds/start_in_wall.yaml", WORLD.format(walls=ROOM, start="[2.0, 0, 0]"))
+    w("worlds/start_outside.yaml", WORLD.format(walls="  - [0.1, -1, 0.1, 1]\n", start="[0, 0, 0]"))
+    w(
+        "worlds/start_in_cylinder.yaml",
+        WORLD.format(walls=ROOM, start="[0, 0, 0]")
+        + "cylinders:\n  - {x: 0.05, y: 0, radius: 0.2}\n",
+    )
+    w(
+        "worlds/nan_cylinder.yaml",
+        WORLD.format(walls=ROOM, start="[0, 0, 0]")
+        + "cylinders:\n  - {x: 1, y: .nan, radius: 0.2}\n",
+    )
+    w("worlds/mu.yaml", "floor:\n  mu_static: 0.5\n  mu_dynamic: 0.9\n")
+    w("worlds/syntax.yaml", "walls: [[0, 0, 1\n")
+    # host configs
+    w("configs/syntax.yaml", "serial: {port: \n")
+    w("configs/nan.yaml", "robot:\n  wheel_radius_m: .nan\n")
+    w("configs/unknown.yaml", "robto:\n  wheel_radius_m: 0.033\n")
+    # captures
+    w("captures/garbage.bin", os.urandom(4096))
+    w("captures/empty.bin", b"")
+    same_t = encode_frame(Telemetry(t_us=7), 0) + encode_frame(Telemetry(t_us=7), 1)
+    w("captures/equal_times.bin", same_t)
+    w("captures/info.bin", encode_frame(Info(), 0) + encode_frame(Telemetry(t_us=1), 1))
+    # a serial port with no robot behind it (the pty stays open while the module runs)
+    master, slave = os.openpty()
+    os.symlink(os.ttyname(slave), root / "robot_tty")
+    # files where folders are expected and the reverse
+    w("a_file", "user data\n")
+    (root / "a_folder").mkdir()
+    # run folders: a good one and damaged copies
+    good = root / "runs/good"
+    _telemetry_run(good)
+    damaged: dict[str, Callable[[Path], None]] = {
+        "no_meta": lambda p: (p / "meta.json").unlink(),
+        "meta_garbage": lambda p: (p / "meta.json").write_text("{not json"),
+        "meta_list": lambda p: (p / "meta.json").write_text("[1, 2]"),
+        "meta_mission": lambda p: (p / "meta.json").write_text('{"mission": "zigzag"}'),
+        "meta_mission_type": lambda p: (p / "meta.json").write_text('{"mission": 7}'),
+        "no_log": lambda p: (p / "log.jrec").unlink(),
+        "log_magic": lambda p: (p / "log.jrec").write_bytes(b"NOTAJREC" + b"\0" * 64),
+        "log_empty": lambda p: (p / "log.jrec").write_bytes(b""),
+        "log_cut": lambda p: (p / "log.jrec").write_bytes((p / "log.jrec").read_bytes()[:777]),
+        "log_short_payload": lambda p: _log(p, 1, bytes((Telemetry.TYPE,))),
+        "log_unknown_type": lambda p: _log(p, 1, bytes((0xEE, 0, 0))),
+        "log_unknown_kind": lambda p: _log(p, 9, b""),
+        "log_bad_command": lambda p: _log(p, 3, b"abc"),
+        "no_odometry": lambda p: (p / "odometry.csv").unlink(),
+        "odometry_folder": lambda p: ((p / "odometry.csv").unlink(), (p / "odometry.csv").mkdir()),
+        "config_syntax": lambda p: (p / "config.yaml").write_text("robot: [\n"),
+        "config_nan": lambda p: (p / "config.yaml").write_text("robot:\n  wheel_radius_m: .nan\n"),
+    }
+    for name, damage in damaged.items():
+        shutil.copytree(good, root / f"runs/{name}")
+        damage(root / f"runs/{name}")
+    (root / "runs/empty").mkdir()
+    yield root
+    os.close(master)
+    os.close(slave)
+
+
+# ------------------------------------------------------------------------- the cases
+
+
+@dataclass(frozen=True)
+class Case:
+    argv: tuple[str, ...]
+    says: str  # a fragment the one line must contain (the file, the field, the option)
+
+
+def c(argv: str, says: str) -> Case:
+    return Case(tuple(argv.split()), says)
+
+
+MISSING = "nowhere/missing.yaml"
+
+CASES: dict[str, Case] = {
+    # the parser itself
+    "no_command": c("", "COMMAND"),
+    "unknown_command": c("fly", "fly"),
+    "unknown_option": c("decode --colour x", "--colour"),
+    # decode
+    "decode_missing": c("decode nowhere.bin", "nowhere.bin"),
+    "decode_folder": c("decode a_folder", "a_folder"),
+    # bench
+    "bench_suite": c("bench --suite warp", "warp"),
+    "bench_out_in_file": c("bench --quick --suite protocol --out a_file/b.json", "a_file"),
+    "bench_out_folder": c("bench --quick --suite protocol --out a_folder", "a_folder"),
+    # run
+    "run_mission": c("run zigzag", "zigzag"),
+    "run_robot_missing": c(f"run square --robot {MISSING}", "missing.yaml"),
+    "run_robot_unknown_name": c("run square --robot no_such_robot", "no_such_robot"),
+    "run_robot_nan": c("run square --robot robots/nan.yaml", "wheel_radius_m"),
+    "run_robot_inf": c("run square --robot robots/inf.yaml", "track_width_m"),
+    "run_robot_negative": c("run square --robot robots/negative.yaml", "wheel_radius_m"),
+    "run_robot_text": c("run square --robot robots/text.yaml", "wheel_radius_m"),
+    "run_robot_field": c("run square --robot robots/unknown_field.yaml", "wheel_count"),
+    "run_robot_syntax": c("run square --robot robots/syntax.yaml", "syntax.yaml"),
+    "run_robot_list": c("run square --robot robots/list.yaml", "list.yaml"),
+    "run_robot_empty": c("run square --robot robots/empty.yaml", "empty.yaml"),
+    "run_robot_binary": c("run square --robot robots/binary.yaml", "binary.yaml"),
+    "run_robot_folder": c("run square --robot a_folder", "a_folder"),
+    "run_world_missing": c(f"run square --world {MISSING}", "missing.yaml"),
+    "run_world_nan_wall": c("run square --world worlds/nan_wall.yaml", "walls[0]"),
+    "run_world_inf_wall": c("run square --world worlds/inf_wall.yaml", "walls[0]"),
+    "run_world_zero_wall": c("run square --world worlds/zero_wall.yaml", "walls[0]"),
+    "run_world_short_wall": c("run square --world worlds/short_wall.yaml", "walls[0]"),
+    "run_world_text_wall": c("run square --world worlds/text_wall.yaml", "walls[0]"),
+    "run_world_nan_start": c("run square --world worlds/nan_start.yaml", "start_pose"),
+    "run_world_start_in_wall": c("run square --world worlds/start_in_wall.yaml", "start_pose"),
+    "run_world_start_at_wall": c("run square --world worlds/start_outside.yaml", "start_pose"),
+    "run_world_start_in_cyl": c("run square --world worlds/start_in_cylinder.yaml", "start_pose"),
+    "run_world_nan_cylinder": c("run square --world worlds/nan_cylinder.yaml", "cylinders[0].y"),
+    "run_world_mu": c("run square --world worlds/mu.yaml", "mu_dynamic"),
+    "run_world_syntax": c("run square --world worlds/syntax.yaml", "syntax.yaml"),
+    "run_seed_text": c("run square --seed one", "--seed"),
+    "run_seed_negative": c("run square --seed -1", "--seed"),
+    "run_out_file": c("run square --out a_file", "a_file"),
+    "run_out_in_file": c("run square --out a_file/run", "a_file"),
+    "run_out_not_empty": c("run square --out runs/good", "runs/good"),
+    # campaign
+    "campaign_trials_zero": c("campaign square --trials 0", "--trials"),
+    "campaign_trials_negative": c("campaign square --trials -3", "--trials"),
+    "campaign_trials_text": c("campaign square --trials many", "--trials"),
+    "campaign_workers_zero": c("campaign square --workers 0", "--workers"),
+    "campaign_workers_negative": c("campaign square --workers -1", "--workers"),
+    "campaign_robot_missing": c(f"campaign square --robot {MISSING}", "missing.yaml"),
+    "campaign_robot_nan": c("campaign square --robot robots/nan.yaml", "wheel_radius_m"),
+    "campaign_world_zero_wall": c("campaign square --world worlds/zero_wall.yaml", "walls[0]"),
+    "campaign_world_start": c("campaign square --world worlds/start_in_wall.yaml", "start_pose"),
+    "campaign_out_file": c("campaign square --out a_file", "a_file"),
+    # replay
+    "replay_missing": c("replay runs/nowhere", "runs/nowhere"),
+    "replay_file": c("replay a_file", "a_file"),
+    "replay_empty": c("replay runs/empty", "runs/empty"),
+    "replay_no_meta": c("replay runs/no_meta", "meta.json"),
+    "replay_meta_garbage": c("replay runs/meta_garbage", "meta.json"),
+    "replay_meta_list": c("replay runs/meta_list", "meta.json"),
+    "replay_meta_mission": c("replay runs/meta_mission", "zigzag"),
+    "replay_meta_mission_type": c("replay runs/meta_mission_type", "mission"),
+    "replay_no_log": c("replay runs/no_log", "log.jrec"),
+    "replay_log_magic": c("replay runs/log_magic", "log.jrec"),
+    "replay_log_empty": c("replay runs/log_empty", "log.jrec"),
+    "replay_log_short_payload": c("replay runs/log_short_payload", "log.jrec"),
+    "replay_log_unknown_type": c("replay runs/log_unknown_type", "log.jrec"),
+    "replay_log_unknown_kind": c("replay runs/log_unknown_kind", "log.jrec"),
+    "replay_log_bad_command": c("replay runs/log_bad_command", "log.jrec"),
+    "replay_no_odometry": c("replay runs/no_odometry", "odometry.csv"),
+    "replay_odometry_folder": c("replay runs/odometry_folder", "odometry.csv"),
+    "replay_config_syntax": c("replay runs/config_syntax", "config.yaml"),
+    "replay_config_nan": c("replay runs/config_nan", "wheel_radius_m"),
+    "replay_out_file": c("replay runs/good --out a_file", "a_file"),
+    "replay_out_is_run": c("replay runs/good --out runs/good", "runs/good"),
+    # daemon
+    "daemon_config_missing": c(f"daemon --config {MISSING} --port /dev/null", "missing.yaml"),
+    "daemon_config_syntax": c("daemon --config configs/syntax.yaml", "syntax.yaml"),
+    "daemon_config_nan": c("daemon --config configs/nan.yaml", "wheel_radius_m"),
+    "daemon_config_unknown": c("daemon --config configs/unknown.yaml", "robto"),
+    "daemon_port_missing": c("daemon --port nowhere/tty --no-record", "nowhere/tty"),
+    "daemon_port_file": c("daemon --port a_file --no-record", "a_file"),
+    "daemon_i2c_missing": c(
+        "daemon --port robot_tty --i2c unix:nowhere/sock --no-record", "nowhere/sock"
+    ),
+    "daemon_i2c_bad": c("daemon --port robot_tty --i2c floppy --no-record", "floppy"),
+    "daemon_run_dir_file": c("daemon --run-dir a_file --port nowhere/tty", "a_file"),
+    "daemon_run_dir_in_file": c("daemon --run-dir a_file/run --port nowhere/tty", "a_file"),
+    "daemon_max_seconds": c("daemon --max-seconds -1 --no-record", "--max-seconds"),
+    "daemon_max_seconds_nan": c("daemon --max-seconds nan --no-record", "--max-seconds"),
+    "daemon_timeout_zero": c("daemon --mission-timeout 0 --no-record", "--mission-timeout"),
+    "daemon_timeout_inf": c("daemon --mission-timeout inf --no-record", "--mission-timeout"),
+    "daemon_mission": c("daemon --mission zigzag", "zigzag"),
+    # monitor
+    "monitor_port_missing": c("monitor --port nowhere/tty", "nowhere/tty"),
+    "monitor_port_folder": c("monitor --port a_folder", "a_folder"),
+    "monitor_duration": c("monitor --port nowhere/tty --duration -2", "--duration"),
+    "monitor_duration_nan": c("monitor --port nowhere/tty --duration nan", "--duration"),
+    "monitor_baudrate": c("monitor --port nowhere/tty --baudrate 0", "--baudrate"),
+    "monitor_no_port": c("monitor", "--port"),
+    # sim
+    "sim_world_missing": c(f"sim --world {MISSING}", "missing.yaml"),
+    "sim_world_nan_wall": c("sim --world worlds/nan_wall.yaml", "walls[0]"),
+    "sim_world_zero_wall": c("sim --world worlds/zero_wall.yaml", "walls[0]"),
+    "sim_world_start": c("sim --world worlds/start_in_wall.yaml", "start_pose"),
+    "sim_robot_nan": c("sim --robot robots/nan.yaml", "wheel_radius_m"),
+    "sim_robot_syntax": c("sim --robot robots/syntax.yaml", "syntax.yaml"),
+    "sim_link_file": c("sim --link a_file --duration 1", "a_file"),
+    "sim_link_folder": c("sim --link a_folder --duration 1", "a_folder"),
+    "sim_link_in_missing": c("sim --link nowhere/robot --duration 1", "nowhere"),
+    "sim_i2c_file": c("sim --i2c a_file --duration 1", "a_file"),
+    "sim_i2c_in_missing": c("sim --i2c nowhere/i2c.sock --duration 1", "nowhere"),
+    "sim_duration": c("sim --duration -1", "--duration"),
+    "sim_duration_nan": c("sim --duration nan", "--duration"),
+    "sim_boot_id": c("sim --boot-id 0", "--boot-id"),
+    "sim_heartbeat": c("sim --heartbeat-timeout 0", "--heartbeat-timeout"),
+    "sim_spin": c("sim --spin-us -5", "--spin-us"),
+    "sim_seed": c("sim --seed x", "--seed"),
+    # faults
+    "faults_out_file": c("faults --short --out a_file", "a_file"),
+    # calibrate
+    "cal_no_procedure": c("calibrate", "PROCEDURE"),
+    "cal_encoders_neither": c("calibrate encoders", "--port"),
+    "cal_encoders_both": c("calibrate encoders --port x --runs runs/good", "--runs"),
+    "cal_encoders_count": c("calibrate encoders --runs runs/good --count 0", "--count"),
+    "cal_encoders_length_nan": c("calibrate encoders --runs runs/good --length nan", "--length"),
+    "cal_encoders_distance_nan": c(
+        "calibrate encoders --runs runs/good --distance nan", "--distance"
+    ),
+    "cal_encoders_runs_missing": c("calibrate encoders --runs runs/nowhere", "runs/nowhere"),
+    "cal_encoders_runs_file": c("calibrate encoders --runs a_file", "a_file"),
+    "cal_encoders_runs_empty": c("calibrate encoders --runs runs/empty", "runs/empty"),
+    "cal_encoders_runs_damaged": c("calibrate encoders --runs runs/no_log", "log.jrec"),
+    "cal_encoders_port_missing": c("calibrate encoders --port nowhere/tty", "nowhere/tty"),
+    "cal_encoders_config": c(
+        f"calibrate encoders --runs runs/good --config {MISSING}", "missing.yaml"
+    ),
+    "cal_encoders_write_folder": c(
+        "calibrate encoders --runs runs/good --distance 1 --write a_folder", "a_folder"
+    ),
+    "cal_track_rate": c("calibrate track --runs runs/good --rate -1", "--rate"),
+    "cal_track_true_turns": c("calibrate track --runs runs/good --true-turns nan", "--true-turns"),
+    "cal_imu_rotation": c("calibrate imu --runs runs/good --rotation 1,2,3", "--rotation"),
+    "cal_imu_rotation_nan": c(
+        "calibrate imu --runs runs/good --rotation nan,0,0,0,1,0,0,0,1", "--rotation"
+    ),
+    "cal_imu_still": c("calibrate imu --runs runs/good --still 0", "--still"),
+    "cal_deadband_duty": c("calibrate deadband --runs runs/good --max-duty 2", "--max-duty"),
+    "cal_deadband_persist": c("calibrate deadband --runs runs/good --persist 0", "--persist"),
+    "cal_char_duty": c("calibrate characterise --runs runs/good --duty 0", "--duty"),
+    "cal_char_rate": c("calibrate characterise --port nowhere/tty --rate 9999", "--rate"),
+    "cal_char_seconds_nan": c("calibrate characterise --runs runs/good --seconds nan", "--seconds"),
+    "cal_fit_reference": c(
+        "calibrate twin-fit --runs runs/good --reference nowhere.csv", "nowhere.csv"
+    ),
+    "cal_fit_reference_garbage": c(
+        "calibrate twin-fit --runs runs/good --reference captures/garbage.bin", "garbage.bin"
+    ),
+    "cal_fit_yaw_weight": c("calibrate twin-fit --runs runs/good --yaw-weight nan", "--yaw-weight"),
+    "cal_fit_heading": c("calibrate twin-fit --runs runs/good --heading compass", "compass"),
+}
+
+
+def _tree(root: Path) -> dict[str, tuple[bool, int, int]]:
+    out = {}
+    for dirpath, dirnames, filenames in os.walk(root):
+        for name in dirnames + filenames:
+            p = Path(dirpath) / name
+            st = p.lstat()
+            out[str(p.relative_to(root))] = (p.is_dir(), st.st_size, st.st_mtime_ns)
+    return out
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_bad_input_is_one_line_and_exit_2(
+    name: str,
+    corpus: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    case = CASES[name]
+    work = tmp_path / "work"
+    shutil.copytree(corpus, work, symlinks=True)
+    monkeypatch.chdir(work)
+    before = _tree(work)
+    try:
+        rc = main(list(case.argv))
+    except SystemExit as exc:  # argparse
+        rc = exc.code if isinstance(exc.code, int) else 2
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert rc == 2, f"exit {rc}, stderr: {err!r}"
+    assert len(lines) == 1, f"expected one line on stderr, got {lines!r}"
+    assert lines[0].startswith("jackson"), lines[0]
+    assert case.says in lines[0], f"{case.says!r} not in {lines[0]!r}"
+    assert _tree(work) == before, "the command left something behind or changed a file"
+
+
+def test_the_corpus_is_large() -> None:
+    assert len(CASES) >= 80
+
+
+# ------------------------------------------------------------------------- as a user runs it
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "square", "--robot", MISSING],
+        ["replay", "runs/meta_mission"],
+        ["sim", "--world", "worlds/nan_wall.yaml"],
+        ["campaign", "square", "--workers", "0"],
+    ],
+)
+def test_the_installed_command_answers_in_one_line(
+    argv: list[str], corpus: Path, tmp_path: Path
+) -> None:
+    work = tmp_path / "work"
+    shutil.copytree(corpus, work)
+    before = _tree(work)
+    out = subprocess.run([*JACKSON, *argv], cwd=work, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert "Traceback" not in out.stderr
+    assert _tree(work) == before
+
+
+def test_sim_link_never_deletes_the_users_file(corpus: Path, tmp_path: Path) -> None:
+    target = tmp_path / "notes.txt"
+    target.write_text("precious\n")
+    out = subprocess.run(
+        [*JACKSON, "sim", "--link", str(target), "--duration", "0.1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 2, out.stderr
+    assert target.read_text() == "precious\n"
+    assert str(target) in out.stderr
+
+
+def test_the_good_files_of_the_corpus_are_accepted(
+    corpus: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The damage is what the cases above refuse: the undamaged run replays bit for bit, and a
+    capture of two frames with equal MCU times is summarised."""
+    monkeypatch.chdir(corpus)
+    assert main(["replay", "runs/good", "--out", str(tmp_path / "replayed")]) == 0
+    assert main(["decode", "--summary", "captures/equal_times.bin"]) == 0
+    assert main(["decode", "--summary", "captures/garbage.bin"]) == 0
+    assert main(["decode", "--summary", "captures/empty.bin"]) == 0
+    out = capsys.readouterr().out
+    assert "frames_ok=2" in out
