@@ -55,8 +55,9 @@ bench: setup
 	$(BIN)/jackson bench
 
 # The newcomer's first command: the twin and the real host daemon over a pty drive the paper's
-# 1 m square; a table, a plot and the run folder.
+# 1 m square; a table, a plot and the run folder (the previous demo's folder is replaced).
 demo: setup
+	@rm -rf build/demo/square
 	@$(BIN)/jackson run square --out build/demo/square
 
 # ---- firmware ---------------------------------------------------------------------------------
