@@ -230,6 +230,9 @@ def build_parser() -> argparse.ArgumentParser:
     from jackson.sim import cli as sim_cli
 
     host_cli.add_parsers(sub)
+    from jackson.host import brake as brake_cli
+
+    brake_cli.add_parser(sub)
 
     sim_cli.add_parser(sub)
     sub.choices["sim"].set_defaults(func=sim_cli.run)

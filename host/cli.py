@@ -80,6 +80,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     from jackson.host.config import HostConfig
     from jackson.host.daemon import Daemon, DaemonError, with_port
     from jackson.host.i2c import I2cError, open_bus
+    from jackson.host.sdnotify import notifier_from_env
     from jackson.host.transport import LinkError, SerialTransport
     from jackson.protocol import Message, ProtocolError
 
@@ -147,6 +148,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         meta=meta,
         ros_args=(["--ros-args", *args.ros_args] if args.ros_args else []) if args.ros else None,
         mission_timeout_s=args.mission_timeout,
+        notifier=notifier_from_env(),
     )
     if run_dir is not None:
         import yaml

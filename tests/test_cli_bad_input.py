@@ -307,6 +307,10 @@ CASES: dict[str, Case] = {
     "sim_heartbeat": c("sim --heartbeat-timeout 0", "--heartbeat-timeout"),
     "sim_spin": c("sim --spin-us -5", "--spin-us"),
     "sim_seed": c("sim --seed x", "--seed"),
+    # brake
+    "brake_address": c("brake --address 0x99", "--address"),
+    "brake_config_missing": c(f"brake --config {MISSING}", "missing.yaml"),
+    "brake_config_nan": c("brake --config configs/nan.yaml", "wheel_radius_m"),
     # faults
     "faults_out_file": c("faults --short --out a_file", "a_file"),
     # calibrate

@@ -1,0 +1,128 @@
+"""``jackson brake``: short-brake both wheels through the PCA9685 now, whatever left them.
+
+systemd runs it after the daemon has stopped (``ExecStopPost``, deploy/jackson.service): a daemon
+that crashed, was killed by the watchdog or exited leaves the PCA9685 holding its last duties,
+and the MCU's interlock (docs/firmware.md) is then the only thing stopping the wheels. This puts
+both TB6612FNG bridges into short brake (IN1 = IN2 = high, PWM off) on the PCA9685 itself,
+re-initialising the chip first if it was reset or asleep, and reads the registers back.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from jackson.host.actuation.output import Pca9685Output
+from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
+from jackson.host.actuation.tb6612 import bridge_duties
+from jackson.host.config import Pca9685Settings
+from jackson.host.i2c import I2cError, open_bus
+
+ATTEMPTS = 4
+BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt
+
+
+class BrakeError(RuntimeError):
+    """The bus or the chip could not be reached, or did not hold the brake."""
+
+
+def brake_duties(p: Pca9685Settings) -> dict[int, float]:
+    """PCA9685 channel duties with both bridges in short brake (and STBY high if wired)."""
+    duties = {**bridge_duties(p.left, 0.0), **bridge_duties(p.right, 0.0)}
+    if p.stby_channel is not None:
+        duties[p.stby_channel] = 1.0
+    return duties
+
+
+def brake_once(p: Pca9685Settings) -> None:
+    """One attempt: open the bus, (re)initialise if needed, brake, read back.
+
+    Raises:
+        BrakeError: A register read back differs from what was written.
+        I2cError, OSError: The bus failed.
+    """
+    bus = open_bus(p.bus)
+    try:
+        pca = Pca9685(bus, p.address)
+        if not pca.registers_ok(p.frequency_hz):
+            pca.init(p.frequency_hz)
+        Pca9685Output(pca, p.left, p.right, p.stby_channel).brake()
+        for ch, duty in sorted(brake_duties(p).items()):
+            got = bus.read_i2c_block_data(p.address, LED0_ON_L + 4 * ch, 4)
+            if list(got) != led_registers(duty):
+                raise BrakeError(f"channel {ch} reads {bytes(got).hex()} after the brake")
+        if not pca.registers_ok(p.frequency_hz):
+            raise BrakeError("MODE1/MODE2/PRE_SCALE do not hold their values")
+    finally:
+        bus.close()
+
+
+def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
+    """Brake with retries; the number of attempts it took.
+
+    Raises:
+        BrakeError: Every attempt failed (the last reason).
+    """
+    reason = ""
+    for k in range(attempts):
+        if k:
+            time.sleep(BACKOFF_S[min(k - 1, len(BACKOFF_S) - 1)])
+        try:
+            brake_once(p)
+            return k + 1
+        except (I2cError, OSError, BrakeError) as exc:
+            reason = str(exc)
+    raise BrakeError(
+        f"PCA9685 at {p.address:#04x} on {p.bus}: not braked after {attempts} attempts "
+        f"({reason}); check the bus wiring and power, the MCU's interlock still brakes"
+    )
+
+
+def _address(text: str) -> int:
+    try:
+        value = int(text, 0)
+    except ValueError:
+        value = -1
+    if not 0x03 <= value <= 0x77:
+        raise argparse.ArgumentTypeError(f"expected a 7-bit I2C address 0x03..0x77, got {text!r}")
+    return value
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "brake",
+        help="short-brake both wheels through the PCA9685 now (systemd runs it after the daemon)",
+    )
+    p.add_argument("--config", type=Path, help="host YAML (default: host/config/jackson.yaml)")
+    p.add_argument("--i2c", help="I2C bus of the PCA9685 (default: pca9685.bus of the config)")
+    p.add_argument("--address", type=_address, help="PCA9685 address (default: the config's)")
+    p.set_defaults(func=cmd_brake)
+
+
+def cmd_brake(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from jackson.host.cli import HostCliError, _load
+    from jackson.host.config import HostConfig
+
+    cfg = _load(args.config)
+    assert isinstance(cfg, HostConfig)
+    p = cfg.pca9685
+    if args.i2c:
+        p = dataclasses.replace(p, bus=args.i2c)
+    if args.address is not None:
+        p = dataclasses.replace(p, address=args.address)
+    if cfg.actuator != "pca9685" and not args.i2c:
+        raise HostCliError(
+            f"actuator is {cfg.actuator}: the MCU drives the motors and brakes them itself; "
+            "give --i2c to brake a PCA9685 anyway"
+        )
+    try:
+        n = brake(p)
+    except BrakeError as exc:
+        print(f"jackson brake: {exc}", file=sys.stderr)
+        return 1
+    print(f"braked: PCA9685 at {p.address:#04x} on {p.bus} (attempt {n})")
+    return 0

@@ -1,0 +1,71 @@
+"""systemd's service notifications for the daemon: READY, WATCHDOG and STOPPING.
+
+Under ``Type=notify`` with ``WatchdogSec=`` (deploy/jackson.service) systemd expects the daemon's
+main loop to ping it; a daemon that hangs (a deadlock, SIGSTOP, a bus call that never returns)
+stops pinging, and systemd kills it with SIGABRT and runs ``ExecStopPost=jackson brake``. The
+MCU's interlock has braked the motors 0.6 s after the last heartbeat by then; this is the
+second layer, on the Jetson. The datagrams are sent by the ``sdnotify`` package.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Mapping
+
+import sdnotify
+
+DEFAULT_PING_S = 0.5  # [s] between pings when systemd gives no WATCHDOG_USEC
+
+
+class SystemdNotifier:
+    """Sends READY=1, WATCHDOG=1 (at most every ``ping_s``) and STOPPING=1 to ``NOTIFY_SOCKET``.
+
+    Args:
+        watchdog_s: systemd's watchdog period (``WATCHDOG_USEC``); pings go at a quarter of it,
+            so two may be lost before systemd acts. None: every DEFAULT_PING_S.
+    """
+
+    def __init__(self, watchdog_s: float | None = None) -> None:
+        self._notifier = sdnotify.SystemdNotifier()
+        self.ping_s = DEFAULT_PING_S if watchdog_s is None else max(0.01, watchdog_s / 4.0)
+        self._last_ping = -float("inf")
+        self.sent: list[str] = []  # every state sent, for the daemon's log and tests
+
+    def _notify(self, state: str) -> None:
+        self._notifier.notify(state)  # never raises: a missing socket is ignored
+        self.sent.append(state)
+
+    def ready(self) -> None:
+        self._notify("READY=1")
+
+    def watchdog(self) -> None:
+        """Called every loop turn; pings only once per ``ping_s``."""
+        now = time.monotonic()
+        if now - self._last_ping >= self.ping_s:
+            self._last_ping = now
+            self._notify("WATCHDOG=1")
+
+    def status(self, text: str) -> None:
+        self._notify(f"STATUS={' '.join(text.split())}")
+
+    def stopping(self) -> None:
+        self._notify("STOPPING=1")
+
+
+def watchdog_period_s(environ: Mapping[str, str] | None = None) -> float | None:
+    """systemd's watchdog period from ``WATCHDOG_USEC`` (for this process: ``WATCHDOG_PID``)."""
+    env = os.environ if environ is None else environ
+    usec = env.get("WATCHDOG_USEC", "")
+    pid = env.get("WATCHDOG_PID", "")
+    if not usec.isdigit() or int(usec) == 0 or (pid.isdigit() and int(pid) != os.getpid()):
+        return None
+    return int(usec) / 1e6
+
+
+def notifier_from_env(environ: Mapping[str, str] | None = None) -> SystemdNotifier | None:
+    """A notifier when systemd started this process with ``NOTIFY_SOCKET``, else None."""
+    env = os.environ if environ is None else environ
+    if not env.get("NOTIFY_SOCKET"):
+        return None
+    return SystemdNotifier(watchdog_period_s(env))

@@ -1,0 +1,93 @@
+"""``jackson brake`` against the twin's I2C server (the real socket bus and PCA9685 model)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from jackson.host.actuation.pca9685 import Pca9685
+from jackson.host.config import Pca9685Settings
+from jackson.host.i2c import open_bus
+from jackson.sim import pca9685 as model
+from jackson.sim.i2c_server import I2cSocketServer
+from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, BridgeMode, bridge_outputs
+
+JACKSON = str(Path(sys.executable).parent / "jackson")
+
+
+@pytest.fixture
+def bus(tmp_path: Path) -> Iterator[tuple[I2cSocketServer, str]]:
+    server = I2cSocketServer(tmp_path / "i2c.sock")
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            server.service(0.05)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    yield server, f"unix:{server.path}"
+    stop.set()
+    thread.join(timeout=5)
+    server.close()
+
+
+def modes(server: I2cSocketServer) -> tuple[BridgeMode, BridgeMode]:
+    chip = server.devices[0x40]
+    assert isinstance(chip, model.Pca9685)
+    left, right = bridge_outputs(chip, LEFT_WIRING, RIGHT_WIRING)
+    return left.mode, right.mode
+
+
+def drive(spec: str) -> None:
+    """What a killed daemon leaves: the chip set up and both wheels driven forward."""
+    from jackson.host.actuation.output import Pca9685Output
+
+    p = Pca9685Settings(bus=spec)
+    pca = Pca9685(open_bus(spec), p.address)
+    pca.init(p.frequency_hz)
+    Pca9685Output(pca, p.left, p.right).set(0.6, 0.6)
+    pca.bus.close()
+
+
+@pytest.mark.parametrize("state", ["driving", "reset chip", "asleep"])
+def test_brake_leaves_both_bridges_in_short_brake(
+    bus: tuple[I2cSocketServer, str], state: str
+) -> None:
+    server, spec = bus
+    drive(spec)
+    assert modes(server) == (BridgeMode.CW, BridgeMode.CW)
+    chip = server.devices[0x40]
+    assert isinstance(chip, model.Pca9685)
+    if state == "reset chip":
+        server.devices[0x40] = model.Pca9685()  # power-on state: asleep, outputs off
+    elif state == "asleep":
+        chip.write(model.MODE1, bytes((model.MODE1_SLEEP,)))  # a foreign write
+    out = subprocess.run([JACKSON, "brake", "--i2c", spec], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "braked" in out.stdout
+    assert modes(server) == (BridgeMode.SHORT_BRAKE, BridgeMode.SHORT_BRAKE)
+
+
+def test_unreachable_bus_is_one_line_and_exit_1(tmp_path: Path) -> None:
+    out = subprocess.run(
+        [JACKSON, "brake", "--i2c", f"unix:{tmp_path / 'gone.sock'}"],
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 1
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "not braked after 4 attempts" in lines[0]
+    assert "gone.sock" in lines[0]
+
+
+def test_bad_address_is_exit_2() -> None:
+    out = subprocess.run([JACKSON, "brake", "--address", "0x99"], capture_output=True, text=True)
+    assert out.returncode == 2
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert "--address" in out.stderr
