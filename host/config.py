@@ -198,6 +198,7 @@ class HostConfig:
     serial: SerialSettings = field(default_factory=SerialSettings)
     watchdog_s: float = 0.6  # velocity commands older than this brake the motors
     recording_folder: Path = Path("runs")
+    bag_max_mb: float = 1024.0  # a run's bag starts a new segment beyond this (0: never)
 
 
 # ------------------------------------------------------------------------- validation
@@ -238,7 +239,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         imu=_imu(top.section("imu")),
         serial=_serial(top.section("serial")),
         watchdog_s=top.number("watchdog_s", 0.6, *WATCHDOG_RANGE_S),
-        recording_folder=_recording(top.section("recording")),
+        **_recording(top.section("recording")),
     )
     top.finish()
     return cfg
@@ -476,8 +477,11 @@ def _serial(s: Fields) -> SerialSettings:
     return out
 
 
-def _recording(s: Fields) -> Path:
-    out = Path(s.text("folder", "runs"))
+def _recording(s: Fields) -> dict[str, Any]:
+    out = {
+        "recording_folder": Path(s.text("folder", "runs")),
+        "bag_max_mb": s.number("bag_max_mb", 1024.0, 0.0),
+    }
     s.finish()
     return out
 
@@ -549,7 +553,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
         },
         "serial": {f.name: getattr(cfg.serial, f.name) for f in fields(SerialSettings)},
         "watchdog_s": cfg.watchdog_s,
-        "recording": {"folder": str(cfg.recording_folder)},
+        "recording": {"folder": str(cfg.recording_folder), "bag_max_mb": cfg.bag_max_mb},
     }
     if imu.calibration is not None:
         out["imu"]["calibration"] = {

@@ -558,12 +558,15 @@ class Daemon:
         self.notifier = notifier  # systemd sd_notify (host/sdnotify.py), or None
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
+        self.events: list[str] = []  # what the operator was told, in order
         self.bag: Any = None
         if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
             from jackson.host.ros.bag import BagRecorder
             from jackson.host.ros.bag_listener import BagListener
 
-            self.bag = BagRecorder(run_folder / "bag")
+            self._repair_earlier_runs(run_folder)
+            max_bytes = int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None
+            self.bag = BagRecorder(run_folder / "bag", max_bytes=max_bytes)
             self.core.listeners.append(BagListener(self.bag))
         self.bridge: Any = None
         if ros_args is not None:  # --ros: rclpy is imported only here
@@ -573,7 +576,6 @@ class Daemon:
             self.core.listeners.append(_BridgeListener(self.bridge))
         self.stop = threading.Event()
         self.link_downs = 0
-        self.events: list[str] = []  # what the operator was told, in order
 
     def _send(self, msg: Message) -> object:
         if isinstance(msg, Heartbeat):
@@ -591,6 +593,26 @@ class Daemon:
 
         signal.signal(signal.SIGINT, on_signal)
         signal.signal(signal.SIGTERM, on_signal)
+
+    def _repair_earlier_runs(self, run_folder: Path) -> None:
+        """Bags of earlier runs in the recording folder that a kill or a power loss left
+        unfinished are repaired now (as ``jackson bag repair``); a failure is reported, never
+        fatal."""
+        from jackson.host.ros.bag import BagError, bag_folders, needs_repair, repair_bag
+
+        root = run_folder.parent
+        if not root.is_dir():
+            return
+        for run in sorted(p for p in root.iterdir() if p.is_dir() and p != run_folder):
+            for bag in bag_folders(run):
+                if not needs_repair(bag):
+                    continue
+                try:
+                    n = repair_bag(bag)
+                except (BagError, OSError, ValueError) as exc:
+                    self.tell(f"could not repair the unfinished bag {bag}: {exc}")
+                else:
+                    self.tell(f"repaired the unfinished bag {bag}: {n} messages kept")
 
     def tell(self, text: str) -> None:
         """One line for the operator: printed, and in the run's log."""

@@ -307,6 +307,12 @@ CASES: dict[str, Case] = {
     "sim_heartbeat": c("sim --heartbeat-timeout 0", "--heartbeat-timeout"),
     "sim_spin": c("sim --spin-us -5", "--spin-us"),
     "sim_seed": c("sim --seed x", "--seed"),
+    # bag
+    "bag_no_action": c("bag", "ACTION"),
+    "bag_repair_missing": c("bag repair runs/nowhere", "runs/nowhere"),
+    "bag_repair_file": c("bag repair a_file", "a_file"),
+    "bag_repair_no_bag": c("bag repair a_folder", "a_folder"),
+    "bag_info_no_bag": c("bag info runs/good", "runs/good"),
     # brake
     "brake_address": c("brake --address 0x99", "--address"),
     "brake_config_missing": c(f"brake --config {MISSING}", "missing.yaml"),

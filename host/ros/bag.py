@@ -39,7 +39,11 @@ no ``metadata.yaml`` and no readable index. Three things keep a run's bag:
 * Every ``flush_interval_s`` of message time the open chunk is written out and the file
   flushed, so a process killed outright (SIGKILL, power loss) loses at most that much.
 * :func:`repair_bag` turns such a folder into a complete bag holding every message of the
-  chunks that reached the disk.
+  chunks that reached the disk, read with the mcap library's stream reader (``jackson bag
+  repair``; the daemon repairs earlier runs' bags when it starts).
+
+Size. With ``max_bytes`` the recording goes on in complete segments ``bag.1``, ``bag.2``...
+(:func:`bag_folders`), each with every topic and its own /tf_static.
 """
 
 from __future__ import annotations
@@ -47,12 +51,18 @@ from __future__ import annotations
 import math
 import shutil
 import struct
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+from mcap.exceptions import InvalidMagic, McapError
+from mcap.records import Channel as McapChannel
+from mcap.records import Chunk as McapChunk
+from mcap.records import Message as McapMessage
+from mcap.records import Schema as McapSchema
+from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import (
     Connection,
@@ -64,7 +74,8 @@ from rosbags.interfaces import (
     QosTime,
 )
 from rosbags.rosbag2 import ReaderError, StoragePlugin, Writer, WriterError
-from rosbags.rosbag2.storage_mcap import McapWriter, decompress, get_qos
+from rosbags.rosbag2.metadata import parse_qos
+from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
@@ -98,8 +109,6 @@ ACCEL_SIGMA_M_S2 = 1.7976e-2  # [m/s^2] MPU-6050 accelerometer noise
 DEFAULT_FLUSH_INTERVAL_S = 1.0  # [s] of message time between chunk flushes
 NS_PER_S = 1_000_000_000
 
-_MCAP_MAGIC = b"\x89MCAP0\r\n"
-_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x03, 0x04, 0x05, 0x06
 _LEVEL_TEXT = ("OK", "WARN", "ERROR", "STALE")
 
 
@@ -300,6 +309,7 @@ class BagRecorder:
         accel_sigma_m_s2: float = ACCEL_SIGMA_M_S2,
         flush_interval_s: float | None = DEFAULT_FLUSH_INTERVAL_S,
         hardware_id: str = "jackson",
+        max_bytes: int | None = None,
     ) -> None:
         """Create the bag folder ``path`` and register every topic.
 
@@ -317,6 +327,10 @@ class BagRecorder:
             flush_interval_s: Message time [s] between writes of the open chunk to disk (None:
                 only at close).
             hardware_id: ``hardware_id`` of the /diagnostics status.
+            max_bytes: Split the recording once its MCAP file exceeds this size (checked at
+                each chunk flush): the bag is closed, complete, and the next segment starts
+                in ``<path>.1``, ``<path>.2``... each a complete bag with every topic and its
+                own /tf_static (:func:`bag_folders` lists them). None: one bag.
 
         Raises:
             BagError: The folder exists already or cannot be created.
@@ -345,8 +359,17 @@ class BagRecorder:
         self._store = get_typestore(Stores.ROS2_JAZZY)
         self._state = _State()
         self._connections: dict[str, Connection] = {}
+        self.max_bytes = max_bytes
+        self.segments = [self.path]  # every bag folder written, in order
         try:
-            self._writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+            self._open(self.path)
+        except BagError:
+            self._state.closed = True
+            raise
+
+    def _open(self, path: Path) -> None:
+        try:
+            self._writer = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
             self._writer.open()
             for topic, spec in _topic_specs(self.topics).items():
                 self._connections[topic] = self._writer.add_connection(
@@ -356,8 +379,23 @@ class BagRecorder:
                     offered_qos_profiles=(_qos(spec),),
                 )
         except (WriterError, OSError) as exc:
-            self._state.closed = True
-            raise BagError(f"{self.path}: cannot create the bag: {exc}") from exc
+            raise BagError(f"{path}: cannot create the bag: {exc}") from exc
+
+    def _rotate_if_full(self) -> None:
+        """Close the bag and go on in the next segment once the file exceeds ``max_bytes``."""
+        storage = self._writer.storage
+        if self.max_bytes is None or not isinstance(storage, McapWriter):
+            return
+        if storage.bio.tell() < self.max_bytes:
+            return
+        try:
+            self._writer.close()
+        except (WriterError, OSError) as exc:
+            raise BagError(f"{self.segments[-1]}: cannot finish the segment: {exc}") from exc
+        nxt = self.path.with_name(f"{self.path.name}.{len(self.segments)}")
+        self.segments.append(nxt)
+        self._state.static_written = False  # every segment carries /tf_static
+        self._open(nxt)
 
     @property
     def closed(self) -> bool:
@@ -599,7 +637,7 @@ class BagRecorder:
                 self._writer.storage = None
                 if isinstance(storage, McapWriter):
                     storage.abort()
-            raise BagError(f"{self.path}: cannot finish the bag: {exc}") from exc
+            raise BagError(f"{self.segments[-1]}: cannot finish the bag: {exc}") from exc
         finally:
             st.busy = False
 
@@ -665,6 +703,7 @@ class BagRecorder:
                 elif ns - st.flushed_ns >= self.flush_interval_ns:
                     self._flush_chunk()
                     st.flushed_ns = ns
+                    self._rotate_if_full()
         finally:
             self._release()
 
@@ -700,7 +739,7 @@ class BagRecorder:
         try:
             self._writer.write(self._connections[topic], ns, data)
         except (WriterError, OSError) as exc:
-            raise BagError(f"{self.path}: cannot write {topic}: {exc}") from exc
+            raise BagError(f"{self.segments[-1]}: cannot write {topic}: {exc}") from exc
 
     def _write_static(self, ns: int) -> None:
         self._state.static_written = True
@@ -755,60 +794,85 @@ def read_bag(path: Path | str) -> dict[str, list[tuple[int, Any]]]:
     return out
 
 
-def _records(buf: bytes | memoryview, pos: int) -> Iterator[tuple[int, memoryview]]:
-    """The complete MCAP records of ``buf`` from ``pos``; stops at a truncated one."""
-    view = memoryview(buf)
-    while pos + 9 <= len(view):
-        op = view[pos]
-        (length,) = struct.unpack_from("<Q", view, pos + 1)
-        end = pos + 9 + length
-        if end > len(view):
-            return
-        yield op, view[pos + 9 : end]
-        pos = end
-
-
-def _string(body: memoryview, pos: int) -> tuple[str, int]:
-    (n,) = struct.unpack_from("<I", body, pos)
-    return bytes(body[pos + 4 : pos + 4 + n]).decode(), pos + 4 + n
-
-
 @dataclass
 class _Salvage:
-    schemas: dict[int, str] = field(default_factory=dict)  # id -> message type
-    channels: dict[int, tuple[str, str, bytes]] = field(default_factory=dict)  # topic, type, meta
-    messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # channel, ns, data
+    """What survived in an MCAP file whose writer died: its schemas, channels and messages."""
 
-    def take(self, op: int, body: memoryview) -> None:
-        if op == _OP_SCHEMA:
-            (sid,) = struct.unpack_from("<H", body, 0)
-            self.schemas[sid], _ = _string(body, 2)
-        elif op == _OP_CHANNEL:
-            cid, sid = struct.unpack_from("<HH", body, 0)
-            topic, pos = _string(body, 4)
-            _, pos = _string(body, pos)  # message encoding (cdr)
-            (n,) = struct.unpack_from("<I", body, pos)
-            meta = bytes(body[pos + 4 : pos + 4 + n])
-            self.channels[cid] = (topic, self.schemas.get(sid, ""), meta)
-        elif op == _OP_MESSAGE:
-            cid, _, log_ns, _ = struct.unpack_from("<HIQQ", body, 0)
-            self.messages.append((cid, log_ns, bytes(body[22:])))
-        elif op == _OP_CHUNK:
-            _, _, size, crc = struct.unpack_from("<QQQI", body, 0)
-            compression, pos = _string(body, 28)
-            (n,) = struct.unpack_from("<Q", body, pos)
-            data = decompress(bytes(body[pos + 8 : pos + 8 + n]), compression, size, crc)
-            for inner_op, inner in _records(data, 0):
-                self.take(inner_op, inner)
+    schemas: dict[int, str] = field(default_factory=dict)  # id -> message type
+    channels: dict[int, tuple[str, str, str]] = field(default_factory=dict)  # topic, type, QoS
+    messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # channel, ns, data
+    bad_chunks: int = 0  # chunks whose CRC or compression failed (skipped)
+
+    def take(self, record: object) -> None:
+        if isinstance(record, McapSchema):
+            self.schemas[record.id] = record.name
+        elif isinstance(record, McapChannel):
+            qos = record.metadata.get("offered_qos_profiles", "")
+            self.channels[record.id] = (record.topic, self.schemas.get(record.schema_id, ""), qos)
+        elif isinstance(record, McapMessage):
+            self.messages.append((record.channel_id, record.log_time, bytes(record.data)))
+
+
+def _salvage(file: Path) -> _Salvage:
+    """Every whole record of ``file``, read with the mcap library's stream reader: it stops at
+    the first record cut by the kill; a chunk that is whole but damaged (a power loss can leave
+    zeros where data should be) fails its CRC and is skipped."""
+    out = _Salvage()
+    with file.open("rb") as f:
+        records = StreamReader(f, emit_chunks=True, record_size_limit=1 << 30).records
+        while True:
+            try:
+                record = next(records)
+            except StopIteration:
+                break
+            except InvalidMagic as exc:
+                raise BagError(f"{file}: not an MCAP file") from exc
+            except (McapError, EOFError, ValueError, struct.error):
+                break  # the end of what reached the disk
+            if isinstance(record, McapChunk):
+                try:
+                    inner = breakup_chunk(record, validate_crc=True)
+                except (McapError, ValueError, struct.error, EOFError, RuntimeError):
+                    out.bad_chunks += 1
+                    continue
+                for r in inner:
+                    out.take(r)
+            else:
+                out.take(record)
+    return out
+
+
+def bag_folders(run: Path | str) -> list[Path]:
+    """The bag folders of a run folder: ``bag`` and its segments ``bag.1``, ``bag.2``... in
+    order (see ``max_bytes`` of :class:`BagRecorder`)."""
+    run = Path(run)
+    found = [p for p in run.glob("bag*") if p.is_dir() and _segment_index(p) is not None]
+    return sorted(found, key=lambda p: _segment_index(p) or 0)
+
+
+def _segment_index(path: Path) -> int | None:
+    name = path.name
+    if name == "bag":
+        return 0
+    head, _, tail = name.partition(".")
+    return int(tail) if head == "bag" and tail.isdigit() else None
+
+
+def needs_repair(path: Path | str) -> bool:
+    """A bag folder whose writer never finished it: an MCAP file but no ``metadata.yaml``."""
+    path = Path(path)
+    return not (path / "metadata.yaml").exists() and any(path.glob("*.mcap"))
 
 
 def repair_bag(path: Path | str) -> int:
-    """Make a bag whose writer died before :meth:`BagRecorder.close` readable.
+    """Make a bag whose writer died before :meth:`BagRecorder.close` readable (like ``ros2 bag
+    reindex``).
 
     Keeps every message of the records that reached the disk whole (chunks are written every
     ``flush_interval_s`` of message time) and rewrites the folder as a complete bag with the
-    same topics, types, offered QoS and timestamps; the partial file is replaced. A bag that
-    already has ``metadata.yaml`` is left as it is.
+    same topics, types, offered QoS and timestamps. The repaired bag is written beside the
+    folder and replaces it only when complete; if anything fails the original stays as it was.
+    A bag that already has ``metadata.yaml`` is left as it is.
 
     Args:
         path: The bag folder.
@@ -825,16 +889,7 @@ def repair_bag(path: Path | str) -> int:
     files = sorted(path.glob("*.mcap"))
     if len(files) != 1:
         raise BagError(f"{path}: expected one .mcap file to repair, found {len(files)}")
-    buf = files[0].read_bytes()
-    if not buf.startswith(_MCAP_MAGIC):
-        raise BagError(f"{files[0]}: not an MCAP file")
-    salvage = _Salvage()
-    try:
-        for op, body in _records(buf, len(_MCAP_MAGIC)):
-            salvage.take(op, body)
-    except (ReaderError, struct.error, UnicodeDecodeError) as exc:
-        raise BagError(f"{files[0]}: cannot be repaired: {exc}") from exc
-
+    salvage = _salvage(files[0])
     store = get_typestore(Stores.ROS2_JAZZY)
     staging = path.parent / f".{path.name}.repair"
     if staging.exists():
@@ -844,11 +899,14 @@ def repair_bag(path: Path | str) -> int:
     try:
         writer.open()
         conns: dict[int, Connection] = {}
-        for cid, (topic, msgtype, meta) in sorted(salvage.channels.items()):
+        for cid, (topic, msgtype, qos) in sorted(salvage.channels.items()):
             if msgtype not in store.fielddefs:
                 raise BagError(f"{files[0]}: unknown message type {msgtype!r} on {topic}")
             conns[cid] = writer.add_connection(
-                topic, msgtype, typestore=store, offered_qos_profiles=get_qos(meta)
+                topic,
+                msgtype,
+                typestore=store,
+                offered_qos_profiles=parse_qos(qos) if qos else [],
             )
         count = 0
         for cid, ns, data in salvage.messages:
@@ -859,7 +917,17 @@ def repair_bag(path: Path | str) -> int:
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
-    shutil.rmtree(path)
+    # the original's bytes go aside first, so a crash here leaves one of the two whole
+    aside = path.parent / f".{path.name}.unrepaired"
+    if aside.exists():
+        shutil.rmtree(aside)
+    path.rename(aside)
     (staging / path.name).rename(path)
     staging.rmdir()
+    shutil.rmtree(aside)
     return count
+
+
+def repair_run(run: Path | str) -> list[tuple[Path, int]]:
+    """Repair every unfinished bag folder of a run folder; ``(folder, messages)`` of each."""
+    return [(p, repair_bag(p)) for p in bag_folders(run) if needs_repair(p)]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import math
 import shutil
 from collections.abc import Sequence
@@ -11,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jackson.calibration import cli, runs
 from jackson.calibration import procedures as proc
+from jackson.calibration import runs
 from jackson.calibration.yaml_update import YamlUpdateError, format_value, update_config
 from jackson.host.config import DEFAULT_CONFIG, RobotGeometry, load_config
 from jackson.host.recording import RunRecorder
+from jackson.main import main
 from jackson.protocol import SetImuCalibration, Telemetry, TelemetryFlags, encode_frame
 
 GEOMETRY = RobotGeometry()  # r 0.033 m, B 0.198 m, 621 TPR per wheel
@@ -406,11 +406,11 @@ def test_an_invalid_value_leaves_the_file_untouched(tmp_path: Path) -> None:
 
 
 def calibrate(*argv: str) -> int:
-    parser = argparse.ArgumentParser(prog="jackson")
-    cli.add_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["calibrate", *argv])
-    rc: int = args.func(args)
-    return rc
+    """``jackson calibrate ARGV`` through the real entry point; its exit status."""
+    try:
+        return main(["calibrate", *argv])
+    except SystemExit as exc:  # argparse refused an option
+        return exc.code if isinstance(exc.code, int) else 2
 
 
 def one_error_line(capsys: pytest.CaptureFixture[str]) -> str:
@@ -429,7 +429,7 @@ def test_a_missing_run_folder_is_one_line(capsys: pytest.CaptureFixture[str]) ->
 def test_a_zero_distance_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     run = make_run(tmp_path / "r", [(0, 0), (3000, 3000)])
     assert calibrate("encoders", "--runs", str(run), "--distance", "0") == 2
-    assert "measured distance must be > 0 m, got 0" in one_error_line(capsys)
+    assert "--distance: expected a number > 0, got '0'" in one_error_line(capsys)
 
 
 def test_a_run_without_its_measurement_is_one_line(

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import signal
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +13,13 @@ from jackson.calibration import metrics
 from jackson.calibration.trial import read_csv
 from jackson.host.ros.bag import read_bag
 
-from .harness import JACKSON, TwinThread, run_daemon_cli
+from .harness import JACKSON, TwinThread, run_daemon_cli, wait_for
+
+
+def _rows(run: Path) -> int:
+    """Complete rows in the run's odometry.csv (the header excluded)."""
+    return max(0, (run / "odometry.csv").read_bytes().count(b"\n") - 1)
+
 
 TOPICS = (
     "/wheel/odom",
@@ -48,7 +53,8 @@ def test_sigterm_mid_run_leaves_a_readable_bag(tmp_path: Path) -> None:
             stderr=subprocess.PIPE,
             text=True,
         )
-        time.sleep(1.5)  # mid-way through the figure-eight
+        # mid-way through the figure-eight: 40 frames on disk (at any machine speed)
+        wait_for(lambda: _rows(tmp_path / "run") >= 40, timeout_s=120, what="40 flushed frames")
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=20)
     finally:
@@ -87,3 +93,30 @@ def test_a_square_runs_bag_reproduces_its_metrics(tmp_path: Path) -> None:
         metrics.cross_track_rmse(xy("/odometry/filtered"), path),
         metrics.cross_track_rmse(np.c_[ekf["x_m"], ekf["y_m"]], path),
     )
+
+
+def test_a_killed_runs_bag_is_repaired_by_the_next_daemon(tmp_path: Path) -> None:
+    """SIGKILL mid-mission leaves the bag without metadata.yaml; the next daemon started with
+    the same recording folder repairs it and says so, and the bag then holds the run up to the
+    last flushed chunk."""
+    twin = TwinThread(tmp_path, world="open_floor")
+    runs = tmp_path / "runs"
+    cmd = [JACKSON, "daemon", "--port", twin.serial, "--i2c", twin.i2c]
+    try:
+        proc = subprocess.Popen(
+            [*cmd, "--mission", "figure8", "--run-dir", str(runs / "killed")],
+            stdout=subprocess.DEVNULL,
+        )
+        wait_for(lambda: _rows(runs / "killed") >= 200, timeout_s=120, what="200 frames")
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=20)
+        assert not (runs / "killed" / "bag" / "metadata.yaml").exists()
+        kept = _rows(runs / "killed")
+        out = run_daemon_cli(twin, "--run-dir", str(runs / "next"), "--max-seconds", "1")
+    finally:
+        twin.stop()
+    assert "repaired the unfinished bag" in out.stdout, out.stdout + out.stderr
+    bag = read_bag(runs / "killed" / "bag")
+    # chunks go to disk every second of MCU time: at most that much (20 frames) is lost
+    assert len(bag["/wheel/odom"]) >= kept - 40
+    assert set(TOPICS) <= set(bag)
