@@ -88,6 +88,7 @@ class FaultRow:
     told: list[str] = field(default_factory=list)
     passed: bool = False
     note: str = ""
+    trace: list[tuple[float, float]] = field(default_factory=list)  # (s from the fault, m/s)
 
 
 def matrix(short: bool) -> list[Fault]:
@@ -374,6 +375,7 @@ def _measure(
         consistent=consistent,
         told=told,
     )
+    row.trace = _speed_trace(watch.samples, t_f)
     row.passed = bool(brake_ok and host_ok and consistent)
     notes = []
     if not brake_ok:
@@ -384,6 +386,47 @@ def _measure(
         notes.append("run folder inconsistent")
     row.note = "; ".join(notes)
     return row
+
+
+def _speed_trace(
+    samples: list[tuple[float, bool, float, float]], t_f: float
+) -> list[tuple[float, float]]:
+    """Ground-truth speed from 1 s before the fault to 3 s after it, every 20 ms or so."""
+    out: list[tuple[float, float]] = []
+    span = [x for x in samples if t_f - 1.0 <= x[0] <= t_f + 3.0]
+    for a, b in itertools.pairwise(span):
+        if b[0] > a[0] and (not out or b[0] - t_f - out[-1][0] >= 0.02):
+            speed = math.hypot(b[2] - a[2], b[3] - a[3]) / (b[0] - a[0])
+            out.append((round(b[0] - t_f, 4), round(speed, 4)))
+    return out
+
+
+def plot_brakes(rows: list[FaultRow], path: Path) -> None:
+    """Ground-truth speed around each fault the motors must be stopped for, with the limit."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    must = {f.name for f in matrix(short=True) if f.must_brake}
+    shown = [r for r in rows if r.trace and r.fault in must]
+    if not shown:
+        return
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=150)
+    for r in shown:
+        t, v = zip(*r.trace, strict=True)
+        ax.plot(t, [x * 100 for x in v], lw=1.2, label=f"{r.fault} ({r.actuator})")
+    ax.axvline(0.0, color="k", lw=0.8)
+    ax.axvline(FAILSAFE_S, color="r", ls="--", lw=1.0, label=f"failsafe {FAILSAFE_S:.1f} s")
+    ax.axvline(BRAKE_LIMIT_S, color="r", ls=":", lw=1.0, label=f"limit {BRAKE_LIMIT_S:.2f} s")
+    ax.set_xlabel("MCU time from the fault [s]")
+    ax.set_ylabel("ground-truth speed [cm/s]")
+    ax.set_title("Faults that must stop the robot: speed on the twin")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
 
 
 def _brake_delay(after: list[tuple[float, bool, float, float]], t_f: float) -> float | None:
@@ -458,6 +501,7 @@ def run_matrix(
         rows.append(row)
     (out / "faults.json").write_text(json.dumps([asdict(r) for r in rows], indent=2) + "\n")
     (out / "report.md").write_text(report_markdown(rows))
+    plot_brakes(rows, out / "brakes.png")
     return rows
 
 

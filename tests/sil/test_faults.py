@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from jackson.calibration.faults import BRAKE_LIMIT_S, Fault, run_row
+from jackson.calibration.faults import BRAKE_LIMIT_S, Fault, plot_brakes, run_row
 
 
 def test_a_killed_host_on_the_pca9685_path_is_braked_by_the_interlock(tmp_path: Path) -> None:
@@ -12,6 +12,12 @@ def test_a_killed_host_on_the_pca9685_path_is_braked_by_the_interlock(tmp_path: 
     assert row.braked and row.brake_delay_s is not None
     assert row.brake_delay_s <= BRAKE_LIMIT_S
     assert row.consistent, row.rows  # files flushed together: they end at the same frame
+    before = [v for t, v in row.trace if t < 0]
+    stopped = [v for t, v in row.trace if t > BRAKE_LIMIT_S + 0.5]
+    assert before and max(before) > 0.05  # driving at the fault
+    assert stopped and max(stopped) < 0.005  # and standing after the brake
+    plot_brakes([row], tmp_path / "brakes.png")
+    assert (tmp_path / "brakes.png").stat().st_size > 10_000
 
 
 def test_an_imu_that_dies_mid_mission_aborts_it_with_a_reason(tmp_path: Path) -> None:
