@@ -412,18 +412,31 @@ def plot_brakes(rows: list[FaultRow], path: Path) -> None:
     shown = [r for r in rows if r.trace and r.fault in must]
     if not shown:
         return
-    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=150)
-    for r in shown:
+    cols = 2 if len(shown) > 1 else 1
+    nrows = (len(shown) + cols - 1) // cols
+    fig, axes = plt.subplots(
+        nrows, cols, figsize=(5 * cols, 2.2 * nrows + 0.6), dpi=150, sharex=True, squeeze=False
+    )
+    for ax, r in zip(axes.flat, shown, strict=False):
         t, v = zip(*r.trace, strict=True)
-        ax.plot(t, [x * 100 for x in v], lw=1.2, label=f"{r.fault} ({r.actuator})")
-    ax.axvline(0.0, color="k", lw=0.8)
-    ax.axvline(FAILSAFE_S, color="r", ls="--", lw=1.0, label=f"failsafe {FAILSAFE_S:.1f} s")
-    ax.axvline(BRAKE_LIMIT_S, color="r", ls=":", lw=1.0, label=f"limit {BRAKE_LIMIT_S:.2f} s")
-    ax.set_xlabel("MCU time from the fault [s]")
-    ax.set_ylabel("ground-truth speed [cm/s]")
-    ax.set_title("Faults that must stop the robot: speed on the twin")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+        ax.plot(t, [x * 100 for x in v], lw=1.4, color="C0")
+        ax.axvline(0.0, color="k", lw=0.8)
+        ax.axvline(FAILSAFE_S, color="r", ls="--", lw=1.0)
+        ax.axvline(BRAKE_LIMIT_S, color="r", ls=":", lw=1.0)
+        delay = "no brake" if r.brake_delay_s is None else f"stopped {r.brake_delay_s:.3f} s"
+        ax.set_title(f"{r.fault} ({r.actuator}): {delay}", fontsize=8)
+        ax.set_ylabel("speed [cm/s]", fontsize=7)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(shown) :]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("MCU time from the fault [s]", fontsize=7)
+    fig.suptitle(
+        f"Ground-truth speed around each fault that must stop the robot "
+        f"(dashed: failsafe {FAILSAFE_S:.1f} s, dotted: limit {BRAKE_LIMIT_S:.2f} s)",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
