@@ -19,6 +19,7 @@ from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
 from jackson.host.actuation.tb6612 import bridge_duties
 from jackson.host.config import Pca9685Settings
 from jackson.host.i2c import I2cError, open_bus
+from jackson.protocol.args import int_in
 
 ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt
@@ -80,16 +81,6 @@ def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
     )
 
 
-def _address(text: str) -> int:
-    try:
-        value = int(text, 0)
-    except ValueError:
-        value = -1
-    if not 0x03 <= value <= 0x77:
-        raise argparse.ArgumentTypeError(f"expected a 7-bit I2C address 0x03..0x77, got {text!r}")
-    return value
-
-
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "brake",
@@ -97,7 +88,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     p.add_argument("--config", type=Path, help="host YAML (default: host/config/jackson.yaml)")
     p.add_argument("--i2c", help="I2C bus of the PCA9685 (default: pca9685.bus of the config)")
-    p.add_argument("--address", type=_address, help="PCA9685 address (default: the config's)")
+    p.add_argument(
+        "--address", type=int_in(0x03, 0x77), help="PCA9685 address (default: the config's)"
+    )
     p.set_defaults(func=cmd_brake)
 
 

@@ -10,7 +10,13 @@ import threading
 from pathlib import Path
 from types import FrameType
 
-from jackson.protocol.args import nonneg_float, nonneg_int, os_error_line, positive_float
+from jackson.protocol.args import (
+    int_in,
+    nonneg_float,
+    nonneg_int,
+    os_error_line,
+    positive_float,
+)
 from jackson.protocol.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
 from jackson.sim.fil import FirmwareError
@@ -19,16 +25,6 @@ from jackson.sim.i2c_server import I2cServerError
 SCAN_HISTORY = 64
 """Scans ``jackson sim`` keeps (8.6 s at 7.43 Hz): enough for the /scan publisher, which takes
 them after every advance of the clock, and a constant memory use however long it runs."""
-
-
-def _boot_id(text: str) -> int:
-    try:
-        value = int(text, 0)
-    except ValueError:
-        value = -1
-    if not 0 < value < 1 << 32:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number in 1..2^32-1")
-    return value
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -54,7 +50,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (runs are deterministic)")
     p.add_argument(
         "--boot-id",
-        type=_boot_id,
+        type=int_in(1, (1 << 32) - 1),
         help="the MCU's boot_id in INFO (default: random, as each boot of the robot)",
     )
     p.add_argument("--i2c", type=Path, help="I2C socket path (default: a fresh temporary path)")
