@@ -30,12 +30,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from jackson.host.config import IDENTITY, RobotGeometry, Rotation
+from jackson.host.config import IDENTITY, MAX_GYRO_BIAS_RAD_S, RobotGeometry, Rotation
+from jackson.protocol.messages import GRAVITY_M_S2  # the nominal gravity of host, twin, Table 3
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-GRAVITY_M_S2 = 9.81  # the nominal gravity of the host, the twin and Table 3
 STANDARD_GRAVITY_M_S2 = 9.80665  # 1 g of the datasheet's micro-g (what the paper's digits use)
 PAPER_STATIC_GRAVITY_M_S2 = 9.299  # Table 3: the MPU-6050 at rest on the physical robot
 PAPER_ACCEL_SCALE = 1.054  # Table 3 quotes x1.054; 9.81 / 9.299 = 1.05495 (truncated there)
@@ -47,7 +47,6 @@ FIRST_ORDER_NOISE_FACTOR = math.pi / 2.0  # noise bandwidth / -3 dB bandwidth of
 
 MOTION_MARGIN_FRAMES = 5  # frames before the first count change that may already be moving
 MIN_TRAVEL_TICKS = 50  # a wheel that moved less did not drive (about 1.7 cm at 621 TPR)
-MAX_GYRO_BIAS_RAD_S = 0.5  # the firmware refuses a bias of this or more
 
 
 class CalibrationError(ValueError):

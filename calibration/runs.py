@@ -61,11 +61,15 @@ from jackson.protocol import (
     TimestampUnwrapper,
     decode_message,
 )
+from jackson.protocol.messages import (
+    ACCEL_LSB_PER_G,
+    GRAVITY_M_S2,
+    GYRO_LSB_PER_DPS,
+    accel_fs,
+    gyro_fs,
+)
 
 NOTES_FILE = "calibration.json"
-ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
-GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
-GRAVITY_M_S2 = 9.81
 CALIBRATION_SETTLE_FRAMES = 2  # frames after a SET_IMU_CALIBRATION still in flight
 
 
@@ -78,10 +82,8 @@ class RunError(RuntimeError):
 
 def _imu_si(t: Telemetry) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any]]:
     """Gyro [rad/s] and specific force [m/s^2] of a frame at the ranges its flags name."""
-    a_fs = (t.flags >> 8) & 3
-    g_fs = (t.flags >> 10) & 3
-    gyro = np.radians(np.array(t.gyro, dtype=np.float64) / GYRO_LSB_PER_DPS[g_fs])
-    accel = np.array(t.accel, dtype=np.float64) / ACCEL_LSB_PER_G[a_fs] * GRAVITY_M_S2
+    gyro = np.radians(np.array(t.gyro, dtype=np.float64) / GYRO_LSB_PER_DPS[gyro_fs(t.flags)])
+    accel = np.array(t.accel, dtype=np.float64) / ACCEL_LSB_PER_G[accel_fs(t.flags)] * GRAVITY_M_S2
     return gyro, accel
 
 

@@ -22,6 +22,12 @@ from jackson.host.actuation.tb6612 import BridgeChannels
 from jackson.host.i2c import SOCKET_PREFIX
 from jackson.protocol.fields import ConfigError as ConfigError  # re-exported
 from jackson.protocol.fields import Fields, read_yaml, show
+from jackson.protocol.messages import (
+    ACCEL_SCALE_RANGE,
+    FAILSAFE_MS_RANGE,
+    GYRO_BIAS_RAD_S_RANGE,
+    TELEMETRY_RATE_HZ_RANGE,
+)
 
 DEFAULT_CONFIG = Path(__file__).resolve().parent / "config" / "jackson.yaml"
 
@@ -30,11 +36,10 @@ ACTUATORS: dict[str, Actuator] = {"pca9685": "pca9685", "mcu": "mcu"}
 
 MAX_DEADBAND_DUTY = 0.9  # a breakaway duty at or above this leaves no range to control
 PWM_FREQUENCY_RANGE_HZ = (24.0, 1526.0)  # PCA9685 PRE_SCALE 253..3 (datasheet eq. 1)
-MAX_TELEMETRY_RATE_HZ = 500  # SET_RATE limit of the firmware
-WATCHDOG_RANGE_S = (0.05, 10.0)  # SET_CONFIG failsafe_ms 50-10000
+MAX_TELEMETRY_RATE_HZ = TELEMETRY_RATE_HZ_RANGE[1]  # SET_RATE limit (protocol/schema.yaml)
+WATCHDOG_RANGE_S = (FAILSAFE_MS_RANGE[0] / 1000.0, FAILSAFE_MS_RANGE[1] / 1000.0)
 ROTATION_TOLERANCE = 1e-3  # the firmware's test for a proper rotation
-MAX_GYRO_BIAS_RAD_S = 0.5  # the firmware refuses a bias of this or more
-ACCEL_SCALE_RANGE = (0.5, 2.0)
+MAX_GYRO_BIAS_RAD_S = GYRO_BIAS_RAD_S_RANGE[1]  # the firmware refuses a bias of this or more
 
 LEFT_CHANNELS = BridgeChannels(pwm=0, in1=1, in2=2)  # PWMA, AIN1, AIN2 (the common motor HAT)
 RIGHT_CHANNELS = BridgeChannels(pwm=5, in1=3, in2=4)  # PWMB, BIN1, BIN2

@@ -61,8 +61,7 @@ from jackson.protocol import (
     check_peer,
     decode_message,
 )
-
-GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+from jackson.protocol.units import yaw_rate_rad_s
 
 
 def odometry_config(cfg: HostConfig) -> OdometryConfig:
@@ -95,12 +94,6 @@ def ekf_config(cfg: HostConfig) -> EkfConfig:
         mahalanobis_threshold_wheel=e.mahalanobis_wheel or None,
         mahalanobis_threshold_imu=e.mahalanobis_imu or None,
     )
-
-
-def gyro_z_rad_s(t: Telemetry) -> float:
-    """Yaw rate of a telemetry frame at the range its flags name."""
-    fs = (t.flags >> 10) & 3
-    return math.radians(t.gyro[2] / GYRO_LSB_PER_DPS[fs])
 
 
 def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
@@ -311,7 +304,7 @@ class HostCore:
             self._next_output_s += period
         ekf.update_wheel(t_s, odo.v_m_s, 0.0)
         if t.flags & TelemetryFlags.IMU_OK:
-            wz = gyro_z_rad_s(t)
+            wz = yaw_rate_rad_s(t)
             still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
             self.gyro_bias.add(t_s, wz, still)
             bias = self.gyro_bias.bias_rad_s

@@ -7,7 +7,6 @@ health bits. It sends heartbeats (so the device's failsafe stays calm) and no mo
 
 from __future__ import annotations
 
-import math
 import queue
 import time
 from dataclasses import dataclass, field
@@ -31,18 +30,12 @@ from jackson.protocol import (
     check_peer,
     decode_message,
 )
-
-ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
-GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
-G_M_S2 = 9.81
+from jackson.protocol.units import accel_m_s2, gyro_rad_s, temperature_c
 
 
 def imu_si(t: Telemetry) -> tuple[tuple[float, ...], tuple[float, ...], float]:
-    """(accel m/s^2, gyro rad/s, temperature deg C) of a telemetry frame, at its ranges."""
-    a_fs, g_fs = (t.flags >> 8) & 3, (t.flags >> 10) & 3
-    accel = tuple(v / ACCEL_LSB_PER_G[a_fs] * G_M_S2 for v in t.accel)
-    gyro = tuple(math.radians(v / GYRO_LSB_PER_DPS[g_fs]) for v in t.gyro)
-    return accel, gyro, t.temp / 340.0 + 36.53
+    """(accel m/s^2, gyro rad/s, die temperature deg C) of a frame."""
+    return accel_m_s2(t), gyro_rad_s(t), temperature_c(t)
 
 
 def flag_names(flags: int) -> str:

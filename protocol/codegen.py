@@ -95,6 +95,9 @@ class Schema:
     partial_timeout_us: int
     enums: dict[str, dict[str, int]]
     flags: dict[str, dict[str, int]]
+    bit_fields: dict[str, dict[str, tuple[int, int]]]  # word -> name -> (shift, bits)
+    scales: dict[str, float | tuple[float, ...]]
+    limits: dict[str, tuple[float, float]]
     messages: tuple[Message, ...]
     schema_hash: int
 
@@ -139,12 +142,28 @@ def load_schema(path: Path = SCHEMA_PATH) -> Schema:
         if longest > raw["max_payload"]:
             raise SchemaError(f"{msg.name}: {longest} bytes exceed max_payload")
         messages.append(msg)
+    bit_fields = {
+        word: {k: (int(v["shift"]), int(v["bits"])) for k, v in entries.items()}
+        for word, entries in (raw.get("bit_fields") or {}).items()
+    }
+    for word, entries in bit_fields.items():
+        for k, (shift, bits) in entries.items():
+            if not (0 <= shift and 1 <= bits and shift + bits <= 16):
+                raise SchemaError(f"bit_fields.{word}.{k}: shift {shift}, bits {bits} exceed u16")
+    scales: dict[str, float | tuple[float, ...]] = {
+        k: tuple(float(x) for x in v) if isinstance(v, list) else float(v)
+        for k, v in (raw.get("scales") or {}).items()
+    }
+    limits = {k: (float(v[0]), float(v[1])) for k, v in (raw.get("limits") or {}).items()}
     canonical = {
         "protocol_version": raw["protocol_version"],
         "max_payload": raw["max_payload"],
         "partial_timeout_us": raw["partial_timeout_us"],
         "enums": raw["enums"],
         "flags": raw["flags"],
+        "bit_fields": raw.get("bit_fields") or {},
+        "scales": raw.get("scales") or {},
+        "limits": raw.get("limits") or {},
         "messages": [
             [m.name, m.type_id, [[f.name, f.base, f.count, f.is_array] for f in m.fields]]
             for m in messages
@@ -159,6 +178,9 @@ def load_schema(path: Path = SCHEMA_PATH) -> Schema:
         partial_timeout_us=int(raw["partial_timeout_us"]),
         enums={k: dict(v) for k, v in raw["enums"].items()},
         flags={k: dict(v) for k, v in raw["flags"].items()},
+        bit_fields=bit_fields,
+        scales=scales,
+        limits=limits,
         messages=tuple(messages),
         schema_hash=int.from_bytes(digest[:4], "big"),
     )
@@ -254,6 +276,34 @@ def _py_message(m: Message) -> list[str]:
     return out
 
 
+def _number(v: float) -> str:
+    return str(int(v)) if float(v).is_integer() and abs(v) >= 1 else repr(float(v))
+
+
+def _py_constants(s: Schema) -> list[str]:
+    """Bit fields (shifts and getters), scales and limits as module constants."""
+    lines: list[str] = [""]
+    for fields in s.bit_fields.values():
+        lines += [f"{k}_SHIFT = {shift}" for k, (shift, _) in fields.items()]
+    for k, v in s.scales.items():
+        value = f"({', '.join(repr(float(x)) for x in v)})" if isinstance(v, tuple) else repr(v)
+        lines.append(f"{k.upper()} = {value}")
+    for k, (lo, hi) in s.limits.items():
+        integral = float(lo).is_integer() and float(hi).is_integer() and abs(hi) >= 1
+        pair = (_number(lo), _number(hi)) if integral else (repr(lo), repr(hi))
+        lines.append(f"{k.upper()}_RANGE = ({pair[0]}, {pair[1]})")
+    for word, fields in s.bit_fields.items():
+        for k, (shift, bits) in fields.items():
+            lines += [
+                "",
+                "",
+                f"def {k.lower()}(flags: int) -> int:",
+                f'    """{k} of a {word} word: bits {shift}-{shift + bits - 1}."""',
+                f"    return (flags >> {shift}) & {(1 << bits) - 1:#x}",
+            ]
+    return lines
+
+
 def render_python(s: Schema) -> str:
     lines = [
         f'"""Message classes generated from protocol/schema.yaml (schema {s.schema_hash:#010x}).',
@@ -281,6 +331,7 @@ def render_python(s: Schema) -> str:
     for name, bits in s.flags.items():
         lines += ["", "", f"class {_camel(name)}(enum.IntFlag):", f'    """{name} bits."""', ""]
         lines += [f"    {k} = 1 << {v}" for k, v in bits.items()]
+    lines += _py_constants(s)
     lines.append("")
     for m in s.messages:
         if m.fields and any(f.base != "text" for f in m.fields):
@@ -389,7 +440,28 @@ def render_cpp(s: Schema) -> str:
     for name, bits in s.flags.items():
         lines.append(f"namespace {name} {{")
         lines += [f"constexpr uint16_t k{_camel(k)} = 1u << {v};" for k, v in bits.items()]
+        for k, (shift, width) in s.bit_fields.get(name, {}).items():
+            lines += [
+                f"constexpr unsigned k{_camel(k)}Shift = {shift};",
+                f"/// {k}: bits {shift}-{shift + width - 1}.",
+                f"constexpr uint8_t {k.lower()}(uint16_t flags) noexcept {{",
+                f"  return static_cast<uint8_t>((flags >> {shift}) & {(1 << width) - 1:#x}u);",
+                "}",
+            ]
         lines += [f"}}  // namespace {name}", ""]
+    for k, v in s.scales.items():
+        if isinstance(v, tuple):
+            items = ", ".join(f"{float(x)!r}f" for x in v)
+            lines.append(f"constexpr std::array<float, {len(v)}> k{_camel(k)} = {{{items}}};")
+        else:
+            lines.append(f"constexpr float k{_camel(k)} = {float(v)!r}f;")
+    for k, (lo, hi) in s.limits.items():
+        integral = float(lo).is_integer() and float(hi).is_integer() and abs(hi) >= 1
+        ctype, suffix = ("int32_t", "") if integral else ("float", "f")
+        lo_s, hi_s = (_number(lo), _number(hi)) if integral else (f"{lo!r}", f"{hi!r}")
+        lines.append(f"constexpr {ctype} k{_camel(k)}Min = {lo_s}{suffix};")
+        lines.append(f"constexpr {ctype} k{_camel(k)}Max = {hi_s}{suffix};")
+    lines.append("")
     for m in s.messages:
         lines += _cpp_message(m)
     lines += [

@@ -1,4 +1,4 @@
-"""Message classes generated from protocol/schema.yaml (schema 0x7a8c5dff).
+"""Message classes generated from protocol/schema.yaml (schema 0xc8da2512).
 
 Do not edit: change the schema and run ``python -m jackson.protocol.codegen``.
 """
@@ -13,7 +13,7 @@ from typing import ClassVar
 Buffer = bytes | bytearray | memoryview
 
 PROTOCOL_VERSION = 1
-SCHEMA_HASH = 0x7a8c5dff
+SCHEMA_HASH = 0xc8da2512
 MAX_PAYLOAD = 120
 PARTIAL_TIMEOUT_US = 20000
 
@@ -67,6 +67,29 @@ class Capabilities(enum.IntFlag):
     IMU_PRESENT = 1 << 0
     MOTOR_OUTPUT = 1 << 1
     CALIBRATION_STORED = 1 << 2
+
+ACCEL_FS_SHIFT = 8
+GYRO_FS_SHIFT = 10
+ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
+GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+GRAVITY_M_S2 = 9.81
+TEMP_LSB_PER_C = 340.0
+TEMP_OFFSET_C = 36.53
+TELEMETRY_RATE_HZ_RANGE = (1, 500)
+FAILSAFE_MS_RANGE = (50, 10000)
+DUTY_RANGE = (-10000, 10000)
+GYRO_BIAS_RAD_S_RANGE = (-0.5, 0.5)
+ACCEL_SCALE_RANGE = (0.5, 2.0)
+
+
+def accel_fs(flags: int) -> int:
+    """ACCEL_FS of a telemetry_flags word: bits 8-9."""
+    return (flags >> 8) & 0x3
+
+
+def gyro_fs(flags: int) -> int:
+    """GYRO_FS of a telemetry_flags word: bits 10-11."""
+    return (flags >> 10) & 0x3
 
 _TELEMETRY = struct.Struct("<IiiH3hh3h")
 _STATUS = struct.Struct("<IIIIIIIHH")

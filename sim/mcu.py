@@ -45,6 +45,16 @@ from jackson.protocol import (
     decode_message,
     encode_frame,
 )
+from jackson.protocol.messages import (
+    ACCEL_FS_SHIFT,
+    ACCEL_SCALE_RANGE,
+    DUTY_RANGE,
+    FAILSAFE_MS_RANGE,
+    GYRO_BIAS_RAD_S_RANGE,
+    GYRO_FS_SHIFT,
+    GYRO_LSB_PER_DPS,
+    TELEMETRY_RATE_HZ_RANGE,
+)
 
 FIRMWARE_VERSION = (0, 1, 0)
 PCNT_LIMIT = 30000  # as firmware/esp32/board_config.hpp
@@ -52,9 +62,8 @@ STATUS_PERIOD_US = 1_000_000
 IMU_PERIOD_US = 10_000  # 100 Hz MPU-6050 polling (faster with faster telemetry), firmware.hpp
 IMU_FIRST_BACKOFF_US = 50_000  # retry schedule of an absent MPU-6050, mpu6050.hpp
 IMU_MAX_BACKOFF_US = 2_000_000
-MIN_RATE_HZ, MAX_RATE_HZ = 1, 500
-MIN_FAILSAFE_MS, MAX_FAILSAFE_MS = 50, 10_000
-_GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+MIN_RATE_HZ, MAX_RATE_HZ = TELEMETRY_RATE_HZ_RANGE
+MIN_FAILSAFE_MS, MAX_FAILSAFE_MS = FAILSAFE_MS_RANGE
 
 
 @dataclass(frozen=True)
@@ -314,14 +323,14 @@ class McuEmulator:
             f |= TelemetryFlags.MOTOR_OUTPUT
         if self.motor_enable:
             f |= TelemetryFlags.MOTOR_ENABLE
-        return int(f) | (self.accel_fs << 8) | (self.gyro_fs << 10)
+        return int(f) | (self.accel_fs << ACCEL_FS_SHIFT) | (self.gyro_fs << GYRO_FS_SHIFT)
 
     def _calibrate(
         self, accel: tuple[int, int, int], gyro: tuple[int, int, int]
     ) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
         """The firmware's float32 calibration maths (firmware/core/imu_calibration.cpp)."""
         f32 = np.float32
-        lsb_per_rad_s = f32(_GYRO_LSB_PER_DPS[self.gyro_fs]) / (f32(3.14159265358979) / f32(180.0))
+        lsb_per_rad_s = f32(GYRO_LSB_PER_DPS[self.gyro_fs]) / (f32(3.14159265358979) / f32(180.0))
         w = self.rotation @ np.array(gyro, dtype=f32) - self.gyro_bias * lsb_per_rad_s
         a = self.accel_scale * (self.rotation @ np.array(accel, dtype=f32))
 
@@ -521,7 +530,8 @@ class McuEmulator:
             if not self.motor_output:
                 self._nack(f, NackError.NOT_SUPPORTED)
                 return
-            self.cmd = (max(-10_000, min(10_000, msg.left)), max(-10_000, min(10_000, msg.right)))
+            lo, hi = DUTY_RANGE
+            self.cmd = (max(lo, min(hi, msg.left)), max(lo, min(hi, msg.right)))
             self.motor_commanded = True
             timeout = msg.timeout_ms if msg.timeout_ms else self.failsafe_ms
             self.cmd_expiry_us = (now + 1000 * timeout) & 0xFFFFFFFF
@@ -557,6 +567,6 @@ def _calibration_valid(r: NDArray[np.float32], b: NDArray[np.float32], scale: fl
     return (
         ortho < 1e-3
         and abs(float(np.linalg.det(r)) - 1.0) < 1e-3
-        and float(np.max(np.abs(b))) < 0.5
-        and 0.5 <= scale <= 2.0
+        and float(np.max(np.abs(b))) < GYRO_BIAS_RAD_S_RANGE[1]
+        and ACCEL_SCALE_RANGE[0] <= scale <= ACCEL_SCALE_RANGE[1]
     )

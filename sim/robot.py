@@ -36,9 +36,9 @@ from dataclasses import dataclass
 
 import pymunk
 
+from jackson.protocol.messages import GRAVITY_M_S2  # the twin's g is the nominal one
 from jackson.sim.config import RobotSpec
 
-GRAVITY_M_S2 = 9.81
 _STICK_RAD_S = 1e-3  # a wheel slower than this may stick in its gearbox
 
 

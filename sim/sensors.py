@@ -13,11 +13,9 @@ import math
 
 import numpy as np
 
+from jackson.protocol.messages import ACCEL_LSB_PER_G, GRAVITY_M_S2, GYRO_LSB_PER_DPS
 from jackson.sim.config import ImuSpec, Sides
 
-GRAVITY_M_S2 = 9.81
-ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
-GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
 TEMP_RAW_AT_25C = round((25.0 - 36.53) * 340.0)  # raw/340 + 36.53 deg C
 
 

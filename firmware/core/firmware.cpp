@@ -33,7 +33,7 @@ bool config_valid(const DeviceConfig& c) {
          c.gyro_fs <= 3 && c.direction_flags <= 3;
 }
 
-int16_t clamp_duty(int16_t d) { return std::clamp<int16_t>(d, -10000, 10000); }
+int16_t clamp_duty(int16_t d) { return std::clamp<int16_t>(d, protocol::kDutyMin, protocol::kDutyMax); }
 
 }  // namespace
 
@@ -173,7 +173,7 @@ uint16_t Firmware::telemetry_flags(uint32_t now) const noexcept {
   if (tx_dropped_flag_) f |= kTxDropped;
   if (hal_.motors != nullptr) f |= kMotorOutput;
   if (motor_enable_) f |= kMotorEnable;
-  f = static_cast<uint16_t>(f | (cfg_.accel_fs << 8) | (cfg_.gyro_fs << 10));
+  f = static_cast<uint16_t>(f | (cfg_.accel_fs << kAccelFsShift) | (cfg_.gyro_fs << kGyroFsShift));
   return f;
 }
 

@@ -23,10 +23,10 @@ struct DeviceConfig {
   uint8_t direction_flags = 0;  ///< bit 0 inverts left, bit 1 inverts right
 };
 
-constexpr uint16_t kMinRateHz = 1;
-constexpr uint16_t kMaxRateHz = 500;
-constexpr uint16_t kMinFailsafeMs = 50;
-constexpr uint16_t kMaxFailsafeMs = 10000;
+constexpr uint16_t kMinRateHz = protocol::kTelemetryRateHzMin;  ///< limits: protocol/schema.yaml
+constexpr uint16_t kMaxRateHz = protocol::kTelemetryRateHzMax;
+constexpr uint16_t kMinFailsafeMs = protocol::kFailsafeMsMin;
+constexpr uint16_t kMaxFailsafeMs = protocol::kFailsafeMsMax;
 constexpr uint32_t kImuPeriodUs = 10'000;    ///< 100 Hz IMU sampling (faster if telemetry is)
 constexpr uint32_t kStatusPeriodUs = 1'000'000;
 

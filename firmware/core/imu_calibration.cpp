@@ -21,7 +21,8 @@ bool ImuCalibration::valid(const Eigen::Matrix3f& r, const Eigen::Vector3f& bias
   if (!r.allFinite() || !bias.allFinite() || !std::isfinite(scale)) return false;
   const float ortho = (r * r.transpose() - Eigen::Matrix3f::Identity()).cwiseAbs().maxCoeff();
   return ortho < 1e-3f && std::fabs(r.determinant() - 1.0f) < 1e-3f &&
-         bias.cwiseAbs().maxCoeff() < 0.5f && scale >= 0.5f && scale <= 2.0f;
+         bias.cwiseAbs().maxCoeff() < protocol::kGyroBiasRadSMax && scale >= protocol::kAccelScaleMin &&
+         scale <= protocol::kAccelScaleMax;
 }
 
 void ImuCalibration::apply(uint8_t gyro_fs, ImuRaw& io) const noexcept {

@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "hal.hpp"
+#include "jackson/protocol/messages.hpp"
 
 namespace jackson::fw {
 
@@ -24,15 +25,14 @@ constexpr uint8_t kDlpf21Hz = 4;          // CONFIG.DLPF_CFG: accel 21 Hz, gyro 
 constexpr uint8_t kDiv100Hz = 9;          // SMPLRT_DIV: 1 kHz / (1 + 9) = 100 Hz
 constexpr size_t kBurstBytes = 14;
 
-/// LSB per g for ACCEL_CONFIG.AFS_SEL 0-3 (+-2, 4, 8, 16 g).
-constexpr float accel_lsb_per_g(uint8_t fs) { return 16384.0f / static_cast<float>(1u << (fs & 3u)); }
+/// LSB per g for ACCEL_CONFIG.AFS_SEL 0-3 (+-2, 4, 8, 16 g): protocol/schema.yaml's scales.
+constexpr float accel_lsb_per_g(uint8_t fs) { return protocol::kAccelLsbPerG[fs & 3u]; }
 /// LSB per deg/s for GYRO_CONFIG.FS_SEL 0-3 (+-250, 500, 1000, 2000 deg/s).
-constexpr float gyro_lsb_per_dps(uint8_t fs) {
-  constexpr float kTable[4] = {131.0f, 65.5f, 32.8f, 16.4f};
-  return kTable[fs & 3u];
-}
+constexpr float gyro_lsb_per_dps(uint8_t fs) { return protocol::kGyroLsbPerDps[fs & 3u]; }
 /// Die temperature in deg C from TEMP_OUT.
-constexpr float temperature_c(int16_t raw) { return static_cast<float>(raw) / 340.0f + 36.53f; }
+constexpr float temperature_c(int16_t raw) {
+  return static_cast<float>(raw) / protocol::kTempLsbPerC + protocol::kTempOffsetC;
+}
 }  // namespace mpu6050
 
 /// One sample in sensor counts, sensor axes.

@@ -2,25 +2,13 @@
 
 from __future__ import annotations
 
-import math
 import struct
 
 from jackson.host.daemon import CoreListener, HostCore
 from jackson.host.ekf import EkfState
 from jackson.host.ros.bag import BagRecorder
 from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c
-
-ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
-GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
-G_M_S2 = 9.81
-
-
-def imu_si(t: Telemetry) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """(accel m/s^2, gyro rad/s) of a telemetry frame at the ranges its flags name."""
-    a_fs, g_fs = (t.flags >> 8) & 3, (t.flags >> 10) & 3
-    a = tuple(v / ACCEL_LSB_PER_G[a_fs] * G_M_S2 for v in t.accel)
-    g = tuple(math.radians(v / GYRO_LSB_PER_DPS[g_fs]) for v in t.gyro)
-    return (a[0], a[1], a[2]), (g[0], g[1], g[2])
+from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 
 def wire_bytes(frame: Frame) -> bytes:
@@ -60,7 +48,7 @@ class BagListener(CoreListener):
             )
         imu_ok = bool(telemetry.flags & TelemetryFlags.IMU_OK)
         if imu_ok:
-            self.bag.imu(t_s, *imu_si(telemetry))
+            self.bag.imu(t_s, accel_m_s2(telemetry), gyro_rad_s(telemetry))
         if t_s >= self._next_diag_s:
             self._next_diag_s = t_s + 1.0
             rejected = sum(core.ekf.rejected.values())

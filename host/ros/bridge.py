@@ -52,6 +52,7 @@ from jackson.host.ros.qos import (
 )
 from jackson.protocol import Telemetry, TelemetryFlags
 from jackson.protocol.ros_env import missing_ros
+from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
@@ -59,9 +60,6 @@ if TYPE_CHECKING:
     from jackson.host.ekf import EkfState
     from jackson.host.odometry import OdometryState
 
-GRAVITY_M_S2 = 9.80665  # [m/s^2] standard gravity
-GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)  # MPU-6050 at +-250, 500, 1000, 2000 deg/s
-ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)  # MPU-6050 at +-2, 4, 8, 16 g
 DIAGNOSTICS_PERIOD_S = 1.0  # [s] of MCU time
 SPIN_TIMEOUT_S = 0.1  # [s] an executor wait; bounds how long stop() takes
 
@@ -121,11 +119,7 @@ def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:
 def imu_si(t: Telemetry) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """Angular velocity [rad/s] and linear acceleration [m/s^2] of a frame, at the full-scale
     ranges its flags name (bits 8-9 ACCEL_FS, bits 10-11 GYRO_FS)."""
-    a_lsb = ACCEL_LSB_PER_G[(t.flags >> 8) & 3]
-    g_lsb = GYRO_LSB_PER_DPS[(t.flags >> 10) & 3]
-    gx, gy, gz = (math.radians(c / g_lsb) for c in t.gyro)
-    ax, ay, az = (c / a_lsb * GRAVITY_M_S2 for c in t.accel)
-    return (gx, gy, gz), (ax, ay, az)
+    return gyro_rad_s(t), accel_m_s2(t)
 
 
 def diagonal_covariance(*diagonal: float) -> list[float]:

@@ -1,4 +1,4 @@
-// Message structs generated from protocol/schema.yaml (schema 0x7a8c5dff).
+// Message structs generated from protocol/schema.yaml (schema 0xc8da2512).
 // Do not edit: change the schema and run `python -m jackson.protocol.codegen`.
 #pragma once
 
@@ -12,7 +12,7 @@
 namespace jackson::protocol {
 
 constexpr uint8_t kProtocolVersion = 1;
-constexpr uint32_t kSchemaHash = 0x7a8c5dffu;
+constexpr uint32_t kSchemaHash = 0xc8da2512u;
 constexpr size_t kMaxPayload = 120;
 constexpr uint32_t kPartialTimeoutUs = 20000;
 
@@ -49,6 +49,16 @@ constexpr uint16_t kI2cErrors = 1u << 6;
 constexpr uint16_t kTxDropped = 1u << 7;
 constexpr uint16_t kMotorOutput = 1u << 12;
 constexpr uint16_t kMotorEnable = 1u << 13;
+constexpr unsigned kAccelFsShift = 8;
+/// ACCEL_FS: bits 8-9.
+constexpr uint8_t accel_fs(uint16_t flags) noexcept {
+  return static_cast<uint8_t>((flags >> 8) & 0x3u);
+}
+constexpr unsigned kGyroFsShift = 10;
+/// GYRO_FS: bits 10-11.
+constexpr uint8_t gyro_fs(uint16_t flags) noexcept {
+  return static_cast<uint8_t>((flags >> 10) & 0x3u);
+}
 }  // namespace telemetry_flags
 
 namespace capabilities {
@@ -56,6 +66,22 @@ constexpr uint16_t kImuPresent = 1u << 0;
 constexpr uint16_t kMotorOutput = 1u << 1;
 constexpr uint16_t kCalibrationStored = 1u << 2;
 }  // namespace capabilities
+
+constexpr std::array<float, 4> kAccelLsbPerG = {16384.0f, 8192.0f, 4096.0f, 2048.0f};
+constexpr std::array<float, 4> kGyroLsbPerDps = {131.0f, 65.5f, 32.8f, 16.4f};
+constexpr float kGravityMS2 = 9.81f;
+constexpr float kTempLsbPerC = 340.0f;
+constexpr float kTempOffsetC = 36.53f;
+constexpr int32_t kTelemetryRateHzMin = 1;
+constexpr int32_t kTelemetryRateHzMax = 500;
+constexpr int32_t kFailsafeMsMin = 50;
+constexpr int32_t kFailsafeMsMax = 10000;
+constexpr int32_t kDutyMin = -10000;
+constexpr int32_t kDutyMax = 10000;
+constexpr float kGyroBiasRadSMin = -0.5f;
+constexpr float kGyroBiasRadSMax = 0.5f;
+constexpr float kAccelScaleMin = 0.5f;
+constexpr float kAccelScaleMax = 2.0f;
 
 /// Sensor snapshot, sent at the telemetry rate (20 Hz by default) once the host has sent HELLO. Encoder counts are cumulative since boot or the last ZERO_COUNTERS, so a lost frame loses no distance.
 struct Telemetry {
