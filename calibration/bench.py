@@ -10,8 +10,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from jackson.benchmark import BenchResult
 from jackson.calibration.campaign import run_campaign
+from jackson.common.bench import BenchResult
 
 
 def run(quick: bool = False) -> list[BenchResult]:

@@ -27,9 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from jackson.calibration.yaml_update import Updates, YamlUpdateError, update_config
-from jackson.host.config import DEFAULT_CONFIG, IDENTITY, ConfigError, HostConfig, load_config
-from jackson.protocol import ProtocolMismatchError
-from jackson.protocol.args import (
+from jackson.common.args import (
     fraction,
     int_in,
     nonneg_float,
@@ -37,6 +35,8 @@ from jackson.protocol.args import (
     positive_float,
     positive_int,
 )
+from jackson.host.config import DEFAULT_CONFIG, IDENTITY, ConfigError, HostConfig, load_config
+from jackson.protocol import ProtocolMismatchError
 
 if TYPE_CHECKING:  # numpy, scipy and the host's daemon load when a procedure runs
     from jackson.calibration import procedures as proc

@@ -98,7 +98,11 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
             thread.join(timeout=30)
             runner.close()
     done = bool(daemon.core.mission is not None and daemon.core.mission.done)
-    write_ground_truth(run_dir / "ground_truth.csv", twin.truth_log)
+    # the truth up to the host's last frame: the twin may run a few steps more in real time
+    # between the host's exit and its own stop, as many as the machine's load allows
+    t_host = daemon.core.t_s if daemon.core.t_s is not None else math.inf
+    truth = [s for s in twin.truth_log if s.t_s <= t_host + 1e-9]
+    write_ground_truth(run_dir / "ground_truth.csv", truth)
     result = trial_metrics(run_dir, spec.mission)
     result.update(
         trial=spec.index,

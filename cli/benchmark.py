@@ -10,9 +10,10 @@ from __future__ import annotations
 import importlib
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
-from typing import Literal
+
+from jackson.common.bench import BenchResult as BenchResult  # re-exported for the suites
 
 SUITES: dict[str, str] = {
     "protocol": "jackson.protocol.bench",
@@ -25,21 +26,6 @@ SUITES: dict[str, str] = {
     "ros": "jackson.ros_bench",
 }
 """Suite name -> module with a ``run(quick)`` function, in the order they run."""
-
-
-@dataclass(frozen=True)
-class BenchResult:
-    """One measured figure and the target it is judged against."""
-
-    name: str
-    value: float
-    unit: str
-    target: float
-    better: Literal["higher", "lower"]
-
-    @property
-    def met(self) -> bool:
-        return self.value >= self.target if self.better == "higher" else self.value <= self.target
 
 
 def run_all(quick: bool = False, only: list[str] | None = None) -> list[BenchResult]:

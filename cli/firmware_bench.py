@@ -17,7 +17,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD = ROOT / "build" / "bench-native"

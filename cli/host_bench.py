@@ -18,7 +18,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig

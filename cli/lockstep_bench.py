@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 from jackson.host.scripted import ScriptedHost
 
 

@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from jackson import __version__
+from jackson.common.args import OneLineParser, nonneg_int, one_line, output_folder, positive_int
+from jackson.common.fields import ConfigError
 from jackson.host.cli import HostCliError
-from jackson.protocol.args import OneLineParser, nonneg_int, one_line, output_folder, positive_int
-from jackson.protocol.fields import ConfigError
 
 
 class CliError(Exception):

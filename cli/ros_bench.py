@@ -16,7 +16,7 @@ import threading
 import time
 from typing import Any
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 from jackson.host.actuation.output import NullOutput
 from jackson.host.config import HostConfig
 from jackson.host.daemon import HostCore

@@ -14,12 +14,12 @@ import sys
 import time
 from pathlib import Path
 
+from jackson.common.args import int_in
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
 from jackson.host.actuation.tb6612 import bridge_duties
 from jackson.host.config import Pca9685Settings
 from jackson.host.i2c import I2cError, open_bus
-from jackson.protocol.args import int_in
 
 ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt

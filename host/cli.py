@@ -8,7 +8,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from jackson.protocol.args import output_folder, positive_float, positive_int
+from jackson.common.args import output_folder, positive_float, positive_int
 
 
 class HostCliError(Exception):
@@ -272,10 +272,10 @@ def cmd_monitor(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
+    from jackson.common.args import output_folder
     from jackson.host.config import ConfigError
     from jackson.host.recording import RecordingError
     from jackson.host.replay import replay
-    from jackson.protocol.args import output_folder
 
     try:
         out = (

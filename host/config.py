@@ -18,10 +18,10 @@ from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from jackson.common.fields import ConfigError as ConfigError  # re-exported
+from jackson.common.fields import Fields, read_yaml, show
 from jackson.host.actuation.tb6612 import BridgeChannels
 from jackson.host.i2c import SOCKET_PREFIX
-from jackson.protocol.fields import ConfigError as ConfigError  # re-exported
-from jackson.protocol.fields import Fields, read_yaml, show
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
     FAILSAFE_MS_RANGE,

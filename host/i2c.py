@@ -15,6 +15,8 @@ from collections.abc import Sequence
 from types import TracebackType
 from typing import Protocol, runtime_checkable
 
+from jackson.common.spin import DEFAULT_SPIN_S, peer_is_this_process, spin_poll
+
 # ---- wire format (protocol/i2c-socket.md) -----------------------------------------------------
 from jackson.protocol.i2c_socket import (
     MAX_ADDRESS,
@@ -28,7 +30,6 @@ from jackson.protocol.i2c_socket import (
     STATUS_NACK,
     STATUS_OK,
 )
-from jackson.protocol.spin import DEFAULT_SPIN_S, peer_is_this_process, spin_poll
 
 SOCKET_PREFIX = "unix:"
 DEFAULT_TIMEOUT_S = 2.0  # [s] longest wait for one response
@@ -83,8 +84,8 @@ class SocketI2cBus:
         path: The twin's I²C socket file.
         timeout_s: Longest wait for a response [s]; after a timeout the bus is closed, since a
             late response would be taken for the next one.
-        spin_s: How long to poll for a response before blocking [s] (jackson.protocol.spin);
-            None: :data:`~jackson.protocol.spin.DEFAULT_SPIN_S` when the twin is another
+        spin_s: How long to poll for a response before blocking [s] (jackson.common.spin);
+            None: :data:`~jackson.common.spin.DEFAULT_SPIN_S` when the twin is another
             process, 0 when it runs in this one.
 
     Raises:

@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 import serial
 
+from jackson.common.spin import spin_poll
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.actuation.tb6612 import BridgeChannels, bridge_duties
 from jackson.host.i2c import SocketI2cBus, open_bus
@@ -30,7 +31,6 @@ from jackson.protocol import (
     encode_frame,
     hello,
 )
-from jackson.protocol.spin import spin_poll
 
 LEFT = BridgeChannels(pwm=0, in1=1, in2=2)
 RIGHT = BridgeChannels(pwm=5, in1=3, in2=4)
@@ -48,7 +48,7 @@ class ScriptedHost:
         self.port = serial.Serial(serial_path, baudrate=921600, timeout=0.05)
         self.bus = open_bus(i2c_spec)
         # poll the port briefly before blocking, as the twin's socket bus does (and not when
-        # the twin runs in this process: jackson.protocol.spin)
+        # the twin runs in this process: jackson.common.spin)
         self.spin_s = self.bus.spin_s if isinstance(self.bus, SocketI2cBus) else 0.0
         self.pca = Pca9685(self.bus, address)
         self.decoder = FrameDecoder()

@@ -12,7 +12,7 @@ import random
 import time
 from collections.abc import Callable
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 from jackson.protocol.frame import FrameDecoder, decode_message, encode_frame
 from jackson.protocol.messages import Telemetry
 

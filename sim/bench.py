@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 from jackson.sim.config import load_robot, load_world
 from jackson.sim.robot import WheelDrive
 from jackson.sim.twin import PHYSICS_HZ, Twin

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from jackson.benchmark import BenchResult
+from jackson.common.bench import BenchResult
 from jackson.sim.lidar import A1M8_SCAN_PERIOD_S, Lidar, LidarSpec, Obstacles
 
 REAL_TIME_FACTOR = 200

@@ -10,14 +10,14 @@ import threading
 from pathlib import Path
 from types import FrameType
 
-from jackson.protocol.args import (
+from jackson.common.args import (
     int_in,
     nonneg_float,
     nonneg_int,
     os_error_line,
     positive_float,
 )
-from jackson.protocol.spin import DEFAULT_SPIN_S
+from jackson.common.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
 from jackson.sim.fil import FirmwareError
 from jackson.sim.i2c_server import I2cServerError

@@ -13,8 +13,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from jackson.protocol.fields import ConfigError as ConfigError  # re-exported
-from jackson.protocol.fields import Fields, read_yaml, show
+from jackson.common.fields import ConfigError as ConfigError  # re-exported
+from jackson.common.fields import Fields, read_yaml, show
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
 
 SIM_DIR = Path(__file__).resolve().parent

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from jackson.protocol.ros_env import missing_ros
+from jackson.common.ros_env import missing_ros
 from jackson.sim.lidar import LidarSpec
 from jackson.sim.twin import Twin
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from threading import Event
 
-from jackson.protocol.spin import spin_poll
+from jackson.common.spin import spin_poll
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.link import PtyLink
@@ -80,7 +80,7 @@ class TwinRunner:
         self.twin = twin
         # INFO's boot_id (protocol/spec.md §8.6): random like the ESP32's unless given
         self.boot_id = boot_id if boot_id else (secrets.randbits(32) | 1)
-        # lockstep waits poll this long before blocking (jackson.protocol.spin); only worth it
+        # lockstep waits poll this long before blocking (jackson.common.spin); only worth it
         # when the host is another process
         self.spin_s = spin_s
         self.observer = observer  # called with the twin after each advance (and its pacing)

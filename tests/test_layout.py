@@ -13,15 +13,22 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 MAPPING = {
     "jackson": "cli",
+    "jackson.common": "common",
     "jackson.protocol": "protocol",
     "jackson.host": "host",
     "jackson.sim": "sim",
     "jackson.calibration": "calibration",
 }
+# the command-line modules (the top-level package, folder cli/): only cli/ may import them
+CLI = tuple(
+    sorted(f"jackson.{p.stem}" for p in (ROOT / "cli").glob("*.py") if p.stem != "__init__")
+)
 FORBIDDEN = {  # package folder -> packages it must never import
-    "host": ("jackson.sim", "jackson.calibration"),
-    "sim": ("jackson.host",),
-    "protocol": ("jackson.host", "jackson.sim", "jackson.calibration"),
+    "common": ("jackson.protocol", "jackson.host", "jackson.sim", "jackson.calibration", *CLI),
+    "protocol": ("jackson.host", "jackson.sim", "jackson.calibration", *CLI),
+    "host": ("jackson.sim", "jackson.calibration", *CLI),
+    "sim": ("jackson.host", "jackson.calibration", *CLI),
+    "calibration": CLI,
 }
 
 
@@ -41,9 +48,10 @@ def test_layering(folder: str) -> None:
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom) and node.module:
-                names = [node.module]
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
             for name in names:
-                assert not name.startswith(FORBIDDEN[folder]), f"{path}: imports {name}"
+                bad = [f for f in FORBIDDEN[folder] if name == f or name.startswith(f + ".")]
+                assert not bad, f"{path}: imports {name}"
 
 
 def test_console_script_runs() -> None:

@@ -55,7 +55,7 @@ fi
 deps_key=$( (cat pyproject.toml tools/constraints.txt; echo "$extras") | sha256sum | cut -c1-16)
 # Strict editable install: a static link tree that mypy and pytest see like any install; it
 # is rebuilt when a Python file is added or removed.
-files_key=$( (echo "$deps_key"; find cli protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
+files_key=$( (echo "$deps_key"; find cli common protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
 
 pip=("$VENV/bin/python" -m pip install -q --disable-pip-version-check)
 if [ "$(cat "$VENV/.deps-key" 2>/dev/null)" != "$deps_key" ]; then

@@ -41,6 +41,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
+from jackson.common.ros_env import missing_ros
 from jackson.host.ros.qos import (
     cmd_vel_qos,
     diagnostics_qos,
@@ -51,7 +52,6 @@ from jackson.host.ros.qos import (
     tf_static_qos,
 )
 from jackson.protocol import Telemetry, TelemetryFlags
-from jackson.protocol.ros_env import missing_ros
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:

@@ -1,4 +1,4 @@
-"""Brief busy-polling before blocking (jackson.protocol.spin)."""
+"""Brief busy-polling before blocking (jackson.common.spin)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import socket
 import time
 from pathlib import Path
 
-from jackson.protocol.spin import peer_is_this_process, spin_poll
+from jackson.common.spin import peer_is_this_process, spin_poll
 
 
 def test_a_ready_poll_returns_at_once_without_spinning() -> None:
