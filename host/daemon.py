@@ -591,7 +591,7 @@ class Daemon:
         """Bags of earlier runs in the recording folder that a kill or a power loss left
         unfinished are repaired now (as ``jackson bag repair``); a failure is reported, never
         fatal."""
-        from jackson.host.ros.bag import BagError, bag_folders, needs_repair, repair_bag
+        from jackson.host.ros.bag import bag_folders, needs_repair, repair_bag
 
         root = run_folder.parent
         if not root.is_dir():
@@ -602,10 +602,10 @@ class Daemon:
                     continue
                 try:
                     n = repair_bag(bag)
-                except (BagError, OSError, ValueError) as exc:
+                except Exception as exc:  # a damaged old bag must not keep the robot down
                     self.tell(f"could not repair the unfinished bag {bag}: {exc}")
                 else:
-                    self.tell(f"repaired the unfinished bag {bag}: {n} messages kept")
+                    self.tell(f"repaired the unfinished bag {bag}: {n} messages recovered")
 
     def tell(self, text: str) -> None:
         """One line for the operator: printed, and in the run's log."""

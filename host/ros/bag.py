@@ -28,44 +28,51 @@ timestamp is ``round(t_s * 1e9)`` ns; it starts near zero, so tools that show ab
 show 1970. Within a topic the bag timestamp never decreases: a sample older than the previous
 one of its topic keeps its true ``header.stamp`` but is filed at the previous timestamp.
 
-Crash safety. The MCAP writer keeps the open chunk in memory and writes the summary, the
-footer and ``metadata.yaml`` in :meth:`BagRecorder.close`; a bag that was never closed has
-no ``metadata.yaml`` and no readable index. Three things keep a run's bag:
+Crash safety. The MCAP writer (the ``mcap`` library's) keeps the open chunk in memory and
+writes the summary, the footer and ``metadata.yaml`` in :meth:`BagRecorder.close`; a bag
+that was never closed has no ``metadata.yaml`` and its last file no summary. Three things
+keep a run's bag:
 
 * The daemon's SIGINT and SIGTERM handlers only stop its loop, and the loop's ``finally:``
   closes the recorders (the run folder's and this one): a stopped daemon leaves a complete
   bag. ``close()`` is idempotent; called from a signal handler while a message is being
   written, it waits for that write to finish; writes after ``close()`` are ignored.
 * Every ``flush_interval_s`` of message time the open chunk is written out and the file
-  flushed, so a process killed outright (SIGKILL, power loss) loses at most that much.
+  flushed, so a process killed outright (SIGKILL) loses at most that much.
 * :func:`repair_bag` turns such a folder into a complete bag holding every message of the
-  chunks that reached the disk, read with the mcap library's stream reader (``jackson bag
-  repair``; the daemon repairs earlier runs' bags when it starts).
+  chunks that reached the disk whole, read with the mcap library's stream reader (``jackson
+  bag repair``; the daemon repairs earlier runs' bags when it starts).
 
-Size. With ``max_bytes`` the recording goes on in complete segments ``bag.1``, ``bag.2``...
-(:func:`bag_folders`), each with every topic and its own /tf_static.
+Size. With ``max_bytes`` the bag is split as ``ros2 bag record --max-bag-size`` does: the
+files ``<name>_0.mcap``, ``<name>_1.mcap``... of one folder, each finished (summary and
+footer) when the next starts, one ``metadata.yaml`` listing them all with each file's span
+and count. /tf_static is in the first file only.
 """
 
 from __future__ import annotations
 
 import math
-import shutil
+import os
 import struct
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, Literal
+from pathlib import Path, PurePath
+from typing import Any, BinaryIO, Literal
 
 import numpy as np
+import yaml
 from mcap.exceptions import InvalidMagic, McapError
+from mcap.reader import SeekingReader
 from mcap.records import Channel as McapChannel
 from mcap.records import Chunk as McapChunk
 from mcap.records import Message as McapMessage
 from mcap.records import Schema as McapSchema
 from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.summary import Summary
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapFileWriter
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.interfaces import (
-    Connection,
     Qos,
     QosDurability,
     QosHistory,
@@ -73,10 +80,10 @@ from rosbags.interfaces import (
     QosReliability,
     QosTime,
 )
-from rosbags.rosbag2 import ReaderError, StoragePlugin, Writer, WriterError
-from rosbags.rosbag2.metadata import parse_qos
-from rosbags.rosbag2.storage_mcap import McapWriter
+from rosbags.rosbag2 import Reader, ReaderError
+from rosbags.rosbag2.metadata import dump_qos_v9, parse_qos
 from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys.store import Typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
 from jackson.host.odometry import OdometryConfig
@@ -327,10 +334,9 @@ class BagRecorder:
             flush_interval_s: Message time [s] between writes of the open chunk to disk (None:
                 only at close).
             hardware_id: ``hardware_id`` of the /diagnostics status.
-            max_bytes: Split the recording once its MCAP file exceeds this size (checked at
-                each chunk flush): the bag is closed, complete, and the next segment starts
-                in ``<path>.1``, ``<path>.2``... each a complete bag with every topic and its
-                own /tf_static (:func:`bag_folders` lists them). None: one bag.
+            max_bytes: Start the next file once the open one exceeds this size [bytes]
+                (checked at each chunk flush): ``<name>_0.mcap``, ``<name>_1.mcap``... in
+                the same folder. None: one file.
 
         Raises:
             BagError: The folder exists already or cannot be created.
@@ -358,44 +364,68 @@ class BagRecorder:
         self._accel_cov = _diag3(accel_sigma_m_s2**2)
         self._store = get_typestore(Stores.ROS2_JAZZY)
         self._state = _State()
-        self._connections: dict[str, Connection] = {}
+        self._topics = _bag_topics(_topic_specs(self.topics), self._store)
         self.max_bytes = max_bytes
-        self.segments = [self.path]  # every bag folder written, in order
+        self.files: list[Path] = []  # every MCAP file written, in order
+        self._file: BinaryIO | None = None
+        self._done: list[BagFile] = []  # the finished files
         try:
-            self._open(self.path)
+            self.path.mkdir(parents=True)
+        except OSError as exc:
+            self._state.closed = True
+            what = "exists already" if isinstance(exc, FileExistsError) else str(exc)
+            raise BagError(f"{self.path}: cannot create the bag: {what}") from exc
+        try:
+            self._open_file()
         except BagError:
             self._state.closed = True
             raise
 
-    def _open(self, path: Path) -> None:
+    def _open_file(self) -> None:
+        """Start the next MCAP file ``<name>_<k>.mcap`` with every schema and channel."""
+        file = self.path / f"{self.path.name}_{len(self.files)}.mcap"
         try:
-            self._writer = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
-            self._writer.open()
-            for topic, spec in _topic_specs(self.topics).items():
-                self._connections[topic] = self._writer.add_connection(
-                    topic,
-                    spec.msgtype,
-                    typestore=self._store,
-                    offered_qos_profiles=(_qos(spec),),
+            self._file = file.open("xb")
+            self._writer = McapFileWriter(self._file, compression=CompressionType.NONE)
+            self._writer.start(profile="ros2", library="jackson")
+            schema_ids: dict[str, int] = {}
+            self._channels: dict[str, int] = {}
+            for t in self._topics:
+                if t.msgtype not in schema_ids:
+                    schema_ids[t.msgtype] = self._writer.register_schema(
+                        t.msgtype, "ros2msg", t.msgdef.encode()
+                    )
+                self._channels[t.name] = self._writer.register_channel(
+                    t.name, "cdr", schema_ids[t.msgtype], t.channel_metadata()
                 )
-        except (WriterError, OSError) as exc:
-            raise BagError(f"{path}: cannot create the bag: {exc}") from exc
+        except OSError as exc:
+            raise BagError(f"{file}: cannot create the bag file: {exc}") from exc
+        self.files.append(file)
+        self._counts: dict[str, int] = {}
+        self._span_ns: tuple[int, int] | None = None
+
+    def _finish_file(self) -> None:
+        """Write the open file's summary and footer and close it."""
+        file, self._file = self._file, None
+        if file is None:
+            return
+        try:
+            self._writer.finish()  # type: ignore[no-untyped-call]
+            file.flush()
+        finally:
+            file.close()
+        start, end = self._span_ns or (0, 0)
+        self._done.append(BagFile(self.files[-1].name, dict(self._counts), start, end))
 
     def _rotate_if_full(self) -> None:
-        """Close the bag and go on in the next segment once the file exceeds ``max_bytes``."""
-        storage = self._writer.storage
-        if self.max_bytes is None or not isinstance(storage, McapWriter):
-            return
-        if storage.bio.tell() < self.max_bytes:
+        """Finish the file and go on in the next one once it exceeds ``max_bytes``."""
+        if self.max_bytes is None or self._file is None or self._file.tell() < self.max_bytes:
             return
         try:
-            self._writer.close()
-        except (WriterError, OSError) as exc:
-            raise BagError(f"{self.segments[-1]}: cannot finish the segment: {exc}") from exc
-        nxt = self.path.with_name(f"{self.path.name}.{len(self.segments)}")
-        self.segments.append(nxt)
-        self._state.static_written = False  # every segment carries /tf_static
-        self._open(nxt)
+            self._finish_file()
+        except OSError as exc:
+            raise BagError(f"{self.files[-1]}: cannot finish the file: {exc}") from exc
+        self._open_file()
 
     @property
     def closed(self) -> bool:
@@ -630,14 +660,13 @@ class BagRecorder:
         try:
             if not st.static_written:
                 self._write_static(max(st.last_ns.values(), default=0))
-            self._writer.close()
+            self._finish_file()
+            _write_metadata(self.path, self._topics, self._done)
         except Exception as exc:
-            storage = self._writer.storage
-            if storage is not None:
-                self._writer.storage = None
-                if isinstance(storage, McapWriter):
-                    storage.abort()
-            raise BagError(f"{self.segments[-1]}: cannot finish the bag: {exc}") from exc
+            if self._file is not None:
+                self._file.close()
+                self._file = None
+            raise BagError(f"{self.path}: cannot finish the bag: {exc}") from exc
         finally:
             st.busy = False
 
@@ -737,9 +766,12 @@ class BagRecorder:
         st.last_ns[topic] = ns
         data = self._store.serialize_cdr(msg, msg.__msgtype__)
         try:
-            self._writer.write(self._connections[topic], ns, data)
-        except (WriterError, OSError) as exc:
-            raise BagError(f"{self.segments[-1]}: cannot write {topic}: {exc}") from exc
+            self._writer.add_message(self._channels[topic], ns, bytes(data), ns)
+        except OSError as exc:
+            raise BagError(f"{self.files[-1]}: cannot write {topic}: {exc}") from exc
+        self._counts[topic] = self._counts.get(topic, 0) + 1
+        span = self._span_ns
+        self._span_ns = (ns, ns) if span is None else (min(span[0], ns), max(span[1], ns))
 
     def _write_static(self, ns: int) -> None:
         self._state.static_written = True
@@ -760,13 +792,131 @@ class BagRecorder:
         self._put(self.topics.tf_static, ns, msg)
 
     def _flush_chunk(self) -> None:
-        storage = self._writer.storage
-        if isinstance(storage, McapWriter) and storage.chunk.msgs:
-            storage.close_chunk()
-            storage.bio.flush()
+        try:
+            self._writer.flush()  # type: ignore[no-untyped-call]  # the open chunk, then the file's buffer
+        except OSError as exc:
+            raise BagError(f"{self.files[-1]}: cannot write: {exc}") from exc
 
 
-# ---- reading and repair -------------------------------------------------------------------
+# ---- metadata, reading and repair -------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BagTopic:
+    """A topic as ``metadata.yaml`` and the MCAP channel describe it.
+
+    Attributes:
+        name: Topic name.
+        msgtype: ROS 2 message type, e.g. ``nav_msgs/msg/Odometry``.
+        qos: The offered QoS profiles as the channel's YAML text.
+        type_hash: RIHS01 hash of the type ('' if unknown).
+        msgdef: The ``ros2msg`` definition of the type.
+    """
+
+    name: str
+    msgtype: str
+    qos: str
+    type_hash: str
+    msgdef: str = ""
+
+    def channel_metadata(self) -> dict[str, str]:
+        """The MCAP channel metadata rosbag2 writes."""
+        return {"offered_qos_profiles": self.qos, "topic_type_hash": self.type_hash}
+
+
+@dataclass(frozen=True)
+class BagFile:
+    """One finished MCAP file of a bag: what ``metadata.yaml`` says of it.
+
+    Attributes:
+        name: File name inside the bag folder.
+        counts: Messages per topic.
+        start_ns: Earliest message timestamp [ns] (0 without messages).
+        end_ns: Latest message timestamp [ns] (0 without messages).
+    """
+
+    name: str
+    counts: Mapping[str, int]
+    start_ns: int
+    end_ns: int
+
+    @property
+    def message_count(self) -> int:
+        return sum(self.counts.values())
+
+
+def _qos_text(qos: Sequence[Qos]) -> str:
+    return str(yaml.safe_dump(dump_qos_v9(list(qos)), default_flow_style=False)).strip()
+
+
+def _bag_topics(specs: Mapping[str, _TopicSpec], store: Typestore) -> list[BagTopic]:
+    out = []
+    for name, spec in specs.items():
+        msgdef, _ = store.generate_msgdef(spec.msgtype, ros_version=2)
+        out.append(
+            BagTopic(
+                name, spec.msgtype, _qos_text([_qos(spec)]), store.hash_rihs01(spec.msgtype), msgdef
+            )
+        )
+    return out
+
+
+def _fsync_replace(tmp: Path, dst: Path) -> None:
+    """``os.replace`` a written, fsynced ``tmp`` onto ``dst`` and make the rename durable."""
+    os.replace(tmp, dst)
+    fd = os.open(dst.parent, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _write_metadata(folder: Path, topics: Sequence[BagTopic], files: Sequence[BagFile]) -> None:
+    """Write ``metadata.yaml`` (rosbag2 version 9, as ``ros2 bag record`` does for split bags):
+    every file in order with its span and count, every topic with its count over all files."""
+    spans = [(f.start_ns, f.end_ns) for f in files if f.message_count]
+    start = min((a for a, _ in spans), default=0)
+    end = max((b for _, b in spans), default=0)
+    info = {
+        "version": BAG_VERSION,
+        "storage_identifier": "mcap",
+        "relative_file_paths": [f.name for f in files],
+        "duration": {"nanoseconds": end - start},
+        "starting_time": {"nanoseconds_since_epoch": start},
+        "message_count": sum(f.message_count for f in files),
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": t.name,
+                    "type": t.msgtype,
+                    "serialization_format": "cdr",
+                    "offered_qos_profiles": dump_qos_v9(parse_qos(t.qos)) if t.qos else [],
+                    "type_description_hash": t.type_hash,
+                },
+                "message_count": sum(f.counts.get(t.name, 0) for f in files),
+            }
+            for t in topics
+        ],
+        "compression_format": "",
+        "compression_mode": "",
+        "files": [
+            {
+                "path": f.name,
+                "starting_time": {"nanoseconds_since_epoch": f.start_ns},
+                "duration": {"nanoseconds": f.end_ns - f.start_ns},
+                "message_count": f.message_count,
+            }
+            for f in files
+        ],
+        "custom_data": None,
+        "ros_distro": "jazzy",
+    }
+    tmp = folder / "metadata.yaml.tmp"
+    with tmp.open("w", encoding="utf8") as f:
+        yaml.safe_dump({"rosbag2_bagfile_information": info}, f, sort_keys=False)
+        f.flush()
+        os.fsync(f.fileno())
+    _fsync_replace(tmp, folder / "metadata.yaml")
 
 
 def read_bag(path: Path | str) -> dict[str, list[tuple[int, Any]]]:
@@ -794,23 +944,92 @@ def read_bag(path: Path | str) -> dict[str, list[tuple[int, Any]]]:
     return out
 
 
+@dataclass(frozen=True)
+class BagInfo:
+    """What ``jackson bag info`` shows of a finished bag (read from its metadata and indexes).
+
+    Attributes:
+        path: The bag folder.
+        counts: Messages per topic, every declared topic.
+        start_ns: Earliest timestamp [ns] (None: no messages).
+        end_ns: Latest timestamp [ns] (None: no messages).
+        files: The MCAP files, in order.
+        size_bytes: Their total size [bytes].
+    """
+
+    path: Path
+    counts: Mapping[str, int]
+    start_ns: int | None
+    end_ns: int | None
+    files: tuple[Path, ...]
+    size_bytes: int
+
+    @property
+    def message_count(self) -> int:
+        return sum(self.counts.values())
+
+
+def bag_info(path: Path | str) -> BagInfo:
+    """Topics, counts, time span and size of a finished bag, without reading its messages.
+
+    Raises:
+        BagError: The folder is not a readable bag.
+    """
+    path = Path(path)
+    try:
+        with Reader(path) as reader:
+            counts: dict[str, int] = {}
+            for conn in reader.connections:
+                counts[conn.topic] = counts.get(conn.topic, 0) + conn.msgcount
+            n = reader.message_count
+            span = (reader.start_time, reader.end_time - 1) if n else (None, None)
+        meta = yaml.safe_load((path / "metadata.yaml").read_text(encoding="utf8"))
+        names = meta["rosbag2_bagfile_information"]["relative_file_paths"]
+        files = tuple(path / PurePath(name).name for name in names)
+    except (ReaderError, OSError, KeyError, TypeError, yaml.YAMLError) as exc:
+        raise BagError(f"{path}: not a readable bag: {exc}") from exc
+    size = sum(f.stat().st_size for f in files if f.exists())
+    return BagInfo(path, counts, span[0], span[1], files, size)
+
+
+def bag_folders(run: Path | str) -> list[Path]:
+    """The bag folders of a run folder (``bag``; any subfolder holding an MCAP file), by name."""
+    run = Path(run)
+    return sorted(p for p in run.iterdir() if p.is_dir() and any(p.glob("*.mcap")))
+
+
+def needs_repair(path: Path | str) -> bool:
+    """A bag folder whose writer never finished it: an MCAP file but no ``metadata.yaml``."""
+    path = Path(path)
+    return not (path / "metadata.yaml").exists() and any(path.glob("*.mcap"))
+
+
+def _split_index(file: Path) -> tuple[int, str]:
+    """Sort key of a bag's files: ``bag_2.mcap`` before ``bag_10.mcap``."""
+    _, _, k = file.stem.rpartition("_")
+    return (int(k) if k.isdigit() else -1, file.name)
+
+
 @dataclass
 class _Salvage:
-    """What survived in an MCAP file whose writer died: its schemas, channels and messages."""
+    """The whole records of an MCAP file whose writer died: schemas, channels, messages."""
 
-    schemas: dict[int, str] = field(default_factory=dict)  # id -> message type
-    channels: dict[int, tuple[str, str, str]] = field(default_factory=dict)  # topic, type, QoS
-    messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # channel, ns, data
+    schemas: dict[int, McapSchema] = field(default_factory=dict)
+    channels: dict[int, McapChannel] = field(default_factory=dict)
+    messages: list[McapMessage] = field(default_factory=list)
     bad_chunks: int = 0  # chunks whose CRC or compression failed (skipped)
 
     def take(self, record: object) -> None:
         if isinstance(record, McapSchema):
-            self.schemas[record.id] = record.name
+            self.schemas[record.id] = record
         elif isinstance(record, McapChannel):
-            qos = record.metadata.get("offered_qos_profiles", "")
-            self.channels[record.id] = (record.topic, self.schemas.get(record.schema_id, ""), qos)
+            self.channels[record.id] = record
         elif isinstance(record, McapMessage):
-            self.messages.append((record.channel_id, record.log_time, bytes(record.data)))
+            self.messages.append(record)
+
+
+# what the mcap readers raise where a file ends inside a record or holds garbage
+_CUT = (McapError, EOFError, ValueError, struct.error, RuntimeError)
 
 
 def _salvage(file: Path) -> _Salvage:
@@ -827,12 +1046,12 @@ def _salvage(file: Path) -> _Salvage:
                 break
             except InvalidMagic as exc:
                 raise BagError(f"{file}: not an MCAP file") from exc
-            except (McapError, EOFError, ValueError, struct.error):
-                break  # the end of what reached the disk
+            except _CUT:
+                break  # the end of what reached the disk (a cut magic: nothing)
             if isinstance(record, McapChunk):
                 try:
                     inner = breakup_chunk(record, validate_crc=True)
-                except (McapError, ValueError, struct.error, EOFError, RuntimeError):
+                except _CUT:
                     out.bad_chunks += 1
                     continue
                 for r in inner:
@@ -842,37 +1061,102 @@ def _salvage(file: Path) -> _Salvage:
     return out
 
 
-def bag_folders(run: Path | str) -> list[Path]:
-    """The bag folders of a run folder: ``bag`` and its segments ``bag.1``, ``bag.2``... in
-    order (see ``max_bytes`` of :class:`BagRecorder`)."""
-    run = Path(run)
-    found = [p for p in run.glob("bag*") if p.is_dir() and _segment_index(p) is not None]
-    return sorted(found, key=lambda p: _segment_index(p) or 0)
+def _summary(file: Path) -> Summary | None:
+    """The summary of a finished MCAP file (its footer points at one with statistics)."""
+    try:
+        with file.open("rb") as f:
+            summary = SeekingReader(f, record_size_limit=1 << 30).get_summary()
+    except (*_CUT, OSError):
+        return None
+    return summary if summary is not None and summary.statistics is not None else None
 
 
-def _segment_index(path: Path) -> int | None:
-    name = path.name
-    if name == "bag":
-        return 0
-    head, _, tail = name.partition(".")
-    return int(tail) if head == "bag" and tail.isdigit() else None
+def _topic(channel: McapChannel, schema: McapSchema | None) -> BagTopic:
+    return BagTopic(
+        channel.topic,
+        schema.name if schema is not None else "",
+        channel.metadata.get("offered_qos_profiles", ""),
+        channel.metadata.get("topic_type_hash", ""),
+        schema.data.decode(errors="replace") if schema is not None else "",
+    )
 
 
-def needs_repair(path: Path | str) -> bool:
-    """A bag folder whose writer never finished it: an MCAP file but no ``metadata.yaml``."""
-    path = Path(path)
-    return not (path / "metadata.yaml").exists() and any(path.glob("*.mcap"))
+def _finished_file(file: Path, summary: Summary) -> tuple[BagFile, list[BagTopic]]:
+    stats = summary.statistics
+    assert stats is not None
+    counts: dict[str, int] = {}
+    topics = []
+    for cid, channel in summary.channels.items():
+        topics.append(_topic(channel, summary.schemas.get(channel.schema_id)))
+        counts[channel.topic] = counts.get(channel.topic, 0) + stats.channel_message_counts.get(
+            cid, 0
+        )
+    n = stats.message_count
+    span = (stats.message_start_time, stats.message_end_time) if n else (0, 0)
+    return BagFile(file.name, counts, *span), topics
+
+
+def _repair_file(file: Path) -> tuple[BagFile, list[BagTopic]]:
+    """Rewrite an unfinished MCAP file with the messages of its whole records and a summary,
+    written beside it and moved over it (``os.replace``) only when complete."""
+    salvage = _salvage(file)
+    tmp = file.with_name(f"{file.name}.repair")
+    try:
+        with tmp.open("wb") as f:
+            counts, span, topics = _rewrite(salvage, f)
+            f.flush()
+            os.fsync(f.fileno())
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_replace(tmp, file)
+    return BagFile(file.name, counts, *span), topics
+
+
+def _rewrite(
+    salvage: _Salvage, out: BinaryIO
+) -> tuple[dict[str, int], tuple[int, int], list[BagTopic]]:
+    """Write the salvaged records as a finished MCAP file: messages per topic, their span
+    (0, 0 without messages) and the topics kept."""
+    writer = McapFileWriter(out, compression=CompressionType.NONE)
+    writer.start(profile="ros2", library="jackson")
+    schema_ids: dict[int, int] = {}
+    for sid, schema in sorted(salvage.schemas.items()):
+        schema_ids[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
+    channel_ids: dict[int, int] = {}
+    topics = []
+    for cid, channel in sorted(salvage.channels.items()):
+        if channel.schema_id and channel.schema_id not in schema_ids:
+            continue  # its type was cut off: its messages cannot be decoded
+        channel_ids[cid] = writer.register_channel(
+            channel.topic,
+            channel.message_encoding,
+            schema_ids.get(channel.schema_id, 0),
+            channel.metadata,
+        )
+        topics.append(_topic(channel, salvage.schemas.get(channel.schema_id)))
+    counts: dict[str, int] = {}
+    stamps = []
+    for m in salvage.messages:
+        if m.channel_id in channel_ids:
+            writer.add_message(channel_ids[m.channel_id], m.log_time, m.data, m.publish_time)
+            topic = salvage.channels[m.channel_id].topic
+            counts[topic] = counts.get(topic, 0) + 1
+            stamps.append(m.log_time)
+    writer.finish()  # type: ignore[no-untyped-call]
+    return counts, ((min(stamps), max(stamps)) if stamps else (0, 0)), topics
 
 
 def repair_bag(path: Path | str) -> int:
     """Make a bag whose writer died before :meth:`BagRecorder.close` readable (like ``ros2 bag
     reindex``).
 
-    Keeps every message of the records that reached the disk whole (chunks are written every
-    ``flush_interval_s`` of message time) and rewrites the folder as a complete bag with the
-    same topics, types, offered QoS and timestamps. The repaired bag is written beside the
-    folder and replaces it only when complete; if anything fails the original stays as it was.
-    A bag that already has ``metadata.yaml`` is left as it is.
+    Every file of the bag that has no summary (the one open when the writer died) is rewritten
+    with the messages of its records that reached the disk whole (chunks are written every
+    ``flush_interval_s`` of message time), same topics, types, offered QoS and timestamps; the
+    rewrite goes beside the file and replaces it (``os.replace``) only when complete, so a
+    failure leaves the original's bytes. Finished files are kept as they are. Then
+    ``metadata.yaml`` lists them all. A bag that already has ``metadata.yaml`` is left alone.
 
     Args:
         path: The bag folder.
@@ -881,51 +1165,32 @@ def repair_bag(path: Path | str) -> int:
         The number of messages in the (repaired) bag.
 
     Raises:
-        BagError: The folder holds no MCAP file, or not one this function can read.
+        BagError: The folder holds no MCAP file, or one that is not MCAP.
     """
     path = Path(path)
     if (path / "metadata.yaml").exists():
-        return sum(len(v) for v in read_bag(path).values())
-    files = sorted(path.glob("*.mcap"))
-    if len(files) != 1:
-        raise BagError(f"{path}: expected one .mcap file to repair, found {len(files)}")
-    salvage = _salvage(files[0])
-    store = get_typestore(Stores.ROS2_JAZZY)
-    staging = path.parent / f".{path.name}.repair"
-    if staging.exists():
-        shutil.rmtree(staging)
-    staging.mkdir()
-    writer = Writer(staging / path.name, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
-    try:
-        writer.open()
-        conns: dict[int, Connection] = {}
-        for cid, (topic, msgtype, qos) in sorted(salvage.channels.items()):
-            if msgtype not in store.fielddefs:
-                raise BagError(f"{files[0]}: unknown message type {msgtype!r} on {topic}")
-            conns[cid] = writer.add_connection(
-                topic,
-                msgtype,
-                typestore=store,
-                offered_qos_profiles=parse_qos(qos) if qos else [],
+        return bag_info(path).message_count
+    files = sorted(path.glob("*.mcap"), key=_split_index)
+    if not files:
+        raise BagError(f"{path}: no .mcap file to repair")
+    done: list[BagFile] = []
+    topics: dict[tuple[str, str], BagTopic] = {}
+    for file in files:
+        summary = _summary(file)
+        try:
+            info, found = (
+                _finished_file(file, summary) if summary is not None else _repair_file(file)
             )
-        count = 0
-        for cid, ns, data in salvage.messages:
-            if cid in conns:
-                writer.write(conns[cid], ns, data)
-                count += 1
-        writer.close()
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    # the original's bytes go aside first, so a crash here leaves one of the two whole
-    aside = path.parent / f".{path.name}.unrepaired"
-    if aside.exists():
-        shutil.rmtree(aside)
-    path.rename(aside)
-    (staging / path.name).rename(path)
-    staging.rmdir()
-    shutil.rmtree(aside)
-    return count
+        except OSError as exc:
+            raise BagError(f"{file}: cannot repair: {exc}") from exc
+        done.append(info)
+        for t in found:
+            topics.setdefault((t.name, t.msgtype), t)
+    try:
+        _write_metadata(path, list(topics.values()), done)
+    except OSError as exc:
+        raise BagError(f"{path}: cannot write metadata.yaml: {exc}") from exc
+    return sum(f.message_count for f in done)
 
 
 def repair_run(run: Path | str) -> list[tuple[Path, int]]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import signal
@@ -15,8 +16,15 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from mcap.reader import make_reader
+from mcap.records import Channel as McapChannel
+from mcap.records import Chunk
+from mcap.records import Message as McapMessage
+from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.highlevel import AnyReader
 
+from jackson.host import bag_cli
+from jackson.host.cli import HostCliError
 from jackson.host.odometry import OdometryConfig
 from jackson.host.ros.bag import (
     ACCEL_SIGMA_M_S2,
@@ -26,8 +34,11 @@ from jackson.host.ros.bag import (
     FrameIds,
     StaticTransform,
     TopicNames,
+    bag_info,
+    needs_repair,
     read_bag,
     repair_bag,
+    stamp_ns,
 )
 
 ALL_TOPICS = {
@@ -66,7 +77,7 @@ def test_every_topic_is_written_with_its_type(tmp_path: Path) -> None:
         assert types == ALL_TOPICS
         assert all(c.msgcount == 1 for c in reader.connections)
     assert (tmp_path / "bag" / "metadata.yaml").exists()
-    assert (tmp_path / "bag" / "bag.mcap").exists()
+    assert (tmp_path / "bag" / "bag_0.mcap").exists()  # rosbag2 names: <folder>_<k>.mcap
 
 
 def test_stamp_and_bag_time_come_from_t_s(bag_messages: dict[str, list[tuple[int, Any]]]) -> None:
@@ -420,27 +431,54 @@ def _recorded_bag(path: Path, seconds: float = 6.0) -> None:
             bag.imu(t, (0.1, -0.2, 9.81), (0.001, -0.002, 0.3))
 
 
+def _chunk_ends(file: Path) -> list[tuple[int, list[tuple[str, int, bytes]]]]:
+    """(end offset, messages) of every chunk of a finished file, read with mcap's reader."""
+    out = []
+    topics: dict[int, str] = {}
+    with file.open("rb") as f:
+        for record in StreamReader(f, emit_chunks=True).records:
+            if isinstance(record, Chunk):
+                msgs = []
+                for r in breakup_chunk(record):
+                    if isinstance(r, McapChannel):
+                        topics[r.id] = r.topic
+                    elif isinstance(r, McapMessage):
+                        msgs.append((topics[r.channel_id], r.log_time, bytes(r.data)))
+                out.append((f.tell(), msgs))
+    return out
+
+
 def test_a_bag_cut_anywhere_repairs_to_every_whole_chunk_before_the_cut(tmp_path: Path) -> None:
     """A kill leaves the file cut at any byte: inside the header, a chunk, a record. The
-    repaired bag holds exactly the messages of the whole chunks before the cut, never a
-    damaged or invented one, and the count only grows with the cut offset."""
+    repaired bag holds exactly the messages of the chunks that were whole before the cut:
+    none lost, none damaged or invented."""
     _recorded_bag(tmp_path / "full")
     full = _raw_messages(tmp_path / "full")
-    data = next((tmp_path / "full").glob("*.mcap")).read_bytes()
-    offsets = sorted({*range(0, len(data), max(1, len(data) // 60)), 1, 7, 8, 9, 30, len(data)})
-    counts = []
+    file = next((tmp_path / "full").glob("*.mcap"))
+    data = file.read_bytes()
+    chunks = _chunk_ends(file)
+    assert len(chunks) >= 20  # one per 0.25 s flush
+    offsets = sorted({*range(0, len(data), 997), 1, 7, 8, 9, 30, len(data)})
+    offsets += [end + d for end, _ in chunks[:5] for d in (-1, 0, 1)]  # at chunk edges
     for cut in offsets:
         bag = tmp_path / f"cut{cut}"
         bag.mkdir()
         (bag / "cut.mcap").write_bytes(data[:cut])
-        n = repair_bag(bag)  # before the whole magic: an empty bag
+        n = repair_bag(bag)
         got = _raw_messages(bag)
+        whole = sorted(m for end, msgs in chunks if end <= cut for m in msgs)
+        if cut < len(data):
+            assert got == whole, f"cut at {cut}"
         assert n == len(got)
-        assert set(got) <= set(full), f"cut at {cut}: messages that were never written"
-        counts.append(n)
-    assert counts == sorted(counts)
-    assert counts[-1] == len(full)  # the whole file: everything
-    assert max(counts[:-1]) >= len(full) * 0.8  # a cut near the end loses at most the tail
+        assert _mcap_count(bag / "cut.mcap") == n  # the mcap library reads it too
+    assert _raw_messages(tmp_path / f"cut{len(data)}") == full
+
+
+def _mcap_count(file: Path) -> int:
+    with file.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.statistics is not None
+    return summary.statistics.message_count
 
 
 def test_zeros_where_the_tail_should_be_are_a_cut(tmp_path: Path) -> None:
@@ -460,48 +498,132 @@ def test_zeros_where_the_tail_should_be_are_a_cut(tmp_path: Path) -> None:
     assert set(got) <= set(full)
 
 
-def test_a_long_recording_is_split_into_complete_segments(tmp_path: Path) -> None:
-    from jackson.host.ros.bag import bag_folders
+def _killed(bag: BagRecorder) -> None:
+    """What SIGKILL leaves of an open recorder: the bytes written so far, nothing more."""
+    assert bag._file is not None
+    bag._file.flush()  # Python's buffer is in the process, but the flushed chunks are written
+    bag._file.close()
+    bag._state.closed = True
 
-    run = tmp_path / "run"
-    run.mkdir()
-    bag = BagRecorder(run / "bag", flush_interval_s=0.25, max_bytes=30_000)
-    for k in range(1200):
+
+def _long_run(bag: BagRecorder, seconds: float) -> int:
+    n = int(seconds * 20)
+    for k in range(n):
         t = k * 0.05
         bag.raw_frame(t, FRAME)
         bag.wheel_odom(t, k * 0.01, 0, 0, 0.2, 0)
+    return n
+
+
+def test_a_long_recording_is_split_into_numbered_files_of_one_bag(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag", flush_interval_s=0.25, max_bytes=30_000)
+    n = _long_run(bag, 60.0)
     bag.close()
-    folders = bag_folders(run)
-    assert folders == bag.segments
-    assert [p.name for p in folders[:3]] == ["bag", "bag.1", "bag.2"]
-    total = 0
-    stamps = []
-    for folder in folders:
-        msgs = read_bag(folder)  # each segment is a complete bag
-        assert len(msgs["/tf_static"]) == 1
-        total += len(msgs["/wheel/odom"])
-        stamps += [ns for ns, _ in msgs["/wheel/odom"]]
-        assert sum(f.stat().st_size for f in folder.glob("*.mcap")) < 30_000 * 2
-    assert total == 1200
+    names = [f.name for f in bag.files]
+    assert names == [f"bag_{k}.mcap" for k in range(len(names))] and len(names) >= 4
+    meta = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())
+    info = meta["rosbag2_bagfile_information"]
+    assert info["relative_file_paths"] == names
+    assert [f["path"] for f in info["files"]] == names
+    assert sum(f["message_count"] for f in info["files"]) == info["message_count"]
+    for f, entry in zip(bag.files, info["files"], strict=True):
+        assert f.stat().st_size < 30_000 * 2
+        assert _mcap_count(f) == entry["message_count"]  # each file is a finished MCAP
+    msgs = read_bag(tmp_path / "bag")  # rosbags reads the files as one bag
+    assert len(msgs["/wheel/odom"]) == len(msgs["/jackson/telemetry"]) == n
+    assert len(msgs["/tf_static"]) == 1
+    stamps = [ns for ns, _ in msgs["/wheel/odom"]]
     assert stamps == sorted(stamps)
+    got = bag_info(tmp_path / "bag")
+    assert got.counts["/wheel/odom"] == n and got.files == tuple(bag.files)
+    assert (got.start_ns, got.end_ns) == (0, stamp_ns((n - 1) * 0.05))
 
 
-def test_jackson_bag_repair_and_info(tmp_path: Path) -> None:
-    jackson = str(Path(sys.executable).parent / "jackson")
+def test_a_killed_split_recording_repairs_to_every_flushed_message(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag", flush_interval_s=0.25, max_bytes=30_000)
+    n = _long_run(bag, 30.0)
+    _killed(bag)
+    assert len(bag.files) >= 3 and needs_repair(tmp_path / "bag")
+    finished = {f: f.read_bytes() for f in bag.files[:-1]}
+    count = repair_bag(tmp_path / "bag")
+    msgs = read_bag(tmp_path / "bag")
+    assert count == sum(len(v) for v in msgs.values())
+    odom = [m.pose.pose.position.x for _, m in msgs["/wheel/odom"]]
+    assert n - 10 <= len(odom) < n  # the last quarter second was still in memory
+    assert odom == pytest.approx([k * 0.01 for k in range(len(odom))])
+    assert all(f.read_bytes() == b for f, b in finished.items())  # finished files untouched
+    meta = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())
+    assert meta["rosbag2_bagfile_information"]["relative_file_paths"] == [f.name for f in bag.files]
+
+
+def test_repair_is_idempotent(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag", flush_interval_s=0.25, max_bytes=30_000)
+    _long_run(bag, 20.0)
+    _killed(bag)
+    count = repair_bag(tmp_path / "bag")
+    files = {f: f.read_bytes() for f in (tmp_path / "bag").iterdir()}
+    assert repair_bag(tmp_path / "bag") == count  # a bag with metadata.yaml is left alone
+    assert {f: f.read_bytes() for f in (tmp_path / "bag").iterdir()} == files
+    # killed while repairing, after the files and before metadata.yaml: the same again
+    (tmp_path / "bag" / "metadata.yaml").unlink()
+    assert repair_bag(tmp_path / "bag") == count
+    assert {f: f.read_bytes() for f in (tmp_path / "bag").iterdir()} == files
+
+
+def test_a_failed_repair_keeps_the_original_bytes(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag", flush_interval_s=0.25)
+    _long_run(bag, 5.0)
+    _killed(bag)
+    file = bag.files[0]
+    before = file.read_bytes()
+    (file.parent / f"{file.name}.repair").mkdir()  # where the rewrite goes: cannot be written
+    with pytest.raises(BagError, match="cannot repair"):
+        repair_bag(tmp_path / "bag")
+    assert file.read_bytes() == before
+    assert not (tmp_path / "bag" / "metadata.yaml").exists()
+
+
+def test_a_file_that_is_not_mcap_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "bag").mkdir()
+    (tmp_path / "bag" / "bag_0.mcap").write_bytes(b"PK\x03\x04 not a bag at all")
+    with pytest.raises(BagError, match="not an MCAP file"):
+        repair_bag(tmp_path / "bag")
+
+
+def bag_command(*argv: str) -> int:
+    """``jackson bag ARGV`` through :func:`jackson.host.bag_cli.add_parser`."""
+    parser = argparse.ArgumentParser(prog="jackson")
+    bag_cli.add_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["bag", *argv])
+    rc: int = args.func(args)
+    return rc
+
+
+def test_jackson_bag_repair_and_info(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     run = tmp_path / "run"
-    run.mkdir()
     bag = BagRecorder(run / "bag", flush_interval_s=0.5)
     for k in range(40):
         bag.wheel_odom(k * 0.05, k * 0.01, 0, 0, 0.2, 0)
-    # killed: never closed
-    out = subprocess.run([jackson, "bag", "info", str(run)], capture_output=True, text=True)
-    assert out.returncode == 2 and "jackson bag repair" in out.stderr
-    out = subprocess.run([jackson, "bag", "repair", str(run)], capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    assert "repaired" in out.stdout and "/wheel/odom" in out.stdout
-    out = subprocess.run([jackson, "bag", "repair", str(run)], capture_output=True, text=True)
-    assert "complete, nothing to repair" in out.stdout
-    for bad in (tmp_path / "nowhere", tmp_path / "run" / "bag" / "metadata.yaml", tmp_path):
-        out = subprocess.run([jackson, "bag", "repair", str(bad)], capture_output=True, text=True)
-        assert out.returncode == 2, out
-        assert len(out.stderr.strip().splitlines()) == 1
+    _killed(bag)
+    with pytest.raises(HostCliError, match="jackson bag repair"):
+        bag_command("info", str(run))
+    assert bag_command("repair", str(run)) == 0
+    out = capsys.readouterr().out
+    # flushed with the message at 1.5 s: 31 odometry messages, and /tf_static
+    assert "repaired, 32 messages recovered" in out
+    assert "  /wheel/odom: 31" in out and "0.000 s to 1.500 s" in out
+    assert bag_command("repair", str(run)) == 0
+    assert "nothing to repair" in capsys.readouterr().out
+    assert bag_command("info", str(run / "bag")) == 0
+    assert "bag_0.mcap" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("what", ["missing", "file", "no bag"])
+def test_jackson_bag_repair_refuses_in_one_line(tmp_path: Path, what: str) -> None:
+    (tmp_path / "a_file").write_text("x")
+    (tmp_path / "empty").mkdir()
+    path = {"missing": "nowhere", "file": "a_file", "no bag": "empty"}[what]
+    with pytest.raises(HostCliError) as exc:
+        bag_command("repair", str(tmp_path / path))
+    assert str(tmp_path / path) in str(exc.value)
+    assert "\n" not in str(exc.value)

@@ -115,8 +115,10 @@ def test_a_killed_runs_bag_is_repaired_by_the_next_daemon(tmp_path: Path) -> Non
         out = run_daemon_cli(twin, "--run-dir", str(runs / "next"), "--max-seconds", "1")
     finally:
         twin.stop()
-    assert "repaired the unfinished bag" in out.stdout, out.stdout + out.stderr
+    said = [line for line in out.stdout.splitlines() if "repaired the unfinished bag" in line]
+    assert len(said) == 1, out.stdout + out.stderr
     bag = read_bag(runs / "killed" / "bag")
+    assert said[0].endswith(f": {sum(len(m) for m in bag.values())} messages recovered")
     # chunks go to disk every second of MCU time: at most that much (20 frames) is lost
     assert len(bag["/wheel/odom"]) >= kept - 40
     assert set(TOPICS) <= set(bag)
