@@ -20,6 +20,7 @@ from typing import Any, Literal
 
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
+from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
 from jackson.host.actuation.tb6612 import BridgeChannels
 from jackson.host.i2c import SOCKET_PREFIX
 from jackson.protocol.messages import (
@@ -54,11 +55,11 @@ IDENTITY: Rotation = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 class RobotGeometry:
     """Wheel geometry and encoder resolution of the odometry (Table 3, physical runtime)."""
 
-    wheel_radius_left_m: float = 0.033  # r_run
-    wheel_radius_right_m: float = 0.033
-    wheel_separation_m: float = 0.198  # B_run
-    ticks_per_rev_left: float = 621.0  # C_e,run
-    ticks_per_rev_right: float = 621.0
+    wheel_radius_left_m: float = WHEEL_RADIUS_M  # r_run
+    wheel_radius_right_m: float = WHEEL_RADIUS_M
+    wheel_separation_m: float = WHEEL_SEPARATION_M  # B_run
+    ticks_per_rev_left: float = TICKS_PER_REV  # C_e,run
+    ticks_per_rev_right: float = TICKS_PER_REV
 
     @property
     def meters_per_tick_left(self) -> float:

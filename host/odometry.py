@@ -42,6 +42,8 @@ import dataclasses
 import math
 from dataclasses import dataclass, fields
 
+from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
+
 COUNTER_MODULUS = 1 << 32  # cumulative encoder counts are signed 32-bit (schema: i32)
 COUNTER_HALF = 1 << 31
 ARC_THRESHOLD_RAD = 1e-6  # [rad] below this |d_theta| the midpoint form is used
@@ -70,11 +72,11 @@ class OdometryConfig:
         [rad^2]; the dead-reckoned pose is not fused, so these only inform consumers.
     """
 
-    wheel_radius_left_m: float = 0.033
-    wheel_radius_right_m: float = 0.033
-    wheel_separation_m: float = 0.198
-    ticks_per_rev_left: float = 621.0
-    ticks_per_rev_right: float = 621.0
+    wheel_radius_left_m: float = WHEEL_RADIUS_M
+    wheel_radius_right_m: float = WHEEL_RADIUS_M
+    wheel_separation_m: float = WHEEL_SEPARATION_M
+    ticks_per_rev_left: float = TICKS_PER_REV
+    ticks_per_rev_right: float = TICKS_PER_REV
     twist_covariance_vx: float = 0.01
     twist_covariance_vy: float = 0.001
     twist_covariance_wz: float = 0.02

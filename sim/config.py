@@ -15,6 +15,7 @@ from pathlib import Path
 
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
+from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
 
 SIM_DIR = Path(__file__).resolve().parent
@@ -98,9 +99,9 @@ class RobotSpec:
     name: str
     mass_kg: float = 2.0
     inertia_kg_m2: float = 0.021  # about z through the axle centre
-    wheel_radius_m: Sides = Sides(0.033, 0.033)
-    track_width_m: float = 0.198
-    ticks_per_rev: Sides = Sides(621.0, 621.0)
+    wheel_radius_m: Sides = Sides(WHEEL_RADIUS_M, WHEEL_RADIUS_M)
+    track_width_m: float = WHEEL_SEPARATION_M
+    ticks_per_rev: Sides = Sides(TICKS_PER_REV, TICKS_PER_REV)
     envelope_x_m: tuple[float, float] = (-0.135, 0.135177)  # collision envelope, base frame
     envelope_y_m: tuple[float, float] = (-0.135439, 0.135)
     caster_load_fraction: float = 0.2  # share of the weight on the caster
@@ -235,9 +236,9 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         name=r.text("name", path.stem),
         mass_kg=r.number("mass_kg", 2.0, 0, lo_open=True),
         inertia_kg_m2=r.number("inertia_kg_m2", 0.021, 0, lo_open=True),
-        wheel_radius_m=Sides(*r.sides("wheel_radius_m", 0.033, 0, lo_open=True, hi=0.5)),
-        track_width_m=r.number("track_width_m", 0.198, 0, lo_open=True, hi=2.0),
-        ticks_per_rev=Sides(*r.sides("ticks_per_rev", 621.0, 0, lo_open=True)),
+        wheel_radius_m=Sides(*r.sides("wheel_radius_m", WHEEL_RADIUS_M, 0, lo_open=True, hi=0.5)),
+        track_width_m=r.number("track_width_m", WHEEL_SEPARATION_M, 0, lo_open=True, hi=2.0),
+        ticks_per_rev=Sides(*r.sides("ticks_per_rev", TICKS_PER_REV, 0, lo_open=True)),
         envelope_x_m=(ex[0], ex[1]),
         envelope_y_m=(ey[0], ey[1]),
         caster_load_fraction=r.number("caster_load_fraction", 0.2, 0, hi=0.9),
