@@ -10,6 +10,7 @@ re-initialising the chip first if it was reset or asleep, and reads the register
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 import time
 from pathlib import Path
@@ -19,7 +20,7 @@ from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
 from jackson.host.actuation.tb6612 import bridge_duties
 from jackson.host.config import Pca9685Settings
-from jackson.host.i2c import I2cError, open_bus
+from jackson.host.i2c import SOCKET_PREFIX, I2cError, open_bus
 
 ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt
@@ -60,13 +61,28 @@ def brake_once(p: Pca9685Settings) -> None:
         bus.close()
 
 
+def _what_to_check(exc: BaseException, p: Pca9685Settings) -> str:
+    """The likely cause of a failed attempt, as advice for the operator."""
+    cause = exc.__cause__ if isinstance(exc.__cause__, OSError) else exc
+    code = cause.errno if isinstance(cause, OSError) else None
+    if p.bus.startswith(SOCKET_PREFIX) and code in (errno.ENOENT, errno.ECONNREFUSED):
+        return "check that the twin runs (jackson sim prints its I2C socket)"
+    if code == errno.ENOENT:
+        return "check that the bus exists (ls /dev/i2c-*) and pca9685.bus"
+    if code in (errno.EACCES, errno.EPERM):
+        return "check that the user is in the group i2c"
+    if code in (errno.EREMOTEIO, errno.ENXIO) or "acknowledged" in str(exc):
+        return f"nothing answers at {p.address:#04x}: check the board's power, SDA/SCL and address"
+    return "check the wiring and the PCA9685 board's power"
+
+
 def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
     """Brake with retries; the number of attempts it took.
 
     Raises:
-        BrakeError: Every attempt failed (the last reason).
+        BrakeError: Every attempt failed (the last reason and what to check).
     """
-    reason = ""
+    last: BaseException = BrakeError("no attempt made")
     for k in range(attempts):
         if k:
             time.sleep(BACKOFF_S[min(k - 1, len(BACKOFF_S) - 1)])
@@ -74,11 +90,25 @@ def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
             brake_once(p)
             return k + 1
         except (I2cError, OSError, BrakeError) as exc:
-            reason = str(exc)
+            last = exc
     raise BrakeError(
         f"PCA9685 at {p.address:#04x} on {p.bus}: not braked after {attempts} attempts "
-        f"({reason}); check the bus wiring and power, the MCU's interlock still brakes"
+        f"({last}); {_what_to_check(last, p)}; the MCU's interlock still brakes"
     )
+
+
+def bus_spec(text: str) -> str:
+    """argparse type: ``/dev/i2c-N``, ``N`` or ``unix:/path/to.sock``."""
+    if text.startswith(SOCKET_PREFIX):
+        ok = len(text) > len(SOCKET_PREFIX)
+    else:
+        number = text.removeprefix("/dev/i2c-")
+        ok = number.isascii() and number.isdigit()
+    if not ok:
+        raise argparse.ArgumentTypeError(
+            f"expected /dev/i2c-N, N or unix:/path/to.sock, got {text!r}"
+        )
+    return text
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -87,7 +117,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="short-brake both wheels through the PCA9685 now (systemd runs it after the daemon)",
     )
     p.add_argument("--config", type=Path, help="host YAML (default: host/config/jackson.yaml)")
-    p.add_argument("--i2c", help="I2C bus of the PCA9685 (default: pca9685.bus of the config)")
+    p.add_argument(
+        "--i2c", type=bus_spec, help="I2C bus of the PCA9685 (default: pca9685.bus of the config)"
+    )
     p.add_argument(
         "--address", type=int_in(0x03, 0x77), help="PCA9685 address (default: the config's)"
     )

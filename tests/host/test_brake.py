@@ -83,11 +83,23 @@ def test_unreachable_bus_is_one_line_and_exit_1(tmp_path: Path) -> None:
     assert out.returncode == 1
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "not braked after 4 attempts" in lines[0]
-    assert "gone.sock" in lines[0]
+    assert "gone.sock" in lines[0] and "check that the twin runs" in lines[0]
 
 
-def test_bad_address_is_exit_2() -> None:
-    out = subprocess.run([JACKSON, "brake", "--address", "0x99"], capture_output=True, text=True)
+def test_a_missing_adapter_names_what_to_check() -> None:
+    out = subprocess.run(
+        [JACKSON, "brake", "--i2c", "/dev/i2c-250"], capture_output=True, text=True
+    )
+    assert out.returncode == 1
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "/dev/i2c-250" in lines[0] and "ls /dev/i2c-*" in lines[0]
+
+
+@pytest.mark.parametrize(
+    ("flag", "value"), [("--address", "0x99"), ("--i2c", "i2c-1"), ("--i2c", "unix:")]
+)
+def test_a_bad_option_is_one_line_and_exit_2(flag: str, value: str) -> None:
+    out = subprocess.run([JACKSON, "brake", flag, value], capture_output=True, text=True)
     assert out.returncode == 2
     assert len(out.stderr.strip().splitlines()) == 1
-    assert "--address" in out.stderr
+    assert flag in out.stderr and value in out.stderr
