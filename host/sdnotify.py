@@ -23,18 +23,16 @@ class SystemdNotifier:
 
     Args:
         watchdog_s: systemd's watchdog period (``WATCHDOG_USEC``); pings go at a quarter of it,
-            so two may be lost before systemd acts. None: every DEFAULT_PING_S.
+            so a slow loop turn or a lost datagram does not trip it. None: every DEFAULT_PING_S.
     """
 
     def __init__(self, watchdog_s: float | None = None) -> None:
         self._notifier = sdnotify.SystemdNotifier()
         self.ping_s = DEFAULT_PING_S if watchdog_s is None else max(0.01, watchdog_s / 4.0)
         self._last_ping = -float("inf")
-        self.sent: list[str] = []  # every state sent, for the daemon's log and tests
 
     def _notify(self, state: str) -> None:
         self._notifier.notify(state)  # never raises: a missing socket is ignored
-        self.sent.append(state)
 
     def ready(self) -> None:
         self._notify("READY=1")
@@ -63,9 +61,12 @@ def watchdog_period_s(environ: Mapping[str, str] | None = None) -> float | None:
     return int(usec) / 1e6
 
 
-def notifier_from_env(environ: Mapping[str, str] | None = None) -> SystemdNotifier | None:
-    """A notifier when systemd started this process with ``NOTIFY_SOCKET``, else None."""
-    env = os.environ if environ is None else environ
-    if not env.get("NOTIFY_SOCKET"):
+def notifier_from_env() -> SystemdNotifier | None:
+    """A notifier when systemd started this process with ``NOTIFY_SOCKET``, else None.
+
+    Only the process environment counts: the ``sdnotify`` package connects to the
+    ``NOTIFY_SOCKET`` it finds there.
+    """
+    if not os.environ.get("NOTIFY_SOCKET"):
         return None
-    return SystemdNotifier(watchdog_period_s(env))
+    return SystemdNotifier(watchdog_period_s())
