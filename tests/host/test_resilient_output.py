@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import itertools
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -17,7 +17,7 @@ from jackson.host.actuation.output import (
     ResilientPca9685Output,
 )
 from jackson.host.config import Pca9685Settings
-from jackson.host.i2c import open_bus
+from jackson.host.i2c import I2cBus, open_bus
 from jackson.sim import pca9685 as model
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, BridgeMode, bridge_outputs
@@ -117,20 +117,44 @@ def test_ten_server_restarts_are_survived_and_counted(bus: Bus) -> None:
     assert max(calls) <= 3  # first retry after 10 ms of clock
 
 
-def test_a_foreign_write_is_detected_and_repaired_at_the_next_readback(bus: Bus) -> None:
+def put_to_sleep(foreign: I2cBus) -> None:
+    foreign.write_byte_data(0x40, model.MODE1, model.MODE1_SLEEP)
+
+
+def set_50_hz(foreign: I2cBus) -> None:
+    """Sleep (the chip takes PRE_SCALE only then), 50 Hz, wake and restart: still driving."""
+    foreign.write_byte_data(0x40, model.MODE1, model.MODE1_SLEEP | model.MODE1_AI)
+    foreign.write_byte_data(0x40, model.PRE_SCALE, model.prescale_for(50.0))
+    foreign.write_byte_data(0x40, model.MODE1, model.MODE1_RESTART | model.MODE1_AI)
+
+
+@pytest.mark.parametrize("foreign_write", [put_to_sleep, set_50_hz], ids=["MODE1", "PRE_SCALE"])
+def test_a_foreign_write_is_detected_and_repaired_at_the_next_readback(
+    bus: Bus, foreign_write: Callable[[I2cBus], None]
+) -> None:
     clock = Clock()
     out = output(bus, clock)
     drive_until_driving(out, bus, clock)
-    bus.chip().write(model.MODE1, bytes((model.MODE1_SLEEP,)))  # another client puts it to sleep
-    assert bus.modes() != (BridgeMode.CW, BridgeMode.CCW)
+    frequency_hz = bus.chip().frequency_hz
+    foreign = open_bus(f"unix:{bus.path}")  # another program on the same bus
+    foreign_write(foreign)
+    foreign.close()
+    if foreign_write is set_50_hz:  # awake and driving, only slower: MODE1 alone cannot tell
+        assert not bus.chip().asleep and bus.chip().frequency_hz < frequency_hz / 10
+    else:
+        assert bus.chip().asleep
+    written = clock.t
     clock.t += READBACK_PERIOD_S / 2
     out.set(0.5, -0.5)
     assert out.health().foreign_writes == 0  # not yet read back
-    clock.t += READBACK_PERIOD_S / 2 + 0.001
-    out.set(0.5, -0.5)
+    while out.health().foreign_writes == 0:
+        assert clock.t - written <= READBACK_PERIOD_S, "not detected within one readback period"
+        clock.t += 0.01
+        out.set(0.5, -0.5)
     h = out.health()
     assert h.foreign_writes == 1 and h.reinits == 1 and h.i2c_errors == 0
     assert "changed" in h.last_error
+    assert not bus.chip().asleep and bus.chip().frequency_hz == frequency_hz
     assert bus.modes() == (BridgeMode.CW, BridgeMode.CCW)
 
 
