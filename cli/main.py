@@ -230,8 +230,10 @@ def build_parser() -> argparse.ArgumentParser:
     from jackson.sim import cli as sim_cli
 
     host_cli.add_parsers(sub)
+    from jackson.host import bag_cli
     from jackson.host import brake as brake_cli
 
+    bag_cli.add_parser(sub)
     brake_cli.add_parser(sub)
 
     sim_cli.add_parser(sub)

@@ -57,79 +57,10 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument("--duration", type=positive_float, help="stop after this many seconds")
     p.set_defaults(func=cmd_monitor)
 
-    _add_bag_parser(sub)
-
     p = sub.add_parser("replay", help="feed a run folder back through the host, offline")
     p.add_argument("run", type=Path, help="run folder written by jackson daemon")
     p.add_argument("--out", type=Path, help="where to write the replayed outputs (default: temp)")
     p.set_defaults(func=cmd_replay)
-
-
-def _add_bag_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("bag", help="the rosbag2 of a run folder: repair a killed run's, or list it")
-    cmds = p.add_subparsers(dest="bag_command", metavar="ACTION", required=True)
-    r = cmds.add_parser(
-        "repair",
-        help="make the unfinished bags of a run (killed, power lost) readable, like ros2 bag "
-        "reindex; the daemon does it for earlier runs when it starts",
-    )
-    r.add_argument("run", type=Path, help="run folder (or one bag folder)")
-    r.set_defaults(func=cmd_bag_repair)
-    i = cmds.add_parser("info", help="topics, message counts and time span of a run's bags")
-    i.add_argument("run", type=Path, help="run folder (or one bag folder)")
-    i.set_defaults(func=cmd_bag_info)
-
-
-def _bags(run: Path) -> list[Path]:
-    from jackson.host.ros.bag import bag_folders
-
-    if not run.is_dir():
-        what = "does not exist" if not run.exists() else "is a file"
-        raise HostCliError(f"{run}: {what}; give a run folder or a bag folder")
-    if any(run.glob("*.mcap")):
-        return [run]
-    bags = bag_folders(run)
-    if not bags:
-        raise HostCliError(f"{run}: no bag in it (a run folder holds bag/, a bag folder *.mcap)")
-    return bags
-
-
-def cmd_bag_repair(args: argparse.Namespace) -> int:
-    from jackson.host.ros.bag import BagError, needs_repair, repair_bag
-
-    for bag in _bags(args.run):
-        if not needs_repair(bag):
-            print(f"{bag}: complete, nothing to repair")
-            continue
-        try:
-            n = repair_bag(bag)
-        except BagError as exc:
-            raise HostCliError(str(exc)) from exc
-        print(f"{bag}: repaired, {n} messages kept")
-    return cmd_bag_info(args)
-
-
-def cmd_bag_info(args: argparse.Namespace) -> int:
-    from jackson.host.ros.bag import BagError, needs_repair, read_bag
-
-    for bag in _bags(args.run):
-        if needs_repair(bag):
-            raise HostCliError(
-                f"{bag}: unfinished (no metadata.yaml): jackson bag repair {args.run}"
-            )
-        try:
-            topics = read_bag(bag)
-        except BagError as exc:
-            raise HostCliError(str(exc)) from exc
-        stamps = [ns for msgs in topics.values() for ns, _ in msgs]
-        span = f"{min(stamps) / 1e9:.3f}-{max(stamps) / 1e9:.3f} s" if stamps else "empty"
-        size = sum(f.stat().st_size for f in bag.glob("*.mcap"))
-        print(
-            f"{bag}: {sum(len(m) for m in topics.values())} messages, {span}, {size / 1e6:.1f} MB"
-        )
-        for topic, msgs in sorted(topics.items()):
-            print(f"  {topic}: {len(msgs)}")
-    return 0
 
 
 def _load(path: Path | None) -> object:
