@@ -54,7 +54,7 @@ from __future__ import annotations
 import math
 import os
 import struct
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 from typing import Any, BinaryIO, Literal
@@ -1010,55 +1010,36 @@ def _split_index(file: Path) -> tuple[int, str]:
     return (int(k) if k.isdigit() else -1, file.name)
 
 
-@dataclass
-class _Salvage:
-    """The whole records of an MCAP file whose writer died: schemas, channels, messages."""
-
-    schemas: dict[int, McapSchema] = field(default_factory=dict)
-    channels: dict[int, McapChannel] = field(default_factory=dict)
-    messages: list[McapMessage] = field(default_factory=list)
-    bad_chunks: int = 0  # chunks whose CRC or compression failed (skipped)
-
-    def take(self, record: object) -> None:
-        if isinstance(record, McapSchema):
-            self.schemas[record.id] = record
-        elif isinstance(record, McapChannel):
-            self.channels[record.id] = record
-        elif isinstance(record, McapMessage):
-            self.messages.append(record)
-
-
 # what the mcap readers raise where a file ends inside a record or holds garbage
 _CUT = (McapError, EOFError, ValueError, struct.error, RuntimeError)
 
 
-def _salvage(file: Path) -> _Salvage:
-    """Every whole record of ``file``, read with the mcap library's stream reader: it stops at
-    the first record cut by the kill; a chunk that is whole but damaged (a power loss can leave
-    zeros where data should be) fails its CRC and is skipped."""
-    out = _Salvage()
+def _whole_records(file: Path) -> Iterator[object]:
+    """Every whole record of ``file`` in order, chunks opened, read with the mcap library's
+    stream reader: it stops at the first record cut by the kill; a chunk that is whole but
+    damaged (a power loss can leave zeros where data should be) fails its CRC and is skipped.
+
+    Raises:
+        BagError: The file does not start with the MCAP magic.
+    """
     with file.open("rb") as f:
         records = StreamReader(f, emit_chunks=True, record_size_limit=1 << 30).records
         while True:
             try:
                 record = next(records)
             except StopIteration:
-                break
+                return
             except InvalidMagic as exc:
                 raise BagError(f"{file}: not an MCAP file") from exc
             except _CUT:
-                break  # the end of what reached the disk (a cut magic: nothing)
+                return  # the end of what reached the disk (a cut magic: nothing)
             if isinstance(record, McapChunk):
                 try:
-                    inner = breakup_chunk(record, validate_crc=True)
+                    yield from breakup_chunk(record, validate_crc=True)
                 except _CUT:
-                    out.bad_chunks += 1
                     continue
-                for r in inner:
-                    out.take(r)
             else:
-                out.take(record)
-    return out
+                yield record
 
 
 def _summary(file: Path) -> Summary | None:
@@ -1099,52 +1080,49 @@ def _finished_file(file: Path, summary: Summary) -> tuple[BagFile, list[BagTopic
 def _repair_file(file: Path) -> tuple[BagFile, list[BagTopic]]:
     """Rewrite an unfinished MCAP file with the messages of its whole records and a summary,
     written beside it and moved over it (``os.replace``) only when complete."""
-    salvage = _salvage(file)
     tmp = file.with_name(f"{file.name}.repair")
     try:
         with tmp.open("wb") as f:
-            counts, span, topics = _rewrite(salvage, f)
+            found = _rewrite(_whole_records(file), f)
             f.flush()
             os.fsync(f.fileno())
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     _fsync_replace(tmp, file)
+    counts, span, topics = found
     return BagFile(file.name, counts, *span), topics
 
 
 def _rewrite(
-    salvage: _Salvage, out: BinaryIO
+    records: Iterable[object], out: BinaryIO
 ) -> tuple[dict[str, int], tuple[int, int], list[BagTopic]]:
-    """Write the salvaged records as a finished MCAP file: messages per topic, their span
-    (0, 0 without messages) and the topics kept."""
+    """Copy schemas, channels and messages to ``out`` as a finished MCAP file, one record at
+    a time; the messages per topic, their span ((0, 0) without any) and the topics kept."""
     writer = McapFileWriter(out, compression=CompressionType.NONE)
     writer.start(profile="ros2", library="jackson")
-    schema_ids: dict[int, int] = {}
-    for sid, schema in sorted(salvage.schemas.items()):
-        schema_ids[sid] = writer.register_schema(schema.name, schema.encoding, schema.data)
-    channel_ids: dict[int, int] = {}
+    schemas: dict[int, tuple[int, McapSchema]] = {}  # old id -> new id, record
+    channels: dict[int, tuple[int, str]] = {}  # old id -> new id, topic
     topics = []
-    for cid, channel in sorted(salvage.channels.items()):
-        if channel.schema_id and channel.schema_id not in schema_ids:
-            continue  # its type was cut off: its messages cannot be decoded
-        channel_ids[cid] = writer.register_channel(
-            channel.topic,
-            channel.message_encoding,
-            schema_ids.get(channel.schema_id, 0),
-            channel.metadata,
-        )
-        topics.append(_topic(channel, salvage.schemas.get(channel.schema_id)))
     counts: dict[str, int] = {}
-    stamps = []
-    for m in salvage.messages:
-        if m.channel_id in channel_ids:
-            writer.add_message(channel_ids[m.channel_id], m.log_time, m.data, m.publish_time)
-            topic = salvage.channels[m.channel_id].topic
+    start, end = 2**64, -1
+    for r in records:
+        if isinstance(r, McapSchema) and r.id not in schemas:
+            schemas[r.id] = (writer.register_schema(r.name, r.encoding, r.data), r)
+        elif isinstance(r, McapChannel) and r.id not in channels:
+            if r.schema_id and r.schema_id not in schemas:
+                continue  # its type was cut off: its messages cannot be decoded
+            new_sid, schema = schemas[r.schema_id] if r.schema_id else (0, None)
+            new_cid = writer.register_channel(r.topic, r.message_encoding, new_sid, r.metadata)
+            channels[r.id] = (new_cid, r.topic)
+            topics.append(_topic(r, schema))
+        elif isinstance(r, McapMessage) and r.channel_id in channels:
+            cid, topic = channels[r.channel_id]
+            writer.add_message(cid, r.log_time, r.data, r.publish_time, r.sequence)
             counts[topic] = counts.get(topic, 0) + 1
-            stamps.append(m.log_time)
+            start, end = min(start, r.log_time), max(end, r.log_time)
     writer.finish()  # type: ignore[no-untyped-call]
-    return counts, ((min(stamps), max(stamps)) if stamps else (0, 0)), topics
+    return counts, ((start, end) if counts else (0, 0)), topics
 
 
 def repair_bag(path: Path | str) -> int:
