@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -130,9 +131,15 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             pca.init(cfg.pca9685.frequency_hz)
         except (I2cError, OSError) as exc:
             transport.close()
-            raise HostCliError(
-                f"PCA9685 at {cfg.pca9685.address:#04x} on {cfg.pca9685.bus}: {exc}"
-            ) from exc
+            if "expected /dev/i2c-N" in str(exc) or "names no socket" in str(exc):
+                raise HostCliError(f"--i2c / pca9685.bus: {exc}") from exc
+            # hardware that does not answer (yet): exit 1, so systemd starts the daemon again
+            print(
+                f"jackson daemon: PCA9685 at {cfg.pca9685.address:#04x} on {cfg.pca9685.bus}: "
+                f"{exc}",
+                file=sys.stderr,
+            )
+            return 1
     meta = {
         "mission": args.mission,
         "config": str(args.config or "default"),

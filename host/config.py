@@ -204,7 +204,7 @@ class HostConfig:
     serial: SerialSettings = field(default_factory=SerialSettings)
     watchdog_s: float = 0.6  # velocity commands older than this brake the motors
     recording_folder: Path = Path("runs")
-    bag_max_mb: float = 1024.0  # a run's bag starts a new segment beyond this (0: never)
+    bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
 
 
 # ------------------------------------------------------------------------- validation

@@ -552,12 +552,17 @@ class Daemon:
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         self.events: list[str] = []  # what the operator was told, in order
+        self._repairer: threading.Thread | None = None
         self.bag: Any = None
         if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
             from jackson.host.ros.bag import BagRecorder
             from jackson.host.ros.bag_listener import BagListener
 
-            self._repair_earlier_runs(run_folder)
+            # earlier runs' unfinished bags are repaired beside the running daemon: READY and
+            # the watchdog's pings must not wait for a long repair
+            self._repairer = threading.Thread(
+                target=self._repair_earlier_runs, args=(run_folder,), name="bag-repair", daemon=True
+            )
             max_bytes = int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None
             self.bag = BagRecorder(run_folder / "bag", max_bytes=max_bytes)
             self.core.listeners.append(BagListener(self.bag))
@@ -603,9 +608,15 @@ class Daemon:
                 try:
                     n = repair_bag(bag)
                 except Exception as exc:  # a damaged old bag must not keep the robot down
-                    self.tell(f"could not repair the unfinished bag {bag}: {exc}")
+                    self._say(f"could not repair the unfinished bag {bag}: {exc}")
                 else:
-                    self.tell(f"repaired the unfinished bag {bag}: {n} messages recovered")
+                    self._say(f"repaired the unfinished bag {bag}: {n} messages recovered")
+
+    def _say(self, text: str) -> None:
+        """:meth:`tell` from another thread: printed and kept, not written into the run's log
+        (the main loop owns it)."""
+        self.events.append(text)
+        print(f"daemon: {text}", flush=True)
 
     def tell(self, text: str) -> None:
         """One line for the operator: printed, and in the run's log."""
@@ -675,6 +686,8 @@ class Daemon:
             self.bridge.start()
         if self.notifier is not None:
             self.notifier.ready()
+        if self._repairer is not None and not self._repairer.is_alive():
+            self._repairer.start()
         try:
             while not self.stop.is_set():
                 if deadline is not None and time.monotonic() > deadline:
@@ -732,6 +745,8 @@ class Daemon:
             if self.bridge is not None:
                 self.bridge.stop()
             self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
+            if self._repairer is not None and self._repairer.is_alive():
+                self._repairer.join()  # a repair replaces the bag only once complete
             if self.recorder is not None:
                 self._write_health()
                 self.recorder.close()

@@ -1,4 +1,4 @@
-"""The daemon under systemd's notify protocol, against the twin: READY once connected, a
+"""The daemon under systemd's notify protocol, against the twin: READY when its loop starts, a
 WATCHDOG ping from the main loop at a quarter of WATCHDOG_USEC, STOPPING at the end; a hung
 daemon (SIGSTOP) stops pinging, which is what makes systemd kill it and run ``jackson brake``."""
 
@@ -21,7 +21,8 @@ def _receive(sock: socket.socket, until: float, last: str = "") -> list[tuple[fl
     while time.monotonic() < until and not (got and got[-1][1] == last):
         sock.settimeout(max(0.01, until - time.monotonic()))
         try:
-            got.append((time.monotonic(), sock.recv(256).decode()))
+            text = sock.recv(256).decode()  # stamped when it arrived, not when waited for
+            got.append((time.monotonic(), text))
         except TimeoutError:
             break
     return got
