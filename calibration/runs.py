@@ -45,7 +45,8 @@ from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, ImuCalibration, dump_config
 from jackson.host.control import NavState, wrap_angle
-from jackson.host.daemon import Daemon, odometry_config
+from jackson.host.core import odometry_config
+from jackson.host.daemon import Daemon
 from jackson.host.i2c import I2cBus, I2cError, open_bus
 from jackson.host.odometry import WheelOdometry, tick_delta
 from jackson.host.recording import KIND_RX, KIND_TX, RecordingError, RunRecorder, read_log
@@ -664,7 +665,7 @@ class DutyScript(Protocol):
 def _configure(host: ScriptedHost, info: Info, cfg: HostConfig) -> None:
     """The daemon's SET_RATE and SET_CONFIG, so counts and ranges are as the host expects (no
     IMU calibration: the procedures read raw IMU values)."""
-    from jackson.host.daemon import device_setup
+    from jackson.host.core import device_setup
 
     for msg in device_setup(cfg, info, calibration=False):
         host.send(msg)

@@ -23,7 +23,7 @@ from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig
 from jackson.host.control import SquareMission
-from jackson.host.daemon import HostCore
+from jackson.host.core import HostCore
 from jackson.host.i2c import SocketI2cBus
 from jackson.protocol import FrameDecoder, Message, encode_frame
 from jackson.sim.config import load_robot, load_world

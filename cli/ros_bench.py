@@ -19,7 +19,7 @@ from typing import Any
 from jackson.common.bench import BenchResult
 from jackson.host.actuation.output import NullOutput
 from jackson.host.config import HostConfig
-from jackson.host.daemon import HostCore
+from jackson.host.core import HostCore
 from jackson.protocol import FrameDecoder
 
 

@@ -1,26 +1,12 @@
-"""The host daemon: one telemetry frame in, odometry, EKF, a command and a heartbeat out.
-
-:class:`HostCore` is everything the daemon computes, free of I/O but for its motor output and a
-``send`` callable, so the same code runs on the robot, against the twin and in ``jackson
-replay``. Per telemetry frame, on MCU time (the unwrapped ``t_us``, never the wall clock):
-
-1. wheel odometry (Eq. 2, 3, 9) from the cumulative counts;
-2. the EKF: outputs at 30 Hz of MCU time up to this frame (predict only), then predict to the
-   frame and fuse wheel ``vx`` with ``vy = 0`` and the IMU yaw rate less the start-up gyro bias;
-3. a command: from the mission, or the newest external (``/cmd_vel``-style) command, which
-   brakes once older than the watchdog (0.6 s);
-4. the actuation chain: velocity and acceleration limits, inverse kinematics, optional wheel
-   PI, per-wheel and per-direction deadband compensation, the motor output;
-5. a HEARTBEAT acknowledging the frame (in lockstep, the twin advances on it).
-
-:class:`Daemon` adds the serial transport, the recorder and the process lifecycle.
+"""The host daemon: the serial transport, the run folder and the process around
+:class:`jackson.host.core.HostCore` (which computes everything per frame, see there): link
+health, commands acknowledged, the motor path watched, systemd told, signals handled.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import queue
 import signal
 import threading
@@ -31,113 +17,25 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
-from jackson.host.actuation.kinematics import inverse
-from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
-from jackson.host.actuation.watchdog import CommandWatchdog
-from jackson.host.actuation.wheel_pi import WheelPiConfig, WheelSpeedPi
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
-from jackson.host.control import MISSIONS, Mission, NavState
-from jackson.host.control.guard import MissionGuard
-from jackson.host.ekf import Ekf, EkfConfig, EkfState, GyroBiasEstimator
-from jackson.host.odometry import OdometryConfig, OdometryState, WheelOdometry
+from jackson.host.control import MISSIONS
+from jackson.host.core import (
+    CoreListener,
+    HostCore,
+)
+from jackson.host.ekf import EkfState
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
     PROTOCOL_VERSION,
-    Frame,
     FrameVersionError,
     Heartbeat,
     HostState,
-    Info,
     Message,
-    SetConfig,
-    SetImuCalibration,
-    SetRate,
     Telemetry,
     TelemetryFlags,
-    TimestampUnwrapper,
-    check_peer,
-    decode_message,
 )
-from jackson.protocol.units import yaw_rate_rad_s
-
-
-def odometry_config(cfg: HostConfig) -> OdometryConfig:
-    r, c = cfg.robot, cfg.odometry
-    return OdometryConfig(
-        wheel_radius_left_m=r.wheel_radius_left_m,
-        wheel_radius_right_m=r.wheel_radius_right_m,
-        wheel_separation_m=r.wheel_separation_m,
-        ticks_per_rev_left=r.ticks_per_rev_left,
-        ticks_per_rev_right=r.ticks_per_rev_right,
-        twist_covariance_vx=c.twist_vx,
-        twist_covariance_vy=c.twist_vy,
-        twist_covariance_wz=c.twist_wz,
-        pose_covariance_xy=c.pose_xy,
-        pose_covariance_yaw=c.pose_yaw,
-    )
-
-
-def ekf_config(cfg: HostConfig) -> EkfConfig:
-    e = cfg.ekf
-    q = e.process_noise
-    return EkfConfig(
-        process_noise=(q.x, q.y, q.yaw, q.vx, q.vy, q.vyaw, q.ax),
-        initial_covariance=e.initial_covariance,
-        r_vx=e.r_vx,
-        r_vy=e.r_vy,
-        r_wz=e.r_wz,
-        sensor_timeout_s=e.sensor_timeout_s,
-        output_rate_hz=e.frequency_hz,
-        mahalanobis_threshold_wheel=e.mahalanobis_wheel or None,
-        mahalanobis_threshold_imu=e.mahalanobis_imu or None,
-    )
-
-
-def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
-    """The commands that bring a device (its INFO) to the configuration: SET_RATE and SET_CONFIG
-    where they differ, and SET_IMU_CALIBRATION when the config holds one (and ``calibration``)."""
-    out: list[Message] = []
-    if info.telemetry_rate_hz != cfg.serial.telemetry_rate_hz:
-        out.append(SetRate(rate_hz=cfg.serial.telemetry_rate_hz))
-    failsafe_ms = round(cfg.watchdog_s * 1000)
-    wanted = (cfg.imu.accel_fs, cfg.imu.gyro_fs, cfg.imu.direction_flags, failsafe_ms)
-    if (info.accel_fs, info.gyro_fs, info.direction_flags, info.failsafe_ms) != wanted:
-        out.append(
-            SetConfig(
-                accel_fs=wanted[0],
-                gyro_fs=wanted[1],
-                direction_flags=wanted[2],
-                failsafe_ms=failsafe_ms,
-                persist=0,
-            )
-        )
-    cal = cfg.imu.calibration
-    if calibration and cal is not None:
-        out.append(
-            SetImuCalibration(
-                imu_rotation=cal.rotation,
-                gyro_bias=cal.gyro_bias_rad_s,
-                accel_scale=cal.accel_scale,
-                persist=0,
-            )
-        )
-    return out
-
-
-class CoreListener:
-    """Receives what the core computes (the ROS bridge, the rosbag2 recorder); no-op defaults."""
-
-    def on_frame(self, frame: Frame, host_time_ns: int) -> None:
-        """Every frame received, before it is handled."""
-
-    def on_telemetry(self, core: HostCore, telemetry: Telemetry) -> None:
-        """After a telemetry frame was handled (odometry, EKF, command are current)."""
-
-    def on_filtered(self, t_s: float, state: EkfState) -> None:
-        """Each 30 Hz EKF output."""
 
 
 class _BridgeListener(CoreListener):
@@ -151,298 +49,6 @@ class _BridgeListener(CoreListener):
 
     def on_filtered(self, t_s: float, state: EkfState) -> None:
         self.bridge.on_filtered(t_s, state)
-
-
-class HostCore:
-    """The daemon's computation; see the module docstring for the order of work per frame."""
-
-    def __init__(
-        self,
-        cfg: HostConfig,
-        output: MotorOutput,
-        send: Callable[[Message], object],
-        *,
-        mission: Mission | None = None,
-        recorder: RunRecorder | None = None,
-        mission_timeout_s: float | None = None,
-    ) -> None:
-        self.cfg = cfg
-        self.output = output
-        self.send = send
-        self.mission = mission
-        self.recorder = recorder
-        self.guard = MissionGuard(mission.name, mission_timeout_s) if mission is not None else None
-        self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
-        self.mcu_resets = 0  # INFO with another boot_id: counts and clock re-anchored
-        self.host_state = HostState.ACTIVE  # sent in every HEARTBEAT (SHUTDOWN drops the interlock)
-        self._reanchor = False
-        self._wheel_cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] commanded at the last frame
-        self._rx_ns = 0
-        self.unwrapper = TimestampUnwrapper()
-        self.odometry = WheelOdometry(odometry_config(cfg))
-        self.ekf = Ekf(ekf_config(cfg))
-        self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
-        lim = cfg.limits
-        self.limiter = VelocityLimiter(
-            LimiterConfig(
-                lim.max_v_m_s,
-                lim.max_w_rad_s,
-                lim.max_accel_m_s2,
-                lim.max_decel_m_s2,
-                lim.max_alpha_rad_s2,
-                lim.max_alpha_decel_rad_s2,
-            )
-        )
-        d = cfg.deadband
-        self.deadband = DeadbandConfig(
-            d.forward_left,
-            d.reverse_left,
-            d.forward_right,
-            d.reverse_right,
-            d.max_wheel_rad_s,
-            d.zero_threshold_rad_s,
-            d.gain_left,
-            d.gain_right,
-        )
-        pi = cfg.wheel_pi
-        pi_cfg = WheelPiConfig(
-            kp=pi.kp,
-            ki=pi.ki,
-            integral_limit=pi.integral_limit,
-            zero_threshold_rad_s=d.zero_threshold_rad_s,
-        )
-        self.pi = (WheelSpeedPi(pi_cfg), WheelSpeedPi(pi_cfg)) if pi.enabled else None
-        self.watchdog = CommandWatchdog(cfg.watchdog_s)
-        self.info: Info | None = None
-        self.t_s: float | None = None
-        self.last_odometry: OdometryState | None = None
-        self.external: tuple[float, float] = (0.0, 0.0)
-        self._external_pending: tuple[float, float, int] | None = None
-        self._taken: tuple[float, float, int] | None = None
-        self._next_output_s: float | None = None
-        self.frames = 0
-        self.braked = True
-        self.ekf_outputs = 0
-        self.last_output: EkfState | None = None
-        self.listeners: list[CoreListener] = []
-        self.last_telemetry: Telemetry | None = None
-
-    # ------------------------------------------------------------------ inputs
-
-    def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None:
-        """An external velocity command (``/cmd_vel``); it takes effect, stamped on MCU time, at
-        the next telemetry frame. Safe to call from another thread (the ROS executor)."""
-        if not (math.isfinite(v_m_s) and math.isfinite(w_rad_s)):
-            return  # a NaN must never become a duty
-        self._external_pending = (v_m_s, w_rad_s, host_time_ns)
-
-    def on_frame(self, frame: Frame, host_time_ns: int = 0) -> None:
-        """One decoded frame from the MCU."""
-        self._taken = None
-        if frame.type == Telemetry.TYPE and self._external_pending is not None:
-            # taken once, on this thread; logged before the frame that applies it, so a replay
-            # applies it to the same frame
-            self._taken, self._external_pending = self._external_pending, None
-            if self.recorder is not None:
-                v, w, t_ns = self._taken
-                self.recorder.command(t_ns, v, w)
-        if self.recorder is not None:
-            self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
-        for listener in self.listeners:
-            listener.on_frame(frame, host_time_ns)
-        self._rx_ns = host_time_ns
-        msg = decode_message(frame)
-        if isinstance(msg, Info):
-            check_peer(msg)  # raises ProtocolMismatchError naming both versions
-            if self.info is not None and msg.boot_id != self.info.boot_id:
-                # an MCU reset: its counts and clock restart; the next frame is a new origin
-                self.mcu_resets += 1
-                self._reanchor = True
-                self.event(f"mcu reset: boot_id {self.info.boot_id:#010x} -> {msg.boot_id:#010x}")
-            self.info = msg
-            self._configure_device()
-        elif isinstance(msg, Telemetry):
-            self._on_telemetry(msg, frame.seq)
-
-    def event(self, text: str) -> None:
-        """Something the operator should know, in the run's log (a link record)."""
-        if self.recorder is not None:
-            self.recorder.link(self._rx_ns, text)
-
-    def abort(self, reason: str) -> None:
-        """Stop the mission for good: brake from now on; the daemon exits naming ``reason``."""
-        if self.abort_reason is None:
-            self.abort_reason = reason
-            self.event(f"mission aborted: {reason}")
-
-    def _configure_device(self) -> None:
-        """Bring the device's rate, ranges, direction flags and failsafe to the config."""
-        assert self.info is not None
-        for msg in device_setup(self.cfg, self.info):
-            self.send(msg)
-
-    # ------------------------------------------------------------------ the frame
-
-    def _on_telemetry(self, t: Telemetry, seq: int) -> None:
-        if self._reanchor:
-            self._reanchor = False
-            self.unwrapper.reanchor()
-            self.odometry.reanchor()
-        t_s = self.unwrapper.unwrap(t.t_us) / 1e6
-        self.t_s = t_s
-        self.frames += 1
-        odo = self.odometry.update(t_s, t.enc_left, t.enc_right)
-        self.last_odometry = odo
-        ekf = self.ekf
-        # 30 Hz outputs of MCU time up to this frame: prediction only between measurements
-        period = 1.0 / self.cfg.ekf.frequency_hz
-        if self._next_output_s is None:
-            self._next_output_s = math.ceil(t_s / period) * period
-        while self._next_output_s <= t_s + 1e-9:
-            if ekf.initialized:
-                self._record_ekf(self._next_output_s)
-            self._next_output_s += period
-        ekf.update_wheel(t_s, odo.v_m_s, 0.0)
-        if t.flags & TelemetryFlags.IMU_OK:
-            wz = yaw_rate_rad_s(t)
-            still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
-            self.gyro_bias.add(t_s, wz, still)
-            bias = self.gyro_bias.bias_rad_s
-            if bias is not None:
-                ekf.update_gyro(t_s, wz - bias)
-        # command and actuation
-        v_cmd, w_cmd, brake = self._command(t_s, odo, t)
-        self._actuate(t_s, v_cmd, w_cmd, brake, odo)
-        self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
-        self.last_telemetry = t
-        for listener in self.listeners:
-            listener.on_telemetry(self, t)
-        if self.recorder is not None:
-            self.recorder.row(
-                self.recorder.odometry,
-                (
-                    t_s,
-                    odo.x_m,
-                    odo.y_m,
-                    odo.yaw_rad,
-                    odo.v_m_s,
-                    odo.w_rad_s,
-                    t.enc_left,
-                    t.enc_right,
-                ),
-            )
-            self.recorder.frame_done()
-
-    def _record_ekf(self, t_s: float) -> None:
-        """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""
-        self.ekf_outputs += 1
-        self.last_output = s = self.ekf.state_at(t_s)
-        for listener in self.listeners:
-            listener.on_filtered(t_s, s)
-        if self.recorder is None:
-            return
-        self.recorder.row(
-            self.recorder.ekf,
-            (
-                t_s,
-                s.x_m,
-                s.y_m,
-                s.yaw_rad,
-                s.vx_m_s,
-                s.vy_m_s,
-                s.vyaw_rad_s,
-                s.ax_m_s2,
-                s.p_xx,
-                s.p_yy,
-                s.p_yawyaw,
-            ),
-        )
-
-    def nav_state(self) -> NavState:
-        e = self.ekf
-        return NavState(self.t_s or 0.0, e.x_m, e.y_m, e.yaw_rad, e.vx_m_s, e.vyaw_rad_s)
-
-    def _command(self, t_s: float, odo: OdometryState, t: Telemetry) -> tuple[float, float, bool]:
-        if self._taken is not None:
-            self.external = (self._taken[0], self._taken[1])
-            self._taken = None
-            self.watchdog.feed(t_s)
-        if self.mission is not None:
-            if self.abort_reason is not None:
-                return 0.0, 0.0, True
-            bias_known = self.gyro_bias.bias_rad_s is not None
-            if self.guard is not None and not self.mission.done:
-                reason = self.guard.check(
-                    t_s,
-                    bool(t.flags & TelemetryFlags.IMU_OK),
-                    bias_known,
-                    (t.enc_left, t.enc_right),
-                    self._wheel_cmd,
-                )
-                if reason is not None:
-                    self.abort(reason)
-                    return 0.0, 0.0, True
-            if not bias_known:
-                return 0.0, 0.0, True  # stand still until the gyro bias is known
-            v, w = self.mission.command(self.nav_state())
-            return v, w, self.mission.done
-        if self.watchdog.expired(t_s):
-            return 0.0, 0.0, True
-        return self.external[0], self.external[1], False
-
-    def _actuate(
-        self, t_s: float, v_cmd: float, w_cmd: float, brake: bool, odo: OdometryState
-    ) -> None:
-        if brake:
-            self.limiter.reset()
-            if self.pi is not None:
-                for pi in self.pi:
-                    pi.reset()
-            self.output.brake()
-            self.braked = True
-            duties = (0.0, 0.0)
-            v = w = 0.0
-            self._wheel_cmd = (0.0, 0.0)
-        else:
-            v, w = self.limiter.limit(v_cmd, w_cmd, t_s)
-            r = self.cfg.robot
-            om_l, om_r = inverse(
-                v, w, r.wheel_radius_left_m, r.wheel_radius_right_m, r.wheel_separation_m
-            )
-            self._wheel_cmd = (om_l, om_r)
-            d_l = wheel_duty(om_l, "left", self.deadband)
-            d_r = wheel_duty(om_r, "right", self.deadband)
-            if self.pi is not None:
-                d_l = max(
-                    -1.0,
-                    min(
-                        1.0,
-                        d_l
-                        + self.pi[0].update(
-                            om_l, odo.wheel_velocity_left_rad_s, t_s, feedforward_duty=d_l
-                        ),
-                    ),
-                )
-                d_r = max(
-                    -1.0,
-                    min(
-                        1.0,
-                        d_r
-                        + self.pi[1].update(
-                            om_r, odo.wheel_velocity_right_rad_s, t_s, feedforward_duty=d_r
-                        ),
-                    ),
-                )
-            self.output.set(d_l, d_r)
-            self.braked = False
-            duties = (d_l, d_r)
-        if self.recorder is not None:
-            self.recorder.row(self.recorder.commands, (t_s, v, w, duties[0], duties[1], int(brake)))
-
-    def brake(self) -> None:
-        """Brake now (link lost, shutdown)."""
-        self.output.brake()
-        self.braked = True
 
 
 class DaemonError(RuntimeError):

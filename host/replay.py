@@ -120,7 +120,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import DEFAULT_CONFIG, load_config
     from jackson.host.control import MISSIONS
-    from jackson.host.daemon import HostCore
+    from jackson.host.core import HostCore
     from jackson.protocol import Telemetry
 
     meta, mission = _meta(run)

@@ -37,7 +37,7 @@ def _telemetry_run(folder: Path, frames: int = 40, *, mission: str | None = "squ
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import DEFAULT_CONFIG, load_config
     from jackson.host.control import MISSIONS
-    from jackson.host.daemon import HostCore
+    from jackson.host.core import HostCore
     from jackson.protocol import Frame
 
     cfg = load_config(DEFAULT_CONFIG)

@@ -70,3 +70,47 @@ def test_nothing_imports_rclpy_without_ros() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def _module_name(path: Path) -> str:
+    folder = path.relative_to(ROOT).parts[0]
+    package = {v: k for k, v in MAPPING.items()}[folder]
+    rest = path.relative_to(ROOT / folder).with_suffix("").parts
+    parts = [p for p in rest if p != "__init__"]
+    return ".".join([package, *parts])
+
+
+def test_no_import_cycles() -> None:
+    """No two modules import each other, directly or round a loop, not even through an import
+    inside a function (that only hides the knot)."""
+    modules = {
+        _module_name(p): p
+        for folder in MAPPING.values()
+        for p in (ROOT / folder).rglob("*.py")
+        if "vectors" not in p.parts
+    }
+    graph: dict[str, set[str]] = {m: set() for m in modules}
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            targets: list[str] = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            for t in targets:
+                if t in modules and t != name and not name.startswith(t + "."):
+                    graph[name].add(t)
+    done: set[str] = set()
+
+    def visit(node: str, stack: list[str]) -> None:
+        if node in stack:
+            cycle = [*stack[stack.index(node) :], node]
+            raise AssertionError("import cycle: " + " -> ".join(cycle))
+        if node in done:
+            return
+        for nxt in sorted(graph[node]):
+            visit(nxt, [*stack, node])
+        done.add(node)
+
+    for m in sorted(graph):
+        visit(m, [])

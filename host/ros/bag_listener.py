@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import struct
 
-from jackson.host.daemon import CoreListener, HostCore
+from jackson.host.core import CoreListener, HostCore
 from jackson.host.ekf import EkfState
 from jackson.host.ros.bag import BagRecorder
 from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c

@@ -56,7 +56,7 @@ from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
-    from jackson.host.daemon import HostCore
+    from jackson.host.core import HostCore
     from jackson.host.ekf import EkfState
     from jackson.host.odometry import OdometryState
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from jackson.host.actuation.output import NullOutput
 from jackson.host.config import DEFAULT_CONFIG, load_config
-from jackson.host.daemon import HostCore
+from jackson.host.core import HostCore
 from jackson.protocol import (
     PROTOCOL_VERSION,
     SCHEMA_HASH,
