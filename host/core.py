@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
 from jackson.host.actuation.kinematics import inverse
@@ -115,17 +116,93 @@ def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> li
     return out
 
 
+@dataclass(frozen=True)
+class FrameResult:
+    """What the core made of one telemetry frame, handed to every listener.
+
+    Attributes:
+        t_s: The frame's unwrapped MCU time [s].
+        telemetry: The frame.
+        odometry: Wheel odometry after the frame.
+        v_cmd, w_cmd: The command before the limits [m/s, rad/s].
+        v, w: The command after the limits (0 when braked).
+        duties: The wheel duties sent to the motor output (0 when braked).
+        braked: The motors were braked at this frame.
+    """
+
+    t_s: float
+    telemetry: Telemetry
+    odometry: OdometryState
+    v_cmd: float
+    w_cmd: float
+    v: float
+    w: float
+    duties: tuple[float, float]
+    braked: bool
+
+
 class CoreListener:
-    """Receives what the core computes (the ROS bridge, the rosbag2 recorder); no-op defaults."""
+    """Receives what the core computes (the run folder, the rosbag2, the ROS bridge); no-op
+    defaults. Called on the core's thread, in the order the core works."""
+
+    def on_command(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
+        """An external velocity command, taken at the telemetry frame that applies it."""
 
     def on_frame(self, frame: Frame, host_time_ns: int) -> None:
         """Every frame received, before it is handled."""
 
-    def on_telemetry(self, core: HostCore, telemetry: Telemetry) -> None:
-        """After a telemetry frame was handled (odometry, EKF, command are current)."""
+    def on_event(self, host_time_ns: int, text: str) -> None:
+        """Something the operator should know (an MCU reset, an abort)."""
 
     def on_filtered(self, t_s: float, state: EkfState) -> None:
         """Each 30 Hz EKF output."""
+
+    def on_result(self, core: HostCore, result: FrameResult) -> None:
+        """After a telemetry frame was handled (odometry, EKF, command are current)."""
+
+
+class RunFolderListener(CoreListener):
+    """Writes the core's inputs and outputs into a run folder (:class:`RunRecorder`)."""
+
+    def __init__(self, recorder: RunRecorder) -> None:
+        self.recorder = recorder
+
+    def on_command(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
+        self.recorder.command(host_time_ns, v_m_s, w_rad_s)
+
+    def on_frame(self, frame: Frame, host_time_ns: int) -> None:
+        self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
+
+    def on_event(self, host_time_ns: int, text: str) -> None:
+        self.recorder.link(host_time_ns, text)
+
+    def on_filtered(self, t_s: float, s: EkfState) -> None:
+        rec = self.recorder
+        rec.row(
+            rec.ekf,
+            (
+                t_s,
+                s.x_m,
+                s.y_m,
+                s.yaw_rad,
+                s.vx_m_s,
+                s.vy_m_s,
+                s.vyaw_rad_s,
+                s.ax_m_s2,
+                s.p_xx,
+                s.p_yy,
+                s.p_yawyaw,
+            ),
+        )
+
+    def on_result(self, core: HostCore, r: FrameResult) -> None:
+        rec, odo, t = self.recorder, r.odometry, r.telemetry
+        rec.row(rec.commands, (r.t_s, r.v, r.w, r.duties[0], r.duties[1], int(r.braked)))
+        rec.row(
+            rec.odometry,
+            (r.t_s, odo.x_m, odo.y_m, odo.yaw_rad, odo.v_m_s, odo.w_rad_s, t.enc_left, t.enc_right),
+        )
+        rec.frame_done()
 
 
 class HostCore:
@@ -145,7 +222,6 @@ class HostCore:
         self.output = output
         self.send = send
         self.mission = mission
-        self.recorder = recorder
         self.guard = MissionGuard(mission.name, mission_timeout_s) if mission is not None else None
         self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
         self.mcu_resets = 0  # INFO with another boot_id: counts and clock re-anchored
@@ -199,7 +275,8 @@ class HostCore:
         self.braked = True
         self.ekf_outputs = 0
         self.last_output: EkfState | None = None
-        self.listeners: list[CoreListener] = []
+        self.listeners: list[CoreListener] = [RunFolderListener(recorder)] if recorder else []
+        self.last_result: FrameResult | None = None
         self.last_telemetry: Telemetry | None = None
 
     # ------------------------------------------------------------------ inputs
@@ -218,11 +295,9 @@ class HostCore:
             # taken once, on this thread; logged before the frame that applies it, so a replay
             # applies it to the same frame
             self._taken, self._external_pending = self._external_pending, None
-            if self.recorder is not None:
-                v, w, t_ns = self._taken
-                self.recorder.command(t_ns, v, w)
-        if self.recorder is not None:
-            self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
+            v, w, t_ns = self._taken
+            for listener in self.listeners:
+                listener.on_command(v, w, t_ns)
         for listener in self.listeners:
             listener.on_frame(frame, host_time_ns)
         self._rx_ns = host_time_ns
@@ -241,8 +316,8 @@ class HostCore:
 
     def event(self, text: str) -> None:
         """Something the operator should know, in the run's log (a link record)."""
-        if self.recorder is not None:
-            self.recorder.link(self._rx_ns, text)
+        for listener in self.listeners:
+            listener.on_event(self._rx_ns, text)
 
     def abort(self, reason: str) -> None:
         """Stop the mission for good: brake from now on; the daemon exits naming ``reason``."""
@@ -287,26 +362,13 @@ class HostCore:
                 ekf.update_gyro(t_s, wz - bias)
         # command and actuation
         v_cmd, w_cmd, brake = self._command(t_s, odo, t)
-        self._actuate(t_s, v_cmd, w_cmd, brake, odo)
+        v, w, duties = self._actuate(t_s, v_cmd, w_cmd, brake, odo)
         self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
         self.last_telemetry = t
+        result = FrameResult(t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake)
+        self.last_result = result
         for listener in self.listeners:
-            listener.on_telemetry(self, t)
-        if self.recorder is not None:
-            self.recorder.row(
-                self.recorder.odometry,
-                (
-                    t_s,
-                    odo.x_m,
-                    odo.y_m,
-                    odo.yaw_rad,
-                    odo.v_m_s,
-                    odo.w_rad_s,
-                    t.enc_left,
-                    t.enc_right,
-                ),
-            )
-            self.recorder.frame_done()
+            listener.on_result(self, result)
 
     def _record_ekf(self, t_s: float) -> None:
         """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""
@@ -314,24 +376,6 @@ class HostCore:
         self.last_output = s = self.ekf.state_at(t_s)
         for listener in self.listeners:
             listener.on_filtered(t_s, s)
-        if self.recorder is None:
-            return
-        self.recorder.row(
-            self.recorder.ekf,
-            (
-                t_s,
-                s.x_m,
-                s.y_m,
-                s.yaw_rad,
-                s.vx_m_s,
-                s.vy_m_s,
-                s.vyaw_rad_s,
-                s.ax_m_s2,
-                s.p_xx,
-                s.p_yy,
-                s.p_yawyaw,
-            ),
-        )
 
     def nav_state(self) -> NavState:
         e = self.ekf
@@ -367,7 +411,8 @@ class HostCore:
 
     def _actuate(
         self, t_s: float, v_cmd: float, w_cmd: float, brake: bool, odo: OdometryState
-    ) -> None:
+    ) -> tuple[float, float, tuple[float, float]]:
+        """Limits, kinematics, PI, deadband, the motor output; (v, w, duties) as sent."""
         if brake:
             self.limiter.reset()
             if self.pi is not None:
@@ -411,8 +456,7 @@ class HostCore:
             self.output.set(d_l, d_r)
             self.braked = False
             duties = (d_l, d_r)
-        if self.recorder is not None:
-            self.recorder.row(self.recorder.commands, (t_s, v, w, duties[0], duties[1], int(brake)))
+        return v, w, duties
 
     def brake(self) -> None:
         """Brake now (link lost, shutdown)."""

@@ -21,10 +21,7 @@ from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS
-from jackson.host.core import (
-    CoreListener,
-    HostCore,
-)
+from jackson.host.core import CoreListener, FrameResult, HostCore
 from jackson.host.ekf import EkfState
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
@@ -33,7 +30,6 @@ from jackson.protocol import (
     Heartbeat,
     HostState,
     Message,
-    Telemetry,
     TelemetryFlags,
 )
 
@@ -44,8 +40,8 @@ class _BridgeListener(CoreListener):
     def __init__(self, bridge: Any) -> None:
         self.bridge = bridge
 
-    def on_telemetry(self, core: HostCore, telemetry: Telemetry) -> None:
-        self.bridge.on_telemetry(core, telemetry)
+    def on_result(self, core: HostCore, result: FrameResult) -> None:
+        self.bridge.on_telemetry(core, result.telemetry)
 
     def on_filtered(self, t_s: float, state: EkfState) -> None:
         self.bridge.on_filtered(t_s, state)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import struct
 
-from jackson.host.core import CoreListener, HostCore
+from jackson.host.core import CoreListener, FrameResult, HostCore
 from jackson.host.ekf import EkfState
 from jackson.host.ros.bag import BagRecorder
-from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c
+from jackson.protocol import PROTOCOL_VERSION, Frame, TelemetryFlags, crc32c
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 
@@ -30,13 +30,12 @@ class BagListener(CoreListener):
     def on_frame(self, frame: Frame, host_time_ns: int) -> None:
         self._pending.append(wire_bytes(frame))
 
-    def on_telemetry(self, core: HostCore, telemetry: Telemetry) -> None:
-        t_s = core.t_s or 0.0
+    def on_result(self, core: HostCore, result: FrameResult) -> None:
+        t_s, telemetry, odo = result.t_s, result.telemetry, result.odometry
         self._t_s = t_s
         for raw in self._pending:
             self.bag.raw_frame(t_s, raw)
         self._pending.clear()
-        odo = core.last_odometry
         if odo is not None:
             self.bag.wheel_odom(t_s, odo.x_m, odo.y_m, odo.yaw_rad, odo.v_m_s, odo.w_rad_s)
             self.bag.joint_states(
