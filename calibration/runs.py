@@ -11,10 +11,11 @@ through the host's own classes, on the robot or on the twin alike:
   calibration mission: the EKF, the limits and the deadband compensation act as in any run.
   Missions steer by the EKF (whose yaw is the gyro's) and wait for its start-up gyro bias.
 - **Raw duty runs** (deadband staircases, the step characterisation) must bypass the host's
-  deadband compensation: :class:`~jackson.host.scripted.ScriptedHost` writes the wheel duties
-  straight through the PCA9685 (:class:`~jackson.host.actuation.output.Pca9685Output`) and
-  acknowledges each telemetry frame; the run folder records the frames received and the raw
-  duties in ``commands.csv`` (``v_cmd`` and ``w_cmd`` are 0 there).
+  deadband compensation: the same daemon with the script as its command source
+  (:class:`~jackson.host.core.DutySource`), whose duties go straight to the PCA9685
+  (:class:`~jackson.host.actuation.output.Pca9685Output`); the run folder records the frames
+  received and the raw duties in ``commands.csv`` (``v_cmd`` and ``w_cmd`` are 0 there). One
+  per-frame loop serves every run.
 
 :func:`load_run` turns a folder into a :class:`~jackson.calibration.procedures.RunData`.
 """
@@ -27,15 +28,13 @@ import datetime as dt
 import itertools
 import json
 import math
-import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
-import serial
 import yaml
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
@@ -45,16 +44,19 @@ from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, ImuCalibration, dump_config
 from jackson.host.control import NavState, wrap_angle
-from jackson.host.core import odometry_config
+from jackson.host.core import (
+    CoreListener,
+    DutySource,
+    FrameResult,
+    HostCore,
+)
 from jackson.host.daemon import Daemon
 from jackson.host.i2c import I2cBus, I2cError, open_bus
-from jackson.host.odometry import WheelOdometry, tick_delta
-from jackson.host.recording import KIND_RX, KIND_TX, RecordingError, RunRecorder, read_log
-from jackson.host.scripted import HostTimeoutError, ScriptedHost
-from jackson.host.transport import LinkError, SerialTransport, open_error
+from jackson.host.odometry import tick_delta
+from jackson.host.recording import KIND_RX, KIND_TX, RecordingError, read_log
+from jackson.host.transport import LinkError, SerialTransport
 from jackson.protocol import (
     FrameDecoder,
-    Info,
     Message,
     SetImuCalibration,
     Telemetry,
@@ -651,31 +653,30 @@ def record_excitation_run(
 # ------------------------------------------------------------------------- raw duty runs
 
 
-class DutyScript(Protocol):
-    """Raw duties per telemetry frame, on MCU time and unwrapped counts."""
+class DutyScript(DutySource, Protocol):
+    """Raw duties per telemetry frame (:class:`jackson.host.core.DutySource`) with a length."""
 
-    done: bool
     total_s: float
 
-    def step(self, t_s: float, enc_left: int, enc_right: int) -> tuple[float, float]:
-        """(left, right) signed duty to write after this frame."""
-        ...
 
+class _Progress(CoreListener):
+    """Moves a progress bar on MCU time."""
 
-def _configure(host: ScriptedHost, info: Info, cfg: HostConfig) -> None:
-    """The daemon's SET_RATE and SET_CONFIG, so counts and ranges are as the host expects (no
-    IMU calibration: the procedures read raw IMU values)."""
-    from jackson.host.core import device_setup
+    def __init__(self, update: Callable[[float], None]) -> None:
+        self.update = update
+        self.t0: float | None = None
 
-    for msg in device_setup(cfg, info, calibration=False):
-        host.send(msg)
+    def on_result(self, core: HostCore, result: FrameResult) -> None:
+        self.t0 = result.t_s if self.t0 is None else self.t0
+        self.update(result.t_s - self.t0)
 
 
 def duty_run(
     link: Link, folder: Path, script: DutyScript, *, label: str, meta: dict[str, Any]
 ) -> Path:
-    """Record one raw duty run: ScriptedHost and the PCA9685, bypassing the host's deadband
-    compensation, with the run folder written by the host's recorder.
+    """Record one raw duty run: the daemon with ``script`` as its command source, so the duties
+    go to the PCA9685 as they are (no limits, no deadband compensation) and the device sends
+    raw IMU registers (no calibration: the procedures read raw values).
 
     Raises:
         RunError: The port, the bus, no telemetry, or an actuator other than the PCA9685.
@@ -684,73 +685,44 @@ def duty_run(
     cfg = link.config
     if cfg.actuator != "pca9685":
         raise RunError("raw duty runs drive the PCA9685: the config needs actuator: pca9685")
+    transport = SerialTransport(link.port, cfg.serial.baudrate)
+    try:
+        transport.open()
+    except LinkError as exc:
+        raise RunError(str(exc)) from exc
+    try:
+        bus, pca = _open_pca(cfg)
+    except RunError:
+        transport.close()
+        raise
     p = cfg.pca9685
-    try:
-        host = ScriptedHost(link.port, p.bus, p.address)
-    except (serial.SerialException, OSError) as exc:
-        if isinstance(exc, I2cError):
-            raise RunError(f"PCA9685 at {p.address:#04x} on {p.bus}: {exc}") from exc
-        raise RunError(str(open_error(link.port, exc))) from exc
+
+    def output(send: Callable[[Message], object]) -> MotorOutput:
+        return Pca9685Output(pca, p.left, p.right, p.stby_channel)
+
     _write_config(folder, cfg)
-    recorder = RunRecorder(folder, meta)
-    output = Pca9685Output(host.pca, p.left, p.right, p.stby_channel)
-    odometry = WheelOdometry(odometry_config(cfg))
-    unwrapper = TimestampUnwrapper()
-    enc: tuple[int, int] | None = None
-    raw = (0, 0)
+    daemon = Daemon(
+        cfg,
+        output,
+        transport,
+        run_folder=folder,
+        meta=meta,
+        duty_source=script,
+        imu_calibration=False,
+    )
     try:
-        try:
-            info = host.connect()
-            host.pca.init(p.frequency_hz)
-        except (HostTimeoutError, I2cError, OSError) as exc:
-            raise RunError(f"{label}: {link.port}: {exc}") from exc
-        _configure(host, info, cfg)
         with _progress(link.console, label, script.total_s) as progress:
-            t0: float | None = None
-            while not script.done:
-                try:
-                    tel = host.next_telemetry()
-                except HostTimeoutError as exc:
-                    raise RunError(f"{label}: no telemetry from {link.port} for 5 s") from exc
-                recorder.rx(
-                    time.monotonic_ns(), Telemetry.TYPE, host.last_telemetry_seq, tel.pack()
-                )
-                t_s = unwrapper.unwrap(tel.t_us) / 1e6
-                if enc is None:
-                    enc = (tel.enc_left, tel.enc_right)
-                else:
-                    enc = (
-                        enc[0] + tick_delta(raw[0], tel.enc_left),
-                        enc[1] + tick_delta(raw[1], tel.enc_right),
-                    )
-                raw = (tel.enc_left, tel.enc_right)
-                odo = odometry.update(t_s, tel.enc_left, tel.enc_right)
-                d_l, d_r = script.step(t_s, enc[0], enc[1])
-                output.set(d_l, d_r)
-                braked = int(d_l == 0.0 and d_r == 0.0)
-                recorder.row(recorder.commands, (t_s, 0.0, 0.0, d_l, d_r, braked))
-                host.heartbeat()
-                recorder.row(
-                    recorder.odometry,
-                    (
-                        t_s,
-                        odo.x_m,
-                        odo.y_m,
-                        odo.yaw_rad,
-                        odo.v_m_s,
-                        odo.w_rad_s,
-                        tel.enc_left,
-                        tel.enc_right,
-                    ),
-                )
-                t0 = t_s if t0 is None else t0
-                progress(t_s - t0)
+            daemon.core.listeners.append(_Progress(progress))
+            daemon.run(max_s=30.0 + 2.0 * script.total_s)
     finally:
-        with suppress(I2cError, OSError):
-            output.set(0.0, 0.0)
-        with suppress(serial.SerialException, OSError):
-            host.close()
-        recorder.close()
+        transport.close()
+        bus.close()
+    if not script.done:
+        frames = daemon.core.frames
+        raise RunError(
+            f"{label}: stopped after {frames} telemetry frames from {link.port}"
+            + (" (no telemetry: is the firmware running?)" if frames == 0 else "")
+        )
     return folder
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
 from jackson.host.actuation.kinematics import inverse
@@ -33,7 +34,7 @@ from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
 from jackson.host.control.guard import MissionGuard
 from jackson.host.ekf import Ekf, EkfConfig, EkfState, GyroBiasEstimator
-from jackson.host.odometry import OdometryConfig, OdometryState, WheelOdometry
+from jackson.host.odometry import OdometryConfig, OdometryState, WheelOdometry, tick_delta
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
     Frame,
@@ -114,6 +115,17 @@ def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> li
             )
         )
     return out
+
+
+class DutySource(Protocol):
+    """Raw wheel duties per telemetry frame, on MCU time and unwrapped counts: the command source
+    of calibration's staircases and steps, which bypass the actuation chain."""
+
+    done: bool
+
+    def step(self, t_s: float, enc_left: int, enc_right: int) -> tuple[float, float]:
+        """(left, right) signed duty to write after this frame."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -217,8 +229,14 @@ class HostCore:
         mission: Mission | None = None,
         recorder: RunRecorder | None = None,
         mission_timeout_s: float | None = None,
+        duty_source: DutySource | None = None,
+        imu_calibration: bool = True,
     ) -> None:
         self.cfg = cfg
+        self.duty_source = duty_source  # raw duties instead of a velocity command
+        self.imu_calibration = imu_calibration  # False: the device sends raw IMU registers
+        self._enc: tuple[int, int] | None = None  # counts unwrapped from the first frame
+        self._raw_enc = (0, 0)
         self.output = output
         self.send = send
         self.mission = mission
@@ -328,7 +346,7 @@ class HostCore:
     def _configure_device(self) -> None:
         """Bring the device's rate, ranges, direction flags and failsafe to the config."""
         assert self.info is not None
-        for msg in device_setup(self.cfg, self.info):
+        for msg in device_setup(self.cfg, self.info, calibration=self.imu_calibration):
             self.send(msg)
 
     # ------------------------------------------------------------------ the frame
@@ -361,8 +379,13 @@ class HostCore:
             if bias is not None:
                 ekf.update_gyro(t_s, wz - bias)
         # command and actuation
-        v_cmd, w_cmd, brake = self._command(t_s, odo, t)
-        v, w, duties = self._actuate(t_s, v_cmd, w_cmd, brake, odo)
+        if self.duty_source is not None:
+            v_cmd = w_cmd = v = w = 0.0
+            duties = self._raw_duties(t_s, t)
+            brake = duties == (0.0, 0.0)
+        else:
+            v_cmd, w_cmd, brake = self._command(t_s, odo, t)
+            v, w, duties = self._actuate(t_s, v_cmd, w_cmd, brake, odo)
         self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
         self.last_telemetry = t
         result = FrameResult(t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake)
@@ -376,6 +399,23 @@ class HostCore:
         self.last_output = s = self.ekf.state_at(t_s)
         for listener in self.listeners:
             listener.on_filtered(t_s, s)
+
+    def _raw_duties(self, t_s: float, t: Telemetry) -> tuple[float, float]:
+        """The duty source's duties, written to the output as they are (0, 0 brakes)."""
+        assert self.duty_source is not None
+        raw = (t.enc_left, t.enc_right)
+        if self._enc is None:
+            self._enc = raw
+        else:
+            self._enc = (
+                self._enc[0] + tick_delta(self._raw_enc[0], raw[0]),
+                self._enc[1] + tick_delta(self._raw_enc[1], raw[1]),
+            )
+        self._raw_enc = raw
+        d_l, d_r = self.duty_source.step(t_s, self._enc[0], self._enc[1])
+        self.output.set(d_l, d_r)
+        self.braked = d_l == 0.0 and d_r == 0.0
+        return d_l, d_r
 
     def nav_state(self) -> NavState:
         e = self.ekf

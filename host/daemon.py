@@ -21,7 +21,7 @@ from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS
-from jackson.host.core import CoreListener, FrameResult, HostCore
+from jackson.host.core import CoreListener, DutySource, FrameResult, HostCore
 from jackson.host.ekf import EkfState
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
@@ -134,6 +134,8 @@ class Daemon:
         ros_args: list[str] | None = None,
         mission_timeout_s: float | None = None,
         notifier: Any = None,
+        duty_source: DutySource | None = None,
+        imu_calibration: bool = True,
     ) -> None:
         self.cfg = cfg
         self.transport = transport
@@ -149,6 +151,8 @@ class Daemon:
             mission=mission,
             recorder=self.recorder,
             mission_timeout_s=mission_timeout_s,
+            duty_source=duty_source,
+            imu_calibration=imu_calibration,
         )
         self.notifier = notifier  # systemd sd_notify (host/sdnotify.py), or None
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
@@ -339,6 +343,8 @@ class Daemon:
                         diagnostic_values(core, core.last_telemetry, link=self.health())
                     )
                 if core.mission is not None and core.mission.done and core.braked:
+                    break
+                if core.duty_source is not None and core.duty_source.done:
                     break
         finally:
             core.brake()
