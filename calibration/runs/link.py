@@ -1,0 +1,81 @@
+"""The robot (or twin) a calibration records on, and what every recording shares."""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn
+
+from jackson.calibration.runs.folders import RunError
+from jackson.host.actuation.pca9685 import Pca9685
+from jackson.host.config import HostConfig, dump_config
+from jackson.host.i2c import I2cBus, I2cError, open_bus
+
+
+@dataclass(frozen=True)
+class Link:
+    """A robot (or the twin) to record on, and what the host believes about it.
+
+    Attributes:
+        port: The MCU's serial port (the twin prints its pty).
+        config: The host configuration; ``pca9685.bus`` names the PCA9685's bus (``--i2c``).
+        console: Where progress bars go; None: no progress display.
+    """
+
+    port: str
+    config: HostConfig
+    console: Console | None = field(default=None, compare=False)
+
+
+@contextmanager
+def _progress(
+    console: Console | None, label: str, total_s: float
+) -> Iterator[Callable[[float], None]]:
+    """A rich progress bar in seconds of MCU time; a no-op without a console."""
+    if console is None:
+        yield lambda elapsed_s: None
+        return
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed:5.1f}/{task.total:.0f} s"),
+        console=console,
+        transient=True,
+    ) as progress:
+        task = progress.add_task(label, total=total_s)
+        yield lambda elapsed_s: progress.update(task, completed=min(elapsed_s, total_s))
+
+
+def _meta(link: Link, procedure: str, **extra: Any) -> dict[str, Any]:
+    return {
+        "mission": None,  # commands came from a calibration script
+        "calibration": procedure,
+        "port": link.port,
+        "started": dt.datetime.now().isoformat(),
+        **extra,
+    }
+
+
+def _write_config(folder: Path, cfg: HostConfig) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "config.yaml").write_text(
+        yaml.safe_dump(dump_config(cfg), sort_keys=False), encoding="utf-8"
+    )
+
+
+def _open_pca(cfg: HostConfig) -> tuple[I2cBus, Pca9685]:
+    p = cfg.pca9685
+    try:
+        bus = open_bus(p.bus)
+        pca = Pca9685(bus, p.address)
+        pca.init(p.frequency_hz)
+    except (I2cError, OSError) as exc:
+        raise RunError(f"PCA9685 at {p.address:#04x} on {p.bus}: {exc}") from exc
+    return bus, pca
