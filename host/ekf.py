@@ -46,6 +46,8 @@ import numpy as np
 import numpy.typing as npt
 from filterpy.kalman import ExtendedKalmanFilter
 
+from jackson.common.geometry import wrap_angle
+
 Vector = npt.NDArray[np.float64]
 Matrix = npt.NDArray[np.float64]
 
@@ -64,11 +66,6 @@ TIME_EPSILON_S = 1e-9  # [s] slack on time comparisons (0.2 s of 20 Hz frames is
 SENSOR_WHEEL = "wheel"
 SENSOR_GYRO = "gyro"
 SENSOR_YAW = "yaw"
-
-
-def wrap_angle(angle_rad: float) -> float:
-    """The angle in [-pi, pi) [rad]."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
 _IDENTITY = np.eye(STATE_SIZE)

@@ -2,14 +2,10 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Protocol
 
-
-def wrap_angle(a: float) -> float:
-    """An angle in [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
+from jackson.common.geometry import wrap_angle as wrap_angle  # re-exported
 
 
 @dataclass(frozen=True)
