@@ -21,6 +21,8 @@ from typing import Any, Literal
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
 from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
+from jackson.host.actuation.deadband import DeadbandConfig
+from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.actuation.tb6612 import BridgeChannels
 from jackson.host.i2c import SOCKET_PREFIX
 from jackson.protocol.messages import (
@@ -113,32 +115,6 @@ class EkfSettings:
 
 
 @dataclass(frozen=True)
-class Limits:
-    """Velocity and acceleration bounds of the command shaping."""
-
-    max_v_m_s: float = 0.30
-    max_w_rad_s: float = 2.0
-    max_accel_m_s2: float = 0.5
-    max_decel_m_s2: float = 1.0
-    max_alpha_rad_s2: float = 3.0
-    max_alpha_decel_rad_s2: float = 6.0
-
-
-@dataclass(frozen=True)
-class Deadband:
-    """Wheel speed to PWM duty: breakaway duty per wheel and direction, full-scale speed, gain."""
-
-    forward_left: float = 0.10  # [duty]
-    reverse_left: float = 0.10
-    forward_right: float = 0.10
-    reverse_right: float = 0.10
-    max_wheel_rad_s: float = 10.47  # wheel speed at full duty (100 RPM)
-    zero_threshold_rad_s: float = 0.05  # slower commands brake
-    gain_left: float = 1.0
-    gain_right: float = 1.0
-
-
-@dataclass(frozen=True)
 class WheelPi:
     """Optional PI loop on each wheel's encoder speed, output in duty."""
 
@@ -195,8 +171,8 @@ class HostConfig:
     robot: RobotGeometry = field(default_factory=RobotGeometry)
     odometry: OdometryCovariance = field(default_factory=OdometryCovariance)
     ekf: EkfSettings = field(default_factory=EkfSettings)
-    limits: Limits = field(default_factory=Limits)
-    deadband: Deadband = field(default_factory=Deadband)
+    limits: LimiterConfig = field(default_factory=LimiterConfig)
+    deadband: DeadbandConfig = field(default_factory=DeadbandConfig)
     wheel_pi: WheelPi = field(default_factory=WheelPi)
     actuator: Actuator = "pca9685"
     pca9685: Pca9685Settings = field(default_factory=Pca9685Settings)
@@ -311,17 +287,17 @@ def _ekf(s: Fields) -> EkfSettings:
     return out
 
 
-def _limits(s: Fields) -> Limits:
-    d = Limits()
-    out = Limits(
+def _limits(s: Fields) -> LimiterConfig:
+    d = LimiterConfig()
+    out = LimiterConfig(
         **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
     )
     s.finish()
     return out
 
 
-def _deadband(s: Fields) -> Deadband:
-    d = Deadband()
+def _deadband(s: Fields) -> DeadbandConfig:
+    d = DeadbandConfig()
     duty: dict[str, float] = {}
     for side in ("left", "right"):
         w = s.section(side)
@@ -336,7 +312,7 @@ def _deadband(s: Fields) -> Deadband:
     max_wheel = s.number("max_wheel_rad_s", d.max_wheel_rad_s, 0.0, lo_open=True)
     zero = s.number("zero_threshold_rad_s", d.zero_threshold_rad_s, 0.0, max_wheel, hi_open=True)
     s.finish()
-    return Deadband(
+    return DeadbandConfig(
         **duty,
         max_wheel_rad_s=max_wheel,
         zero_threshold_rad_s=zero,
@@ -532,7 +508,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "mahalanobis_threshold": {"wheel": ekf.mahalanobis_wheel, "imu": ekf.mahalanobis_imu},
             "gyro_bias_window_s": ekf.gyro_bias_window_s,
         },
-        "limits": {f.name: getattr(cfg.limits, f.name) for f in fields(Limits)},
+        "limits": {f.name: getattr(cfg.limits, f.name) for f in fields(LimiterConfig)},
         "deadband": {
             "left": {"forward": db.forward_left, "reverse": db.reverse_left},
             "right": {"forward": db.forward_right, "reverse": db.reverse_right},

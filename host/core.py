@@ -24,9 +24,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
+from jackson.host.actuation.deadband import wheel_duty
 from jackson.host.actuation.kinematics import inverse
-from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
+from jackson.host.actuation.limiter import VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.actuation.watchdog import CommandWatchdog
 from jackson.host.actuation.wheel_pi import WheelPiConfig, WheelSpeedPi
@@ -251,28 +251,9 @@ class HostCore:
         self.odometry = WheelOdometry(odometry_config(cfg))
         self.ekf = Ekf(ekf_config(cfg))
         self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
-        lim = cfg.limits
-        self.limiter = VelocityLimiter(
-            LimiterConfig(
-                lim.max_v_m_s,
-                lim.max_w_rad_s,
-                lim.max_accel_m_s2,
-                lim.max_decel_m_s2,
-                lim.max_alpha_rad_s2,
-                lim.max_alpha_decel_rad_s2,
-            )
-        )
+        self.limiter = VelocityLimiter(cfg.limits)  # the config sections are the stages' own
+        self.deadband = cfg.deadband
         d = cfg.deadband
-        self.deadband = DeadbandConfig(
-            d.forward_left,
-            d.reverse_left,
-            d.forward_right,
-            d.reverse_right,
-            d.max_wheel_rad_s,
-            d.zero_threshold_rad_s,
-            d.gain_left,
-            d.gain_right,
-        )
         pi = cfg.wheel_pi
         pi_cfg = WheelPiConfig(
             kp=pi.kp,

@@ -41,11 +41,11 @@ class DeadbandConfig:
         gain_right: Right gain trim g (dimensionless, > 0).
     """
 
-    forward_left: float
-    reverse_left: float
-    forward_right: float
-    reverse_right: float
-    max_wheel_rad_s: float
+    forward_left: float = 0.10
+    reverse_left: float = 0.10
+    forward_right: float = 0.10
+    reverse_right: float = 0.10
+    max_wheel_rad_s: float = 10.47  # 100 RPM
     zero_threshold_rad_s: float = 0.05
     gain_left: float = 1.0
     gain_right: float = 1.0
