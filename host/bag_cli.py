@@ -47,9 +47,14 @@ def bags_of(run: Path) -> list[Path]:
 
 def cmd_bag_repair(args: argparse.Namespace) -> int:
     """Repair every unfinished bag of ``args.run`` and show what each holds."""
+    from jackson.host.recording import run_in_progress
     from jackson.host.ros.bag import BagError, needs_repair, repair_bag
 
     for bag in bags_of(args.run):
+        if run_in_progress(bag.parent) or run_in_progress(bag):
+            raise HostCliError(
+                f"{bag}: its run is being recorded by a running daemon; repair it after it ends"
+            )
         if not needs_repair(bag):
             print(f"{bag}: complete (has metadata.yaml), nothing to repair")
         else:

@@ -23,7 +23,7 @@ from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS
 from jackson.host.core import CoreListener, DutySource, FrameResult, HostCore
 from jackson.host.ekf import EkfState
-from jackson.host.recording import RunRecorder
+from jackson.host.recording import RunRecorder, run_in_progress
 from jackson.protocol import (
     PROTOCOL_VERSION,
     FrameVersionError,
@@ -208,6 +208,8 @@ class Daemon:
         if not root.is_dir():
             return
         for run in sorted(p for p in root.iterdir() if p.is_dir() and p != run_folder):
+            if run_in_progress(run):
+                continue  # another daemon (a campaign's other trial) is recording it now
             for bag in bag_folders(run):
                 if not needs_repair(bag):
                     continue

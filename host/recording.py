@@ -19,7 +19,9 @@ then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity
 from __future__ import annotations
 
 import csv
+import fcntl
 import json
+import os
 import struct
 import time
 from collections.abc import Iterator
@@ -82,6 +84,9 @@ class RunRecorder:
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
         self._log: IO[bytes] = open(folder / "log.jrec", "wb", buffering=BUFFER_BYTES)  # noqa: SIM115 - closed in close()
+        # held while recording, released by the kernel when the process ends however it ends:
+        # what tells a live run from a killed one (run_in_progress)
+        fcntl.flock(self._log.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         self._log.write(MAGIC)
         self._files: list[IO[str]] = []
         self.odometry = self._csv("odometry.csv", ODOMETRY_COLUMNS)
@@ -136,6 +141,22 @@ class RunRecorder:
         self._log.close()
         for f in self._files:
             f.close()
+
+
+def run_in_progress(folder: Path) -> bool:
+    """True while a recorder (of any process) is writing ``folder``: it holds the lock on its
+    ``log.jrec``. A killed run's lock is gone, so its folder can be repaired."""
+    try:
+        fd = os.open(folder / "log.jrec", os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)  # and with it the shared lock just taken
+    return False
 
 
 def read_log(folder: Path) -> Iterator[LogRecord]:

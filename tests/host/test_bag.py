@@ -621,3 +621,50 @@ def test_jackson_bag_repair_refuses_in_one_line(tmp_path: Path, what: str) -> No
     out = subprocess.run([jackson, "bag", "repair", path], capture_output=True, text=True)
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and str(path) in out.stderr, out.stderr
+
+
+LIVE_RECORDER = textwrap.dedent(
+    """
+    import sys
+    from pathlib import Path
+    from jackson.host.recording import RunRecorder
+    from jackson.host.ros.bag import BagRecorder
+
+    run = Path(sys.argv[1])
+    rec = RunRecorder(run, {"mission": None})
+    bag = BagRecorder(run / "bag", flush_interval_s=0.1)
+    for k in range(20):
+        bag.wheel_odom(k * 0.05, 0.0, 0, 0, 0, 0)
+    print("recording", flush=True)
+    sys.stdin.read()  # live until the test closes stdin, or kills it
+    """
+)
+
+
+def test_a_run_being_recorded_is_never_repaired(tmp_path: Path) -> None:
+    """A campaign's trials record side by side in one folder: the bag of a run whose recorder
+    is alive (it holds the lock on log.jrec) is not touched; once that process is killed, the
+    same bag is repaired."""
+    from jackson.host.recording import run_in_progress
+
+    run = tmp_path / "runs" / "live"
+    child = subprocess.Popen(
+        [sys.executable, "-c", LIVE_RECORDER, str(run)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert child.stdout is not None and child.stdout.readline().strip() == "recording"
+        assert run_in_progress(run)
+        before = sorted((p.name, p.stat().st_size) for p in (run / "bag").iterdir())
+        jackson = str(Path(sys.executable).parent / "jackson")
+        out = subprocess.run([jackson, "bag", "repair", str(run)], capture_output=True, text=True)
+        assert out.returncode == 2 and "being recorded" in out.stderr
+        assert sorted((p.name, p.stat().st_size) for p in (run / "bag").iterdir()) == before
+    finally:
+        child.kill()
+        child.wait()
+    assert not run_in_progress(run)  # the kernel dropped the dead process's lock
+    assert main(["bag", "repair", str(run)]) == 0
+    assert len(read_bag(run / "bag")["/wheel/odom"]) >= 1
