@@ -10,7 +10,14 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from jackson.calibration.runs.folders import RunError
-from jackson.calibration.runs.link import Link, _meta, _open_pca, _progress, _write_config
+from jackson.calibration.runs.link import (
+    Link,
+    _meta,
+    _open_link,
+    _progress,
+    _stopped,
+    _write_config,
+)
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.core import (
     CoreListener,
@@ -19,7 +26,6 @@ from jackson.host.core import (
     HostCore,
 )
 from jackson.host.daemon import Daemon
-from jackson.host.transport import LinkError, SerialTransport
 from jackson.protocol import (
     Message,
 )
@@ -57,16 +63,8 @@ def duty_run(
     cfg = link.config
     if cfg.actuator != "pca9685":
         raise RunError("raw duty runs drive the PCA9685: the config needs actuator: pca9685")
-    transport = SerialTransport(link.port, cfg.serial.baudrate)
-    try:
-        transport.open()
-    except LinkError as exc:
-        raise RunError(str(exc)) from exc
-    try:
-        bus, pca = _open_pca(cfg)
-    except RunError:
-        transport.close()
-        raise
+    transport, bus, pca = _open_link(link)
+    assert bus is not None and pca is not None  # actuator: pca9685
     p = cfg.pca9685
 
     def output(send: Callable[[Message], object]) -> MotorOutput:
@@ -90,11 +88,7 @@ def duty_run(
         transport.close()
         bus.close()
     if not script.done:
-        frames = daemon.core.frames
-        raise RunError(
-            f"{label}: stopped after {frames} telemetry frames from {link.port}"
-            + (" (no telemetry: is the firmware running?)" if frames == 0 else "")
-        )
+        raise _stopped(label, daemon.core.frames, link.port)
     return folder
 
 

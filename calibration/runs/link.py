@@ -17,6 +17,7 @@ from jackson.calibration.runs.folders import RunError
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, dump_config
 from jackson.host.i2c import I2cBus, I2cError, open_bus
+from jackson.host.transport import LinkError, SerialTransport
 
 
 @dataclass(frozen=True)
@@ -79,3 +80,29 @@ def _open_pca(cfg: HostConfig) -> tuple[I2cBus, Pca9685]:
     except (I2cError, OSError) as exc:
         raise RunError(f"PCA9685 at {p.address:#04x} on {p.bus}: {exc}") from exc
     return bus, pca
+
+
+def _open_link(link: Link) -> tuple[SerialTransport, I2cBus | None, Pca9685 | None]:
+    """The MCU's port and, with ``actuator: pca9685``, the PCA9685 (initialised), or RunError."""
+    cfg = link.config
+    transport = SerialTransport(link.port, cfg.serial.baudrate)
+    try:
+        transport.open()
+    except LinkError as exc:
+        raise RunError(str(exc)) from exc
+    if cfg.actuator != "pca9685":
+        return transport, None, None
+    try:
+        bus, pca = _open_pca(cfg)
+    except RunError:
+        transport.close()
+        raise
+    return transport, bus, pca
+
+
+def _stopped(label: str, frames: int, port: str) -> RunError:
+    """A run that ended before its script or mission did."""
+    return RunError(
+        f"{label}: stopped after {frames} telemetry frames from {port}"
+        + (" (no telemetry: is the firmware running?)" if frames == 0 else "")
+    )

@@ -9,14 +9,18 @@ from pathlib import Path
 from typing import Any
 
 from jackson.calibration.runs.folders import RunError, write_notes
-from jackson.calibration.runs.link import Link, _meta, _open_pca, _progress, _write_config
+from jackson.calibration.runs.link import (
+    Link,
+    _meta,
+    _open_link,
+    _progress,
+    _stopped,
+    _write_config,
+)
 from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
-from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import ImuCalibration
 from jackson.host.control import NavState, wrap_angle
 from jackson.host.daemon import Daemon
-from jackson.host.i2c import I2cBus
-from jackson.host.transport import LinkError, SerialTransport
 from jackson.protocol import (
     Message,
 )
@@ -183,19 +187,7 @@ def drive_run(
         ProtocolMismatchError: Firmware of another protocol version.
     """
     cfg = link.config
-    bus: I2cBus | None = None
-    pca: Pca9685 | None = None
-    transport = SerialTransport(link.port, cfg.serial.baudrate)
-    try:
-        transport.open()
-    except LinkError as exc:
-        raise RunError(str(exc)) from exc
-    if cfg.actuator == "pca9685":
-        try:
-            bus, pca = _open_pca(cfg)
-        except RunError:
-            transport.close()
-            raise
+    transport, bus, pca = _open_link(link)
 
     def output(send: Callable[[Message], object]) -> MotorOutput:
         if pca is not None:
@@ -221,11 +213,7 @@ def drive_run(
             "(motor rail, wheels on the floor)?"
         )
     if not mission.done:
-        frames = daemon.core.frames
-        raise RunError(
-            f"{label}: stopped after {frames} telemetry frames from {link.port}"
-            + (" (no telemetry: is the firmware running?)" if frames == 0 else "")
-        )
+        raise _stopped(label, daemon.core.frames, link.port)
     return folder
 
 

@@ -39,14 +39,18 @@ def _wait_for_hello(master: int, timeout_s: float = 30.0) -> None:
                 continue
 
 
-def test_another_frame_version_is_one_line_and_exit_2() -> None:
-    master, path = _device()
-    monitor = subprocess.Popen(
-        [JACKSON, "monitor", "--port", path, "--duration", "30"],
+def _monitor(path: str, duration_s: int) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [JACKSON, "monitor", "--port", path, "--duration", str(duration_s)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def test_another_frame_version_is_one_line_and_exit_2() -> None:
+    master, path = _device()
+    monitor = _monitor(path, 30)
     try:
         _wait_for_hello(master)
         frame = bytearray(encode_frame(Telemetry(t_us=1), 0))
@@ -71,12 +75,7 @@ def test_another_frame_version_is_one_line_and_exit_2() -> None:
 
 def test_a_burst_after_a_stall_is_shown() -> None:
     master, path = _device()
-    monitor = subprocess.Popen(
-        [JACKSON, "monitor", "--port", path, "--duration", "3"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    monitor = _monitor(path, 3)
     try:
         _wait_for_hello(master)
         info = Info(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH, boot_id=7)
