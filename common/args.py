@@ -40,7 +40,6 @@ def _number(
     return parse
 
 
-finite_float = _number("a finite number", float, lambda v: True)
 positive_float = _number("a number > 0", float, lambda v: v > 0)
 nonneg_float = _number("a number >= 0", float, lambda v: v >= 0)
 fraction = _number("a number in (0, 1]", float, lambda v: 0 < v <= 1)
