@@ -20,7 +20,7 @@ from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
 from jackson.host.actuation.tb6612 import bridge_duties
 from jackson.host.config import Pca9685Settings
-from jackson.host.i2c import SOCKET_PREFIX, I2cError, open_bus
+from jackson.host.i2c import SOCKET_PREFIX, I2cError, I2cSpecError, check_bus_spec, open_bus
 
 ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt
@@ -99,15 +99,12 @@ def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
 
 def bus_spec(text: str) -> str:
     """argparse type: ``/dev/i2c-N``, ``N`` or ``unix:/path/to.sock``."""
-    if text.startswith(SOCKET_PREFIX):
-        ok = len(text) > len(SOCKET_PREFIX)
-    else:
-        number = text.removeprefix("/dev/i2c-")
-        ok = number.isascii() and number.isdigit()
-    if not ok:
+    try:
+        check_bus_spec(text)
+    except I2cSpecError as exc:
         raise argparse.ArgumentTypeError(
             f"expected /dev/i2c-N, N or unix:/path/to.sock, got {text!r}"
-        )
+        ) from exc
     return text
 
 

@@ -80,7 +80,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     from jackson.host.actuation.pca9685 import Pca9685
     from jackson.host.config import HostConfig
     from jackson.host.daemon import Daemon, DaemonError, with_port
-    from jackson.host.i2c import I2cError, open_bus
+    from jackson.host.i2c import I2cError, I2cSpecError, open_bus
     from jackson.host.sdnotify import notifier_from_env
     from jackson.host.transport import LinkError, SerialTransport
     from jackson.protocol import Message, ProtocolError
@@ -131,7 +131,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             pca.init(cfg.pca9685.frequency_hz)
         except (I2cError, OSError) as exc:
             transport.close()
-            if "expected /dev/i2c-N" in str(exc) or "names no socket" in str(exc):
+            if isinstance(exc, I2cSpecError):
                 raise HostCliError(f"--i2c / pca9685.bus: {exc}") from exc
             # hardware that does not answer (yet): exit 1, so systemd starts the daemon again
             print(

@@ -24,7 +24,7 @@ from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION
 from jackson.host.actuation.deadband import DeadbandConfig
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.actuation.tb6612 import BridgeChannels
-from jackson.host.i2c import SOCKET_PREFIX
+from jackson.host.i2c import I2cSpecError, check_bus_spec
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
     FAILSAFE_MS_RANGE,
@@ -344,13 +344,10 @@ def _actuator(s: Fields) -> Actuator:
 def _pca9685(s: Fields) -> Pca9685Settings:
     d = Pca9685Settings()
     bus = s.text("bus", d.bus)
-    if bus.startswith(SOCKET_PREFIX):
-        valid_bus = len(bus) > len(SOCKET_PREFIX)
-    else:
-        number = bus.removeprefix("/dev/i2c-")
-        valid_bus = number.isascii() and number.isdigit()
-    if not valid_bus:
-        raise s.fail("bus", f"expected /dev/i2c-N or unix:/path/to.sock, got {show(bus)}")
+    try:
+        check_bus_spec(bus)
+    except I2cSpecError as exc:
+        raise s.fail("bus", f"expected /dev/i2c-N or unix:/path/to.sock, got {show(bus)}") from exc
     frequency = s.number("frequency_hz", d.frequency_hz, *PWM_FREQUENCY_RANGE_HZ)
     channels = s.section("channels")
     used: dict[int, str] = {}  # channel -> the field that took it

@@ -232,6 +232,23 @@ def _recv_now(sock: socket.socket, n: int) -> tuple[bytes] | tuple[()]:
         return ()
 
 
+class I2cSpecError(I2cError):
+    """A bus name that is none of ``/dev/i2c-N``, ``N`` or ``unix:/path``: no retry can help."""
+
+
+def check_bus_spec(spec: str) -> None:
+    """Raise :class:`I2cSpecError` unless ``spec`` names a bus in a form :func:`open_bus` knows."""
+    if spec.startswith(SOCKET_PREFIX):
+        if len(spec) == len(SOCKET_PREFIX):
+            raise I2cSpecError(f"I2C bus {spec!r} names no socket: expected unix:/path/to.sock")
+        return
+    number = spec.removeprefix("/dev/i2c-")
+    if not number.isdigit() or not number.isascii():
+        raise I2cSpecError(
+            f"unknown I2C bus {spec!r}: expected /dev/i2c-N, N or unix:/path/to.sock"
+        )
+
+
 def open_bus(spec: str) -> I2cBus:
     """Open the I²C bus named by ``spec``.
 
@@ -245,14 +262,10 @@ def open_bus(spec: str) -> I2cBus:
     Raises:
         I2cError: ``spec`` is none of these forms, or the bus cannot be opened.
     """
+    check_bus_spec(spec)
     if spec.startswith(SOCKET_PREFIX):
-        path = spec[len(SOCKET_PREFIX) :]
-        if not path:
-            raise I2cError(f"I2C bus {spec!r} names no socket: expected unix:/path/to.sock")
-        return SocketI2cBus(path)
+        return SocketI2cBus(spec[len(SOCKET_PREFIX) :])
     number = spec.removeprefix("/dev/i2c-")
-    if not number.isdigit() or not number.isascii():
-        raise I2cError(f"unknown I2C bus {spec!r}: expected /dev/i2c-N, N or unix:/path/to.sock")
     try:
         import smbus2  # only the robot needs it
     except ImportError as exc:
