@@ -49,12 +49,18 @@ class YamlUpdateError(ValueError):
 class UpdateResult:
     """What :func:`update_config` did.
 
-    Attributes:
-        path: The configuration file written.
-        backup: The copy of the file before the change.
-        changes: One line per changed field, ``robot.ticks_per_rev_left: 621 -> 617.2``.
-        diff: Unified diff of the file's text.
-        in_place: True when the lines were edited (comments kept), False when rewritten.
+    Attributes
+    ----------
+    path : Path
+        The configuration file written.
+    backup : Path
+        The copy of the file before the change.
+    changes : list of str
+        One line per changed field, ``robot.ticks_per_rev_left: 621 -> 617.2``.
+    diff : str
+        Unified diff of the file's text.
+    in_place : bool
+        True when the lines were edited (comments kept), False when rewritten.
     """
 
     path: Path
@@ -236,7 +242,9 @@ def _same(a: Any, b: Value) -> bool:
 def edit_text(text: str, updates: Updates) -> str | None:
     """Apply ``updates`` (dotted YAML paths to numbers or lists) to the text, line by line.
 
-    Returns:
+    Returns
+    -------
+    str or None
         The new text, or None when a value could not be placed or does not read back.
     """
     lines = text.splitlines()
@@ -288,18 +296,26 @@ def update_config(
 ) -> UpdateResult:
     """Write calibrated values into a host YAML, keeping a backup and the comments.
 
-    Args:
-        path: The host configuration file (it must exist and be valid).
-        updates: Dotted YAML paths to new values, e.g. ``{"robot.wheel_separation_m": 0.205,
-            "deadband.left.forward": 0.1205, "robot.ticks_per_rev.left": 617.2}``.
-        now: The time of the backup's name (default: now).
+    Parameters
+    ----------
+    path : str or Path
+        The host configuration file (it must exist and be valid).
+    updates : Updates
+        Dotted YAML paths to new values, e.g. ``{"robot.wheel_separation_m": 0.205,
+        "deadband.left.forward": 0.1205, "robot.ticks_per_rev.left": 617.2}``.
+    now : datetime or None
+        The time of the backup's name (default: now).
 
-    Returns:
+    Returns
+    -------
+    UpdateResult
         What changed, the diff, and where the backup is.
 
-    Raises:
-        YamlUpdateError: The file cannot be read or written, or the result is not a valid
-            configuration (the file is then left untouched).
+    Raises
+    ------
+    YamlUpdateError
+        The file cannot be read or written, or the result is not a valid
+        configuration (the file is then left untouched).
     """
     p = Path(path)
     try:

@@ -33,18 +33,28 @@ class CalibrationError(ValueError):
 class RunData:
     """One recorded run, as the calibration reads it (one row per telemetry frame).
 
-    Attributes:
-        name: The run folder's name, for messages.
-        t_s: MCU time of each frame [s] (unwrapped).
-        enc_left: Cumulative left counts, unwrapped to int64 (no 32-bit wrap) [ticks].
-        enc_right: Cumulative right counts [ticks].
-        gyro_rad_s: Gyro rate in the *sensor* frame, shape (n, 3) [rad/s]; a calibration the
-            device applied is undone; NaN where the IMU sample is missing or unusable.
-        accel_m_s2: Specific force in the sensor frame, shape (n, 3) [m/s^2], 1 g = 9.81.
-        duty_left: Signed left duty written after the frame (commands.csv), NaN if unknown.
-        duty_right: Signed right duty written after the frame.
-        notes: What the user measured for this run (``calibration.json``), e.g.
-            ``measured_distance_m`` or ``true_rotation_rad``.
+    Attributes
+    ----------
+    name : str
+        The run folder's name, for messages.
+    t_s : numpy.ndarray
+        MCU time of each frame [s] (unwrapped).
+    enc_left : numpy.ndarray
+        Cumulative left counts, unwrapped to int64 (no 32-bit wrap) [ticks].
+    enc_right : numpy.ndarray
+        Cumulative right counts [ticks].
+    gyro_rad_s : numpy.ndarray
+        Gyro rate in the *sensor* frame, shape (n, 3) [rad/s]; a calibration the
+        device applied is undone; NaN where the IMU sample is missing or unusable.
+    accel_m_s2 : numpy.ndarray
+        Specific force in the sensor frame, shape (n, 3) [m/s^2], 1 g = 9.81.
+    duty_left : numpy.ndarray
+        Signed left duty written after the frame (commands.csv), NaN if unknown.
+    duty_right : numpy.ndarray
+        Signed right duty written after the frame.
+    notes : mapping of str to float
+        What the user measured for this run (``calibration.json``), e.g.
+        ``measured_distance_m`` or ``true_rotation_rad``.
     """
 
     name: str

@@ -22,21 +22,32 @@ from jackson.host.config import IDENTITY, RobotGeometry
 class Characterisation:
     """The response to a duty step on both wheels, then a short brake.
 
-    Attributes:
-        duty: The step's duty (signed).
-        top_wheel_speed_left_rad_s: Mean left wheel speed once settled [rad/s].
-        top_wheel_speed_right_rad_s: The same for the right wheel.
-        top_speed_m_s: Mean robot speed once settled, (r_L w_L + r_R w_R) / 2 [m/s] (Eq. 2).
-        time_to_90_s: From the step to the chassis reaching 90 % of the top speed, by the
-            accelerometer [s] (NaN without IMU samples).
-        stopping_distance_m: Travel of the chassis from the brake to standstill, by the
-            accelerometer [m] (NaN without IMU samples).
-        stopping_time_s: From the brake to standstill by the accelerometer [s] (NaN without).
-        wheel_time_to_90_s: The same as ``time_to_90_s`` by the encoders [s]; shorter when
-            the wheels spin up faster than the chassis, as at a full-duty launch.
-        wheel_stopping_distance_m: The same by the encoders [m]; shorter when the braked
-            wheels skid, as a short brake from full speed does.
-        wheel_stopping_time_s: From the brake to the last count change [s].
+    Attributes
+    ----------
+    duty : float
+        The step's duty (signed).
+    top_wheel_speed_left_rad_s : float
+        Mean left wheel speed once settled [rad/s].
+    top_wheel_speed_right_rad_s : float
+        The same for the right wheel.
+    top_speed_m_s : float
+        Mean robot speed once settled, (r_L w_L + r_R w_R) / 2 [m/s] (Eq. 2).
+    time_to_90_s : float
+        From the step to the chassis reaching 90 % of the top speed, by the
+        accelerometer [s] (NaN without IMU samples).
+    stopping_distance_m : float
+        Travel of the chassis from the brake to standstill, by the
+        accelerometer [m] (NaN without IMU samples).
+    stopping_time_s : float
+        From the brake to standstill by the accelerometer [s] (NaN without).
+    wheel_time_to_90_s : float
+        The same as ``time_to_90_s`` by the encoders [s]; shorter when
+        the wheels spin up faster than the chassis, as at a full-duty launch.
+    wheel_stopping_distance_m : float
+        The same by the encoders [m]; shorter when the braked
+        wheels skid, as a short brake from full speed does.
+    wheel_stopping_time_s : float
+        From the brake to the last count change [s].
     """
 
     duty: float
@@ -74,12 +85,18 @@ def braking_distance(
     constant: s += v dt + a dt^2 / 2; in the interval where the speed reaches zero the robot
     stops after tau = -v / a and s += v tau / 2.
 
-    Args:
-        v0_m_s: Speed at the brake [m/s] (either sign).
-        accel_m_s2: Interval-mean acceleration along the direction of travel's axis [m/s^2].
-        dt_s: Interval lengths [s].
+    Parameters
+    ----------
+    v0_m_s : float
+        Speed at the brake [m/s] (either sign).
+    accel_m_s2 : numpy.ndarray
+        Interval-mean acceleration along the direction of travel's axis [m/s^2].
+    dt_s : numpy.ndarray
+        Interval lengths [s].
 
-    Returns:
+    Returns
+    -------
+    tuple of float
         (distance [m], time [s]), both NaN when the speed never reaches zero.
     """
     sign = 1.0 if v0_m_s >= 0 else -1.0
@@ -119,17 +136,26 @@ def characterise(
     beside them. The run must end at rest. Record it at a high telemetry rate (the recorder
     uses 200 Hz): launch and stop last a few tens of milliseconds.
 
-    Args:
-        run: A run with raw duties (commands.csv).
-        geometry: Radii and resolutions per wheel.
-        rotation: The IMU's sensor-to-base rotation, row-major.
-        settled_fraction: The part of the step taken as settled.
+    Parameters
+    ----------
+    run : RunData
+        A run with raw duties (commands.csv).
+    geometry : RobotGeometry
+        Radii and resolutions per wheel.
+    rotation : sequence of float
+        The IMU's sensor-to-base rotation, row-major.
+    settled_fraction : float
+        The part of the step taken as settled.
 
-    Returns:
+    Returns
+    -------
+    Characterisation
         The characterisation.
 
-    Raises:
-        CalibrationError: No step, no brake after it, or a robot that did not move.
+    Raises
+    ------
+    CalibrationError
+        No step, no brake after it, or a robot that did not move.
     """
     dl = np.nan_to_num(run.duty_left)
     dr = np.nan_to_num(run.duty_right)

@@ -43,17 +43,25 @@ def breakaway_bracket(
     and at most ``|duty[m - 1]|``. On a staircase held long enough for one tick at any excess
     torque, that bracket is one step wide; on a continuous ramp the response lag biases it up.
 
-    Args:
-        duty: Signed duty of this wheel per frame of the ramp (one sign, |duty| rising).
-        counts: The wheel's cumulative counts per frame, one frame longer than ``duty`` or as
-            long (the frame after the last duty, when present, shows that duty's effect).
-        persist_frames: N, frames the change must persist.
+    Parameters
+    ----------
+    duty : sequence of float or numpy.ndarray
+        Signed duty of this wheel per frame of the ramp (one sign, |duty| rising).
+    counts : sequence of int or numpy.ndarray
+        The wheel's cumulative counts per frame, one frame longer than ``duty`` or as
+        long (the frame after the last duty, when present, shows that duty's effect).
+    persist_frames : int
+        N, frames the change must persist.
 
-    Returns:
+    Returns
+    -------
+    Bracket
         The bracket; ``hi`` is inf and ``lo`` the largest duty held when it never moved.
 
-    Raises:
-        ValueError: Empty ramp, mixed signs, or counts shorter than the duties.
+    Raises
+    ------
+    ValueError
+        Empty ramp, mixed signs, or counts shorter than the duties.
     """
     d = np.asarray(duty, dtype=np.float64)
     c = np.asarray(counts, dtype=np.int64)
@@ -148,15 +156,22 @@ def calibrate_deadband(runs: Sequence[RunData], persist_frames: int = 3) -> Dead
     of one wheel and direction are intersected (:func:`combine_brackets`), so a coarse ramp
     followed by a fine one narrows the answer to the fine step. The result is the midpoint.
 
-    Args:
-        runs: Runs with raw duties (commands.csv) and counts.
-        persist_frames: N of :func:`breakaway_bracket`.
+    Parameters
+    ----------
+    runs : sequence of RunData
+        Runs with raw duties (commands.csv) and counts.
+    persist_frames : int
+        N of :func:`breakaway_bracket`.
 
-    Returns:
+    Returns
+    -------
+    DeadbandCalibration
         The four breakaway duties.
 
-    Raises:
-        CalibrationError: A wheel/direction without a ramp, or one that never moved.
+    Raises
+    ------
+    CalibrationError
+        A wheel/direction without a ramp, or one that never moved.
     """
     found: dict[str, list[Bracket]] = {}
     for run in runs:

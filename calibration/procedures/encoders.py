@@ -23,16 +23,24 @@ def encoder_resolution(ticks_per_rev_0: float, d_odom_m: float, d_meas_m: float)
     Since d_odom = 2 pi r N / C_0 (Eq. A4), this is C_cal = 2 pi r N / d_meas: the resolution
     that makes the wheel's counts read the measured floor distance with the wheel radius r.
 
-    Args:
-        ticks_per_rev_0: C_0, the resolution the odometry used [ticks/rev].
-        d_odom_m: Distance the odometry reported with C_0 [m].
-        d_meas_m: Distance measured on the floor [m].
+    Parameters
+    ----------
+    ticks_per_rev_0 : float
+        C_0, the resolution the odometry used [ticks/rev].
+    d_odom_m : float
+        Distance the odometry reported with C_0 [m].
+    d_meas_m : float
+        Distance measured on the floor [m].
 
-    Returns:
+    Returns
+    -------
+    float
         C_cal [ticks/rev]. The paper: 652 x 0.9525 = 621 (Eq. A7-A8).
 
-    Raises:
-        CalibrationError: A measured distance that is not > 0, or no odometry distance.
+    Raises
+    ------
+    CalibrationError
+        A measured distance that is not > 0, or no odometry distance.
     """
     if not (math.isfinite(d_meas_m) and d_meas_m > 0.0):
         raise CalibrationError(f"the measured distance must be > 0 m, got {d_meas_m:g}")
@@ -55,14 +63,22 @@ class StraightRun:
 class EncoderCalibration:
     """C_cal per wheel averaged over runs (Eq. A6), with each run's value and ratio.
 
-    Attributes:
-        ticks_per_rev_left: Mean C_cal of the left wheel [ticks/rev].
-        ticks_per_rev_right: Mean C_cal of the right wheel.
-        per_run: (C_left, C_right) of each run.
-        ratio_left: Mean d_odom / d_meas of the left wheel with C_0 (the paper: 0.9525).
-        ratio_right: The same for the right wheel.
-        spread_left: Sample standard deviation of the runs' C_left (0 for one run).
-        spread_right: The same for the right wheel.
+    Attributes
+    ----------
+    ticks_per_rev_left : float
+        Mean C_cal of the left wheel [ticks/rev].
+    ticks_per_rev_right : float
+        Mean C_cal of the right wheel.
+    per_run : tuple of tuple of float
+        (C_left, C_right) of each run.
+    ratio_left : float
+        Mean d_odom / d_meas of the left wheel with C_0 (the paper: 0.9525).
+    ratio_right : float
+        The same for the right wheel.
+    spread_left : float
+        Sample standard deviation of the runs' C_left (0 for one run).
+    spread_right : float
+        The same for the right wheel.
     """
 
     ticks_per_rev_left: float
@@ -77,8 +93,10 @@ class EncoderCalibration:
 def straight_run(run: RunData, measured_m: float) -> StraightRun:
     """The count change of each wheel over a run (first to last frame) and its measurement.
 
-    Raises:
-        CalibrationError: The run has fewer than two frames.
+    Raises
+    ------
+    CalibrationError
+        The run has fewer than two frames.
     """
     return StraightRun(run.name, *_count_change(run), measured_m)
 
@@ -98,15 +116,22 @@ def calibrate_encoders(runs: Sequence[StraightRun], geometry: RobotGeometry) -> 
     go forwards or backwards (the sign of the counts is dropped). On a straight run both wheels
     travel the distance of the axle midpoint, so one tape measurement serves both.
 
-    Args:
-        runs: The straight runs, each with its measured floor distance d_meas.
-        geometry: The configured radii and C_0 per wheel.
+    Parameters
+    ----------
+    runs : sequence of StraightRun
+        The straight runs, each with its measured floor distance d_meas.
+    geometry : RobotGeometry
+        The configured radii and C_0 per wheel.
 
-    Returns:
+    Returns
+    -------
+    EncoderCalibration
         The mean C_cal per wheel and the details.
 
-    Raises:
-        CalibrationError: No runs, a non-positive measurement, or a wheel that did not move.
+    Raises
+    ------
+    CalibrationError
+        No runs, a non-positive measurement, or a wheel that did not move.
     """
     if not runs:
         raise CalibrationError("no straight runs to calibrate the encoders from")

@@ -26,10 +26,14 @@ from jackson.protocol.messages import GRAVITY_M_S2  # the nominal gravity of hos
 class DatasheetNoise:
     """White-noise sigma of the MPU-6050 from its noise densities: sigma = density sqrt(BW).
 
-    Attributes:
-        bandwidth_hz: The noise bandwidth used [Hz].
-        gyro_sigma_rad_s: sigma_w [rad/s].
-        accel_sigma_m_s2: sigma_a [m/s^2].
+    Attributes
+    ----------
+    bandwidth_hz : float
+        The noise bandwidth used [Hz].
+    gyro_sigma_rad_s : float
+        sigma_w [rad/s].
+    accel_sigma_m_s2 : float
+        sigma_a [m/s^2].
     """
 
     bandwidth_hz: float
@@ -57,12 +61,18 @@ def datasheet_noise(
     1.7976e-2 m/s^2. A one-pole noise bandwidth (pi/2 x 21 = 33.0 Hz) would give 5.012e-4 rad/s
     and 2.253e-2 m/s^2, and 1 g = 9.81 would give 1.7982e-2: neither is what the paper printed.
 
-    Args:
-        bandwidth_hz: Noise bandwidth [Hz] (default 21 Hz, as the paper).
-        gyro_density_deg_s_rt_hz: Rate noise spectral density [deg/s/sqrt(Hz)].
-        accel_density_ug_rt_hz: Accelerometer noise density [micro-g/sqrt(Hz)].
+    Parameters
+    ----------
+    bandwidth_hz : float
+        Noise bandwidth [Hz] (default 21 Hz, as the paper).
+    gyro_density_deg_s_rt_hz : float
+        Rate noise spectral density [deg/s/sqrt(Hz)].
+    accel_density_ug_rt_hz : float
+        Accelerometer noise density [micro-g/sqrt(Hz)].
 
-    Returns:
+    Returns
+    -------
+    DatasheetNoise
         Both sigmas in SI units.
     """
     return DatasheetNoise(
@@ -91,15 +101,24 @@ def rotation_matrix(rotation: Sequence[float]) -> FloatArray:
 class ImuProfile:
     """The static IMU profile: what SET_IMU_CALIBRATION needs, and the measured noise.
 
-    Attributes:
-        rotation: Sensor to base frame, row-major (identity unless given).
-        gyro_bias_rad_s: Mean rate at rest in the base frame (R times the sensor mean) [rad/s].
-        accel_scale: 9.81 / |mean a| (the paper: 9.81 / 9.299 = 1.0549, quoted as x1.054).
-        gravity_measured_m_s2: |mean a| at rest [m/s^2].
-        gravity_base_m_s2: R times the mean specific force; REP-103 wants (0, 0, +g).
-        gyro_sigma_rad_s: Sample standard deviation of each gyro axis at rest [rad/s].
-        accel_sigma_m_s2: Sample standard deviation of each accelerometer axis [m/s^2].
-        samples: Frames averaged.
+    Attributes
+    ----------
+    rotation : Rotation
+        Sensor to base frame, row-major (identity unless given).
+    gyro_bias_rad_s : tuple of float
+        Mean rate at rest in the base frame (R times the sensor mean) [rad/s].
+    accel_scale : float
+        9.81 / |mean a| (the paper: 9.81 / 9.299 = 1.0549, quoted as x1.054).
+    gravity_measured_m_s2 : float
+        |mean a| at rest [m/s^2].
+    gravity_base_m_s2 : tuple of float
+        R times the mean specific force; REP-103 wants (0, 0, +g).
+    gyro_sigma_rad_s : tuple of float
+        Sample standard deviation of each gyro axis at rest [rad/s].
+    accel_sigma_m_s2 : tuple of float
+        Sample standard deviation of each accelerometer axis [m/s^2].
+    samples : int
+        Frames averaged.
     """
 
     rotation: Rotation
@@ -136,16 +155,24 @@ def imu_profile(
     omega = R omega_s - b and a = s R a_s, hence b = R mean(omega_s) and
     s = 9.81 / |mean(a_s)| (a rotation keeps lengths).
 
-    Args:
-        gyro_rad_s: Sensor-frame rates at rest, shape (n, 3) [rad/s]; NaN rows are skipped.
-        accel_m_s2: Sensor-frame specific force at rest, shape (n, 3) [m/s^2].
-        rotation: Sensor to base frame, row-major.
+    Parameters
+    ----------
+    gyro_rad_s : numpy.ndarray
+        Sensor-frame rates at rest, shape (n, 3) [rad/s]; NaN rows are skipped.
+    accel_m_s2 : numpy.ndarray
+        Sensor-frame specific force at rest, shape (n, 3) [m/s^2].
+    rotation : sequence of float
+        Sensor to base frame, row-major.
 
-    Returns:
+    Returns
+    -------
+    ImuProfile
         The profile.
 
-    Raises:
-        CalibrationError: Too few samples, no gravity, or a bias the firmware would refuse.
+    Raises
+    ------
+    CalibrationError
+        Too few samples, no gravity, or a bias the firmware would refuse.
     """
     r = rotation_matrix(rotation)
     g = np.asarray(gyro_rad_s, dtype=np.float64)
@@ -185,10 +212,14 @@ def imu_profile(
 class YawAudit:
     """REP-103 audit of the gyro z axis against the wheel odometry's yaw rate.
 
-    Attributes:
-        correlation: Pearson correlation of gyro z with the odometry yaw rate.
-        slope: Least-squares gyro z / odometry yaw rate (about 1 for a good IMU and B).
-        samples: Frames used.
+    Attributes
+    ----------
+    correlation : float
+        Pearson correlation of gyro z with the odometry yaw rate.
+    slope : float
+        Least-squares gyro z / odometry yaw rate (about 1 for a good IMU and B).
+    samples : int
+        Frames used.
     """
 
     correlation: float
@@ -225,15 +256,22 @@ def yaw_sign_audit(gyro_z_rad_s: FloatArray, odometry_w_rad_s: FloatArray) -> Ya
     as it gives a positive odometry yaw rate (Eq. 3). A negative correlation means the IMU's
     z axis points down in the base frame (or the encoders are swapped).
 
-    Args:
-        gyro_z_rad_s: Base-frame gyro z per frame, bias removed [rad/s]; NaN is skipped.
-        odometry_w_rad_s: Odometry yaw rate per frame [rad/s].
+    Parameters
+    ----------
+    gyro_z_rad_s : numpy.ndarray
+        Base-frame gyro z per frame, bias removed [rad/s]; NaN is skipped.
+    odometry_w_rad_s : numpy.ndarray
+        Odometry yaw rate per frame [rad/s].
 
-    Returns:
+    Returns
+    -------
+    YawAudit
         The audit.
 
-    Raises:
-        CalibrationError: The robot did not turn (no yaw rate to compare with).
+    Raises
+    ------
+    CalibrationError
+        The robot did not turn (no yaw rate to compare with).
     """
     gz = np.asarray(gyro_z_rad_s, dtype=np.float64)
     w = np.asarray(odometry_w_rad_s, dtype=np.float64)

@@ -23,17 +23,26 @@ def wheel_separation(
 ) -> float:
     """B = r (dphi_R - dphi_L) / dtheta (Eq. A12).
 
-    Args:
-        wheel_radius_m: r [m].
-        dphi_right_rad: Accumulated right wheel rotation [rad].
-        dphi_left_rad: Accumulated left wheel rotation [rad].
-        dtheta_rad: True chassis rotation [rad], CCW positive.
+    Parameters
+    ----------
+    wheel_radius_m : float
+        r [m].
+    dphi_right_rad : float
+        Accumulated right wheel rotation [rad].
+    dphi_left_rad : float
+        Accumulated left wheel rotation [rad].
+    dtheta_rad : float
+        True chassis rotation [rad], CCW positive.
 
-    Returns:
+    Returns
+    -------
+    float
         B [m]. The paper: 0.033 x 37.70 / 2 pi = 0.198 (Eq. A15).
 
-    Raises:
-        CalibrationError: A zero rotation.
+    Raises
+    ------
+    CalibrationError
+        A zero rotation.
     """
     if not (math.isfinite(dtheta_rad) and dtheta_rad != 0.0):
         raise CalibrationError(f"the true rotation must be nonzero, got {dtheta_rad:g} rad")
@@ -54,11 +63,16 @@ class RotationRun:
 class TrackCalibration:
     """Wheel separation B averaged over rotation runs (Eq. A12).
 
-    Attributes:
-        wheel_separation_m: Mean B [m].
-        per_run: B of each run [m].
-        wheel_rotation_difference_rad: dphi_R - dphi_L of each run (the paper: 37.70 rad).
-        spread_m: Sample standard deviation of the runs' B (0 for one run).
+    Attributes
+    ----------
+    wheel_separation_m : float
+        Mean B [m].
+    per_run : tuple of float
+        B of each run [m].
+    wheel_rotation_difference_rad : tuple of float
+        dphi_R - dphi_L of each run (the paper: 37.70 rad).
+    spread_m : float
+        Sample standard deviation of the runs' B (0 for one run).
     """
 
     wheel_separation_m: float
@@ -70,8 +84,10 @@ class TrackCalibration:
 def rotation_run(run: RunData, true_rotation_rad: float) -> RotationRun:
     """The count change of each wheel over a run and the true rotation the user confirmed.
 
-    Raises:
-        CalibrationError: The run has fewer than two frames.
+    Raises
+    ------
+    CalibrationError
+        The run has fewer than two frames.
     """
     return RotationRun(run.name, *_count_change(run), true_rotation_rad)
 
@@ -84,15 +100,22 @@ def calibrate_track(runs: Sequence[RotationRun], geometry: RobotGeometry) -> Tra
     the user's count of full turns (or the twin's ground truth); its sign is taken from the
     wheels, so "2 turns" serves clockwise and counter-clockwise runs alike.
 
-    Args:
-        runs: The rotation runs with their true rotation |dtheta| (the sign is ignored).
-        geometry: Radii and resolutions per wheel.
+    Parameters
+    ----------
+    runs : sequence of RotationRun
+        The rotation runs with their true rotation |dtheta| (the sign is ignored).
+    geometry : RobotGeometry
+        Radii and resolutions per wheel.
 
-    Returns:
+    Returns
+    -------
+    TrackCalibration
         The mean B and the details.
 
-    Raises:
-        CalibrationError: No runs, a zero rotation, or wheels that did not turn in place.
+    Raises
+    ------
+    CalibrationError
+        No runs, a zero rotation, or wheels that did not turn in place.
     """
     if not runs:
         raise CalibrationError("no rotation runs to calibrate the wheel separation from")

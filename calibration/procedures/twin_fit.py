@@ -27,16 +27,25 @@ class FitSegment:
     The reference is anchored like the paper's trajectories: its pose at the first frame is
     the origin (0, 0, 0), the frame the dead reckoning starts in.
 
-    Attributes:
-        name: The run, for messages.
-        t_s: Frame times [s].
-        phi_left_rad: Left wheel angle since the first frame [rad].
-        phi_right_rad: Right wheel angle [rad].
-        gyro_z_rad_s: Base-frame yaw rate over the interval ending at each frame, bias
-            removed [rad/s] (element 0 unused).
-        ref_x_m: Reference x in the anchored frame [m].
-        ref_y_m: Reference y [m].
-        ref_yaw_rad: Reference heading, unwrapped [rad].
+    Attributes
+    ----------
+    name : str
+        The run, for messages.
+    t_s : numpy.ndarray
+        Frame times [s].
+    phi_left_rad : numpy.ndarray
+        Left wheel angle since the first frame [rad].
+    phi_right_rad : numpy.ndarray
+        Right wheel angle [rad].
+    gyro_z_rad_s : numpy.ndarray
+        Base-frame yaw rate over the interval ending at each frame, bias
+        removed [rad/s] (element 0 unused).
+    ref_x_m : numpy.ndarray
+        Reference x in the anchored frame [m].
+    ref_y_m : numpy.ndarray
+        Reference y [m].
+    ref_yaw_rad : numpy.ndarray
+        Reference heading, unwrapped [rad].
     """
 
     name: str
@@ -72,8 +81,10 @@ def fit_segment(
     before the wheels first move (:attr:`RunData.still_frames`, the host's start-up
     standstill); fewer than 5 such frames: no bias is removed.
 
-    Raises:
-        CalibrationError: Fewer than 10 frames overlap, or the IMU samples are missing.
+    Raises
+    ------
+    CalibrationError
+        Fewer than 10 frames overlap, or the IMU samples are missing.
     """
     t = run.t_s
     inside = (t >= reference.t_s[0]) & (t <= reference.t_s[-1])
@@ -153,17 +164,28 @@ def dead_reckon(
 class TwinFit:
     """Effective parameters of the twin's odometry (the paper's V16/V17 values).
 
-    Attributes:
-        wheel_radius_m: Effective r (for the given ticks per revolution) [m].
-        wheel_separation_m: Effective B [m].
-        yaw_scale: Factor on the gyro's yaw rate (the paper: 0.6953).
-        sigma: One-sigma uncertainty of (r, B, yaw_scale) from the Jacobian.
-        rms_position_m: RMS position residual (Eq. 13 form) with the fitted values [m].
-        rms_yaw_wheel_rad: RMS wheel-heading residual [rad].
-        rms_yaw_gyro_rad: RMS gyro-heading residual [rad].
-        initial_rms_position_m: RMS position residual with the starting values [m].
-        samples: Frames fitted over all runs.
-        heading: Which heading the positions were integrated with.
+    Attributes
+    ----------
+    wheel_radius_m : float
+        Effective r (for the given ticks per revolution) [m].
+    wheel_separation_m : float
+        Effective B [m].
+    yaw_scale : float
+        Factor on the gyro's yaw rate (the paper: 0.6953).
+    sigma : tuple of float
+        One-sigma uncertainty of (r, B, yaw_scale) from the Jacobian.
+    rms_position_m : float
+        RMS position residual (Eq. 13 form) with the fitted values [m].
+    rms_yaw_wheel_rad : float
+        RMS wheel-heading residual [rad].
+    rms_yaw_gyro_rad : float
+        RMS gyro-heading residual [rad].
+    initial_rms_position_m : float
+        RMS position residual with the starting values [m].
+    samples : int
+        Frames fitted over all runs.
+    heading : Heading
+        Which heading the positions were integrated with.
     """
 
     wheel_radius_m: float
@@ -224,21 +246,32 @@ def fit_twin(
     the yaw scale. scipy's ``least_squares`` (trust-region reflective, bounds at 1/2 and 2 of
     the start values, 0.1-10 for the yaw scale) minimises them over all runs together.
 
-    Args:
-        segments: The runs with their references (:func:`fit_segment`).
-        wheel_radius_m: Starting r [m].
-        wheel_separation_m: Starting B [m].
-        yaw_scale: Starting yaw scale.
-        heading: Heading the positions are integrated with: the wheels' (joint-state
-            odometry, as the paper's twin) or the gyro's.
-        yaw_weight_m_per_rad: How many metres of position residual one radian of heading
-            residual counts as.
+    Parameters
+    ----------
+    segments : sequence of FitSegment
+        The runs with their references (:func:`fit_segment`).
+    wheel_radius_m : float
+        Starting r [m].
+    wheel_separation_m : float
+        Starting B [m].
+    yaw_scale : float
+        Starting yaw scale.
+    heading : Heading
+        Heading the positions are integrated with: the wheels' (joint-state
+        odometry, as the paper's twin) or the gyro's.
+    yaw_weight_m_per_rad : float
+        How many metres of position residual one radian of heading
+        residual counts as.
 
-    Returns:
+    Returns
+    -------
+    TwinFit
         The fitted parameters and residuals.
 
-    Raises:
-        CalibrationError: No data, or a trajectory that does not determine the parameters.
+    Raises
+    ------
+    CalibrationError
+        No data, or a trajectory that does not determine the parameters.
     """
     if not segments:
         raise CalibrationError("no runs to fit")

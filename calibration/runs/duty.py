@@ -56,9 +56,12 @@ def duty_run(
     go to the PCA9685 as they are (no limits, no deadband compensation) and the device sends
     raw IMU registers (no calibration: the procedures read raw values).
 
-    Raises:
-        RunError: The port, the bus, no telemetry, or an actuator other than the PCA9685.
-        ProtocolMismatchError: Firmware of another protocol version.
+    Raises
+    ------
+    RunError
+        The port, the bus, no telemetry, or an actuator other than the PCA9685.
+    ProtocolMismatchError
+        Firmware of another protocol version.
     """
     cfg = link.config
     if cfg.actuator != "pca9685":

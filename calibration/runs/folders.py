@@ -90,14 +90,20 @@ def load_run(folder: str | Path) -> RunData:
     a_s = R^T a / s); frames calibrated by a calibration the log does not show (one stored in
     the device's flash) have no usable IMU values (NaN).
 
-    Args:
-        folder: A run folder written by ``jackson daemon`` or by this module.
+    Parameters
+    ----------
+    folder : str or Path
+        A run folder written by ``jackson daemon`` or by this module.
 
-    Returns:
+    Returns
+    -------
+    RunData
         The run's data.
 
-    Raises:
-        CalibrationError: The folder is missing, not a run, or holds no telemetry.
+    Raises
+    ------
+    CalibrationError
+        The folder is missing, not a run, or holds no telemetry.
     """
     path = Path(folder)
     if not path.is_dir():
@@ -174,8 +180,10 @@ def load_reference(path: str | Path) -> Reference:
     """A reference trajectory: CSV with a header ``t_s,x_m,y_m,yaw_rad`` (MCU clock, metres,
     radians; other columns are ignored), sorted by time.
 
-    Raises:
-        CalibrationError: Missing file or columns, non-numbers, or fewer than two rows.
+    Raises
+    ------
+    CalibrationError
+        Missing file or columns, non-numbers, or fewer than two rows.
     """
     p = Path(path)
     try:

@@ -24,10 +24,14 @@ from jackson.host.transport import LinkError, SerialTransport
 class Link:
     """A robot (or the twin) to record on, and what the host believes about it.
 
-    Attributes:
-        port: The MCU's serial port (the twin prints its pty).
-        config: The host configuration; ``pca9685.bus`` names the PCA9685's bus (``--i2c``).
-        console: Where progress bars go; None: no progress display.
+    Attributes
+    ----------
+    port : str
+        The MCU's serial port (the twin prints its pty).
+    config : HostConfig
+        The host configuration; ``pca9685.bus`` names the PCA9685's bus (``--i2c``).
+    console : Console or None
+        Where progress bars go; None: no progress display.
     """
 
     port: str

@@ -182,9 +182,12 @@ def drive_run(
     """Record one velocity run: the daemon (its EKF, limits, deadband compensation, PCA9685
     output and recorder) driving ``mission`` until it is done.
 
-    Raises:
-        RunError: The port, the bus, no telemetry, or a mission that timed out.
-        ProtocolMismatchError: Firmware of another protocol version.
+    Raises
+    ------
+    RunError
+        The port, the bus, no telemetry, or a mission that timed out.
+    ProtocolMismatchError
+        Firmware of another protocol version.
     """
     cfg = link.config
     transport, bus, pca = _open_link(link)
