@@ -68,8 +68,10 @@ def output_folder(path: Path, option: str = "--out") -> Path:
     """``path`` as a place to write a new folder: refused if it is a file, lies under a file,
     or is a folder that already holds files (a run or report is never written over another).
 
-    Raises:
-        ValueError: One line naming the option and the path.
+    Raises
+    ------
+    ValueError
+        One line naming the option and the path.
     """
     if path.exists() and not path.is_dir():
         raise ValueError(f"{option} {path}: is a file, give a folder that does not exist yet")

@@ -224,16 +224,23 @@ _StrictLoader.add_implicit_resolver(
 def read_yaml(path: Path, kind: str) -> tuple[str, Mapping[Any, Any]]:
     """Load a YAML file whose top level is a mapping of fields.
 
-    Args:
-        path: The file.
-        kind: What it is, for messages ("config", "robot", "world").
+    Parameters
+    ----------
+    path : Path
+        The file.
+    kind : str
+        What it is, for messages ("config", "robot", "world").
 
-    Returns:
+    Returns
+    -------
+    tuple of (str, mapping)
         ``(where, data)``: ``where`` ("robot jackson.yaml") prefixes every error about it.
 
-    Raises:
-        ConfigError: The file cannot be read, is not UTF-8 or YAML, repeats a field, or its top
-            level is not a mapping.
+    Raises
+    ------
+    ConfigError
+        The file cannot be read, is not UTF-8 or YAML, repeats a field, or its top
+        level is not a mapping.
     """
     where = f"{kind} {path.name}"
     try:

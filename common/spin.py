@@ -35,11 +35,16 @@ _PEERCRED = struct.Struct("3i")  # struct ucred: pid, uid, gid
 def spin_poll(poll: Callable[[], T], spin_s: float) -> T:
     """Call ``poll`` until it returns something truthy or ``spin_s`` has passed.
 
-    Args:
-        poll: A non-blocking check, e.g. ``lambda: selector.select(0)``.
-        spin_s: Longest time to keep polling [s]; 0 polls once.
+    Parameters
+    ----------
+    poll : callable
+        A non-blocking check, e.g. ``lambda: selector.select(0)``.
+    spin_s : float
+        Longest time to keep polling [s]; 0 polls once.
 
-    Returns:
+    Returns
+    -------
+    T
         The last result of ``poll`` (falsy if nothing arrived within ``spin_s``: the caller
         then blocks as it would have without spinning).
     """

@@ -27,8 +27,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 def bags_of(run: Path) -> list[Path]:
     """The bag folders ``run`` names: itself if it holds an MCAP file, else its bag folders.
 
-    Raises:
-        HostCliError: ``run`` does not exist, is a file, or holds no bag.
+    Raises
+    ------
+    HostCliError
+        ``run`` does not exist, is a file, or holds no bag.
     """
     from jackson.host.ros.bag import bag_folders
 

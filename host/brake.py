@@ -41,9 +41,12 @@ def brake_duties(p: Pca9685Settings) -> dict[int, float]:
 def brake_once(p: Pca9685Settings) -> None:
     """One attempt: open the bus, (re)initialise if needed, brake, read back.
 
-    Raises:
-        BrakeError: A register read back differs from what was written.
-        I2cError, OSError: The bus failed.
+    Raises
+    ------
+    BrakeError
+        A register read back differs from what was written.
+    I2cError, OSError
+        The bus failed.
     """
     bus = open_bus(p.bus)
     try:
@@ -79,8 +82,10 @@ def _what_to_check(exc: BaseException, p: Pca9685Settings) -> str:
 def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
     """Brake with retries; the number of attempts it took.
 
-    Raises:
-        BrakeError: Every attempt failed (the last reason and what to check).
+    Raises
+    ------
+    BrakeError
+        Every attempt failed (the last reason and what to check).
     """
     last: BaseException = BrakeError("no attempt made")
     for k in range(attempts):

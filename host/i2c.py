@@ -80,16 +80,22 @@ class SocketI2cBus:
     Every call sends one request and blocks until its response, so when a call returns the
     twin has applied it.
 
-    Args:
-        path: The twin's I²C socket file.
-        timeout_s: Longest wait for a response [s]; after a timeout the bus is closed, since a
-            late response would be taken for the next one.
-        spin_s: How long to poll for a response before blocking [s] (jackson.common.spin);
-            None: :data:`~jackson.common.spin.DEFAULT_SPIN_S` when the twin is another
-            process, 0 when it runs in this one.
+    Parameters
+    ----------
+    path : str or PathLike
+        The twin's I²C socket file.
+    timeout_s : float
+        Longest wait for a response [s]; after a timeout the bus is closed, since a
+        late response would be taken for the next one.
+    spin_s : float or None
+        How long to poll for a response before blocking [s] (jackson.common.spin);
+        None: :data:`~jackson.common.spin.DEFAULT_SPIN_S` when the twin is another
+        process, 0 when it runs in this one.
 
-    Raises:
-        I2cError: The socket cannot be connected.
+    Raises
+    ------
+    I2cError
+        The socket cannot be connected.
     """
 
     def __init__(
@@ -116,9 +122,12 @@ class SocketI2cBus:
     def write_byte_data(self, i2c_addr: int, register: int, value: int) -> None:
         """Write one byte to ``register`` of the device at ``i2c_addr``.
 
-        Raises:
-            I2cError: No device answered, or the link failed.
-            ValueError: An argument is out of range.
+        Raises
+        ------
+        I2cError
+            No device answered, or the link failed.
+        ValueError
+            An argument is out of range.
         """
         _check_byte("value", value)
         self._transfer(OP_WRITE_BYTE_DATA, i2c_addr, register, 1, bytes((value,)))
@@ -126,18 +135,24 @@ class SocketI2cBus:
     def read_byte_data(self, i2c_addr: int, register: int) -> int:
         """Read one byte from ``register`` of the device at ``i2c_addr``.
 
-        Raises:
-            I2cError: No device answered, or the link failed.
-            ValueError: An argument is out of range.
+        Raises
+        ------
+        I2cError
+            No device answered, or the link failed.
+        ValueError
+            An argument is out of range.
         """
         return self._transfer(OP_READ_BYTE_DATA, i2c_addr, register, 0, b"", expect=1)[0]
 
     def write_i2c_block_data(self, i2c_addr: int, register: int, data: Sequence[int]) -> None:
         """Write ``data`` (1..32 bytes) in one transaction starting at ``register``.
 
-        Raises:
-            I2cError: No device answered, or the link failed.
-            ValueError: An argument is out of range.
+        Raises
+        ------
+        I2cError
+            No device answered, or the link failed.
+        ValueError
+            An argument is out of range.
         """
         _check_length(len(data))
         for value in data:
@@ -147,9 +162,12 @@ class SocketI2cBus:
     def read_i2c_block_data(self, i2c_addr: int, register: int, length: int) -> list[int]:
         """Read ``length`` (1..32) bytes in one transaction starting at ``register``.
 
-        Raises:
-            I2cError: No device answered, or the link failed.
-            ValueError: An argument is out of range.
+        Raises
+        ------
+        I2cError
+            No device answered, or the link failed.
+        ValueError
+            An argument is out of range.
         """
         _check_length(length)
         return list(
@@ -252,15 +270,21 @@ def check_bus_spec(spec: str) -> None:
 def open_bus(spec: str) -> I2cBus:
     """Open the I²C bus named by ``spec``.
 
-    Args:
-        spec: ``unix:/path/to.sock`` for the twin's socket, ``/dev/i2c-N`` or ``N`` for a
-            Linux I²C adapter (smbus2, imported only then).
+    Parameters
+    ----------
+    spec : str
+        ``unix:/path/to.sock`` for the twin's socket, ``/dev/i2c-N`` or ``N`` for a
+        Linux I²C adapter (smbus2, imported only then).
 
-    Returns:
+    Returns
+    -------
+    I2cBus
         The open bus.
 
-    Raises:
-        I2cError: ``spec`` is none of these forms, or the bus cannot be opened.
+    Raises
+    ------
+    I2cError
+        ``spec`` is none of these forms, or the bus cannot be opened.
     """
     check_bus_spec(spec)
     if spec.startswith(SOCKET_PREFIX):

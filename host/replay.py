@@ -113,9 +113,12 @@ def _rows(path: Path) -> list[str]:
 def replay(run: Path, out: Path) -> ReplayResult:
     """Feed ``run`` through a fresh HostCore writing into ``out`` (a new or empty folder).
 
-    Raises:
-        RecordingError: The run folder is missing or damaged (one line naming the file).
-        ConfigError: Its config.yaml is not a valid host configuration.
+    Raises
+    ------
+    RecordingError
+        The run folder is missing or damaged (one line naming the file).
+    ConfigError
+        Its config.yaml is not a valid host configuration.
     """
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import DEFAULT_CONFIG, load_config

@@ -21,9 +21,11 @@ DEFAULT_PING_S = 0.5  # [s] between pings when systemd gives no WATCHDOG_USEC
 class SystemdNotifier:
     """Sends READY=1, WATCHDOG=1 (at most every ``ping_s``) and STOPPING=1 to ``NOTIFY_SOCKET``.
 
-    Args:
-        watchdog_s: systemd's watchdog period (``WATCHDOG_USEC``); pings go at a quarter of it,
-            so a slow loop turn or a lost datagram does not trip it. None: every DEFAULT_PING_S.
+    Parameters
+    ----------
+    watchdog_s : float or None
+        systemd's watchdog period (``WATCHDOG_USEC``); pings go at a quarter of it,
+        so a slow loop turn or a lost datagram does not trip it. None: every DEFAULT_PING_S.
     """
 
     def __init__(self, watchdog_s: float | None = None) -> None:

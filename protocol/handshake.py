@@ -14,8 +14,10 @@ def hello() -> Hello:
 def check_peer(info: Info) -> None:
     """Refuse a device whose protocol version or schema hash differs from this build's.
 
-    Raises:
-        ProtocolMismatchError: naming both versions and hashes.
+    Raises
+    ------
+    ProtocolMismatchError
+        Naming both versions and hashes.
     """
     if info.protocol_version != PROTOCOL_VERSION or info.schema_hash != SCHEMA_HASH:
         raise ProtocolMismatchError(

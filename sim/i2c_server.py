@@ -86,13 +86,18 @@ class _Connection:
 class I2cSocketServer:
     """Unix stream-socket server of the virtual I²C bus (protocol/i2c-socket.md).
 
-    Args:
-        path: Socket file to create. A stale socket file nobody listens on is replaced.
-        devices: 7-bit address -> device model; by default one PCA9685 at 0x40.
+    Parameters
+    ----------
+    path : str or PathLike
+        Socket file to create. A stale socket file nobody listens on is replaced.
+    devices : mapping of int to I2cDevice or None
+        7-bit address -> device model; by default one PCA9685 at 0x40.
 
-    Raises:
-        I2cServerError: ``path`` is another kind of file, a live server's socket, or cannot
-            be bound.
+    Raises
+    ------
+    I2cServerError
+        ``path`` is another kind of file, a live server's socket, or cannot
+        be bound.
     """
 
     def __init__(
@@ -139,10 +144,14 @@ class I2cSocketServer:
         ready (without waiting again) and returns. Each request is applied to its device
         before its response is sent.
 
-        Args:
-            timeout_s: Longest wait for activity [s]; 0 polls.
+        Parameters
+        ----------
+        timeout_s : float
+            Longest wait for activity [s]; 0 polls.
 
-        Returns:
+        Returns
+        -------
+        int
             Number of requests answered (OK, NACK and BAD_REQUEST alike).
         """
         answered = 0

@@ -37,21 +37,34 @@ COLLINEAR_TOLERANCE_M = 1e-12
 class LidarSpec:
     """What the sensor is and where it sits on the robot.
 
-    Attributes:
-        beams: Beams per scan (``len(LaserScan.ranges)``).
-        angle_increment_rad: Angle between neighbouring beams [rad].
-        angle_min_rad: Angle of the first beam in the sensor frame [rad], x forward,
-            counter-clockwise positive.
-        range_min_m: Readings below this are reported as ``inf`` [m].
-        range_max_m: Readings above this are reported as ``inf`` [m]; also the casting limit.
-        scan_period_s: Time of one turn [s] (``LaserScan.scan_time``).
-        noise_sigma_m: Standard deviation of the Gaussian range noise [m].
-        extra_noise_sigma_m: Further independent Gaussian range noise [m], for degraded-sensor
-            runs (the paper's G04 adds 0.03 m); the two add in variance.
-        dropout_probability: Probability that a beam returns nothing and reads ``inf``.
-        mount_x_m: Sensor origin along the robot base x axis [m].
-        mount_y_m: Sensor origin along the robot base y axis [m].
-        mount_yaw_rad: Sensor x axis relative to the robot base x axis [rad].
+    Attributes
+    ----------
+    beams : int
+        Beams per scan (``len(LaserScan.ranges)``).
+    angle_increment_rad : float
+        Angle between neighbouring beams [rad].
+    angle_min_rad : float
+        Angle of the first beam in the sensor frame [rad], x forward,
+        counter-clockwise positive.
+    range_min_m : float
+        Readings below this are reported as ``inf`` [m].
+    range_max_m : float
+        Readings above this are reported as ``inf`` [m]; also the casting limit.
+    scan_period_s : float
+        Time of one turn [s] (``LaserScan.scan_time``).
+    noise_sigma_m : float
+        Standard deviation of the Gaussian range noise [m].
+    extra_noise_sigma_m : float
+        Further independent Gaussian range noise [m], for degraded-sensor
+        runs (the paper's G04 adds 0.03 m); the two add in variance.
+    dropout_probability : float
+        Probability that a beam returns nothing and reads ``inf``.
+    mount_x_m : float
+        Sensor origin along the robot base x axis [m].
+    mount_y_m : float
+        Sensor origin along the robot base y axis [m].
+    mount_yaw_rad : float
+        Sensor x axis relative to the robot base x axis [rad].
     """
 
     beams: int = A1M8_BEAMS
@@ -124,9 +137,12 @@ class Obstacles:
     that appears once the robot has moved 0.12 m; each addition rebuilds the arrays, which is cheap
     for the tens of shapes a room has.
 
-    Args:
-        segments: ``(N, 4)`` array-like of segments, or a single segment.
-        circles: ``(M, 3)`` array-like of circles, or a single circle; radii must be >= 0.
+    Parameters
+    ----------
+    segments : array_like
+        ``(N, 4)`` array-like of segments, or a single segment.
+    circles : array_like
+        ``(M, 3)`` array-like of circles, or a single circle; radii must be >= 0.
     """
 
     def __init__(self, segments: ArrayLike = (), circles: ArrayLike = ()) -> None:
@@ -316,13 +332,20 @@ def cast(
     query reports a start inside a shape as a hit at distance 0 instead); an origin on the
     boundary reads 0 on every ray.
 
-    Args:
-        origin_xy: Ray origin ``(x, y)`` in the world frame [m].
-        angles_rad: ``(R,)`` array of world-frame ray angles [rad], counter-clockwise from +x.
-        obstacles: Geometry to cast against.
-        max_range_m: Hits farther than this are misses [m].
+    Parameters
+    ----------
+    origin_xy : tuple of float
+        Ray origin ``(x, y)`` in the world frame [m].
+    angles_rad : array_like
+        ``(R,)`` array of world-frame ray angles [rad], counter-clockwise from +x.
+    obstacles : Obstacles
+        Geometry to cast against.
+    max_range_m : float
+        Hits farther than this are misses [m].
 
-    Returns:
+    Returns
+    -------
+    numpy.ndarray
         ``(R,)`` float64 distances [m], ``inf`` where nothing lies within ``max_range_m``.
     """
     angles: NDArray[np.float64] = np.asarray(angles_rad, dtype=np.float64).reshape(-1)
@@ -345,9 +368,12 @@ class Lidar:
     robot's 0.08 m/s and 0.3 rad/s) is not modelled. The twin calls :meth:`scan` once per
     ``scan_period_s`` of simulated time.
 
-    Args:
-        spec: The sensor and its mount.
-        rng: Source of all noise and dropout draws.
+    Parameters
+    ----------
+    spec : LidarSpec
+        The sensor and its mount.
+    rng : numpy.random.Generator
+        Source of all noise and dropout draws.
     """
 
     def __init__(self, spec: LidarSpec, rng: np.random.Generator) -> None:
@@ -396,7 +422,9 @@ class Lidar:
     ) -> NDArray[np.float32]:
         """One scan from the robot base pose ``(x [m], y [m], yaw [rad])`` in the world frame.
 
-        Returns:
+        Returns
+        -------
+        numpy.ndarray
             ``(beams,)`` float32 ranges [m], ``LaserScan.ranges``; ``inf`` for no return.
         """
         spec = self._spec

@@ -115,14 +115,20 @@ def prescale_for(freq_hz: float) -> int:
     ``prescale = round(osc_clock / (4096 * update_rate)) - 1`` with the 25 MHz internal
     oscillator; e.g. 200 Hz gives 30 (0x1E) and 1 kHz gives 5.
 
-    Args:
-        freq_hz: Wanted PWM update rate [Hz].
+    Parameters
+    ----------
+    freq_hz : float
+        Wanted PWM update rate [Hz].
 
-    Returns:
+    Returns
+    -------
+    int
         The PRE_SCALE register value.
 
-    Raises:
-        ValueError: The rate needs a value outside 3..255 (about 24 Hz to 1526 Hz).
+    Raises
+    ------
+    ValueError
+        The rate needs a value outside 3..255 (about 24 Hz to 1526 Hz).
     """
     if not freq_hz > 0:
         raise ValueError(f"PWM frequency must be positive, got {freq_hz} Hz")
@@ -138,8 +144,10 @@ def prescale_for(freq_hz: float) -> int:
 class Pca9685:
     """One PCA9685 at the register level: what an I²C master can write, read and observe.
 
-    Args:
-        extclk_hz: Frequency of a clock on the EXTCLK pin [Hz], used once MODE1 EXTCLK is set.
+    Parameters
+    ----------
+    extclk_hz : float
+        Frequency of a clock on the EXTCLK pin [Hz], used once MODE1 EXTCLK is set.
     """
 
     _mode1: int
@@ -200,9 +208,12 @@ class Pca9685:
         AI = 0 every byte goes to ``reg``. A transaction that writes any LED or ALL_LED register
         ends a pending restart (§7.3.1.1, "other actions that clear the RESTART bit").
 
-        Args:
-            reg: First register address (0x00..0xFF).
-            data: The bytes the master sent after the register address.
+        Parameters
+        ----------
+        reg : int
+            First register address (0x00..0xFF).
+        data : bytes
+            The bytes the master sent after the register address.
         """
         pointer = _check_register(reg)
         self.generation += 1
@@ -228,11 +239,16 @@ class Pca9685:
     def read(self, reg: int, n: int) -> bytes:
         """One I²C read of ``n`` bytes starting at register ``reg`` (pointer rules as in write).
 
-        Args:
-            reg: First register address (0x00..0xFF).
-            n: Number of bytes the master clocks out.
+        Parameters
+        ----------
+        reg : int
+            First register address (0x00..0xFF).
+        n : int
+            Number of bytes the master clocks out.
 
-        Returns:
+        Returns
+        -------
+        bytes
             The ``n`` register values.
         """
         pointer = _check_register(reg)

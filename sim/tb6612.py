@@ -48,12 +48,16 @@ class BridgeMode(enum.Enum):
 class BridgeOutput:
     """What one motor sees from its H-bridge, averaged over a PWM period.
 
-    Attributes:
-        mode: The mode while PWM is high (SHORT_BRAKE when PWM never is, in CW or CCW).
-        drive: Signed average fraction of the supply voltage across the motor, OUT1 - OUT2:
-            +duty in CW, -duty in CCW, 0 otherwise.
-        brake_fraction: Fraction of the period the winding is shorted: 1 in SHORT_BRAKE,
-            1 - duty in CW and CCW, 0 in STOP and STANDBY (outputs open, the motor coasts).
+    Attributes
+    ----------
+    mode : BridgeMode
+        The mode while PWM is high (SHORT_BRAKE when PWM never is, in CW or CCW).
+    drive : float
+        Signed average fraction of the supply voltage across the motor, OUT1 - OUT2:
+        +duty in CW, -duty in CCW, 0 otherwise.
+    brake_fraction : float
+        Fraction of the period the winding is shorted: 1 in SHORT_BRAKE,
+        1 - duty in CW and CCW, 0 in STOP and STANDBY (outputs open, the motor coasts).
     """
 
     mode: BridgeMode
@@ -94,17 +98,26 @@ def logic_level(duty: float) -> bool:
 def bridge_output(in1: bool, in2: bool, pwm_duty: float, stby: bool) -> BridgeOutput:
     """One row of the H-SW control function table, averaged over a PWM period.
 
-    Args:
-        in1: IN1 logic level (True = H).
-        in2: IN2 logic level (True = H).
-        pwm_duty: Fraction of the period the PWM input is high, in [0, 1].
-        stby: STBY logic level; low puts the bridge in standby whatever the other inputs.
+    Parameters
+    ----------
+    in1 : bool
+        IN1 logic level (True = H).
+    in2 : bool
+        IN2 logic level (True = H).
+    pwm_duty : float
+        Fraction of the period the PWM input is high, in [0, 1].
+    stby : bool
+        STBY logic level; low puts the bridge in standby whatever the other inputs.
 
-    Returns:
+    Returns
+    -------
+    BridgeOutput
         The bridge's mode, signed drive and brake fraction.
 
-    Raises:
-        ValueError: ``pwm_duty`` is outside [0, 1].
+    Raises
+    ------
+    ValueError
+        ``pwm_duty`` is outside [0, 1].
     """
     if not 0.0 <= pwm_duty <= 1.0:
         raise ValueError(f"PWM duty {pwm_duty} outside [0, 1]")
@@ -132,20 +145,30 @@ def bridge_outputs(
 
     The PCA9685's OE pin (:attr:`Pca9685.output_enable`) acts through its channel outputs.
 
-    Args:
-        pca: The PWM chip whose channels drive the bridge inputs.
-        left: Channels of the left motor's bridge.
-        right: Channels of the right motor's bridge.
-        stby_channel: Channel driving STBY (shared by both bridges), or None when STBY is tied
-            high or driven by the MCU.
-        stby: STBY level driven by the MCU's interlock line (the pull-down wiring: False while
-            the line is released), or None when STBY is not wired to the MCU.
+    Parameters
+    ----------
+    pca : Pca9685
+        The PWM chip whose channels drive the bridge inputs.
+    left : MotorWiring
+        Channels of the left motor's bridge.
+    right : MotorWiring
+        Channels of the right motor's bridge.
+    stby_channel : int or None
+        Channel driving STBY (shared by both bridges), or None when STBY is tied
+        high or driven by the MCU.
+    stby : bool or None
+        STBY level driven by the MCU's interlock line (the pull-down wiring: False while
+        the line is released), or None when STBY is not wired to the MCU.
 
-    Returns:
+    Returns
+    -------
+    tuple of BridgeOutput
         ``(left, right)`` bridge outputs.
 
-    Raises:
-        ValueError: Both ``stby_channel`` and ``stby`` are given (one pin, two drivers).
+    Raises
+    ------
+    ValueError
+        Both ``stby_channel`` and ``stby`` are given (one pin, two drivers).
     """
     if stby_channel is not None and stby is not None:
         raise ValueError("STBY is driven either by a PCA9685 channel or by the MCU, not both")

@@ -30,15 +30,24 @@ Side = Literal["left", "right"]
 class DeadbandConfig:
     """Breakaway duties, full-duty wheel speed, zero threshold and gain trim.
 
-    Attributes:
-        forward_left: Breakaway duty of the left wheel driving forward, in [0, 1).
-        reverse_left: Breakaway duty of the left wheel driving backward, in [0, 1).
-        forward_right: Breakaway duty of the right wheel driving forward, in [0, 1).
-        reverse_right: Breakaway duty of the right wheel driving backward, in [0, 1).
-        max_wheel_rad_s: omega_max, the wheel speed at duty 1 [rad/s] (100 RPM = 10.47).
-        zero_threshold_rad_s: omega_0: commands with |omega| at or below it brake [rad/s].
-        gain_left: Left gain trim g (dimensionless, > 0).
-        gain_right: Right gain trim g (dimensionless, > 0).
+    Attributes
+    ----------
+    forward_left : float
+        Breakaway duty of the left wheel driving forward, in [0, 1).
+    reverse_left : float
+        Breakaway duty of the left wheel driving backward, in [0, 1).
+    forward_right : float
+        Breakaway duty of the right wheel driving forward, in [0, 1).
+    reverse_right : float
+        Breakaway duty of the right wheel driving backward, in [0, 1).
+    max_wheel_rad_s : float
+        omega_max, the wheel speed at duty 1 [rad/s] (100 RPM = 10.47).
+    zero_threshold_rad_s : float
+        omega_0: commands with |omega| at or below it brake [rad/s].
+    gain_left : float
+        Left gain trim g (dimensionless, > 0).
+    gain_right : float
+        Right gain trim g (dimensionless, > 0).
     """
 
     forward_left: float = 0.10
@@ -72,16 +81,24 @@ def wheel_duty(omega_cmd_rad_s: float, side: Side, cfg: DeadbandConfig) -> float
     duty = 0 for |omega| <= omega_0, else
     sign(omega) min(1, d_b + (1 - d_b) g |omega| / omega_max).
 
-    Args:
-        omega_cmd_rad_s: Wheel speed command [rad/s], positive forward.
-        side: ``"left"`` or ``"right"``: which breakaway duties and gain apply.
-        cfg: The wheel's calibration.
+    Parameters
+    ----------
+    omega_cmd_rad_s : float
+        Wheel speed command [rad/s], positive forward.
+    side : Side
+        ``"left"`` or ``"right"``: which breakaway duties and gain apply.
+    cfg : DeadbandConfig
+        The wheel's calibration.
 
-    Returns:
+    Returns
+    -------
+    float
         Signed duty in [-1, 1]; 0 means brake.
 
-    Raises:
-        ValueError: If ``side`` is neither wheel or the command is NaN or infinite.
+    Raises
+    ------
+    ValueError
+        If ``side`` is neither wheel or the command is NaN or infinite.
     """
     if side == "left":
         forward, reverse, gain = cfg.forward_left, cfg.reverse_left, cfg.gain_left
@@ -104,15 +121,23 @@ def wheel_duties(
 ) -> tuple[float, float]:
     """Signed (left, right) duties for both wheels' speed commands, by :func:`wheel_duty`.
 
-    Args:
-        omega_l_rad_s: Left wheel speed command [rad/s], positive forward.
-        omega_r_rad_s: Right wheel speed command [rad/s], positive forward.
-        cfg: Both wheels' calibration.
+    Parameters
+    ----------
+    omega_l_rad_s : float
+        Left wheel speed command [rad/s], positive forward.
+    omega_r_rad_s : float
+        Right wheel speed command [rad/s], positive forward.
+    cfg : DeadbandConfig
+        Both wheels' calibration.
 
-    Returns:
+    Returns
+    -------
+    tuple of float
         (left duty, right duty), each in [-1, 1].
 
-    Raises:
-        ValueError: If a command is NaN or infinite.
+    Raises
+    ------
+    ValueError
+        If a command is NaN or infinite.
     """
     return wheel_duty(omega_l_rad_s, "left", cfg), wheel_duty(omega_r_rad_s, "right", cfg)

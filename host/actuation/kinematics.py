@@ -40,18 +40,28 @@ def inverse(
 
     omega_L = (v - w B / 2) / r_L,  omega_R = (v + w B / 2) / r_R.
 
-    Args:
-        v_m_s: Linear velocity of the wheel-axle midpoint [m/s].
-        w_rad_s: Yaw rate [rad/s], CCW positive.
-        wheel_radius_left_m: r_L [m].
-        wheel_radius_right_m: r_R [m].
-        wheel_separation_m: B, the distance between the wheel contact points [m].
+    Parameters
+    ----------
+    v_m_s : float
+        Linear velocity of the wheel-axle midpoint [m/s].
+    w_rad_s : float
+        Yaw rate [rad/s], CCW positive.
+    wheel_radius_left_m : float
+        r_L [m].
+    wheel_radius_right_m : float
+        r_R [m].
+    wheel_separation_m : float
+        B, the distance between the wheel contact points [m].
 
-    Returns:
+    Returns
+    -------
+    tuple of float
         (omega_L, omega_R) [rad/s], positive when the wheel drives the robot forward.
 
-    Raises:
-        ValueError: If a radius or the separation is not finite and > 0.
+    Raises
+    ------
+    ValueError
+        If a radius or the separation is not finite and > 0.
     """
     _check_geometry(wheel_radius_left_m, wheel_radius_right_m, wheel_separation_m)
     half_b_m = 0.5 * wheel_separation_m
@@ -71,18 +81,28 @@ def forward(
 
     v = (r_R omega_R + r_L omega_L) / 2,  w = (r_R omega_R - r_L omega_L) / B.
 
-    Args:
-        omega_left_rad_s: omega_L [rad/s], positive forward.
-        omega_right_rad_s: omega_R [rad/s], positive forward.
-        wheel_radius_left_m: r_L [m].
-        wheel_radius_right_m: r_R [m].
-        wheel_separation_m: B [m].
+    Parameters
+    ----------
+    omega_left_rad_s : float
+        omega_L [rad/s], positive forward.
+    omega_right_rad_s : float
+        omega_R [rad/s], positive forward.
+    wheel_radius_left_m : float
+        r_L [m].
+    wheel_radius_right_m : float
+        r_R [m].
+    wheel_separation_m : float
+        B [m].
 
-    Returns:
+    Returns
+    -------
+    tuple of float
         (v [m/s], w [rad/s]), w CCW positive.
 
-    Raises:
-        ValueError: If a radius or the separation is not finite and > 0.
+    Raises
+    ------
+    ValueError
+        If a radius or the separation is not finite and > 0.
     """
     _check_geometry(wheel_radius_left_m, wheel_radius_right_m, wheel_separation_m)
     s_l_m_s = wheel_radius_left_m * omega_left_rad_s

@@ -29,13 +29,20 @@ class LimiterConfig:
 
     Every bound must be > 0; ``math.inf`` switches that bound off.
 
-    Attributes:
-        max_v_m_s: Largest |v| [m/s].
-        max_w_rad_s: Largest |w| [rad/s].
-        max_accel_m_s2: Largest rate at which |v| may grow [m/s^2].
-        max_decel_m_s2: Largest rate at which |v| may fall [m/s^2].
-        max_alpha_rad_s2: Largest rate at which |w| may grow [rad/s^2].
-        max_alpha_decel_rad_s2: Largest rate at which |w| may fall [rad/s^2].
+    Attributes
+    ----------
+    max_v_m_s : float
+        Largest |v| [m/s].
+    max_w_rad_s : float
+        Largest |w| [rad/s].
+    max_accel_m_s2 : float
+        Largest rate at which |v| may grow [m/s^2].
+    max_decel_m_s2 : float
+        Largest rate at which |v| may fall [m/s^2].
+    max_alpha_rad_s2 : float
+        Largest rate at which |w| may grow [rad/s^2].
+    max_alpha_decel_rad_s2 : float
+        Largest rate at which |w| may fall [rad/s^2].
     """
 
     max_v_m_s: float = 0.30
@@ -59,14 +66,22 @@ def _clamp(x: float, low: float, high: float) -> float:
 def ramp(u: float, r: float, dt_s: float, accel: float, decel: float) -> float:
     """One rate-limited step of one axis from output ``u`` towards target ``r``.
 
-    Args:
-        u: Previous output (m/s or rad/s).
-        r: Target, already clamped to the speed limit (same unit as ``u``).
-        dt_s: Step length [s]; ``dt_s <= 0`` returns ``u`` unchanged.
-        accel: Bound on the growth of |u| per second (unit/s).
-        decel: Bound on the fall of |u| per second (unit/s).
+    Parameters
+    ----------
+    u : float
+        Previous output (m/s or rad/s).
+    r : float
+        Target, already clamped to the speed limit (same unit as ``u``).
+    dt_s : float
+        Step length [s]; ``dt_s <= 0`` returns ``u`` unchanged.
+    accel : float
+        Bound on the growth of |u| per second (unit/s).
+    decel : float
+        Bound on the fall of |u| per second (unit/s).
 
-    Returns:
+    Returns
+    -------
+    float
         The new output, by the three cases in the module docstring.
     """
     if dt_s <= 0.0 or u == r:
@@ -112,16 +127,24 @@ class VelocityLimiter:
     def limit(self, v_cmd: float, w_cmd: float, t_s: float) -> tuple[float, float]:
         """Limit one command.
 
-        Args:
-            v_cmd: Commanded linear velocity [m/s].
-            w_cmd: Commanded angular velocity [rad/s], CCW positive (REP-103).
-            t_s: MCU time of this tick [s].
+        Parameters
+        ----------
+        v_cmd : float
+            Commanded linear velocity [m/s].
+        w_cmd : float
+            Commanded angular velocity [rad/s], CCW positive (REP-103).
+        t_s : float
+            MCU time of this tick [s].
 
-        Returns:
+        Returns
+        -------
+        tuple of float
             The limited (v [m/s], w [rad/s]).
 
-        Raises:
-            ValueError: If a command or the time is NaN or infinite.
+        Raises
+        ------
+        ValueError
+            If a command or the time is NaN or infinite.
         """
         if not (math.isfinite(v_cmd) and math.isfinite(w_cmd) and math.isfinite(t_s)):
             raise ValueError(f"non-finite command or time: v={v_cmd}, w={w_cmd}, t={t_s}")

@@ -37,8 +37,10 @@ class CommandWatchdog:
     def feed(self, t_s: float) -> None:
         """Record that a velocity command arrived at MCU time ``t_s`` [s].
 
-        Raises:
-            ValueError: If ``t_s`` is NaN or infinite.
+        Raises
+        ------
+        ValueError
+            If ``t_s`` is NaN or infinite.
         """
         if not math.isfinite(t_s):
             raise ValueError(f"non-finite feed time: {t_s}")
@@ -47,7 +49,9 @@ class CommandWatchdog:
     def age(self, t_s: float) -> float:
         """Seconds since the last command at MCU time ``t_s``.
 
-        Returns:
+        Returns
+        -------
+        float
             t_s - t_last [s]; 0 when ``t_s`` is less than ``timeout_s`` before the last
             command; ``math.inf`` before any command, when ``t_s`` is further back, or when
             ``t_s`` is NaN.
