@@ -12,7 +12,6 @@ Every problem is reported as one :class:`ConfigError` line naming the file and t
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
@@ -20,11 +19,13 @@ from typing import Any, Literal
 
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
-from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
 from jackson.host.actuation.deadband import DeadbandConfig
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.actuation.tb6612 import BridgeChannels
+from jackson.host.actuation.wheel_pi import WheelPiConfig
+from jackson.host.ekf import EkfConfig, ProcessNoise
 from jackson.host.i2c import I2cSpecError, check_bus_spec
+from jackson.host.odometry import OdometryCovariance, RobotGeometry
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
     FAILSAFE_MS_RANGE,
@@ -51,77 +52,6 @@ IDENTITY: Rotation = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
 # ------------------------------------------------------------------------- the configuration
-
-
-@dataclass(frozen=True)
-class RobotGeometry:
-    """Wheel geometry and encoder resolution of the odometry (Table 3, physical runtime)."""
-
-    wheel_radius_left_m: float = WHEEL_RADIUS_M  # r_run
-    wheel_radius_right_m: float = WHEEL_RADIUS_M
-    wheel_separation_m: float = WHEEL_SEPARATION_M  # B_run
-    ticks_per_rev_left: float = TICKS_PER_REV  # C_e,run
-    ticks_per_rev_right: float = TICKS_PER_REV
-
-    @property
-    def meters_per_tick_left(self) -> float:
-        """2 pi r / C_e of the left wheel (Eq. 9, Eq. A18)."""
-        return 2.0 * math.pi * self.wheel_radius_left_m / self.ticks_per_rev_left
-
-    @property
-    def meters_per_tick_right(self) -> float:
-        """2 pi r / C_e of the right wheel (Eq. 9, Eq. A18)."""
-        return 2.0 * math.pi * self.wheel_radius_right_m / self.ticks_per_rev_right
-
-
-@dataclass(frozen=True)
-class OdometryCovariance:
-    """Diagonal covariances published with the wheel odometry."""
-
-    twist_vx: float = 0.01  # [(m/s)^2] = R_vx
-    twist_vy: float = 0.001  # [(m/s)^2] = R_vy
-    twist_wz: float = 0.02  # [(rad/s)^2]
-    pose_xy: float = 0.01  # [m^2]
-    pose_yaw: float = 0.05  # [rad^2]
-
-
-@dataclass(frozen=True)
-class ProcessNoise:
-    """Diagonal of the EKF's Q per second of prediction (robot_localization's defaults)."""
-
-    x: float = 0.05  # [m^2]
-    y: float = 0.05  # [m^2]
-    yaw: float = 0.06  # [rad^2]
-    vx: float = 0.025  # [(m/s)^2]
-    vy: float = 0.025  # [(m/s)^2]
-    vyaw: float = 0.02  # [(rad/s)^2]
-    ax: float = 0.01  # [(m/s^2)^2]
-
-
-@dataclass(frozen=True)
-class EkfSettings:
-    """The planar EKF of Table 2: wheel v_x and v_y = 0, IMU yaw rate."""
-
-    frequency_hz: float = 30.0
-    sensor_timeout_s: float = 0.2
-    process_noise: ProcessNoise = field(default_factory=ProcessNoise)
-    initial_covariance: float = 1e-9  # diagonal of P0
-    r_vx: float = 0.01  # [(m/s)^2]
-    r_vy: float = 0.001  # [(m/s)^2]
-    r_wz: float = 0.0004  # [(rad/s)^2]
-    mahalanobis_wheel: float | None = None  # innovation gate; None: off
-    mahalanobis_imu: float | None = None
-    gyro_bias_window_s: float = 2.0  # start-up standstill for the gyro z bias; 0: off
-
-
-@dataclass(frozen=True)
-class WheelPi:
-    """Optional PI loop on each wheel's encoder speed, output in duty."""
-
-    enabled: bool = False
-    kp: float = 0.05  # [duty per rad/s]
-    ki: float = 0.5  # [duty per rad]
-    integral_limit: float = 0.5  # [duty]
 
 
 @dataclass(frozen=True)
@@ -170,10 +100,10 @@ class HostConfig:
 
     robot: RobotGeometry = field(default_factory=RobotGeometry)
     odometry: OdometryCovariance = field(default_factory=OdometryCovariance)
-    ekf: EkfSettings = field(default_factory=EkfSettings)
+    ekf: EkfConfig = field(default_factory=EkfConfig)
     limits: LimiterConfig = field(default_factory=LimiterConfig)
     deadband: DeadbandConfig = field(default_factory=DeadbandConfig)
-    wheel_pi: WheelPi = field(default_factory=WheelPi)
+    wheel_pi: WheelPiConfig = field(default_factory=WheelPiConfig)
     actuator: Actuator = "pca9685"
     pca9685: Pca9685Settings = field(default_factory=Pca9685Settings)
     imu: ImuSettings = field(default_factory=ImuSettings)
@@ -261,8 +191,8 @@ def _odometry(s: Fields) -> OdometryCovariance:
     return out
 
 
-def _ekf(s: Fields) -> EkfSettings:
-    d = EkfSettings()
+def _ekf(s: Fields) -> EkfConfig:
+    d = EkfConfig()
     q = s.section("process_noise")
     qd = ProcessNoise()
     noise = ProcessNoise(**{f.name: q.number(f.name, getattr(qd, f.name), 0.0) for f in fields(qd)})
@@ -271,7 +201,7 @@ def _ekf(s: Fields) -> EkfSettings:
     wheel = gate.optional_number("wheel", 0.0, lo_open=True)
     imu = gate.optional_number("imu", 0.0, lo_open=True)
     gate.finish()
-    out = EkfSettings(
+    out = EkfConfig(
         frequency_hz=s.number("frequency_hz", d.frequency_hz, 0.0, lo_open=True),
         sensor_timeout_s=s.number("sensor_timeout_s", d.sensor_timeout_s, 0.0, lo_open=True),
         process_noise=noise,
@@ -321,13 +251,14 @@ def _deadband(s: Fields) -> DeadbandConfig:
     )
 
 
-def _wheel_pi(s: Fields) -> WheelPi:
-    d = WheelPi()
-    out = WheelPi(
+def _wheel_pi(s: Fields) -> WheelPiConfig:
+    d = WheelPiConfig()
+    out = WheelPiConfig(
         enabled=s.boolean("enabled", d.enabled),
         kp=s.number("kp", d.kp, 0.0),
         ki=s.number("ki", d.ki, 0.0),
         integral_limit=s.number("integral_limit", d.integral_limit, 0.0, 1.0),
+        output_limit=s.number("output_limit", d.output_limit, 0.0, 1.0, lo_open=True),
     )
     s.finish()
     return out
@@ -513,7 +444,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "zero_threshold_rad_s": db.zero_threshold_rad_s,
             "gain": {"left": db.gain_left, "right": db.gain_right},
         },
-        "wheel_pi": {f.name: getattr(cfg.wheel_pi, f.name) for f in fields(WheelPi)},
+        "wheel_pi": {f.name: getattr(cfg.wheel_pi, f.name) for f in fields(WheelPiConfig)},
         "actuator": cfg.actuator,
         "pca9685": {
             "bus": pca.bus,

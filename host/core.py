@@ -29,12 +29,12 @@ from jackson.host.actuation.kinematics import inverse
 from jackson.host.actuation.limiter import VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.actuation.watchdog import CommandWatchdog
-from jackson.host.actuation.wheel_pi import WheelPiConfig, WheelSpeedPi
+from jackson.host.actuation.wheel_pi import WheelSpeedPi
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
 from jackson.host.control.guard import MissionGuard
-from jackson.host.ekf import Ekf, EkfConfig, EkfState, GyroBiasEstimator
-from jackson.host.odometry import OdometryConfig, OdometryState, WheelOdometry, tick_delta
+from jackson.host.ekf import Ekf, EkfState, GyroBiasEstimator
+from jackson.host.odometry import OdometryState, WheelOdometry, tick_delta
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
     Frame,
@@ -52,38 +52,6 @@ from jackson.protocol import (
     decode_message,
 )
 from jackson.protocol.units import yaw_rate_rad_s
-
-
-def odometry_config(cfg: HostConfig) -> OdometryConfig:
-    r, c = cfg.robot, cfg.odometry
-    return OdometryConfig(
-        wheel_radius_left_m=r.wheel_radius_left_m,
-        wheel_radius_right_m=r.wheel_radius_right_m,
-        wheel_separation_m=r.wheel_separation_m,
-        ticks_per_rev_left=r.ticks_per_rev_left,
-        ticks_per_rev_right=r.ticks_per_rev_right,
-        twist_covariance_vx=c.twist_vx,
-        twist_covariance_vy=c.twist_vy,
-        twist_covariance_wz=c.twist_wz,
-        pose_covariance_xy=c.pose_xy,
-        pose_covariance_yaw=c.pose_yaw,
-    )
-
-
-def ekf_config(cfg: HostConfig) -> EkfConfig:
-    e = cfg.ekf
-    q = e.process_noise
-    return EkfConfig(
-        process_noise=(q.x, q.y, q.yaw, q.vx, q.vy, q.vyaw, q.ax),
-        initial_covariance=e.initial_covariance,
-        r_vx=e.r_vx,
-        r_vy=e.r_vy,
-        r_wz=e.r_wz,
-        sensor_timeout_s=e.sensor_timeout_s,
-        output_rate_hz=e.frequency_hz,
-        mahalanobis_threshold_wheel=e.mahalanobis_wheel or None,
-        mahalanobis_threshold_imu=e.mahalanobis_imu or None,
-    )
 
 
 def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
@@ -248,20 +216,21 @@ class HostCore:
         self._wheel_cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] commanded at the last frame
         self._rx_ns = 0
         self.unwrapper = TimestampUnwrapper()
-        self.odometry = WheelOdometry(odometry_config(cfg))
-        self.ekf = Ekf(ekf_config(cfg))
+        # the config sections are the stages' own configs
+        self.odometry = WheelOdometry(cfg.robot)
+        self.ekf = Ekf(cfg.ekf)
         self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
-        self.limiter = VelocityLimiter(cfg.limits)  # the config sections are the stages' own
+        self.limiter = VelocityLimiter(cfg.limits)
         self.deadband = cfg.deadband
-        d = cfg.deadband
-        pi = cfg.wheel_pi
-        pi_cfg = WheelPiConfig(
-            kp=pi.kp,
-            ki=pi.ki,
-            integral_limit=pi.integral_limit,
-            zero_threshold_rad_s=d.zero_threshold_rad_s,
+        zero = cfg.deadband.zero_threshold_rad_s  # the PI brakes where the deadband stage does
+        self.pi = (
+            (
+                WheelSpeedPi(cfg.wheel_pi, zero_threshold_rad_s=zero),
+                WheelSpeedPi(cfg.wheel_pi, zero_threshold_rad_s=zero),
+            )
+            if cfg.wheel_pi.enabled
+            else None
         )
-        self.pi = (WheelSpeedPi(pi_cfg), WheelSpeedPi(pi_cfg)) if pi.enabled else None
         self.watchdog = CommandWatchdog(cfg.watchdog_s)
         self.info: Info | None = None
         self.t_s: float | None = None

@@ -170,7 +170,7 @@ class Daemon:
                 target=self._repair_earlier_runs, args=(run_folder,), name="bag-repair", daemon=True
             )
             max_bytes = int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None
-            self.bag = BagRecorder(run_folder / "bag", max_bytes=max_bytes)
+            self.bag = BagRecorder(run_folder / "bag", odometry=cfg.odometry, max_bytes=max_bytes)
             self.core.listeners.append(BagListener(self.bag))
         self.bridge: Any = None
         if ros_args is not None:  # --ros: rclpy is imported only here

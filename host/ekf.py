@@ -40,7 +40,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -56,10 +56,6 @@ X, Y, YAW, VX, VY, VYAW, AX = range(7)
 STATE_SIZE = 7
 STATE_NAMES = ("x", "y", "yaw", "vx", "vy", "vyaw", "ax")
 
-# robot_localization's defaults: process_noise_covariance diagonal for the planar states and
-# initial_estimate_covariance.
-DEFAULT_PROCESS_NOISE = (0.05, 0.05, 0.06, 0.025, 0.025, 0.02, 0.01)
-DEFAULT_INITIAL_COVARIANCE = 1e-9
 MIN_MEASUREMENT_VARIANCE = 1e-9  # robot_localization's floor on a measurement variance
 TIME_EPSILON_S = 1e-9  # [s] slack on time comparisons (0.2 s of 20 Hz frames is 0.19999...)
 
@@ -109,56 +105,102 @@ def _check_threshold(name: str, value: float | None) -> None:
 
 
 @dataclass(frozen=True)
-class EkfConfig:
-    """Settings of the EKF (Table 2; robot_localization defaults where the paper is silent).
+class ProcessNoise:
+    """Diagonal of the EKF's Q per second of prediction; a step of dt adds dt Q.
+
+    The defaults are robot_localization's process_noise_covariance for the planar states
+    (dynamic process noise off).
 
     Attributes
     ----------
-    process_noise : tuple of 7 float
-        Diagonal of Q per second for [x, y, yaw, vx, vy, vyaw, ax]; a step of dt adds dt Q.
-        Default: robot_localization's process_noise_covariance (dynamic process noise off).
+    x, y : float
+        [m^2 per s].
+    yaw : float
+        [rad^2 per s].
+    vx, vy : float
+        [(m/s)^2 per s].
+    vyaw : float
+        [(rad/s)^2 per s].
+    ax : float
+        [(m/s^2)^2 per s].
+    """
+
+    x: float = 0.05
+    y: float = 0.05
+    yaw: float = 0.06
+    vx: float = 0.025
+    vy: float = 0.025
+    vyaw: float = 0.02
+    ax: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name, q in zip(STATE_NAMES, self.diagonal, strict=True):
+            if not 0.0 <= q < math.inf:
+                raise ValueError(f"ProcessNoise.{name} must be finite and >= 0, got {q}")
+
+    @property
+    def diagonal(self) -> tuple[float, ...]:
+        """The diagonal in state order [x, y, yaw, vx, vy, vyaw, ax]."""
+        return (self.x, self.y, self.yaw, self.vx, self.vy, self.vyaw, self.ax)
+
+
+DEFAULT_PROCESS_NOISE = ProcessNoise().diagonal
+
+
+@dataclass(frozen=True)
+class EkfConfig:
+    """Settings of the EKF (Table 2; robot_localization defaults where the paper is silent).
+
+    It is the ``ekf:`` section of the host configuration (:class:`jackson.host.config.HostConfig`).
+
+    Attributes
+    ----------
+    frequency_hz : float
+        Rate at which the daemon publishes the estimate [Hz] (Table 2: 30 Hz).
+    sensor_timeout_s : float
+        After this long without a measurement the daemon only predicts [s] (Table 2).
+    process_noise : ProcessNoise
+        Diagonal of Q per second.
     initial_covariance : float
         Diagonal of the initial P (robot_localization's initial_estimate_covariance, 1e-9).
     r_vx, r_vy : float
         R of the wheel odometry's v_x and v_y [(m/s)^2], Table 2.
     r_wz : float
         R of the IMU's yaw rate [(rad/s)^2], Table 2 (sigma_w = 4e-4 rad/s, Sec. 2.2.4).
-    sensor_timeout_s : float
-        After this long without a measurement the daemon only predicts [s] (Table 2).
-    output_rate_hz : float
-        Rate at which the daemon publishes the estimate [Hz] (Table 2: 30 Hz).
-    mahalanobis_threshold_wheel, mahalanobis_threshold_imu : float or None
+    mahalanobis_wheel, mahalanobis_imu : float or None
         Innovation gate n (in standard deviations) for the wheel odometry and the gyro: a
         measurement with d^2 >= n^2 is rejected. None switches the gate off, as in the paper
         (robot_localization's *_rejection_threshold defaults to off).
+    gyro_bias_window_s : float
+        Start-up standstill over which the daemon estimates the gyro z bias
+        (:class:`GyroBiasEstimator`) [s]; 0 switches the estimate off.
     """
 
-    process_noise: tuple[float, ...] = DEFAULT_PROCESS_NOISE
-    initial_covariance: float = DEFAULT_INITIAL_COVARIANCE
+    frequency_hz: float = 30.0
+    sensor_timeout_s: float = 0.2
+    process_noise: ProcessNoise = field(default_factory=ProcessNoise)
+    initial_covariance: float = 1e-9
     r_vx: float = 0.01
     r_vy: float = 0.001
     r_wz: float = 0.0004
-    sensor_timeout_s: float = 0.2
-    output_rate_hz: float = 30.0
-    mahalanobis_threshold_wheel: float | None = None
-    mahalanobis_threshold_imu: float | None = None
+    mahalanobis_wheel: float | None = None
+    mahalanobis_imu: float | None = None
+    gyro_bias_window_s: float = 2.0
 
     def __post_init__(self) -> None:
-        if len(self.process_noise) != STATE_SIZE or not all(
-            0.0 <= q < math.inf for q in self.process_noise
-        ):
-            raise ValueError(
-                f"EkfConfig.process_noise must be {STATE_SIZE} finite values >= 0, "
-                f"got {self.process_noise}"
-            )
-        for name in ("initial_covariance", "r_vx", "r_vy", "r_wz", "sensor_timeout_s"):
+        for name in ("frequency_hz", "sensor_timeout_s", "initial_covariance", "r_vx", "r_vy"):
             value = getattr(self, name)
             if not 0.0 < value < math.inf:
                 raise ValueError(f"EkfConfig.{name} must be finite and > 0, got {value}")
-        if not 0.0 < self.output_rate_hz < math.inf:
-            raise ValueError(f"EkfConfig.output_rate_hz must be > 0, got {self.output_rate_hz}")
-        _check_threshold("EkfConfig.mahalanobis_threshold_wheel", self.mahalanobis_threshold_wheel)
-        _check_threshold("EkfConfig.mahalanobis_threshold_imu", self.mahalanobis_threshold_imu)
+        if not 0.0 < self.r_wz < math.inf:
+            raise ValueError(f"EkfConfig.r_wz must be finite and > 0, got {self.r_wz}")
+        if not 0.0 <= self.gyro_bias_window_s < math.inf:
+            raise ValueError(
+                f"EkfConfig.gyro_bias_window_s must be finite and >= 0, "
+                f"got {self.gyro_bias_window_s}"
+            )
+        _check_threshold("EkfConfig.mahalanobis_wheel", self.mahalanobis_wheel)
+        _check_threshold("EkfConfig.mahalanobis_imu", self.mahalanobis_imu)
 
 
 @dataclass(frozen=True)
@@ -289,7 +331,9 @@ class Ekf:
     def __init__(self, config: EkfConfig | None = None) -> None:
         self.config = config if config is not None else EkfConfig()
         self._kf = ExtendedKalmanFilter(dim_x=STATE_SIZE, dim_z=1)
-        self._q_per_s: Matrix = np.diag(np.asarray(self.config.process_noise, dtype=np.float64))
+        self._q_per_s: Matrix = np.diag(
+            np.asarray(self.config.process_noise.diagonal, dtype=np.float64)
+        )
         self.rejected: dict[str, int] = {}
         self.innovations: dict[str, Innovation] = {}
         self.reset()
@@ -495,7 +539,7 @@ class Ekf:
         """Fuse the wheel odometry's body velocity: z = [vx, vy], R = diag(r_vx, r_vy).
 
         vy is the non-holonomic constraint (0 for a differential drive). Gated with
-        mahalanobis_threshold_wheel.
+        mahalanobis_wheel.
 
         Returns
         -------
@@ -510,7 +554,7 @@ class Ekf:
                 z=np.array([vx, vy], dtype=np.float64),
                 indices=[VX, VY],
                 variances=np.array([cfg.r_vx, cfg.r_vy], dtype=np.float64),
-                threshold=cfg.mahalanobis_threshold_wheel,
+                threshold=cfg.mahalanobis_wheel,
                 angular=[False, False],
             )
         )
@@ -518,7 +562,7 @@ class Ekf:
     def update_gyro(self, t_s: float, wz: float) -> bool:
         """Fuse the IMU's yaw rate [rad/s] (bias already removed): z = [vyaw], R = r_wz.
 
-        Gated with mahalanobis_threshold_imu. Returns False when rejected.
+        Gated with mahalanobis_imu. Returns False when rejected.
         """
         cfg = self.config
         return self._process(
@@ -528,7 +572,7 @@ class Ekf:
                 z=np.array([wz], dtype=np.float64),
                 indices=[VYAW],
                 variances=np.array([cfg.r_wz], dtype=np.float64),
-                threshold=cfg.mahalanobis_threshold_imu,
+                threshold=cfg.mahalanobis_imu,
                 angular=[False],
             )
         )
@@ -695,14 +739,15 @@ class GyroBiasEstimator:
     Parameters
     ----------
     window_s : float
-        Standstill needed [s] (default 2 s: 41 frames at 20 Hz).
+        Standstill needed [s] (default 2 s: 41 frames at 20 Hz); 0 switches the estimate
+        off (the bias is 0 from the start).
     min_samples : int
         Fewest samples averaged.
     """
 
     def __init__(self, window_s: float = 2.0, min_samples: int = 20) -> None:
-        if not 0.0 < window_s < math.inf:
-            raise ValueError(f"window_s must be finite and > 0, got {window_s}")
+        if not 0.0 <= window_s < math.inf:
+            raise ValueError(f"window_s must be finite and >= 0, got {window_s}")
         if min_samples < 1:
             raise ValueError(f"min_samples must be >= 1, got {min_samples}")
         self.window_s = window_s
@@ -714,7 +759,7 @@ class GyroBiasEstimator:
         self._samples: list[float] = []
         self._t_first_s = 0.0
         self._t_last_s = 0.0
-        self._bias_rad_s: float | None = None
+        self._bias_rad_s: float | None = 0.0 if self.window_s == 0.0 else None
 
     @property
     def bias_rad_s(self) -> float | None:

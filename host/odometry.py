@@ -50,8 +50,11 @@ ARC_THRESHOLD_RAD = 1e-6  # [rad] below this |d_theta| the midpoint form is used
 
 
 @dataclass(frozen=True)
-class OdometryConfig:
-    """Geometry and published covariances of the wheel odometry (Table 3).
+class RobotGeometry:
+    """Wheel geometry and encoder resolution the odometry believes (Table 3, physical runtime).
+
+    It is the ``robot:`` section of the host configuration (:class:`jackson.host.config.HostConfig`)
+    and the configuration of :class:`WheelOdometry`.
 
     Attributes
     ----------
@@ -62,14 +65,6 @@ class OdometryConfig:
     ticks_per_rev_left, ticks_per_rev_right : float
         C_e,run [ticks/rev] per wheel, 4x quadrature (floor calibration 652 x 0.9525 = 621;
         the history had 617 left / 621 right).
-    twist_covariance_vx, twist_covariance_vy, twist_covariance_wz : float
-        Diagonal of the twist covariance published with the wheel odometry (/wheel/odom) for
-        v_x [(m/s)^2], v_y [(m/s)^2] and w_z [(rad/s)^2]. robot_localization takes its R from
-        these, so v_x and v_y equal Table 2's R_vx and R_vy (EkfConfig.r_vx, r_vy); w_z from
-        the wheels is published but not fused (the IMU's is).
-    pose_covariance_xy, pose_covariance_yaw : float
-        Diagonal of the pose covariance published with /wheel/odom for x and y [m^2] and yaw
-        [rad^2]; the dead-reckoned pose is not fused, so these only inform consumers.
     """
 
     wheel_radius_left_m: float = WHEEL_RADIUS_M
@@ -77,29 +72,55 @@ class OdometryConfig:
     wheel_separation_m: float = WHEEL_SEPARATION_M
     ticks_per_rev_left: float = TICKS_PER_REV
     ticks_per_rev_right: float = TICKS_PER_REV
-    twist_covariance_vx: float = 0.01
-    twist_covariance_vy: float = 0.001
-    twist_covariance_wz: float = 0.02
-    pose_covariance_xy: float = 0.01
-    pose_covariance_yaw: float = 0.05
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            positive = not f.name.startswith(("twist_", "pose_"))
-            if not (0.0 < value < math.inf if positive else 0.0 <= value < math.inf):
-                bound = "> 0" if positive else ">= 0"
-                raise ValueError(f"OdometryConfig.{f.name} must be finite and {bound}, got {value}")
+            if not 0.0 < value < math.inf:
+                raise ValueError(f"RobotGeometry.{f.name} must be finite and > 0, got {value}")
 
     @property
     def meters_per_tick_left(self) -> float:
-        """2 pi r_L / C_L [m/tick] (Eq. A18)."""
+        """2 pi r_L / C_L [m/tick] (Eq. 9, Eq. A18)."""
         return 2.0 * math.pi * self.wheel_radius_left_m / self.ticks_per_rev_left
 
     @property
     def meters_per_tick_right(self) -> float:
-        """2 pi r_R / C_R [m/tick] (Eq. A18)."""
+        """2 pi r_R / C_R [m/tick] (Eq. 9, Eq. A18)."""
         return 2.0 * math.pi * self.wheel_radius_right_m / self.ticks_per_rev_right
+
+
+@dataclass(frozen=True)
+class OdometryCovariance:
+    """Diagonal covariances published with the wheel odometry (/wheel/odom).
+
+    It is the ``odometry:`` section of the host configuration.
+
+    Attributes
+    ----------
+    twist_vx, twist_vy, twist_wz : float
+        Twist covariance for v_x [(m/s)^2], v_y [(m/s)^2] and w_z [(rad/s)^2].
+        robot_localization takes its R from these, so v_x and v_y equal Table 2's R_vx and
+        R_vy (:attr:`jackson.host.ekf.EkfConfig.r_vx`, ``r_vy``); w_z from the wheels is
+        published but not fused (the IMU's is).
+    pose_xy, pose_yaw : float
+        Pose covariance for x and y [m^2] and yaw [rad^2]; the dead-reckoned pose is not
+        fused, so these only inform consumers.
+    """
+
+    twist_vx: float = 0.01
+    twist_vy: float = 0.001
+    twist_wz: float = 0.02
+    pose_xy: float = 0.01
+    pose_yaw: float = 0.05
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not 0.0 <= value < math.inf:
+                raise ValueError(
+                    f"OdometryCovariance.{f.name} must be finite and >= 0, got {value}"
+                )
 
 
 def tick_delta(previous: int, current: int) -> int:
@@ -209,12 +230,12 @@ class WheelOdometry:
 
     Parameters
     ----------
-    config : OdometryConfig
-        Wheel radii, separation and ticks per revolution.
+    config : RobotGeometry
+        Wheel radii, separation and ticks per revolution (the defaults: the paper's robot).
     """
 
-    def __init__(self, config: OdometryConfig | None = None) -> None:
-        self.config = config if config is not None else OdometryConfig()
+    def __init__(self, config: RobotGeometry | None = None) -> None:
+        self.config = config if config is not None else RobotGeometry()
         self.reset()
 
     def reset(self) -> None:

@@ -100,7 +100,7 @@ class RobotSpec:
     mass_kg: float = 2.0
     inertia_kg_m2: float = 0.021  # about z through the axle centre
     wheel_radius_m: Sides = Sides(WHEEL_RADIUS_M, WHEEL_RADIUS_M)
-    track_width_m: float = WHEEL_SEPARATION_M
+    wheel_separation_m: float = WHEEL_SEPARATION_M  # B, between the contact points
     ticks_per_rev: Sides = Sides(TICKS_PER_REV, TICKS_PER_REV)
     envelope_x_m: tuple[float, float] = (-0.135, 0.135177)  # collision envelope, base frame
     envelope_y_m: tuple[float, float] = (-0.135439, 0.135)
@@ -161,16 +161,22 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
     path = resolve(name_or_path, ROBOTS_DIR, "robot")
     where, data = read_yaml(path, "robot")
     r = Fields(where, data)
+    if r.has("track_width_m"):  # the earlier name: the host's is the one
+        raise r.fail("track_width_m", "renamed wheel_separation_m (as in the host config)")
+    d = RobotSpec(path.stem)  # the defaults: the dataclasses' own
+    dm, dw, di, dl = d.motor, d.wiring, d.imu, d.lidar
     m = r.section("motor")
     motor = MotorSpec(
-        battery_v=m.number("battery_v", 6.0, 0, lo_open=True),
-        nominal_v=m.number("nominal_v", 6.0, 0, lo_open=True),
-        no_load_rpm=m.number("no_load_rpm", 100.0, 0, lo_open=True),
-        stall_torque_nm=m.number("stall_torque_nm", 0.6, 0, lo_open=True),
-        time_constant_s=m.number("time_constant_s", 0.02, 0),
-        deadband_duty=Sides(*m.sides("deadband_duty", 0.10, 0, hi=0.9)),
-        gain=Sides(*m.sides("gain", 1.0, 0, lo_open=True, hi=2.0)),
-        wheel_inertia_kg_m2=m.number("wheel_inertia_kg_m2", 2.0e-4, 0, lo_open=True),
+        battery_v=m.number("battery_v", dm.battery_v, 0, lo_open=True),
+        nominal_v=m.number("nominal_v", dm.nominal_v, 0, lo_open=True),
+        no_load_rpm=m.number("no_load_rpm", dm.no_load_rpm, 0, lo_open=True),
+        stall_torque_nm=m.number("stall_torque_nm", dm.stall_torque_nm, 0, lo_open=True),
+        time_constant_s=m.number("time_constant_s", dm.time_constant_s, 0),
+        deadband_duty=Sides(*m.sides("deadband_duty", dm.deadband_duty.left, 0, hi=0.9)),
+        gain=Sides(*m.sides("gain", dm.gain.left, 0, lo_open=True, hi=2.0)),
+        wheel_inertia_kg_m2=m.number(
+            "wheel_inertia_kg_m2", dm.wheel_inertia_kg_m2, 0, lo_open=True
+        ),
     )
     m.finish()
     w = r.section("wiring")
@@ -189,11 +195,11 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         return out
 
     wiring = WiringSpec(
-        pca9685_address=w.integer("pca9685_address", 0x40, 0x03, 0x77),
-        left=wheel("left", MotorWiring(0, 1, 2)),
-        right=wheel("right", MotorWiring(5, 3, 4)),
+        pca9685_address=w.integer("pca9685_address", dw.pca9685_address, 0x03, 0x77),
+        left=wheel("left", dw.left),
+        right=wheel("right", dw.right),
         stby_channel=w.optional_integer("stby_channel", 0, 15),
-        interlock=w.text("interlock", "pca9685_oe"),
+        interlock=w.text("interlock", dw.interlock),
     )
     if wiring.interlock not in INTERLOCKS:
         raise w.fail(
@@ -207,43 +213,47 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
     w.finish()
     i = r.section("imu")
     imu = ImuSpec(
-        gyro_bias_rad_s=_v3(i.vector("gyro_bias_rad_s", (0.0, 0.0, 0.0), 3)),
-        accel_bias_m_s2=_v3(i.vector("accel_bias_m_s2", (0.0, 0.0, 0.0), 3)),
-        gyro_noise_sigma_rad_s=i.number("gyro_noise_sigma_rad_s", 3.999e-4, 0),
-        accel_noise_sigma_m_s2=i.number("accel_noise_sigma_m_s2", 1.7976e-2, 0),
-        gravity_scale=i.number("gravity_scale", 1.0, 0, lo_open=True),
-        yaw_scale=i.number("yaw_scale", 1.0, 0, lo_open=True),
-        present=i.boolean("present", True),
+        gyro_bias_rad_s=_v3(i.vector("gyro_bias_rad_s", di.gyro_bias_rad_s, 3)),
+        accel_bias_m_s2=_v3(i.vector("accel_bias_m_s2", di.accel_bias_m_s2, 3)),
+        gyro_noise_sigma_rad_s=i.number("gyro_noise_sigma_rad_s", di.gyro_noise_sigma_rad_s, 0),
+        accel_noise_sigma_m_s2=i.number("accel_noise_sigma_m_s2", di.accel_noise_sigma_m_s2, 0),
+        gravity_scale=i.number("gravity_scale", di.gravity_scale, 0, lo_open=True),
+        yaw_scale=i.number("yaw_scale", di.yaw_scale, 0, lo_open=True),
+        present=i.boolean("present", di.present),
     )
     i.finish()
     li = r.section("lidar")
     lidar = LidarMount(
-        enabled=li.boolean("enabled", True),
-        noise_sigma_m=li.number("noise_sigma_m", 0.01, 0),
-        extra_noise_sigma_m=li.number("extra_noise_sigma_m", 0.0, 0),
-        dropout_probability=li.number("dropout_probability", 0.0, 0, hi=1.0),
-        mount_x_m=li.number("mount_x_m", 0.0),
-        mount_y_m=li.number("mount_y_m", 0.0),
-        mount_yaw_rad=li.number("mount_yaw_rad", 0.0),
+        enabled=li.boolean("enabled", dl.enabled),
+        noise_sigma_m=li.number("noise_sigma_m", dl.noise_sigma_m, 0),
+        extra_noise_sigma_m=li.number("extra_noise_sigma_m", dl.extra_noise_sigma_m, 0),
+        dropout_probability=li.number("dropout_probability", dl.dropout_probability, 0, hi=1.0),
+        mount_x_m=li.number("mount_x_m", dl.mount_x_m),
+        mount_y_m=li.number("mount_y_m", dl.mount_y_m),
+        mount_yaw_rad=li.number("mount_yaw_rad", dl.mount_yaw_rad),
     )
     li.finish()
-    ex = r.vector("envelope_x_m", (-0.135, 0.135177), 2)
-    ey = r.vector("envelope_y_m", (-0.135439, 0.135), 2)
+    ex = r.vector("envelope_x_m", d.envelope_x_m, 2)
+    ey = r.vector("envelope_y_m", d.envelope_y_m, 2)
     for key, (lo, hi) in (("envelope_x_m", ex), ("envelope_y_m", ey)):
         if not lo < 0 < hi:
             raise r.fail(key, f"expected [min < 0, max > 0] around the axle centre, got {[lo, hi]}")
     spec = RobotSpec(
         name=r.text("name", path.stem),
-        mass_kg=r.number("mass_kg", 2.0, 0, lo_open=True),
-        inertia_kg_m2=r.number("inertia_kg_m2", 0.021, 0, lo_open=True),
-        wheel_radius_m=Sides(*r.sides("wheel_radius_m", WHEEL_RADIUS_M, 0, lo_open=True, hi=0.5)),
-        track_width_m=r.number("track_width_m", WHEEL_SEPARATION_M, 0, lo_open=True, hi=2.0),
-        ticks_per_rev=Sides(*r.sides("ticks_per_rev", TICKS_PER_REV, 0, lo_open=True)),
+        mass_kg=r.number("mass_kg", d.mass_kg, 0, lo_open=True),
+        inertia_kg_m2=r.number("inertia_kg_m2", d.inertia_kg_m2, 0, lo_open=True),
+        wheel_radius_m=Sides(
+            *r.sides("wheel_radius_m", d.wheel_radius_m.left, 0, lo_open=True, hi=0.5)
+        ),
+        wheel_separation_m=r.number(
+            "wheel_separation_m", d.wheel_separation_m, 0, lo_open=True, hi=2.0
+        ),
+        ticks_per_rev=Sides(*r.sides("ticks_per_rev", d.ticks_per_rev.left, 0, lo_open=True)),
         envelope_x_m=(ex[0], ex[1]),
         envelope_y_m=(ey[0], ey[1]),
-        caster_load_fraction=r.number("caster_load_fraction", 0.2, 0, hi=0.9),
-        caster_rolling_coeff=r.number("caster_rolling_coeff", 0.02, 0, hi=1.0),
-        actuation_latency_s=r.number("actuation_latency_s", 0.0, 0, hi=1.0),
+        caster_load_fraction=r.number("caster_load_fraction", d.caster_load_fraction, 0, hi=0.9),
+        caster_rolling_coeff=r.number("caster_rolling_coeff", d.caster_rolling_coeff, 0, hi=1.0),
+        actuation_latency_s=r.number("actuation_latency_s", d.actuation_latency_s, 0, hi=1.0),
         motor=motor,
         wiring=wiring,
         imu=imu,
@@ -266,8 +276,9 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
     where, data = read_yaml(path, "world")
     r = Fields(where, data)
     f = r.section("floor")
-    mu_s = f.number("mu_static", 0.8, 0, lo_open=True)
-    mu_d = f.number("mu_dynamic", 0.7, 0, lo_open=True)
+    d = WorldSpec(path.stem)  # the defaults: the dataclass's own
+    mu_s = f.number("mu_static", d.mu_static, 0, lo_open=True)
+    mu_d = f.number("mu_dynamic", d.mu_dynamic, 0, lo_open=True)
     f.finish()
     if mu_d > mu_s:
         raise r.fail("floor.mu_dynamic", f"must not exceed mu_static ({mu_s:g}), got {mu_d:g}")
@@ -318,7 +329,7 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
             Trigger(tr.number("when_moved_m", 0.0, 0), cylinder(tr.section("add_cylinder")))
         )
         tr.finish()
-    start = r.vector("start_pose", (0.0, 0.0, 0.0), 3)
+    start = r.vector("start_pose", d.start_pose, 3)
     spec = WorldSpec(
         name=r.text("name", path.stem),
         mu_static=mu_s,

@@ -69,7 +69,7 @@ class DiffDriveRobot:
         m = spec.motor
         self.mass = spec.mass_kg
         self.inertia = spec.inertia_kg_m2
-        self.half_track = spec.track_width_m / 2.0
+        self.half_track = spec.wheel_separation_m / 2.0
         self.r_l = spec.wheel_radius_m.left
         self.r_r = spec.wheel_radius_m.right
         self.j_w = m.wheel_inertia_kg_m2

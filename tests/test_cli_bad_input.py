@@ -75,7 +75,7 @@ def _write(root: Path, rel: str, text: str | bytes) -> None:
 ROBOT = """\
 name: corpus
 wheel_radius_m: {r}
-track_width_m: {b}
+wheel_separation_m: {b}
 """
 
 WORLD = """\
@@ -205,7 +205,7 @@ CASES: dict[str, Case] = {
     "run_robot_missing": c(f"run square --robot {MISSING}", "missing.yaml"),
     "run_robot_unknown_name": c("run square --robot no_such_robot", "no_such_robot"),
     "run_robot_nan": c("run square --robot robots/nan.yaml", "wheel_radius_m"),
-    "run_robot_inf": c("run square --robot robots/inf.yaml", "track_width_m"),
+    "run_robot_inf": c("run square --robot robots/inf.yaml", "wheel_separation_m"),
     "run_robot_negative": c("run square --robot robots/negative.yaml", "wheel_radius_m"),
     "run_robot_text": c("run square --robot robots/text.yaml", "wheel_radius_m"),
     "run_robot_field": c("run square --robot robots/unknown_field.yaml", "wheel_count"),

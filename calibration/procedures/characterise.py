@@ -15,7 +15,8 @@ from jackson.calibration.procedures.base import (
     wheel_angle_rad,
 )
 from jackson.calibration.procedures.imu import rotation_matrix
-from jackson.host.config import IDENTITY, RobotGeometry
+from jackson.host.config import IDENTITY
+from jackson.host.odometry import RobotGeometry
 
 
 @dataclass(frozen=True)

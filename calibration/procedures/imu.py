@@ -18,7 +18,8 @@ from jackson.calibration.procedures.base import (
     RunData,
     wheel_angle_rad,
 )
-from jackson.host.config import IDENTITY, MAX_GYRO_BIAS_RAD_S, RobotGeometry, Rotation
+from jackson.host.config import IDENTITY, MAX_GYRO_BIAS_RAD_S, Rotation
+from jackson.host.odometry import RobotGeometry
 from jackson.protocol.messages import GRAVITY_M_S2  # the nominal gravity of host, twin, Table 3
 
 

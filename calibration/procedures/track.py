@@ -15,7 +15,7 @@ from jackson.calibration.procedures.base import (
     wheel_angle_rad,
 )
 from jackson.calibration.procedures.encoders import _count_change
-from jackson.host.config import RobotGeometry
+from jackson.host.odometry import RobotGeometry
 
 
 def wheel_separation(

@@ -26,25 +26,31 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class WheelPiConfig:
-    """Gains and limits of the wheel-speed PI.
+    """Gains and limits of the wheel-speed PI: the ``wheel_pi:`` section of the host
+    configuration (:class:`jackson.host.config.HostConfig`).
 
-    Attributes:
-        kp: K_p, proportional gain [duty per rad/s].
-        ki: K_i, integral gain [duty per rad] (per rad/s of error per second).
-        integral_limit: I_max, clamp on the integral term [duty], >= 0.
-        output_limit: u_max, largest |u_ff + u_c| [duty], > 0.
-        zero_threshold_rad_s: |omega_ref| at or below this is a stop [rad/s]; keep it equal
-            to :attr:`DeadbandConfig.zero_threshold_rad_s` so both stages agree on braking.
+    Attributes
+    ----------
+    enabled : bool
+        Whether the daemon runs the PI on each wheel (off: open-loop deadband feed-forward).
+    kp : float
+        K_p, proportional gain [duty per rad/s].
+    ki : float
+        K_i, integral gain [duty per rad] (per rad/s of error per second).
+    integral_limit : float
+        I_max, clamp on the integral term [duty], >= 0.
+    output_limit : float
+        u_max, largest |u_ff + u_c| [duty], > 0.
     """
 
+    enabled: bool = False
     kp: float = 0.05
     ki: float = 0.5
     integral_limit: float = 0.5
     output_limit: float = 1.0
-    zero_threshold_rad_s: float = 0.05
 
     def __post_init__(self) -> None:
-        for name in ("kp", "ki", "integral_limit", "zero_threshold_rad_s"):
+        for name in ("kp", "ki", "integral_limit"):
             value = getattr(self, name)
             if not 0.0 <= value < math.inf:
                 raise ValueError(f"WheelPiConfig.{name} must be finite and >= 0, got {value}")
@@ -64,13 +70,31 @@ class WheelSpeedPi:
     The first update after construction or :meth:`reset` is a step of 0 s (no integration,
     proportional term only); so is an update whose t_s is not after the previous one.
 
-    Attributes:
-        integral: I, the integral term [duty], for diagnostics.
-        error: e of the last update [rad/s], for diagnostics.
+    Parameters
+    ----------
+    config : WheelPiConfig, optional
+        Gains and limits (``enabled`` is the daemon's business, not this loop's).
+    zero_threshold_rad_s : float
+        |omega_ref| at or below this is a stop [rad/s]; the daemon passes
+        :attr:`DeadbandConfig.zero_threshold_rad_s` so both stages agree on braking.
+
+    Attributes
+    ----------
+    integral : float
+        I, the integral term [duty], for diagnostics.
+    error : float
+        e of the last update [rad/s], for diagnostics.
     """
 
-    def __init__(self, config: WheelPiConfig | None = None) -> None:
+    def __init__(
+        self, config: WheelPiConfig | None = None, *, zero_threshold_rad_s: float = 0.05
+    ) -> None:
+        if not 0.0 <= zero_threshold_rad_s < math.inf:
+            raise ValueError(
+                f"zero_threshold_rad_s must be finite and >= 0, got {zero_threshold_rad_s}"
+            )
         self.config = config if config is not None else WheelPiConfig()
+        self.zero_threshold_rad_s = zero_threshold_rad_s
         self.integral = 0.0
         self.error = 0.0
         self._t_prev_s: float | None = None
@@ -85,18 +109,27 @@ class WheelSpeedPi:
     ) -> float:
         """One PI step.
 
-        Args:
-            omega_ref: Wheel speed reference [rad/s], positive forward.
-            omega_meas: Measured wheel speed from the encoder [rad/s], positive forward.
-            t_s: MCU time of the measurement [s].
-            feedforward_duty: u_ff, the duty the correction is added to (the deadband
-                stage's output), so saturation is judged on the total. 0 judges u_c alone.
+        Parameters
+        ----------
+        omega_ref : float
+            Wheel speed reference [rad/s], positive forward.
+        omega_meas : float
+            Measured wheel speed from the encoder [rad/s], positive forward.
+        t_s : float
+            MCU time of the measurement [s].
+        feedforward_duty : float
+            u_ff, the duty the correction is added to (the deadband stage's output), so
+            saturation is judged on the total. 0 judges u_c alone.
 
-        Returns:
+        Returns
+        -------
+        float
             u_c, the duty correction to add to ``feedforward_duty``; 0 when braking.
 
-        Raises:
-            ValueError: If an argument is NaN or infinite.
+        Raises
+        ------
+        ValueError
+            If an argument is NaN or infinite.
         """
         if not all(math.isfinite(x) for x in (omega_ref, omega_meas, t_s, feedforward_duty)):
             raise ValueError(
@@ -108,7 +141,7 @@ class WheelSpeedPi:
         self._t_prev_s = t_s
         e = omega_ref - omega_meas
         self.error = e
-        if abs(omega_ref) <= c.zero_threshold_rad_s:
+        if abs(omega_ref) <= self.zero_threshold_rad_s:
             self.integral = 0.0
             return 0.0
         p = c.kp * e

@@ -86,7 +86,7 @@ from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
-from jackson.host.odometry import OdometryConfig
+from jackson.host.odometry import OdometryCovariance
 
 # ROS 2 Jazzy message classes (typed dataclasses shipped with rosbags)
 DiagnosticArray = jazzy.diagnostic_msgs__msg__DiagnosticArray
@@ -310,7 +310,7 @@ class BagRecorder:
         frame_ids: FrameIds | None = None,
         *,
         topics: TopicNames | None = None,
-        odometry: OdometryConfig | None = None,
+        odometry: OdometryCovariance | None = None,
         static_transforms: Sequence[StaticTransform] | None = None,
         gyro_sigma_rad_s: float = GYRO_SIGMA_RAD_S,
         accel_sigma_m_s2: float = ACCEL_SIGMA_M_S2,
@@ -324,7 +324,8 @@ class BagRecorder:
             path: The rosbag2 folder to create (it must not exist; its parent may not either).
             frame_ids: Frame and joint names (defaults: :class:`FrameIds`).
             topics: Topic names (defaults: :class:`TopicNames`).
-            odometry: Source of the /wheel/odom covariances (defaults: ``OdometryConfig()``).
+            odometry: The /wheel/odom covariances (the config's ``odometry`` section; defaults:
+                ``OdometryCovariance()``).
             static_transforms: The /tf_static transforms (default: identity mounting,
                 :func:`default_static_transforms`).
             gyro_sigma_rad_s: Gyro noise sigma [rad/s]; its square fills the diagonal of
@@ -344,7 +345,7 @@ class BagRecorder:
         self.path = Path(path)
         self.frames = frame_ids or FrameIds()
         self.topics = topics or TopicNames()
-        odo = odometry or OdometryConfig()
+        odo = odometry or OdometryCovariance()
         self.hardware_id = hardware_id
         self.flush_interval_ns = (
             None if flush_interval_s is None else stamp_ns(max(flush_interval_s, 0.0))
@@ -354,12 +355,8 @@ class BagRecorder:
             if static_transforms is None
             else static_transforms
         )
-        self._odom_pose_cov = _planar_covariance(
-            odo.pose_covariance_xy, odo.pose_covariance_xy, odo.pose_covariance_yaw
-        )
-        self._odom_twist_cov = _planar_covariance(
-            odo.twist_covariance_vx, odo.twist_covariance_vy, odo.twist_covariance_wz
-        )
+        self._odom_pose_cov = _planar_covariance(odo.pose_xy, odo.pose_xy, odo.pose_yaw)
+        self._odom_twist_cov = _planar_covariance(odo.twist_vx, odo.twist_vy, odo.twist_wz)
         self._gyro_cov = _diag3(gyro_sigma_rad_s**2)
         self._accel_cov = _diag3(accel_sigma_m_s2**2)
         self._store = get_typestore(Stores.ROS2_JAZZY)

@@ -13,7 +13,8 @@ import pytest
 from jackson.calibration import procedures as proc
 from jackson.calibration import runs
 from jackson.calibration.yaml_update import YamlUpdateError, format_value, update_config
-from jackson.host.config import DEFAULT_CONFIG, RobotGeometry, load_config
+from jackson.host.config import DEFAULT_CONFIG, load_config
+from jackson.host.odometry import RobotGeometry
 from jackson.host.recording import RunRecorder
 from jackson.main import main
 from jackson.protocol import SetImuCalibration, Telemetry, TelemetryFlags, encode_frame

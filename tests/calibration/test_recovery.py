@@ -34,7 +34,7 @@ _BASE = load_robot("jackson")
 HIDDEN = dataclasses.replace(
     _BASE,
     ticks_per_rev=Sides(617.0, 626.0),
-    track_width_m=0.205,
+    wheel_separation_m=0.205,
     motor=dataclasses.replace(_BASE.motor, deadband_duty=Sides(0.12, 0.15)),
     imu=dataclasses.replace(
         _BASE.imu, gyro_bias_rad_s=(0.0, 0.0, 0.01), gravity_scale=9.299 / 9.81
@@ -259,7 +259,7 @@ def test_twin_fit_recovers_effective_radius_track_and_yaw_scale(tmp_path: Path) 
     robot = dataclasses.replace(
         _BASE,
         wheel_radius_m=Sides(0.0325, 0.0325),
-        track_width_m=0.205,
+        wheel_separation_m=0.205,
         imu=dataclasses.replace(_BASE.imu, yaw_scale=1.0 / 0.6953),
     )
     twin = twin_on(tmp_path, robot)

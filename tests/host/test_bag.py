@@ -22,7 +22,7 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.highlevel import AnyReader
 
-from jackson.host.odometry import OdometryConfig
+from jackson.host.odometry import OdometryCovariance
 from jackson.host.ros.bag import (
     ACCEL_SIGMA_M_S2,
     GYRO_SIGMA_RAD_S,
@@ -99,14 +99,14 @@ def test_wheel_odom_pose_quaternion_and_covariances(
     assert q.z == pytest.approx(half) and q.w == pytest.approx(half)  # yaw 90 deg
     t = odom.twist.twist
     assert (t.linear.x, t.linear.y, t.angular.z) == (0.2, 0.0, 0.1)
-    cfg = OdometryConfig()
+    cfg = OdometryCovariance()
     twist = odom.twist.covariance.reshape(6, 6)
     assert np.array_equal(np.diag(twist), [0.01, 0.001, 0, 0, 0, 0.02])
     assert np.count_nonzero(twist - np.diag(np.diag(twist))) == 0
     pose = np.diag(odom.pose.covariance.reshape(6, 6))
     assert np.array_equal(
         pose,
-        [cfg.pose_covariance_xy, cfg.pose_covariance_xy, 0, 0, 0, cfg.pose_covariance_yaw],
+        [cfg.pose_xy, cfg.pose_xy, 0, 0, 0, cfg.pose_yaw],
     )
 
 

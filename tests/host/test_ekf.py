@@ -17,6 +17,7 @@ from jackson.host.ekf import (
     Ekf,
     EkfConfig,
     GyroBiasEstimator,
+    ProcessNoise,
     X,
     Y,
     transition,
@@ -97,7 +98,7 @@ def test_yaw_innovation_wraps_across_pi_and_the_state_stays_wrapped() -> None:
 def test_gate_accepts_just_below_and_rejects_exactly_at_the_threshold() -> None:
     # P_vyaw = r_wz = 0.5 after the first gyro sample, so S = P + R = 1.0 exactly and
     # d^2 = y^2: y = 2 sits exactly on n = 2 (d^2 = n^2 = 4), the float below 2 just under.
-    ekf = Ekf(EkfConfig(r_wz=0.5, mahalanobis_threshold_imu=2.0))
+    ekf = Ekf(EkfConfig(r_wz=0.5, mahalanobis_imu=2.0))
     ekf.update_gyro(0.0, 0.0)
     before = ekf.x
 
@@ -117,7 +118,7 @@ def test_gate_accepts_just_below_and_rejects_exactly_at_the_threshold() -> None:
 
 
 def test_wheel_gate_uses_the_joint_distance_of_vx_and_vy() -> None:
-    cfg = EkfConfig(mahalanobis_threshold_wheel=3.0)
+    cfg = EkfConfig(mahalanobis_wheel=3.0)
     ekf = Ekf(cfg)
     ekf.update_wheel(0.0, 0.0)
     s_vy = 2.0 * cfg.r_vy  # P_vy = r_vy after initialisation, no prediction at the same time
@@ -298,18 +299,30 @@ def test_wrap_angle_range() -> None:
 @pytest.mark.parametrize(
     "kwargs",
     [
-        {"process_noise": (0.1,) * 6},
-        {"process_noise": (0.1,) * 6 + (-1.0,)},
+        {"gyro_bias_window_s": -1.0},
         {"r_vx": 0.0},
         {"sensor_timeout_s": -0.2},
-        {"output_rate_hz": 0.0},
-        {"mahalanobis_threshold_imu": 0.0},
-        {"mahalanobis_threshold_wheel": math.nan},
+        {"frequency_hz": 0.0},
+        {"mahalanobis_imu": 0.0},
+        {"mahalanobis_wheel": math.nan},
     ],
 )
 def test_config_rejects_bad_values(kwargs: dict[str, object]) -> None:
     with pytest.raises(ValueError):
         EkfConfig(**kwargs)  # type: ignore[arg-type]
+
+
+def test_process_noise_rejects_a_negative_variance() -> None:
+    with pytest.raises(ValueError, match=r"ProcessNoise\.vyaw"):
+        ProcessNoise(vyaw=-1.0)
+    assert ProcessNoise().diagonal == DEFAULT_PROCESS_NOISE
+
+
+def test_gyro_bias_window_zero_switches_the_estimate_off() -> None:
+    est = GyroBiasEstimator(window_s=0.0)
+    assert est.bias_rad_s == 0.0  # ready from the start: the daemon fuses the gyro at once
+    est.add(0.0, 0.3, True)
+    assert est.bias_rad_s == 0.0
 
 
 def test_gyro_bias_is_the_mean_of_a_still_window() -> None:

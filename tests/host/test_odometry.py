@@ -8,8 +8,9 @@ import pytest
 
 from jackson.host.odometry import (
     ARC_THRESHOLD_RAD,
-    OdometryConfig,
+    OdometryCovariance,
     OdometryState,
+    RobotGeometry,
     WheelOdometry,
     integrate_arc,
     tick_delta,
@@ -81,7 +82,7 @@ def test_exact_arc_on_a_quarter_circle() -> None:
     # (B / 2) (3 + 2) / (3 - 2) = 0.5 m; r = 0.1035 m and 900 - 600 ticks make it a quarter
     # turn: dtheta = 2 pi r (900 - 600) / (621 B) = pi / 2. Uneven frames on purpose: the
     # exact arc composes, so the frame sizes must not matter.
-    cfg = OdometryConfig(
+    cfg = RobotGeometry(
         wheel_radius_left_m=0.1035, wheel_radius_right_m=0.1035, wheel_separation_m=0.2
     )
     odom = WheelOdometry(cfg)
@@ -150,7 +151,7 @@ def test_non_positive_dt_keeps_velocities_and_loses_no_distance() -> None:
 
 
 def test_per_side_ticks_per_rev() -> None:
-    cfg = OdometryConfig(ticks_per_rev_left=617, ticks_per_rev_right=626)
+    cfg = RobotGeometry(ticks_per_rev_left=617, ticks_per_rev_right=626)
     odom = WheelOdometry(cfg)
     # A wheel turn is 617 left and 626 right ticks: equal turns drive a straight line.
     counts = [(617 * k, 626 * k) for k in range(6)]
@@ -162,7 +163,7 @@ def test_per_side_ticks_per_rev() -> None:
     assert abs(state.y_m) < 1e-12
     assert state.wheel_velocity_left_rad_s == pytest.approx(2.0 * math.pi / DT_S, rel=1e-12)
     # With one shared TPR the same counts would curve left.
-    curved = drive(WheelOdometry(OdometryConfig()), counts)
+    curved = drive(WheelOdometry(RobotGeometry()), counts)
     assert curved.yaw_rad > 0.0
 
 
@@ -218,9 +219,12 @@ def test_reset_starts_again_at_the_origin() -> None:
 
 @pytest.mark.parametrize(
     "field",
-    ["wheel_radius_left_m", "wheel_separation_m", "ticks_per_rev_right", "pose_covariance_xy"],
+    ["wheel_radius_left_m", "wheel_separation_m", "ticks_per_rev_right", "pose_xy"],
 )
 def test_config_rejects_bad_values(field: str) -> None:
+    kind = OdometryCovariance if field == "pose_xy" else RobotGeometry
     with pytest.raises(ValueError, match=field):
-        OdometryConfig(**{field: -1})
-    OdometryConfig(twist_covariance_vx=0.0)  # a zero covariance is allowed
+        kind(**{field: -1})
+    OdometryCovariance(twist_vx=0.0)  # a zero covariance is allowed
+    with pytest.raises(ValueError, match="wheel_separation_m"):
+        RobotGeometry(wheel_separation_m=0.0)

@@ -36,8 +36,12 @@ def test_exponent_numbers_and_per_side_values(tmp_path: Path) -> None:
             "robot r.yaml: motor.stall_torque_nm: expected a number > 0, got -1",
         ),
         (
-            "track_width_m: 0.2\ntrack_width_m: 0.21\n",
-            "robot r.yaml: line 2: .*duplicate field 'track_width_m'",
+            "wheel_separation_m: 0.2\nwheel_separation_m: 0.21\n",
+            "robot r.yaml: line 2: .*duplicate field 'wheel_separation_m'",
+        ),
+        (
+            "track_width_m: 0.2\n",
+            "robot r.yaml: track_width_m: renamed wheel_separation_m",
         ),
         ("ticks_per_rev: {left: 617}\n", "robot r.yaml: ticks_per_rev.right: missing"),
         ("imu:\n  presnt: false\n", "robot r.yaml: imu.presnt: unknown field"),

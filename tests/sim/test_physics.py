@@ -61,7 +61,7 @@ def test_equal_pwm_curves_by_the_configured_asymmetry() -> None:
 def test_v_0_08_w_0_16_traces_a_half_metre_circle() -> None:
     spec = robot()
     tw = Twin(FLOOR, spec, lidar=False)
-    v, w, b, r = 0.08, 0.16, spec.track_width_m, spec.wheel_radius_m.left
+    v, w, b, r = 0.08, 0.16, spec.wheel_separation_m, spec.wheel_radius_m.left
     run_wheel_speed_pi(tw, (v - w * b / 2) / r, (v + w * b / 2) / r, 3.0)  # settle
     start = len(tw.truth_log)
     run_wheel_speed_pi(tw, (v - w * b / 2) / r, (v + w * b / 2) / r, 2 * math.pi / w)
