@@ -8,8 +8,8 @@ running). Polling for a short while before blocking keeps both ends awake across
 exchange; ``os.sched_yield`` between polls hands the CPU to the other end when both share a
 core. The spin is bounded, so a slow partner costs at most ``spin_s`` of CPU per wait.
 
-Only links to the twin spin (the twin's own loop, the twin's I²C socket and the scripted
-host); the daemon's serial link to the real robot never does. Two ends in the same process
+Only links to the twin spin (the twin's own loop, the twin's I²C socket and the tests'
+wire-level peer); the daemon's serial link never does. Two ends in the same process
 gain nothing (the GIL serialises them), so :func:`peer_is_this_process` lets a socket client
 turn it off.
 """
@@ -26,8 +26,8 @@ from typing import TypeVar
 T = TypeVar("T")
 
 DEFAULT_SPIN_S = 0.0005
-"""How long a lockstep wait polls before it blocks [s]: above the twin's and the scripted
-host's work per frame (about 0.1-0.15 ms each), far below a telemetry period."""
+"""How long a lockstep wait polls before it blocks [s]: above the twin's and a minimal host's
+work per frame (about 0.1-0.15 ms each), far below a telemetry period."""
 
 _PEERCRED = struct.Struct("3i")  # struct ucred: pid, uid, gid
 

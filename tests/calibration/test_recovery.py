@@ -4,7 +4,7 @@ The twin (in a thread, lockstep, over a real pty and the I2C socket, as tests/si
 robot whose true values differ from what the host believes: 617/626 ticks per revolution,
 a 0.205 m track, a 0.01 rad/s gyro z bias, gravity read as 9.299 m/s^2, breakaway duties of
 0.12 (left) and 0.15 (right). The runs are recorded by :mod:`jackson.calibration.runs` (the
-daemon for velocity runs, the scripted host and the PCA9685 for raw duties), and the CLI
+daemon for velocity runs and, with a duty script as its command source, for raw duties), and the CLI
 works from the run folders (or records them itself), as a user would.
 """
 

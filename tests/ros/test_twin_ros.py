@@ -1,7 +1,7 @@
 """The twin's own ROS 2 publisher (``jackson sim --ros``): /scan, /ground_truth/odom, /clock.
 
 ``jackson sim --ros --realtime`` runs in a subprocess with a private ROS domain; the minimal
-scripted host says HELLO (the twin's clock stands still until then) and drives forward, and
+test peer says HELLO (the twin's clock stands still until then) and drives forward, and
 ``twin_client.py`` in a third process subscribes with the documented QoS and reports.
 
 On x86_64 ``make setup`` installs rclpy (the ``ros`` extra), so there a missing rclpy fails;
@@ -28,13 +28,14 @@ import pytest
 if platform.machine() != "x86_64":
     pytest.importorskip("rclpy")
 
-from jackson.host.scripted import ScriptedHost
 from jackson.protocol import Telemetry
 from jackson.sim.config import load_robot, load_world
 from jackson.sim.lidar import LidarSpec
 from jackson.sim.ros import ros_available
 from jackson.sim.runner import TwinRunner
 from jackson.sim.twin import Twin
+
+from ..sim.wire_peer import WirePeer
 
 # lark (pulled in by rosidl's parser) imports the deprecated sre_parse
 pytestmark = pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")
@@ -62,10 +63,10 @@ def ros_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> dict[str, str]:
 
 
 class HostThread:
-    """The scripted host in a thread: HELLO, then forward duties and a heartbeat per frame."""
+    """The test peer in a thread: HELLO, then forward duties and a heartbeat per frame."""
 
     def __init__(self, serial: str, i2c: str, duty: float) -> None:
-        self.host = ScriptedHost(serial, i2c)
+        self.host = WirePeer(serial, i2c)
         self.host.connect()
         self.duty = duty
         self.frames = 0
@@ -190,7 +191,7 @@ def _lockstep_run(tmp: Path, observed: list[int] | None) -> list[Telemetry]:
     stop = threading.Event()
     thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
     thread.start()
-    host = ScriptedHost(runner.serial_path, f"unix:{tmp / 'i2c.sock'}")
+    host = WirePeer(runner.serial_path, f"unix:{tmp / 'i2c.sock'}")
     try:
         host.connect()
         return host.run(30, lambda t: (0.6, 0.3))

@@ -21,12 +21,13 @@ from pathlib import Path
 
 import pytest
 
-from jackson.host.scripted import ScriptedHost
 from jackson.protocol import TelemetryFlags
 from jackson.sim.config import ConfigError, RobotSpec, load_robot, load_world
 from jackson.sim.fil import DEFAULT_BINARY
 from jackson.sim.runner import TwinRunner
 from jackson.sim.twin import Twin
+
+from .wire_peer import WirePeer
 
 FAILSAFE_S = 0.6  # [s] the firmware's default failsafe_ms
 PERIOD_S = 0.05  # [s] one telemetry period at 20 Hz
@@ -150,7 +151,7 @@ def run_silent_host(tmp_path: Path, *, firmware: bool, interlock: str = "pca9685
     stop = threading.Event()
     thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
     thread.start()
-    host = ScriptedHost(runner.serial_path, f"unix:{tmp_path / 'i2c.sock'}")
+    host = WirePeer(runner.serial_path, f"unix:{tmp_path / 'i2c.sock'}")
     try:
         host.connect()
         last_t_us = 0

@@ -1,4 +1,4 @@
-"""Starts ``jackson sim`` as a user does and connects the minimal scripted host to it."""
+"""Starts ``jackson sim`` as a user does and connects the wire-level test peer to it."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from jackson.host.scripted import ScriptedHost
+from .wire_peer import WirePeer
 
 JACKSON = str(Path(sys.executable).parent / "jackson")
 
@@ -27,8 +27,8 @@ class TwinProcess:
         self.serial = lines[0].split(": ", 1)[1]
         self.i2c = lines[1].split(": ", 1)[1]
 
-    def host(self) -> ScriptedHost:
-        return ScriptedHost(self.serial, self.i2c)
+    def host(self) -> WirePeer:
+        return WirePeer(self.serial, self.i2c)
 
     def stop(self) -> tuple[int, str, str]:
         if self.proc.poll() is None:

@@ -1,8 +1,10 @@
-"""A minimal scripted host: the handshake, then wheel duties and a heartbeat per frame.
+"""A wire-level test peer of the twin: the handshake, then wheel duties and a heartbeat per frame.
 
-It is what the twin's tests and the lockstep benchmark run against the twin: the smallest
-host that behaves like the real one on the wire (HELLO and INFO check, telemetry in, PCA9685
-register writes through the I2C bus, HEARTBEAT acknowledging each frame).
+The host is :class:`jackson.host.daemon.Daemon`; the twin's tests use this smaller peer where
+they need to misbehave on the wire on purpose (arbitrary messages, raw corrupt bytes, a port
+closed and reopened, heartbeats that stop) while behaving like the host otherwise (HELLO and
+INFO check, telemetry in, PCA9685 register writes through the I2C bus, HEARTBEAT
+acknowledging each frame).
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ class HostTimeoutError(TimeoutError):
     """The robot did not answer in time."""
 
 
-class ScriptedHost:
+class WirePeer:
     """Connects to a robot (or the twin) by its serial port and I2C bus."""
 
     def __init__(self, serial_path: str, i2c_spec: str, address: int = 0x40) -> None:
