@@ -119,14 +119,20 @@ class HostConfig:
 def load_config(path: str | Path = DEFAULT_CONFIG) -> HostConfig:
     """Read and validate a host configuration file.
 
-    Args:
-        path: A YAML file in the layout of ``host/config/jackson.yaml``.
+    Parameters
+    ----------
+    path : str or Path
+        A YAML file in the layout of ``host/config/jackson.yaml``.
 
-    Returns:
+    Returns
+    -------
+    HostConfig
         The validated configuration.
 
-    Raises:
-        ConfigError: One line naming the file and the field at fault.
+    Raises
+    ------
+    ConfigError
+        One line naming the file and the field at fault.
     """
     where, data = read_yaml(Path(path), "config")
     return parse_config(data, where)
@@ -135,8 +141,10 @@ def load_config(path: str | Path = DEFAULT_CONFIG) -> HostConfig:
 def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
     """Validate an already parsed mapping (the layout of the YAML file).
 
-    Raises:
-        ConfigError: One line ``<where>: <dotted field>: <problem>``.
+    Raises
+    ------
+    ConfigError
+        One line ``<where>: <dotted field>: <problem>``.
     """
     top = Fields(where, data)
     cfg = HostConfig(

@@ -100,14 +100,22 @@ class DutySource(Protocol):
 class FrameResult:
     """What the core made of one telemetry frame, handed to every listener.
 
-    Attributes:
-        t_s: The frame's unwrapped MCU time [s].
-        telemetry: The frame.
-        odometry: Wheel odometry after the frame.
-        v_cmd, w_cmd: The command before the limits [m/s, rad/s].
-        v, w: The command after the limits (0 when braked).
-        duties: The wheel duties sent to the motor output (0 when braked).
-        braked: The motors were braked at this frame.
+    Attributes
+    ----------
+    t_s : float
+        The frame's unwrapped MCU time [s].
+    telemetry : Telemetry
+        The frame.
+    odometry : OdometryState
+        Wheel odometry after the frame.
+    v_cmd, w_cmd : float
+        The command before the limits [m/s, rad/s].
+    v, w : float
+        The command after the limits (0 when braked).
+    duties : tuple of float
+        The wheel duties sent to the motor output (0 when braked).
+    braked : bool
+        The motors were braked at this frame.
     """
 
     t_s: float

@@ -10,7 +10,7 @@ A section is a title on its own line, underlined with as many dashes::
 Google headers (``Args:``, ``Returns:``, ...) are refused anywhere inside a docstring (any
 bare string statement: module, class, function and attribute docstrings), in every ``.py``
 file of the repository's packages except generated ones (their generator's templates are
-checked instead) and :data:`NOT_YET_CONVERTED`.
+checked instead).
 """
 
 from __future__ import annotations
@@ -40,29 +40,13 @@ NUMPY_SECTIONS = (
     "See Also",
 )
 
-# Files still being converted to NumPy style: skipped by both checks for now. Remove a file
-# from the set once its docstrings are converted; the set is to end up empty.
-NOT_YET_CONVERTED = {
-    "host/config.py",
-    "host/core.py",
-    "host/odometry.py",
-    "host/ekf.py",
-    "host/actuation/wheel_pi.py",
-    "host/daemon.py",
-    "host/ros/bag.py",
-    "host/ros/bridge.py",
-    "sim/config.py",
-    "sim/robot.py",
-    "sim/twin.py",
-}
-
 
 def _source_files() -> Iterator[tuple[str, list[str], ast.Module]]:
     """(path relative to the repository, lines, parsed module) of every checked file."""
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
             rel = path.relative_to(ROOT).as_posix()
-            if SKIP_PARTS.intersection(path.relative_to(ROOT).parts) or rel in NOT_YET_CONVERTED:
+            if SKIP_PARTS.intersection(path.relative_to(ROOT).parts):
                 continue
             text = path.read_text(encoding="utf-8")
             tree = ast.parse(text, rel)
@@ -123,11 +107,6 @@ def test_checks_the_packages() -> None:
     assert "calibration/metrics.py" in checked
     assert "protocol/messages.py" not in checked  # generated: protocol/codegen.py is checked
     assert "protocol/codegen.py" in checked
-
-
-def test_not_yet_converted_files_exist() -> None:
-    missing = sorted(rel for rel in NOT_YET_CONVERTED if not (ROOT / rel).is_file())
-    assert not missing, f"NOT_YET_CONVERTED names files that do not exist: {missing}"
 
 
 def test_no_google_style_sections() -> None:

@@ -154,11 +154,16 @@ class FrameIds:
 class StaticTransform:
     """A fixed transform published once on /tf_static.
 
-    Attributes:
-        parent: Parent frame id.
-        child: Child frame id.
-        xyz_m: Translation of the child in the parent frame [m].
-        rpy_rad: Roll, pitch and yaw of the child in the parent frame [rad].
+    Attributes
+    ----------
+    parent : str
+        Parent frame id.
+    child : str
+        Child frame id.
+    xyz_m : tuple of float
+        Translation of the child in the parent frame [m].
+    rpy_rad : tuple of float
+        Roll, pitch and yaw of the child in the parent frame [rad].
     """
 
     parent: str
@@ -170,10 +175,14 @@ class StaticTransform:
 def default_static_transforms(frames: FrameIds) -> tuple[StaticTransform, ...]:
     """Identity mounting transforms: base_footprint -> base_link -> {imu_link, laser}.
 
-    Args:
-        frames: The frame names.
+    Parameters
+    ----------
+    frames : FrameIds
+        The frame names.
 
-    Returns:
+    Returns
+    -------
+    tuple of StaticTransform
         The three transforms, parent first.
     """
     return (
@@ -226,14 +235,20 @@ def _qos(spec: _TopicSpec) -> Qos:
 def stamp_ns(t_s: float) -> int:
     """The bag timestamp of a sample at ``t_s`` [s]: whole nanoseconds, rounded.
 
-    Args:
-        t_s: MCU (or simulated) time [s], not negative.
+    Parameters
+    ----------
+    t_s : float
+        MCU (or simulated) time [s], not negative.
 
-    Returns:
+    Returns
+    -------
+    int
         The timestamp [ns].
 
-    Raises:
-        BagError: ``t_s`` is negative or not finite.
+    Raises
+    ------
+    BagError
+        ``t_s`` is negative or not finite.
     """
     if not math.isfinite(t_s) or t_s < 0.0:
         raise BagError(f"bag time must be a finite time >= 0 s, got {t_s!r}")
@@ -248,10 +263,14 @@ def _time(ns: int) -> Time:
 def yaw_quaternion(yaw_rad: float) -> Quaternion:
     """The rotation by ``yaw_rad`` about z as a unit quaternion.
 
-    Args:
-        yaw_rad: Heading [rad], CCW positive.
+    Parameters
+    ----------
+    yaw_rad : float
+        Heading [rad], CCW positive.
 
-    Returns:
+    Returns
+    -------
+    Quaternion
         ``(x, y, z, w) = (0, 0, sin(yaw / 2), cos(yaw / 2))``.
     """
     half = 0.5 * yaw_rad
@@ -320,27 +339,40 @@ class BagRecorder:
     ) -> None:
         """Create the bag folder ``path`` and register every topic.
 
-        Args:
-            path: The rosbag2 folder to create (it must not exist; its parent may not either).
-            frame_ids: Frame and joint names (defaults: :class:`FrameIds`).
-            topics: Topic names (defaults: :class:`TopicNames`).
-            odometry: The /wheel/odom covariances (the config's ``odometry`` section; defaults:
-                ``OdometryCovariance()``).
-            static_transforms: The /tf_static transforms (default: identity mounting,
-                :func:`default_static_transforms`).
-            gyro_sigma_rad_s: Gyro noise sigma [rad/s]; its square fills the diagonal of
-                ``angular_velocity_covariance``.
-            accel_sigma_m_s2: Accelerometer noise sigma [m/s^2]; its square fills the diagonal
-                of ``linear_acceleration_covariance``.
-            flush_interval_s: Message time [s] between writes of the open chunk to disk (None:
-                only at close).
-            hardware_id: ``hardware_id`` of the /diagnostics status.
-            max_bytes: Start the next file once the open one exceeds this size [bytes]
-                (checked at each chunk flush): ``<name>_0.mcap``, ``<name>_1.mcap``... in
-                the same folder. None: one file.
+        Parameters
+        ----------
+        path : Path
+            The rosbag2 folder to create (it must not exist; its parent may not either).
+        frame_ids : FrameIds or None
+            Frame and joint names (defaults: :class:`FrameIds`).
+        topics : TopicNames or None
+            Topic names (defaults: :class:`TopicNames`).
+        odometry : OdometryCovariance or None
+            The /wheel/odom covariances (the config's ``odometry`` section; defaults:
+            ``OdometryCovariance()``).
+        static_transforms : sequence of StaticTransform or None
+            The /tf_static transforms (default: identity mounting,
+            :func:`default_static_transforms`).
+        gyro_sigma_rad_s : float
+            Gyro noise sigma [rad/s]; its square fills the diagonal of
+            ``angular_velocity_covariance``.
+        accel_sigma_m_s2 : float
+            Accelerometer noise sigma [m/s^2]; its square fills the diagonal
+            of ``linear_acceleration_covariance``.
+        flush_interval_s : float or None
+            Message time [s] between writes of the open chunk to disk (None:
+            only at close).
+        hardware_id : str
+            ``hardware_id`` of the /diagnostics status.
+        max_bytes : int or None
+            Start the next file once the open one exceeds this size [bytes]
+            (checked at each chunk flush): ``<name>_0.mcap``, ``<name>_1.mcap``... in
+            the same folder. None: one file.
 
-        Raises:
-            BagError: The folder exists already or cannot be created.
+        Raises
+        ------
+        BagError
+            The folder exists already or cannot be created.
         """
         self.path = Path(path)
         self.frames = frame_ids or FrameIds()
@@ -434,13 +466,20 @@ class BagRecorder:
     def wheel_odom(self, t_s: float, x: float, y: float, yaw: float, v: float, w: float) -> None:
         """Wheel odometry on /wheel/odom (Eq. 2, 3, 9), odom -> base_footprint.
 
-        Args:
-            t_s: MCU time of the frame [s].
-            x: Position x [m].
-            y: Position y [m].
-            yaw: Heading [rad].
-            v: Body velocity v_x [m/s] (v_y is 0: no lateral slip).
-            w: Yaw rate [rad/s].
+        Parameters
+        ----------
+        t_s : float
+            MCU time of the frame [s].
+        x : float
+            Position x [m].
+        y : float
+            Position y [m].
+        yaw : float
+            Heading [rad].
+        v : float
+            Body velocity v_x [m/s] (v_y is 0: no lateral slip).
+        w : float
+            Yaw rate [rad/s].
         """
         self._write(
             self.topics.wheel_odom,
@@ -458,10 +497,14 @@ class BagRecorder:
     ) -> None:
         """An IMU sample on /imu/data in imu_link, without orientation.
 
-        Args:
-            t_s: MCU time of the frame [s].
-            accel_xyz: Specific force [m/s^2], 3 values.
-            gyro_xyz: Angular velocity [rad/s], 3 values.
+        Parameters
+        ----------
+        t_s : float
+            MCU time of the frame [s].
+        accel_xyz : sequence of float
+            Specific force [m/s^2], 3 values.
+        gyro_xyz : sequence of float
+            Angular velocity [rad/s], 3 values.
         """
         ax, ay, az = (float(a) for a in accel_xyz)
         gx, gy, gz = (float(g) for g in gyro_xyz)
@@ -494,20 +537,31 @@ class BagRecorder:
     ) -> None:
         """An EKF output on /odometry/filtered and the matching odom -> base_footprint on /tf.
 
-        Args:
-            t_s: MCU time the estimate refers to [s].
-            x: Position x [m].
-            y: Position y [m].
-            yaw: Heading [rad].
-            vx: Body velocity x [m/s].
-            vy: Body velocity y [m/s].
-            vyaw: Yaw rate [rad/s].
-            p_diag: diag(P) in the EKF's state order (x, y, yaw[, vx, vy, vyaw[, ax]]): the
-                first three fill the pose covariance, the next three the twist covariance;
-                None leaves both 0 (unknown).
+        Parameters
+        ----------
+        t_s : float
+            MCU time the estimate refers to [s].
+        x : float
+            Position x [m].
+        y : float
+            Position y [m].
+        yaw : float
+            Heading [rad].
+        vx : float
+            Body velocity x [m/s].
+        vy : float
+            Body velocity y [m/s].
+        vyaw : float
+            Yaw rate [rad/s].
+        p_diag : sequence of float or None
+            diag(P) in the EKF's state order (x, y, yaw[, vx, vy, vyaw[, ax]]): the
+            first three fill the pose covariance, the next three the twist covariance;
+            None leaves both 0 (unknown).
 
-        Raises:
-            ValueError: ``p_diag`` has fewer than 3 values, or 4 or 5.
+        Raises
+        ------
+        ValueError
+            ``p_diag`` has fewer than 3 values, or 4 or 5.
         """
         pose_cov = _planar_covariance(0.0, 0.0, 0.0)
         twist_cov = _planar_covariance(0.0, 0.0, 0.0)
@@ -544,12 +598,18 @@ class BagRecorder:
     ) -> None:
         """Wheel rotations on /joint_states (left_wheel_joint, right_wheel_joint).
 
-        Args:
-            t_s: MCU time of the frame [s].
-            angle_l: Left wheel angle [rad].
-            angle_r: Right wheel angle [rad].
-            vel_l: Left wheel speed [rad/s].
-            vel_r: Right wheel speed [rad/s].
+        Parameters
+        ----------
+        t_s : float
+            MCU time of the frame [s].
+        angle_l : float
+            Left wheel angle [rad].
+        angle_r : float
+            Right wheel angle [rad].
+        vel_l : float
+            Left wheel speed [rad/s].
+        vel_r : float
+            Right wheel speed [rad/s].
         """
         self._write(
             self.topics.joint_states,
@@ -575,16 +635,24 @@ class BagRecorder:
     ) -> None:
         """One status on /diagnostics (the daemon's 1 Hz summary).
 
-        Args:
-            t_s: MCU time [s].
-            values: Key-value pairs, e.g. link state, IMU health, CRC errors, rejected
-                measurements, watchdog state.
-            level: ``DiagnosticStatus`` level: 0 OK, 1 WARN, 2 ERROR, 3 STALE.
-            name: The status name.
-            message: The status message (default: the level's name).
+        Parameters
+        ----------
+        t_s : float
+            MCU time [s].
+        values : mapping of str to str
+            Key-value pairs, e.g. link state, IMU health, CRC errors, rejected
+            measurements, watchdog state.
+        level : int
+            ``DiagnosticStatus`` level: 0 OK, 1 WARN, 2 ERROR, 3 STALE.
+        name : str
+            The status name.
+        message : str or None
+            The status message (default: the level's name).
 
-        Raises:
-            ValueError: ``level`` is not 0 to 3.
+        Raises
+        ------
+        ValueError
+            ``level`` is not 0 to 3.
         """
         if level not in range(len(_LEVEL_TEXT)):
             raise ValueError(f"diagnostic level must be 0 to 3, got {level}")
@@ -606,9 +674,12 @@ class BagRecorder:
     def raw_frame(self, t_s: float, data: bytes) -> None:
         """A received frame's bytes on /jackson/telemetry as ``std_msgs/msg/UInt8MultiArray``.
 
-        Args:
-            t_s: MCU time of the frame [s] (or the last known one for non-telemetry frames).
-            data: The frame, as received.
+        Parameters
+        ----------
+        t_s : float
+            MCU time of the frame [s] (or the last known one for non-telemetry frames).
+        data : bytes
+            The frame, as received.
         """
         payload = np.frombuffer(bytes(data), dtype=np.uint8).copy()
         self._write(
@@ -637,8 +708,10 @@ class BagRecorder:
         marks the bag and the write in progress closes it when done. If finishing fails the
         file is closed anyway and the error is raised once; :func:`repair_bag` recovers it.
 
-        Raises:
-            BagError: The bag could not be finished (the disk is full, the folder vanished).
+        Raises
+        ------
+        BagError
+            The bag could not be finished (the disk is full, the folder vanished).
         """
         st = self._state
         if st.closed:
@@ -802,12 +875,18 @@ class BagRecorder:
 class BagTopic:
     """A topic as ``metadata.yaml`` and the MCAP channel describe it.
 
-    Attributes:
-        name: Topic name.
-        msgtype: ROS 2 message type, e.g. ``nav_msgs/msg/Odometry``.
-        qos: The offered QoS profiles as the channel's YAML text.
-        type_hash: RIHS01 hash of the type ('' if unknown).
-        msgdef: The ``ros2msg`` definition of the type.
+    Attributes
+    ----------
+    name : str
+        Topic name.
+    msgtype : str
+        ROS 2 message type, e.g. ``nav_msgs/msg/Odometry``.
+    qos : str
+        The offered QoS profiles as the channel's YAML text.
+    type_hash : str
+        RIHS01 hash of the type ('' if unknown).
+    msgdef : str
+        The ``ros2msg`` definition of the type.
     """
 
     name: str
@@ -825,11 +904,16 @@ class BagTopic:
 class BagFile:
     """One finished MCAP file of a bag: what ``metadata.yaml`` says of it.
 
-    Attributes:
-        name: File name inside the bag folder.
-        counts: Messages per topic.
-        start_ns: Earliest message timestamp [ns] (0 without messages).
-        end_ns: Latest message timestamp [ns] (0 without messages).
+    Attributes
+    ----------
+    name : str
+        File name inside the bag folder.
+    counts : mapping of str to int
+        Messages per topic.
+    start_ns : int
+        Earliest message timestamp [ns] (0 without messages).
+    end_ns : int
+        Latest message timestamp [ns] (0 without messages).
     """
 
     name: str
@@ -919,15 +1003,21 @@ def _write_metadata(folder: Path, topics: Sequence[BagTopic], files: Sequence[Ba
 def read_bag(path: Path | str) -> dict[str, list[tuple[int, Any]]]:
     """Read a rosbag2 folder back: the deserialised messages per topic, in time order.
 
-    Args:
-        path: The bag folder (with ``metadata.yaml``).
+    Parameters
+    ----------
+    path : Path or str
+        The bag folder (with ``metadata.yaml``).
 
-    Returns:
+    Returns
+    -------
+    dict of str to list of (int, object)
         ``{topic: [(timestamp_ns, message), ...]}`` for every topic the bag declares (a topic
         without messages maps to an empty list).
 
-    Raises:
-        BagError: The folder is not a readable bag (e.g. never closed: see :func:`repair_bag`).
+    Raises
+    ------
+    BagError
+        The folder is not a readable bag (e.g. never closed: see :func:`repair_bag`).
     """
     out: dict[str, list[tuple[int, Any]]] = {}
     try:
@@ -945,13 +1035,20 @@ def read_bag(path: Path | str) -> dict[str, list[tuple[int, Any]]]:
 class BagInfo:
     """What ``jackson bag info`` shows of a finished bag (read from its metadata and indexes).
 
-    Attributes:
-        path: The bag folder.
-        counts: Messages per topic, every declared topic.
-        start_ns: Earliest timestamp [ns] (None: no messages).
-        end_ns: Latest timestamp [ns] (None: no messages).
-        files: The MCAP files, in order.
-        size_bytes: Their total size [bytes].
+    Attributes
+    ----------
+    path : Path
+        The bag folder.
+    counts : mapping of str to int
+        Messages per topic, every declared topic.
+    start_ns : int or None
+        Earliest timestamp [ns] (None: no messages).
+    end_ns : int or None
+        Latest timestamp [ns] (None: no messages).
+    files : tuple of Path
+        The MCAP files, in order.
+    size_bytes : int
+        Their total size [bytes].
     """
 
     path: Path
@@ -969,8 +1066,10 @@ class BagInfo:
 def bag_info(path: Path | str) -> BagInfo:
     """Topics, counts, time span and size of a finished bag, without reading its messages.
 
-    Raises:
-        BagError: The folder is not a readable bag.
+    Raises
+    ------
+    BagError
+        The folder is not a readable bag.
     """
     path = Path(path)
     try:
@@ -1016,8 +1115,10 @@ def _whole_records(file: Path) -> Iterator[object]:
     stream reader: it stops at the first record cut by the kill; a chunk that is whole but
     damaged (a power loss can leave zeros where data should be) fails its CRC and is skipped.
 
-    Raises:
-        BagError: The file does not start with the MCAP magic.
+    Raises
+    ------
+    BagError
+        The file does not start with the MCAP magic.
     """
     with file.open("rb") as f:
         records = StreamReader(f, emit_chunks=True, record_size_limit=1 << 30).records
@@ -1133,14 +1234,20 @@ def repair_bag(path: Path | str) -> int:
     failure leaves the original's bytes. Finished files are kept as they are. Then
     ``metadata.yaml`` lists them all. A bag that already has ``metadata.yaml`` is left alone.
 
-    Args:
-        path: The bag folder.
+    Parameters
+    ----------
+    path : Path or str
+        The bag folder.
 
-    Returns:
+    Returns
+    -------
+    int
         The number of messages in the (repaired) bag.
 
-    Raises:
-        BagError: The folder holds no MCAP file, or one that is not MCAP.
+    Raises
+    ------
+    BagError
+        The folder holds no MCAP file, or one that is not MCAP.
     """
     path = Path(path)
     if (path / "metadata.yaml").exists():
