@@ -113,6 +113,10 @@ class HostConfig:
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
 
 
+DEFAULTS = HostConfig()
+"""Every field's default: the parser reads them from here, never from a second literal."""
+
+
 # ------------------------------------------------------------------------- validation
 
 
@@ -158,7 +162,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         pca9685=_pca9685(top.section("pca9685")),
         imu=_imu(top.section("imu")),
         serial=_serial(top.section("serial")),
-        watchdog_s=top.number("watchdog_s", 0.6, *WATCHDOG_RANGE_S),
+        watchdog_s=top.number("watchdog_s", DEFAULTS.watchdog_s, *WATCHDOG_RANGE_S),
         **_recording(top.section("recording")),
     )
     top.finish()
@@ -397,8 +401,8 @@ def _serial(s: Fields) -> SerialSettings:
 
 def _recording(s: Fields) -> dict[str, Any]:
     out = {
-        "recording_folder": Path(s.text("folder", "runs")),
-        "bag_max_mb": s.number("bag_max_mb", 1024.0, 0.0),
+        "recording_folder": Path(s.text("folder", str(DEFAULTS.recording_folder))),
+        "bag_max_mb": s.number("bag_max_mb", DEFAULTS.bag_max_mb, 0.0),
     }
     s.finish()
     return out

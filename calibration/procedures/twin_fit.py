@@ -17,6 +17,7 @@ from jackson.calibration.procedures.base import (
     wheel_angle_rad,
 )
 from jackson.calibration.procedures.imu import rotation_matrix
+from jackson.common.robot import WHEEL_RADIUS_M, WHEEL_SEPARATION_M
 from jackson.host.config import IDENTITY
 
 
@@ -229,8 +230,8 @@ def _residuals(
 
 def fit_twin(
     segments: Sequence[FitSegment],
-    wheel_radius_m: float = 0.033,
-    wheel_separation_m: float = 0.198,
+    wheel_radius_m: float = WHEEL_RADIUS_M,
+    wheel_separation_m: float = WHEEL_SEPARATION_M,
     yaw_scale: float = 1.0,
     *,
     heading: Heading = "wheel",

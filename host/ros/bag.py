@@ -87,6 +87,7 @@ from rosbags.typesys.store import Typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
 from jackson.host.odometry import OdometryCovariance
+from jackson.host.ros.names import FrameIds, TopicNames
 
 # ROS 2 Jazzy message classes (typed dataclasses shipped with rosbags)
 DiagnosticArray = jazzy.diagnostic_msgs__msg__DiagnosticArray
@@ -121,33 +122,6 @@ _LEVEL_TEXT = ("OK", "WARN", "ERROR", "STALE")
 
 class BagError(RuntimeError):
     """A bag cannot be created, written or repaired (the message names the folder)."""
-
-
-@dataclass(frozen=True)
-class TopicNames:
-    """The topics a bag holds (the bridge's names by default, Appendix C)."""
-
-    wheel_odom: str = "/wheel/odom"
-    imu: str = "/imu/data"
-    filtered: str = "/odometry/filtered"
-    joint_states: str = "/joint_states"
-    diagnostics: str = "/diagnostics"
-    tf: str = "/tf"
-    tf_static: str = "/tf_static"
-    telemetry: str = "/jackson/telemetry"
-
-
-@dataclass(frozen=True)
-class FrameIds:
-    """Frame and joint names (REP 105; Appendix C's tree odom -> base_footprint -> base_link)."""
-
-    odom: str = "odom"
-    base_footprint: str = "base_footprint"
-    base_link: str = "base_link"
-    imu_link: str = "imu_link"
-    laser: str = "laser"
-    left_wheel_joint: str = "left_wheel_joint"
-    right_wheel_joint: str = "right_wheel_joint"
 
 
 @dataclass(frozen=True)

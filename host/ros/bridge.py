@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 from jackson.common.ros_env import missing_ros
+from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.host.ros.qos import (
     cmd_vel_qos,
     diagnostics_qos,
@@ -199,20 +200,20 @@ def diagnostic_values(
 class BridgeParameters:
     """The node's ROS parameters (``--ros-args -p name:=value`` or ``parameter_overrides``)."""
 
-    wheel_odom_topic: str = "/wheel/odom"
-    imu_topic: str = "/imu/data"
-    filtered_topic: str = "/odometry/filtered"
-    joint_states_topic: str = "/joint_states"
-    diagnostics_topic: str = "/diagnostics"
+    wheel_odom_topic: str = TOPICS.wheel_odom
+    imu_topic: str = TOPICS.imu
+    filtered_topic: str = TOPICS.filtered
+    joint_states_topic: str = TOPICS.joint_states
+    diagnostics_topic: str = TOPICS.diagnostics
     cmd_vel_topic: str = "/cmd_vel"
     cmd_vel_stamped: bool = False
-    odom_frame: str = "odom"
-    base_frame: str = "base_footprint"
-    base_link_frame: str = "base_link"
-    imu_frame: str = "imu_link"
-    laser_frame: str = "laser"
-    left_wheel_joint: str = "left_wheel_joint"
-    right_wheel_joint: str = "right_wheel_joint"
+    odom_frame: str = FRAMES.odom
+    base_frame: str = FRAMES.base_footprint
+    base_link_frame: str = FRAMES.base_link
+    imu_frame: str = FRAMES.imu_link
+    laser_frame: str = FRAMES.laser
+    left_wheel_joint: str = FRAMES.left_wheel_joint
+    right_wheel_joint: str = FRAMES.right_wheel_joint
     publish_tf: bool = True
     tf_source: str = "filtered"  # "filtered" (the EKF, at 30 Hz) or "wheel" (every frame)
     base_link_offset_m: tuple[float, ...] = (0.0, 0.0, 0.033)  # base_footprint -> base_link

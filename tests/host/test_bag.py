@@ -28,15 +28,14 @@ from jackson.host.ros.bag import (
     GYRO_SIGMA_RAD_S,
     BagError,
     BagRecorder,
-    FrameIds,
     StaticTransform,
-    TopicNames,
     bag_info,
     needs_repair,
     read_bag,
     repair_bag,
     stamp_ns,
 )
+from jackson.host.ros.names import FrameIds, TopicNames
 from jackson.main import main
 
 ALL_TOPICS = {
