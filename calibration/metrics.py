@@ -1073,3 +1073,59 @@ def format_mean_sd(
     s = x if isinstance(x, MeanSdCi) else mean_sd_ci(x)
     text = f"{s.mean * scale:.{decimals}f} ± {s.sd * scale:.{decimals}f}"
     return f"{text} {unit}" if unit else text
+
+
+def map_ssim(estimate: npt.ArrayLike, truth: npt.ArrayLike) -> float:
+    """SSIM of an estimated occupancy map against a reference map (Eq. 15 / A19).
+
+    Both maps become the 8-bit image map_saver writes and map_server reads (trinary mode):
+    occupied 0 where p > 0.65, free 254 where p < 0.196, unknown 205 otherwise and where the
+    value is -1; the images are compared by :func:`occupancy_ssim` with its defaults (L = 255,
+    C1 = (0.01 L)^2, C2 = (0.03 L)^2, uniform 7 x 7 window), i.e. scikit-image's
+    structural_similarity with data_range=255.
+
+    The caller puts both maps on one grid: same resolution, same origin, same shape. The
+    twin's truth lands on the estimate's grid with ``jackson.sim.raster.raster(world,
+    grid.resolution_m, bounds=(x0, y0, x0 + width * res, y0 + height * res))`` when the
+    estimate's origin is a multiple of the resolution (the mapper's always is); to score a
+    fixed extent (e.g. the world plus a margin), slice both arrays to the same window, padding
+    the estimate with -1 where it does not reach. A truth made of free space everywhere off the
+    obstacles scores the unobservable outside of a room as free against the estimate's
+    unknown; ``jackson.sim.raster.reachable_free`` gives the free space a map can hold, the
+    rest of the truth is then -1.
+
+    Parameters
+    ----------
+    estimate : array_like, shape (H, W)
+        Occupancy in ``nav_msgs/OccupancyGrid`` values: -1 unknown, 0-100 [%]
+        (``OccupancyGrid.data``).
+    truth : array_like, shape (H, W)
+        The reference on the same grid: the same values, or bool (True occupied, False free).
+
+    Returns
+    -------
+    float
+        Mean SSIM, 1 for maps of the same classes everywhere.
+    """
+    from jackson.host.nav.grid import (
+        FREE_THRESH,
+        OCCUPIED_THRESH,
+        PGM_FREE,
+        PGM_OCCUPIED,
+        PGM_UNKNOWN,
+    )
+
+    def image(name: str, value: npt.ArrayLike) -> npt.NDArray[np.uint8]:
+        arr = np.asarray(value)
+        if arr.ndim != 2:
+            raise MetricInputError(f"{name} must be a 2-D occupancy map, got shape {arr.shape}")
+        if arr.dtype == np.bool_:
+            arr = np.where(arr, 100, 0)
+        p = arr.astype(np.float64) / 100.0
+        known = arr >= 0
+        out = np.full(arr.shape, PGM_UNKNOWN, np.uint8)
+        out[known & (p > OCCUPIED_THRESH)] = PGM_OCCUPIED
+        out[known & (p < FREE_THRESH)] = PGM_FREE
+        return out
+
+    return occupancy_ssim(image("estimate", estimate), image("truth", truth))
