@@ -1,4 +1,8 @@
-"""``jackson sim``: start the twin and print where the host connects."""
+"""``jackson sim``: start the twin and print where the host connects.
+
+It prints ``serial: PATH`` and ``i2c: unix:PATH`` first, in that order (tools read them), then
+``lidar: PATH`` (the emulated RPLIDAR's pty) unless the twin runs without a LiDAR.
+"""
 
 from __future__ import annotations
 
@@ -57,6 +61,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--link", help="also make this symlink to the serial port (e.g. /tmp/robot)")
     p.add_argument("--no-lidar", action="store_true", help="do not simulate the LiDAR")
     p.add_argument(
+        "--lidar-link",
+        help="also make this symlink to the emulated RPLIDAR's port (e.g. /tmp/lidar)",
+    )
+    p.add_argument(
         "--ros",
         action="store_true",
         help="publish /scan, /ground_truth/odom and /clock (sim time) over ROS 2",
@@ -94,12 +102,16 @@ def run(args: argparse.Namespace) -> int:
         if problem is not None:
             print(f"jackson sim: {problem}", file=sys.stderr)
             return 2
-    if args.link is not None and Path(args.link).exists() and not Path(args.link).is_symlink():
-        print(
-            f"jackson sim: --link {args.link}: is there and is not a symlink; give a new path "
-            "(it is never replaced)",
-            file=sys.stderr,
-        )
+    for option, link in (("--link", args.link), ("--lidar-link", args.lidar_link)):
+        if link is not None and Path(link).exists() and not Path(link).is_symlink():
+            print(
+                f"jackson sim: {option} {link}: is there and is not a symlink; give a new path "
+                "(it is never replaced)",
+                file=sys.stderr,
+            )
+            return 2
+    if args.lidar_link is not None and args.no_lidar:
+        print("jackson sim: --lidar-link needs the LiDAR: drop --no-lidar", file=sys.stderr)
         return 2
     tmp = None
     i2c_path = args.i2c
@@ -118,6 +130,13 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"jackson sim: {exc}", file=sys.stderr)
         return 2
+    if args.lidar_link is not None and twin._lidar is None:
+        print(
+            f"jackson sim: --lidar-link: robot {robot.name} has no LiDAR (lidar.enabled is "
+            "false in its file)",
+            file=sys.stderr,
+        )
+        return 2
     publisher = None
     if args.ros:
         from jackson.sim.ros import TwinRosPublisher
@@ -135,6 +154,8 @@ def run(args: argparse.Namespace) -> int:
             observer=publisher.on_advance if publisher is not None else None,
             spin_s=0.0 if args.realtime else max(0.0, args.spin_us) / 1e6,
             boot_id=args.boot_id,
+            lidar=not args.no_lidar,
+            lidar_link=args.lidar_link,
         )
     except (I2cServerError, FirmwareError, OSError) as exc:
         if publisher is not None:
@@ -153,6 +174,8 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     print(f"serial: {runner.serial_path}", flush=True)
     print(f"i2c: unix:{i2c_path}", flush=True)
+    if runner.lidar_path is not None:
+        print(f"lidar: {runner.lidar_path}", flush=True)
     mode = "real time" if args.realtime else "lockstep"
     mcu = "POSIX firmware" if args.firmware else "MCU emulator"
     if publisher is not None:

@@ -18,6 +18,12 @@ firmware's status line shows it at the next telemetry instant, at most one perio
 An optional ``observer`` is called with the twin after each advance of its clock (in real
 time, once the wall clock has caught up); ``jackson sim --ros`` publishes from it
 (:mod:`jackson.sim.ros`).
+
+When the twin has a LiDAR, an emulated RPLIDAR A1M8 (:mod:`jackson.sim.rplidar`) answers on a
+pty of its own (``lidar_path``), served with the serial link and the I2C bus in every wait.
+Its revolutions are the twin's own scans (same noise, same dropout), written before the MCU
+acts at each instant: a revolution that ended at or before a telemetry frame reaches the
+host ahead of that frame.
 """
 
 from __future__ import annotations
@@ -30,6 +36,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from threading import Event
 
+import numpy as np
+from numpy.typing import NDArray
+
 from jackson.common.spin import spin_poll
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
@@ -37,6 +46,7 @@ from jackson.sim.link import PtyLink
 from jackson.sim.mcu import McuEmulator, SensorSample
 from jackson.sim.pca9685 import Pca9685
 from jackson.sim.robot import WheelDrive
+from jackson.sim.rplidar import RplidarEmulator
 from jackson.sim.tb6612 import BridgeOutput, bridge_outputs
 from jackson.sim.twin import Twin
 
@@ -76,6 +86,8 @@ class TwinRunner:
         observer: Callable[[Twin], None] | None = None,
         spin_s: float = 0.0,
         boot_id: int | None = None,
+        lidar: bool = True,
+        lidar_link: str | None = None,
     ) -> None:
         self.twin = twin
         # INFO's boot_id (protocol/spec.md §8.6): random like the ESP32's unless given
@@ -137,6 +149,18 @@ class TwinRunner:
         self._sel.register(self.i2c, selectors.EVENT_READ, "i2c")
         if self.link is not None:
             self._sel.register(self.link, selectors.EVENT_READ, "serial")
+        # the emulated RPLIDAR, when the twin has a LiDAR and it is wanted
+        self.lidar: RplidarEmulator | None = None
+        self.lidar_path: str | None = None
+        self.lidar_scans_missing = 0  # revolutions with no scan of the twin's (sent empty)
+        if lidar and twin._lidar is not None:
+            try:
+                self.lidar = RplidarEmulator(twin._lidar.spec, lidar_link)
+            except OSError:
+                self.close()
+                raise
+            self.lidar_path = self.lidar.path
+            self._sel.register(self.lidar, selectors.EVENT_READ, "lidar")
 
     def _write(self, frame: bytes) -> bool:
         if self.link is None or self._outage_until is not None:
@@ -229,6 +253,34 @@ class TwinRunner:
         b_left, b_right = self.bridges(fw)
         self.twin.command(_wheel(b_left), _wheel(b_right))
 
+    # ------------------------------------------------------------------ the LiDAR
+
+    def _scan_for(self, end_s: float) -> NDArray[np.float32]:
+        """The twin's scan for the revolution ending at ``end_s``: the one it took at the
+        first physics step at or after that instant (the two share one schedule)."""
+        dt = self.twin.dt
+        for scan in reversed(self.twin.scans):
+            if end_s - 1e-6 <= scan.t_s < end_s + dt - 1e-9:
+                return scan.ranges
+            if scan.t_s < end_s - 1e-6:
+                break
+        assert self.lidar is not None
+        self.lidar_scans_missing += 1
+        return np.full(self.lidar.spec.beams, np.inf, dtype=np.float32)
+
+    def _advance_lidar(self) -> None:
+        """Write the LiDAR revolutions that ended by now (before the MCU acts at this
+        instant, so they reach the host ahead of this instant's telemetry frame)."""
+        if self.lidar is not None:
+            self.lidar.advance(self.twin.t_s, self._scan_for)
+
+    def _service_side(self) -> None:
+        """Serve the I2C bus and the LiDAR's requests without blocking (the compiled
+        firmware's waits)."""
+        self.i2c.service(0.0)
+        if self.lidar is not None:
+            self.lidar.serve(self.twin.t_s)
+
     # ------------------------------------------------------------------ serving the host
 
     def _serve(self, timeout_s: float) -> None:
@@ -240,6 +292,9 @@ class TwinRunner:
         for key, _ in events:
             if key.data == "i2c":
                 self.i2c.service(0.0)
+            elif key.data == "lidar":
+                assert self.lidar is not None
+                self.lidar.serve(self.twin.t_s)
             elif self.link is not None and self.mcu is not None and self._outage_until is None:
                 data = self.link.read()
                 if data:
@@ -310,6 +365,7 @@ class TwinRunner:
             now = self.twin.t_us
             self._check_outage()
             self._serve(0.0)  # like the firmware's tick: what has arrived is handled first
+            self._advance_lidar()
             frames_before = mcu.telemetry_frames
             self._lost = False
             mcu.tick(now)
@@ -353,7 +409,7 @@ class TwinRunner:
         while not status.session:  # time stands still until HELLO, as with the emulator
             if stop is not None and stop.is_set():
                 return
-            status = fw.wait_heartbeat(256, 50, on_wait=lambda: self.i2c.service(0.0))
+            status = fw.wait_heartbeat(256, 50, on_wait=self._service_side)
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
         self._session_wall0 = wall0
@@ -374,6 +430,7 @@ class TwinRunner:
                 self._pace(wall0, sim0)
             if self.observer is not None:
                 self.observer(self.twin)
+            self._advance_lidar()
             status = fw.step(self.twin.t_us, self.sensors())
             if status.telemetry_seq != last_seq:
                 last_seq = status.telemetry_seq
@@ -382,7 +439,7 @@ class TwinRunner:
                     status = fw.wait_heartbeat(
                         status.telemetry_seq,
                         round(self.heartbeat_timeout_s * 1000),
-                        on_wait=lambda: self.i2c.service(0.0),
+                        on_wait=self._service_side,
                     )
                     if status.heartbeat_ack != last_seq:
                         # the host is gone: run in real time until its heartbeats come back
@@ -390,12 +447,12 @@ class TwinRunner:
                         self._host_gone = status.heartbeat_ack
                         self._pace_origin = (time.monotonic(), self.twin.t_s)
                 elif self._host_gone is not None:
-                    self.i2c.service(0.0)
+                    self._service_side()
                     status = fw.wait_heartbeat(last_seq, 0)  # serves the link once
                     if status.heartbeat_ack != self._host_gone:
                         self._host_gone = None  # the host is back: lockstep again
                 else:
-                    self.i2c.service(0.0)
+                    self._service_side()
                 self._actuate(status)
             elif self._line_changed():
                 self._actuate(status)
@@ -404,6 +461,8 @@ class TwinRunner:
         self.i2c.close()
         if self.link is not None:
             self.link.close()
+        if self.lidar is not None:
+            self.lidar.close()
         if self.firmware is not None:
             self.firmware.close()
         self._sel.close()
