@@ -693,6 +693,12 @@ class ResponseDecoder:
     first descriptor — are skipped one at a time and counted, and decoding carries on at the
     next byte, so a lost or corrupted byte costs the nodes it touched and no more.
 
+    Parameters
+    ----------
+    streaming : bool
+        Start past a SCAN descriptor: the first bytes are nodes (a stream picked up while
+        scanning, as the daemon's core is handed it).
+
     Attributes
     ----------
     malformed_bytes : int
@@ -703,10 +709,10 @@ class ResponseDecoder:
         Descriptors decoded.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, streaming: bool = False) -> None:
         self._buf = bytearray()
         self._pending: Descriptor | None = None  # a single response whose payload is due
-        self._streaming = False  # after the SCAN descriptor: nodes
+        self._streaming = streaming  # after the SCAN descriptor: nodes
         self.malformed_bytes = 0
         self.nodes = 0
         self.descriptors = 0

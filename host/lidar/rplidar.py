@@ -48,7 +48,7 @@ from jackson.protocol.rplidar import (
     encode_request,
 )
 
-__all__ = ["LidarError", "Revolution", "RplidarDriver"]
+__all__ = ["LidarError", "Revolution", "RevolutionAssembler", "RplidarDriver"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -107,6 +107,89 @@ def open_error(port: str, exc: BaseException) -> LidarError:
     return LidarError(f"cannot open LiDAR port {port}: {text}")
 
 
+class RevolutionAssembler:
+    """Revolutions out of the device's byte stream, free of I/O: what :meth:`RplidarDriver.poll`
+    and the daemon's core (which logs the raw bytes, so ``jackson replay`` rebuilds the same
+    scans) both run.
+
+    Parameters
+    ----------
+    range_cap_m : float
+        Readings above this read ``inf`` [m].
+    streaming : bool
+        Whether the stream is already past the SCAN descriptor (nodes come first), as the
+        bytes a started driver hands out with :meth:`RplidarDriver.read` are.
+
+    Attributes
+    ----------
+    decoder : ResponseDecoder
+        The protocol decoder; its counters count skipped bytes and nodes.
+    revolutions : int
+        Revolutions completed.
+    partial_nodes : int
+        Nodes before the first S flag (a turn begun before the scan), dropped.
+    """
+
+    def __init__(self, range_cap_m: float = RANGE_CAP_M, *, streaming: bool = False) -> None:
+        if not range_cap_m > 0.0:
+            raise ValueError(f"range_cap_m must be > 0, got {range_cap_m}")
+        self.range_cap_m = range_cap_m
+        self.decoder = ResponseDecoder(streaming=streaming)
+        self.revolutions = 0
+        self.partial_nodes = 0
+        self.answers: list[ResponseItem] = []  # descriptors and single responses, in order
+        self._in_turn = False  # an S flag has begun the turn being collected
+        self._angle_parts: list[npt.NDArray[np.uint16]] = []
+        self._distance_parts: list[npt.NDArray[np.uint16]] = []
+
+    def reset_turn(self) -> None:
+        """Drop the turn being collected (after STOP, or a new SCAN)."""
+        self._in_turn = False
+        self._angle_parts.clear()
+        self._distance_parts.clear()
+
+    def feed(self, data: bytes) -> list[Revolution]:
+        """The revolutions ``data`` completes (other items go to :attr:`answers`)."""
+        done: list[Revolution] = []
+        for item in self.decoder.feed(data):
+            if isinstance(item, NodeBatch):
+                self._collect(item, done)
+            else:
+                self.answers.append(item)
+        return done
+
+    def _collect(self, batch: NodeBatch, done: list[Revolution]) -> None:
+        starts = np.flatnonzero(batch.start)
+        bounds = [0, *starts.tolist(), len(batch)]
+        for k in range(len(bounds) - 1):
+            lo, hi = bounds[k], bounds[k + 1]
+            if k > 0:  # an S flag at lo: the turn being collected is complete
+                if self._in_turn:
+                    done.append(self._finish_turn())
+                self._in_turn = True
+            if hi <= lo:
+                continue
+            if self._in_turn:
+                self._angle_parts.append(batch.angle_q6[lo:hi])
+                self._distance_parts.append(batch.distance_q2[lo:hi])
+            else:
+                self.partial_nodes += hi - lo
+
+    def _finish_turn(self) -> Revolution:
+        angle_q6 = np.concatenate(self._angle_parts)
+        distance_q2 = np.concatenate(self._distance_parts)
+        self._angle_parts.clear()
+        self._distance_parts.clear()
+        # heading clockwise -> counter-clockwise, wrapped to [-pi, pi)
+        angles = -angle_q6.astype(np.float64) * Q6_TO_RAD
+        angles = np.mod(angles + math.pi, 2.0 * math.pi) - math.pi
+        ranges = distance_q2.astype(np.float64) * MM_Q2_TO_M
+        ranges[(distance_q2 == 0) | (ranges > self.range_cap_m)] = np.inf
+        order = np.argsort(angles, kind="stable")
+        self.revolutions += 1
+        return Revolution(angles[order], ranges[order], len(order))
+
+
 class RplidarDriver:
     """An RPLIDAR A1 in standard scan mode on a serial port.
 
@@ -149,8 +232,6 @@ class RplidarDriver:
         range_cap_m: float = RANGE_CAP_M,
         answer_timeout_s: float = ANSWER_TIMEOUT_S,
     ) -> None:
-        if not range_cap_m > 0.0:
-            raise ValueError(f"range_cap_m must be > 0, got {range_cap_m}")
         if not answer_timeout_s > 0.0:
             raise ValueError(f"answer_timeout_s must be > 0, got {answer_timeout_s}")
         self.port_name = port
@@ -162,17 +243,13 @@ class RplidarDriver:
             raise open_error(port, exc) from exc
         self._fd = self._port.fileno()
         os.set_blocking(self._fd, False)
-        self.decoder = ResponseDecoder()
+        self.assembler = RevolutionAssembler(range_cap_m)
+        self.decoder = self.assembler.decoder
         self.info: DeviceInfo | None = None
         self.health: DeviceHealth | None = None
         self.scanning = False
-        self.revolutions = 0
-        self.partial_nodes = 0
-        self._answers: list[ResponseItem] = []
+        self._answers = self.assembler.answers
         self._ready: list[Revolution] = []  # completed, not yet handed out
-        self._in_turn = False  # an S flag has begun the turn being collected
-        self._angle_parts: list[npt.NDArray[np.uint16]] = []
-        self._distance_parts: list[npt.NDArray[np.uint16]] = []
 
     # ------------------------------------------------------------------ counters
 
@@ -329,49 +406,36 @@ class RplidarDriver:
 
     # ------------------------------------------------------------------ revolutions
 
+    @property
+    def revolutions(self) -> int:
+        """Revolutions completed."""
+        return self.assembler.revolutions
+
+    @property
+    def partial_nodes(self) -> int:
+        """Nodes before the first S flag of a scan (a turn begun before the scan), dropped."""
+        return self.assembler.partial_nodes
+
     def _reset_turn(self) -> None:
         self._ready.clear()
-        self._in_turn = False
-        self._angle_parts.clear()
-        self._distance_parts.clear()
+        self.assembler.reset_turn()
 
     def _consume(self, data: bytes) -> None:
-        for item in self.decoder.feed(data):
-            if isinstance(item, NodeBatch):
-                self._collect(item, self._ready)
-            else:
-                self._answers.append(item)
+        self._ready.extend(self.assembler.feed(data))
 
-    def _collect(self, batch: NodeBatch, done: list[Revolution]) -> None:
-        starts = np.flatnonzero(batch.start)
-        bounds = [0, *starts.tolist(), len(batch)]
-        for k in range(len(bounds) - 1):
-            lo, hi = bounds[k], bounds[k + 1]
-            if k > 0:  # an S flag at lo: the turn being collected is complete
-                if self._in_turn:
-                    done.append(self._finish_turn())
-                self._in_turn = True
-            if hi <= lo:
-                continue
-            if self._in_turn:
-                self._angle_parts.append(batch.angle_q6[lo:hi])
-                self._distance_parts.append(batch.distance_q2[lo:hi])
-            else:
-                self.partial_nodes += hi - lo
+    def read(self) -> bytes:
+        """The raw bytes available now, without decoding them (never blocks).
 
-    def _finish_turn(self) -> Revolution:
-        angle_q6 = np.concatenate(self._angle_parts)
-        distance_q2 = np.concatenate(self._distance_parts)
-        self._angle_parts.clear()
-        self._distance_parts.clear()
-        # heading clockwise -> counter-clockwise, wrapped to [-pi, pi)
-        angles = -angle_q6.astype(np.float64) * Q6_TO_RAD
-        angles = np.mod(angles + math.pi, 2.0 * math.pi) - math.pi
-        ranges = distance_q2.astype(np.float64) * MM_Q2_TO_M
-        ranges[(distance_q2 == 0) | (ranges > self.range_cap_m)] = np.inf
-        order = np.argsort(angles, kind="stable")
-        self.revolutions += 1
-        return Revolution(angles[order], ranges[order], len(order))
+        For a caller that decodes and logs the stream itself (the daemon feeds them to its
+        core's :class:`RevolutionAssembler` made with ``streaming=True``); do not mix with
+        :meth:`poll`.
+
+        Raises
+        ------
+        LidarError
+            The port went away (the USB cable was pulled).
+        """
+        return self._read_available()
 
     def poll(self) -> list[Revolution]:
         """The revolutions completed since the last call, from the bytes available now.

@@ -3,6 +3,7 @@ resynchronisation and round trips."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -353,3 +354,34 @@ def test_a_revolution_of_1080_nodes_decodes_in_bulk() -> None:
     np.testing.assert_array_equal(batch.angle_q6, angle)
     np.testing.assert_array_equal(batch.distance_q2, distance)
     assert (batch.quality == 47).all()
+
+
+def test_the_assembler_rebuilds_revolutions_from_any_chunking() -> None:
+    """The daemon's core decodes the logged raw bytes itself (streaming, no descriptor): the
+    same revolutions whatever the read sizes were, and nodes before the first S flag dropped."""
+    from jackson.host.lidar.rplidar import RevolutionAssembler
+
+    n = 360
+    angle_q6 = (np.arange(n) * 64).astype(np.int64)  # 0..359 degrees
+    turns = []
+    for k in range(3):
+        start = np.zeros(n, dtype=bool)
+        start[0] = True
+        turns.append(encode_nodes(start, 47, angle_q6, 4000 * (k + 1)))  # 1, 2, 3 m
+    lead = encode_nodes(False, 47, 64 * 200, 4000)  # the end of a turn begun earlier
+    stream = lead + b"".join(turns) + encode_nodes(True, 47, 0, 4000)  # next turn's S node
+    whole = RevolutionAssembler(streaming=True).feed(stream)
+    rng = np.random.default_rng(3)
+    chunked = RevolutionAssembler(streaming=True)
+    got = []
+    pos = 0
+    while pos < len(stream):
+        step = int(rng.integers(1, 700))
+        got += chunked.feed(stream[pos : pos + step])
+        pos += step
+    assert [r.nodes for r in whole] == [n, n, n] == [r.nodes for r in got]
+    for k, (a, b) in enumerate(zip(whole, got, strict=True)):
+        assert np.array_equal(a.ranges_m, b.ranges_m)
+        assert np.allclose(a.ranges_m, k + 1.0)
+        assert a.angles_rad[0] >= -math.pi and a.angles_rad[-1] < math.pi
+    assert chunked.partial_nodes == 1 and chunked.decoder.malformed_bytes == 0

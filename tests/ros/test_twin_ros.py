@@ -108,9 +108,10 @@ def test_sim_ros_publishes_scan_ground_truth_and_clock(
     host: HostThread | None = None
     try:
         assert sim.stdout is not None
-        lines = [sim.stdout.readline().strip() for _ in range(4)]
+        lines = [sim.stdout.readline().strip() for _ in range(5)]
         assert lines[0].startswith("serial: "), (lines, sim.stderr and sim.stderr.read())
-        assert lines[2] == "ros: publishing /clock, /ground_truth/odom, /scan on sim time"
+        assert lines[2].startswith("lidar: /dev/pts/"), lines
+        assert lines[3] == "ros: publishing /clock, /ground_truth/odom, /scan on sim time"
         serial, i2c = lines[0].split(": ", 1)[1], lines[1].split(": ", 1)[1]
         host = HostThread(serial, i2c, duty=0.5)
         out = subprocess.run(
