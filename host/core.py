@@ -32,8 +32,11 @@ from jackson.host.actuation.watchdog import CommandWatchdog
 from jackson.host.actuation.wheel_pi import WheelSpeedPi
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
+from jackson.host.control.base import ScanMission
 from jackson.host.control.guard import MissionGuard
 from jackson.host.ekf import Ekf, EkfState, GyroBiasEstimator
+from jackson.host.lidar.rplidar import Revolution, RevolutionAssembler
+from jackson.host.nav.types import Scan
 from jackson.host.odometry import OdometryState, WheelOdometry, tick_delta
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
@@ -145,6 +148,12 @@ class CoreListener:
     def on_filtered(self, t_s: float, state: EkfState) -> None:
         """Each 30 Hz EKF output."""
 
+    def on_lidar(self, data: bytes, host_time_ns: int) -> None:
+        """Raw bytes from the LiDAR's port, as read (before the frame they preceded)."""
+
+    def on_scan(self, core: HostCore, scan: Scan) -> None:
+        """A LiDAR revolution, stamped with the MCU time of the frame it arrived before."""
+
     def on_result(self, core: HostCore, result: FrameResult) -> None:
         """After a telemetry frame was handled (odometry, EKF, command are current)."""
 
@@ -163,6 +172,9 @@ class RunFolderListener(CoreListener):
 
     def on_event(self, host_time_ns: int, text: str) -> None:
         self.recorder.link(host_time_ns, text)
+
+    def on_lidar(self, data: bytes, host_time_ns: int) -> None:
+        self.recorder.lidar(host_time_ns, data)
 
     def on_filtered(self, t_s: float, s: EkfState) -> None:
         rec = self.recorder
@@ -254,6 +266,11 @@ class HostCore:
         self.listeners: list[CoreListener] = [RunFolderListener(recorder)] if recorder else []
         self.last_result: FrameResult | None = None
         self.last_telemetry: Telemetry | None = None
+        # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded here
+        self.lidar = RevolutionAssembler(streaming=True)
+        self._revolutions: list[Revolution] = []
+        self.scans = 0
+        self.last_scan: Scan | None = None
 
     # ------------------------------------------------------------------ inputs
 
@@ -289,6 +306,16 @@ class HostCore:
             self._configure_device()
         elif isinstance(msg, Telemetry):
             self._on_telemetry(msg, frame.seq)
+
+    def on_lidar(self, data: bytes, host_time_ns: int = 0) -> None:
+        """Bytes read from the LiDAR's port. The revolutions they complete reach the mission
+        at the next telemetry frame, stamped with its MCU time (the twin writes a revolution
+        before the frame that follows its end, so in lockstep the pairing is exact)."""
+        if not data:
+            return
+        for listener in self.listeners:
+            listener.on_lidar(data, host_time_ns)
+        self._revolutions += self.lidar.feed(data)
 
     def event(self, text: str) -> None:
         """Something the operator should know, in the run's log (a link record)."""
@@ -336,6 +363,8 @@ class HostCore:
             bias = self.gyro_bias.bias_rad_s
             if bias is not None:
                 ekf.update_gyro(t_s, wz - bias)
+        if self._revolutions:
+            self._take_scans(t_s)
         # command and actuation
         if self.duty_source is not None:
             v_cmd = w_cmd = v = w = 0.0
@@ -350,6 +379,17 @@ class HostCore:
         self.last_result = result
         for listener in self.listeners:
             listener.on_result(self, result)
+
+    def _take_scans(self, t_s: float) -> None:
+        revolutions, self._revolutions = self._revolutions, []
+        for rev in revolutions:
+            scan = Scan(t_s, rev.angles_rad, rev.ranges_m)
+            self.scans += 1
+            self.last_scan = scan
+            if isinstance(self.mission, ScanMission):
+                self.mission.on_scan(scan, self.nav_state())
+            for listener in self.listeners:
+                listener.on_scan(self, scan)
 
     def _record_ekf(self, t_s: float) -> None:
         """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""

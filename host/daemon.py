@@ -20,7 +20,8 @@ from typing import Any
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
-from jackson.host.control import MISSIONS
+from jackson.host.control import MISSIONS, Mission
+from jackson.host.control.base import ScanMission
 from jackson.host.core import CoreListener, DutySource, FrameResult, HostCore
 from jackson.host.ekf import EkfState
 from jackson.host.recording import RunRecorder, run_in_progress
@@ -30,6 +31,7 @@ from jackson.protocol import (
     Heartbeat,
     HostState,
     Message,
+    Telemetry,
     TelemetryFlags,
 )
 
@@ -136,13 +138,17 @@ class Daemon:
         notifier: Any = None,
         duty_source: DutySource | None = None,
         imu_calibration: bool = True,
+        mission: Mission | None = None,
+        lidar: Any = None,
     ) -> None:
         self.cfg = cfg
         self.transport = transport
         self.run_folder = run_folder
         self.recorder = RunRecorder(run_folder, meta or {}) if run_folder is not None else None
         self.commands = CommandTracker(transport.encode, self._send_frame)
-        mission = MISSIONS[mission_name]() if mission_name else None
+        if mission is None and mission_name:
+            mission = MISSIONS[mission_name]()
+        self.lidar = lidar  # a started RplidarDriver (its raw bytes go to the core), or None
         self.output = output_factory(self._send)
         self.core = HostCore(
             cfg,
@@ -325,6 +331,8 @@ class Daemon:
                         self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     continue
                 rx_ns, frame = item
+                if self.lidar is not None and frame.type == Telemetry.TYPE:
+                    self._read_lidar()
                 try:
                     self.commands.on_frame(frame)
                 except CommandError as exc:
@@ -366,6 +374,22 @@ class Daemon:
                 except Exception as exc:
                     print(f"daemon: the run's bag did not close cleanly: {exc}", flush=True)
         return 1 if core.abort_reason is not None else 0
+
+    def _read_lidar(self) -> None:
+        """The LiDAR's bytes that arrived before this telemetry frame, to the core. A LiDAR
+        that goes away ends a mission that needs it (braked), and is not read again."""
+        from jackson.host.lidar.rplidar import LidarError
+
+        assert self.lidar is not None
+        try:
+            data = self.lidar.read()
+        except LidarError as exc:
+            self.lidar = None
+            self.tell(f"LiDAR lost: {exc}")
+            if isinstance(self.core.mission, ScanMission):
+                self.core.abort(f"LiDAR lost: {exc}")
+            return
+        self.core.on_lidar(data, time.monotonic_ns())
 
     def _write_health(self) -> None:
         assert self.run_folder is not None

@@ -13,7 +13,9 @@ A run folder holds
 ``u8 kind, u64 host_time_ns, u16 length, payload``. Kinds: 1 frame received (payload: TYPE, SEQ,
 then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity command
 (payload: two f64, v [m/s] and w [rad/s]), 4 link event (payload: UTF-8 text), 5 end of run
-(empty payload; written by a clean close, so a log without it was cut by a kill or power loss).
+(empty payload; written by a clean close, so a log without it was cut by a kill or power loss),
+6 LiDAR bytes (payload: bytes as read from the RPLIDAR's port, at most 65535 per record; they
+precede the telemetry frame whose MCU time stamps the scans they complete).
 """
 
 from __future__ import annotations
@@ -35,7 +37,9 @@ KIND_TX = 2
 KIND_CMD = 3
 KIND_LINK = 4
 KIND_END = 5
-KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END)
+KIND_LIDAR = 6
+KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END, KIND_LIDAR)
+MAX_PAYLOAD = 0xFFFF
 _HEADER = struct.Struct("<BQH")
 _CMD = struct.Struct("<dd")
 
@@ -116,6 +120,10 @@ class RunRecorder:
 
     def link(self, host_time_ns: int, text: str) -> None:
         self.record(KIND_LINK, host_time_ns, text.encode())
+
+    def lidar(self, host_time_ns: int, data: bytes) -> None:
+        for pos in range(0, len(data), MAX_PAYLOAD):
+            self.record(KIND_LIDAR, host_time_ns, data[pos : pos + MAX_PAYLOAD])
 
     def row(self, writer: Any, values: tuple[Any, ...]) -> None:
         writer.writerow(_fmt(values))

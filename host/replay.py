@@ -17,6 +17,7 @@ from pathlib import Path
 from jackson.host.recording import (
     KIND_CMD,
     KIND_END,
+    KIND_LIDAR,
     KIND_RX,
     KINDS,
     RecordingError,
@@ -60,18 +61,20 @@ def _meta(run: Path) -> tuple[dict[str, object], str | None]:
     if not isinstance(meta, dict):
         raise RecordingError(f"{path}: expected a JSON object, got {type(meta).__name__}")
     mission = meta.get("mission")
-    if mission is not None and mission not in MISSIONS:
+    if mission is not None and mission not in MISSIONS and mission != "navigate":
         known = ", ".join(sorted(MISSIONS))
         raise RecordingError(f"{path}: mission {mission!r} is none of {known}")
     return meta, mission
 
 
-def _checked_log(run: Path) -> tuple[list[tuple[int, Frame | tuple[float, float]]], bool]:
+def _checked_log(
+    run: Path,
+) -> tuple[list[tuple[int, Frame | tuple[float, float] | bytes]], bool]:
     """The log's records, each received frame decoded and each command unpacked, or one line
     naming the first damaged record."""
     from jackson.protocol import ProtocolError, decode_message
 
-    records: list[tuple[int, Frame | tuple[float, float]]] = []
+    records: list[tuple[int, Frame | tuple[float, float] | bytes]] = []
     complete = False
     for k, r in enumerate(read_log(run)):
         where = f"{run / 'log.jrec'}: record {k}"
@@ -94,6 +97,8 @@ def _checked_log(run: Path) -> tuple[list[tuple[int, Frame | tuple[float, float]
                     f"{where}: a velocity command of {len(r.payload)} bytes, expected 16"
                 )
             records.append((r.host_time_ns, unpack_command(r.payload)))
+        elif r.kind == KIND_LIDAR:
+            records.append((r.host_time_ns, r.payload))
         elif r.kind == KIND_END:
             complete = True
     return records, complete
@@ -122,7 +127,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     """
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import DEFAULT_CONFIG, load_config
-    from jackson.host.control import MISSIONS
+    from jackson.host.control import MISSIONS, Mission
     from jackson.host.core import HostCore
     from jackson.protocol import Telemetry
 
@@ -135,15 +140,18 @@ def replay(run: Path, out: Path) -> ReplayResult:
             raise RecordingError(f"{run / name}: missing; the run folder is incomplete")
     result = ReplayResult(complete=complete)
     rec = RunRecorder(out, meta)
-    core = HostCore(
-        cfg,
-        NullOutput(),
-        lambda m: None,
-        mission=MISSIONS[mission]() if mission else None,
-        recorder=rec,
-    )
+    the_mission: Mission | None = None
+    if mission == "navigate":
+        from jackson.host.control.navigate import mission_from_meta
+
+        the_mission = mission_from_meta(run, meta, cfg.limits)
+    elif mission:
+        the_mission = MISSIONS[mission]()
+    core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
     for t_ns, item in records:
-        if isinstance(item, Frame):
+        if isinstance(item, bytes):
+            core.on_lidar(item, t_ns)
+        elif isinstance(item, Frame):
             core.on_frame(item, t_ns)
             if item.type == Telemetry.TYPE:
                 t_s = Telemetry.unpack(item.payload).t_us / 1e6

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 from jackson.common.geometry import wrap_angle as wrap_angle  # re-exported
+from jackson.host.nav.types import Scan
 
 
 @dataclass(frozen=True)
@@ -28,4 +29,13 @@ class Mission(Protocol):
 
     def command(self, s: NavState) -> tuple[float, float]:
         """(v [m/s], w [rad/s]) for this control tick."""
+        ...
+
+
+@runtime_checkable
+class ScanMission(Mission, Protocol):
+    """A mission that also takes the LiDAR's scans (Stage 3)."""
+
+    def on_scan(self, scan: Scan, s: NavState) -> None:
+        """One revolution, with the estimate at its MCU time."""
         ...

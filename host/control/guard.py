@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-MISSION_TIMEOUT_S = {"square": 150.0, "figure8": 300.0}  # [s] of MCU time
+MISSION_TIMEOUT_S = {"square": 150.0, "figure8": 300.0, "navigate": 180.0}  # [s] of MCU time
 DEFAULT_TIMEOUT_S = 600.0  # [s] a mission not in the table
 
 
