@@ -1,0 +1,794 @@
+"""Layered 2-D costmaps as Nav2 builds them: static layer, obstacle layer, inflation.
+
+Cost values follow ``nav2_costmap_2d``: 0 free, 1-252 inflated (the closer to an obstacle the
+higher), 253 inscribed (the robot's centre here puts its body on an obstacle), 254 lethal (an
+obstacle cell), 255 no information. A cell's cost is the maximum over the layers, and the
+inflation layer spreads every lethal cell over the distance d from its centre:
+
+    c(d) = 254                                       d = 0 (the lethal cell itself)
+    c(d) = 253                                       0 < d <= r_inscribed
+    c(d) = floor(252 exp(-k (d - r_inscribed)))      r_inscribed < d <= r_inflation
+    c(d) = 0                                         d > r_inflation
+
+with k the cost scaling factor (REFERENCE Stage 3: r_inscribed = robot radius 0.16 m,
+r_inflation = 0.25 m, k = 10.0). d comes from one Euclidean distance transform of the lethal
+cells (``scipy.ndimage.distance_transform_edt``), so the whole grid inflates at once.
+
+The obstacle layer is marked from LiDAR returns (within ``obstacle_max_range_m``) and cleared
+along each return's ray from the sensor (within ``raytrace_max_range_m``), all rays at once:
+every ray is sampled every half cell and the samples index the grid together. Static walls
+are never cleared by a scan. A :class:`Costmap` either covers a whole map (the global costmap)
+or is a rolling window that moves with the robot (the local costmap: 3 m x 3 m at 0.05 m in
+Nav2's bringup), keeping the overlapping part of its obstacle layer as it moves.
+
+Unknown cells: with ``track_unknown_space`` (Nav2's global costmap in bringup) an unknown cell
+of the static map, or an obstacle-layer cell no ray has crossed yet, stays NO_INFORMATION (255)
+and inflation only raises it to inscribed or lethal; without it (Nav2's default, used for the
+local window) unknown counts as free.
+
+Collision tests (:meth:`Costmap.footprint_collides`, :meth:`Costmap.trajectories_collide`) do
+not stop at cells. Every lethal cell also stands for a disc: the centroid of the returns that
+marked it with their spread as radius, or, for a static-map cell, the cell's circumscribed
+disc. The robot is the disc of the robot radius (Nav2's circular robot) joined with the
+oriented envelope rectangle, and a pose collides when it overlaps a disc. A half-cell of
+quantisation plus LiDAR noise otherwise makes a robot passing a few centimetres from an
+obstacle "touch" a cell and freeze. Cell distances bound the true clearances, so most poses
+are settled by one table lookup: far from every obstacle, certainly overlapping one, or (only
+these get the exact test) in between.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+
+from jackson.host.nav.grid import OccupancyGrid
+
+FREE_SPACE = 0
+INSCRIBED_INFLATED_OBSTACLE = 253
+LETHAL_OBSTACLE = 254
+NO_INFORMATION = 255
+MAX_NON_OBSTACLE = INSCRIBED_INFLATED_OBSTACLE - 1  # 252, the top of the inflated band
+
+# per-cell classes for collision checks: far from obstacles, near enough for the robot to reach
+# one, so near that the robot's disc certainly overlaps one, a centre on a lethal or unknown
+# cell or off the grid
+_CLEAR, _NEAR, _DEEP, _BLOCKED = 0, 1, 2, 3
+
+ENVELOPE_X_M = (-0.135, 0.135177)  # REFERENCE Stage 3 collision envelope, robot frame [m]
+ENVELOPE_Y_M = (-0.135439, 0.135)  # [m]
+
+FloatArray = npt.NDArray[np.float64]
+CostArray = npt.NDArray[np.uint8]
+BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.int_]
+
+
+@dataclass(frozen=True)
+class CostmapConfig:
+    """Robot shape, inflation and the obstacle layer's ranges.
+
+    Attributes
+    ----------
+    robot_radius_m : float
+        Inscribed radius used by the inflation (REFERENCE: robot radius 0.16 m).
+    inflation_radius_m : float
+        Distance from an obstacle cell beyond which no cost is added (REFERENCE: 0.25 m).
+    cost_scaling_factor : float
+        k of the exponential decay [1/m] (REFERENCE: 10.0).
+    footprint_x_m, footprint_y_m : tuple of float
+        The oriented collision envelope, robot frame [m] (REFERENCE App. D.3), checked on top
+        of the inscribed circle by :meth:`Costmap.footprint_collides`.
+    obstacle_max_range_m, obstacle_min_range_m : float
+        Returns farther or nearer than these do not mark (Nav2 bringup: 2.5 m, 0 m).
+    raytrace_max_range_m, raytrace_min_range_m : float
+        Rays are cleared up to this length; returns nearer than the minimum clear nothing
+        (Nav2 bringup: 3.0 m, 0 m).
+    lethal_threshold_percent : int
+        A static-map cell at or above this occupancy is lethal (map_server's occupied
+        threshold, 65 %).
+    track_unknown_space : bool
+        Keep unknown cells as NO_INFORMATION (True) or treat them as free (False).
+    """
+
+    robot_radius_m: float = 0.16
+    inflation_radius_m: float = 0.25
+    cost_scaling_factor: float = 10.0
+    footprint_x_m: tuple[float, float] = ENVELOPE_X_M
+    footprint_y_m: tuple[float, float] = ENVELOPE_Y_M
+    obstacle_max_range_m: float = 2.5
+    obstacle_min_range_m: float = 0.0
+    raytrace_max_range_m: float = 3.0
+    raytrace_min_range_m: float = 0.0
+    lethal_threshold_percent: int = 65
+    track_unknown_space: bool = False
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.robot_radius_m < math.inf:
+            raise ValueError(f"CostmapConfig.robot_radius_m must be > 0, got {self.robot_radius_m}")
+        if not self.robot_radius_m <= self.inflation_radius_m < math.inf:
+            raise ValueError(
+                "CostmapConfig.inflation_radius_m must be >= robot_radius_m, "
+                f"got {self.inflation_radius_m}"
+            )
+        if not 0.0 <= self.cost_scaling_factor < math.inf:
+            raise ValueError(
+                f"CostmapConfig.cost_scaling_factor must be >= 0, got {self.cost_scaling_factor}"
+            )
+        for name in ("footprint_x_m", "footprint_y_m"):
+            low, high = getattr(self, name)
+            if not low < 0.0 < high:
+                raise ValueError(f"CostmapConfig.{name} must bracket 0, got {(low, high)}")
+        for name in ("obstacle", "raytrace"):
+            low, high = getattr(self, f"{name}_min_range_m"), getattr(self, f"{name}_max_range_m")
+            if not 0.0 <= low < high:
+                raise ValueError(
+                    f"CostmapConfig.{name}_max_range_m must exceed {name}_min_range_m >= 0, "
+                    f"got {low}, {high}"
+                )
+        if not 0 < self.lethal_threshold_percent <= 100:
+            raise ValueError(
+                "CostmapConfig.lethal_threshold_percent must be in 1..100, "
+                f"got {self.lethal_threshold_percent}"
+            )
+
+    @property
+    def circumscribed_radius_m(self) -> float:
+        """Distance from the robot's origin to the farthest corner of the footprint [m]."""
+        return max(math.hypot(x, y) for x in self.footprint_x_m for y in self.footprint_y_m)
+
+
+def inflation_cost(
+    distance_m: npt.ArrayLike,
+    inscribed_radius_m: float,
+    inflation_radius_m: float,
+    cost_scaling_factor: float,
+) -> CostArray:
+    """Nav2's inflation cost of a cell at ``distance_m`` from the nearest lethal cell.
+
+    254 at d = 0, 253 for d <= r_inscribed, floor(252 exp(-k (d - r_inscribed))) up to the
+    inflation radius, 0 beyond it.
+
+    Parameters
+    ----------
+    distance_m : array_like
+        Distances between cell centres [m].
+    inscribed_radius_m : float
+        r_inscribed [m].
+    inflation_radius_m : float
+        r_inflation [m].
+    cost_scaling_factor : float
+        k [1/m].
+
+    Returns
+    -------
+    ndarray of uint8
+        Costs, the shape of ``distance_m``.
+    """
+    d = np.asarray(distance_m, np.float64)
+    decay = MAX_NON_OBSTACLE * np.exp(-cost_scaling_factor * (d - inscribed_radius_m))
+    cost = np.where(d <= inflation_radius_m, np.floor(np.minimum(decay, MAX_NON_OBSTACLE)), 0)
+    cost = np.where(d <= inscribed_radius_m, INSCRIBED_INFLATED_OBSTACLE, cost)
+    cost = np.where(d <= 0.0, LETHAL_OBSTACLE, cost)
+    return cost.astype(np.uint8)
+
+
+def occupancy_from_costs(costs: npt.NDArray[np.uint8]) -> npt.NDArray[np.int8]:
+    """Costs as ``nav_msgs/OccupancyGrid`` values, the way Nav2 publishes a costmap.
+
+    0 -> 0, 1..252 -> 1 + 97 (c - 1) / 251 (integer division), 253 -> 99, 254 -> 100,
+    255 -> -1.
+
+    Parameters
+    ----------
+    costs : ndarray of uint8
+        Costmap values.
+
+    Returns
+    -------
+    ndarray of int8
+        Occupancy values, same shape.
+    """
+    c = costs.astype(np.int32)
+    out = np.where(c == 0, 0, 1 + (97 * (c - 1)) // 251)
+    out = np.where(c == INSCRIBED_INFLATED_OBSTACLE, 99, out)
+    out = np.where(c == LETHAL_OBSTACLE, 100, out)
+    out = np.where(c == NO_INFORMATION, -1, out)
+    return out.astype(np.int8)
+
+
+class Costmap:
+    """A static + obstacle + inflation costmap on a fixed or rolling grid (map frame).
+
+    Build one with :meth:`from_map` (the global costmap over a whole map) or
+    :meth:`rolling_window` (the local costmap around the robot).
+
+    Parameters
+    ----------
+    config : CostmapConfig
+        Robot shape, inflation and ranges.
+    rows, cols : int
+        Grid size [cells].
+    resolution_m : float
+        Cell edge [m].
+    origin_x_m, origin_y_m : float
+        Lower-left corner of cell (0, 0) in the map frame [m].
+    static_map : OccupancyGrid or None
+        The map whose occupied cells form the static layer (sampled at this grid's cell
+        centres); None for no static layer.
+    rolling : bool
+        Whether :meth:`recentre` may move the grid.
+
+    Attributes
+    ----------
+    config : CostmapConfig
+        As given.
+    resolution_m, origin_x_m, origin_y_m : float
+        The grid's cell edge and current origin [m].
+    costs : ndarray of uint8, shape (rows, cols)
+        The master costmap (row 0 at the lowest y), updated by every change.
+    lethal_distance_m : ndarray of float, shape (rows, cols)
+        Distance from each cell centre to the nearest lethal cell centre [m] (``inf`` when
+        there is none).
+    version : int
+        Counts the changes of ``costs`` (for caches of derived data).
+    """
+
+    def __init__(
+        self,
+        config: CostmapConfig,
+        rows: int,
+        cols: int,
+        resolution_m: float,
+        origin_x_m: float = 0.0,
+        origin_y_m: float = 0.0,
+        static_map: OccupancyGrid | None = None,
+        rolling: bool = False,
+    ) -> None:
+        if rows < 1 or cols < 1:
+            raise ValueError(f"Costmap: size must be at least 1 x 1 cells, got {rows} x {cols}")
+        if not 0.0 < resolution_m < math.inf:
+            raise ValueError(f"Costmap: resolution_m must be > 0, got {resolution_m}")
+        self.config = config
+        self.resolution_m = float(resolution_m)
+        self.origin_x_m = float(origin_x_m)
+        self.origin_y_m = float(origin_y_m)
+        self._rolling = rolling
+        self._static_map = static_map
+        self._unknown = NO_INFORMATION if config.track_unknown_space else FREE_SPACE
+        self._obstacle = np.full((rows, cols), self._unknown, np.uint8)
+        # where the returns marking each obstacle cell lay: their centroid and spread [m]
+        self._hit_xy = np.zeros((rows, cols, 2))
+        self._hit_spread_m = np.zeros((rows, cols))
+        self._static = self._sample_static()
+        self.costs: CostArray = np.zeros((rows, cols), np.uint8)
+        self.lethal_distance_m: FloatArray = np.full((rows, cols), math.inf)
+        self.version = 0
+        self._update_master()
+
+    # ------------------------------------------------------------------ construction
+
+    @classmethod
+    def from_map(cls, grid: OccupancyGrid, config: CostmapConfig) -> Costmap:
+        """The global costmap: the map's grid, its occupied cells as the static layer.
+
+        Parameters
+        ----------
+        grid : OccupancyGrid
+            The static map.
+        config : CostmapConfig
+            Robot shape, inflation and ranges.
+
+        Returns
+        -------
+        Costmap
+            A fixed grid identical in size, resolution and origin to ``grid``.
+        """
+        return cls(
+            config, grid.height, grid.width, grid.resolution_m, grid.origin_x_m,
+            grid.origin_y_m, static_map=grid,
+        )  # fmt: skip
+
+    @classmethod
+    def rolling_window(
+        cls,
+        config: CostmapConfig,
+        centre_x_m: float,
+        centre_y_m: float,
+        size_m: float = 3.0,
+        resolution_m: float = 0.05,
+        static_map: OccupancyGrid | None = None,
+    ) -> Costmap:
+        """A local costmap of ``size_m`` x ``size_m`` centred on a point, moving with it.
+
+        Parameters
+        ----------
+        config : CostmapConfig
+            Robot shape, inflation and ranges.
+        centre_x_m, centre_y_m : float
+            Initial centre (the robot) [m].
+        size_m : float
+            Window edge [m] (Nav2 bringup: 3 m).
+        resolution_m : float
+            Cell edge [m] (Nav2 bringup: 0.05 m).
+        static_map : OccupancyGrid or None
+            A map to copy into the window's static layer; None (Nav2 bringup's local
+            costmap) to build it from the scans alone.
+
+        Returns
+        -------
+        Costmap
+            The rolling window.
+        """
+        n = max(1, round(size_m / resolution_m))
+        ox, oy = cls._window_origin(centre_x_m, centre_y_m, n, resolution_m)
+        return cls(config, n, n, resolution_m, ox, oy, static_map=static_map, rolling=True)
+
+    @staticmethod
+    def _window_origin(x_m: float, y_m: float, n: int, resolution_m: float) -> tuple[float, float]:
+        """Origin of an n-cell window centred near (x, y), snapped to whole cells."""
+        half = 0.5 * n * resolution_m
+        return (
+            math.floor((x_m - half) / resolution_m) * resolution_m,
+            math.floor((y_m - half) / resolution_m) * resolution_m,
+        )
+
+    def _sample_static(self) -> CostArray:
+        """The static layer: the static map's cells at this grid's cell centres."""
+        rows, cols = self._obstacle.shape
+        if self._static_map is None:
+            return np.full((rows, cols), NO_INFORMATION, np.uint8)  # no layer: never wins
+        g = self._static_map
+        x, y = self.cell_to_world(np.arange(rows)[:, None], np.arange(cols)[None, :])
+        r, c = np.broadcast_arrays(*g.world_to_cell(x, y))
+        inside = g.inside(r, c)
+        values = np.full((rows, cols), -1, np.int16)
+        values[inside] = g.data[r[inside], c[inside]]
+        layer = np.full((rows, cols), self._unknown, np.uint8)
+        layer[values >= 0] = FREE_SPACE
+        layer[values >= self.config.lethal_threshold_percent] = LETHAL_OBSTACLE
+        return layer
+
+    # ------------------------------------------------------------------ geometry
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        return (int(self.costs.shape[0]), int(self.costs.shape[1]))
+
+    def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
+        """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
+        col = np.floor((np.asarray(x_m, np.float64) - self.origin_x_m) / self.resolution_m)
+        row = np.floor((np.asarray(y_m, np.float64) - self.origin_y_m) / self.resolution_m)
+        return row.astype(np.int_), col.astype(np.int_)
+
+    def cell_to_world(
+        self, row: npt.ArrayLike, col: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """Map-frame centres of cells [m]."""
+        x = self.origin_x_m + (np.asarray(col, np.float64) + 0.5) * self.resolution_m
+        y = self.origin_y_m + (np.asarray(row, np.float64) + 0.5) * self.resolution_m
+        return x, y
+
+    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> BoolArray:
+        """Which (row, col) lie on the grid."""
+        r, c = np.asarray(row), np.asarray(col)
+        rows, cols = self.shape
+        return (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+
+    def cost_at(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> CostArray:
+        """Master cost at map-frame points; NO_INFORMATION off the grid.
+
+        Parameters
+        ----------
+        x_m, y_m : array_like
+            Points [m], any matching shapes.
+
+        Returns
+        -------
+        ndarray of uint8
+            Costs, the broadcast shape of the inputs.
+        """
+        return np.take(self._costs_padded, self._padded_index(x_m, y_m))
+
+    def _padded_index(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> IntArray:
+        """Flat indices into the grid padded by one ring; off-grid points land on the ring."""
+        rows, cols = self.shape
+        fx = (np.asarray(x_m, np.float64) - self.origin_x_m) / self.resolution_m + 1.0
+        fy = (np.asarray(y_m, np.float64) - self.origin_y_m) / self.resolution_m + 1.0
+        # clipped into [0, size + 1] first, so truncation is the floor
+        col = np.clip(fx, 0.0, cols + 1.0).astype(np.intp)
+        row = np.clip(fy, 0.0, rows + 1.0).astype(np.intp)
+        row *= cols + 2
+        row += col
+        return row
+
+    # ------------------------------------------------------------------ layers
+
+    def recentre(self, x_m: float, y_m: float) -> None:
+        """Move a rolling window so it is centred on (x, y), keeping the overlap.
+
+        Does nothing for a fixed grid or when the window would not move a whole cell.
+
+        Parameters
+        ----------
+        x_m, y_m : float
+            New centre (the robot) [m].
+        """
+        if not self._rolling:
+            return
+        rows, cols = self.shape
+        ox, oy = self._window_origin(x_m, y_m, rows, self.resolution_m)
+        dc = round((ox - self.origin_x_m) / self.resolution_m)
+        dr = round((oy - self.origin_y_m) / self.resolution_m)
+        if dc == 0 and dr == 0:
+            return
+        moved = np.full_like(self._obstacle, self._unknown)
+        src_r = slice(max(0, dr), min(rows, rows + dr))
+        dst_r = slice(max(0, -dr), min(rows, rows - dr))
+        src_c = slice(max(0, dc), min(cols, cols + dc))
+        dst_c = slice(max(0, -dc), min(cols, cols - dc))
+        moved[dst_r, dst_c] = self._obstacle[src_r, src_c]
+        self._obstacle = moved
+        hit_xy = np.zeros_like(self._hit_xy)
+        hit_xy[dst_r, dst_c] = self._hit_xy[src_r, src_c]
+        self._hit_xy = hit_xy
+        spread = np.zeros_like(self._hit_spread_m)
+        spread[dst_r, dst_c] = self._hit_spread_m[src_r, src_c]
+        self._hit_spread_m = spread
+        self.origin_x_m += dc * self.resolution_m
+        self.origin_y_m += dr * self.resolution_m
+        self._static = self._sample_static()
+        self._update_master()
+
+    def update(self, points_xy: npt.ArrayLike, sensor_xy: tuple[float, float]) -> None:
+        """Clear the rays to one scan's returns, mark the returns, re-inflate.
+
+        Clearing comes first, so every return of the scan stays marked. The ray to a return
+        is cleared from the sensor up to one cell short of the return (or up to
+        ``raytrace_max_range_m``); returns within ``obstacle_max_range_m`` mark their cell.
+
+        Parameters
+        ----------
+        points_xy : array_like, shape (N, 2)
+            The scan's valid returns in the map frame [m].
+        sensor_xy : tuple of float
+            The sensor's position in the map frame [m].
+        """
+        p = np.asarray(points_xy, np.float64).reshape(-1, 2)
+        cfg = self.config
+        d = p - np.asarray(sensor_xy, np.float64)
+        length = np.hypot(d[:, 0], d[:, 1])
+        self._clear_rays(p, d, length, sensor_xy)
+        mark = (length >= cfg.obstacle_min_range_m) & (length <= cfg.obstacle_max_range_m)
+        r, c = self.world_to_cell(p[mark, 0], p[mark, 1])
+        ok = self.inside(r, c)
+        r, c, q = r[ok], c[ok], p[mark][ok]
+        self._obstacle[r, c] = LETHAL_OBSTACLE
+        if len(q):
+            cells, inv = np.unique(r * self.shape[1] + c, return_inverse=True)
+            count = np.bincount(inv)
+            centroid = np.column_stack(
+                (np.bincount(inv, q[:, 0]) / count, np.bincount(inv, q[:, 1]) / count)
+            )
+            spread = np.zeros(len(cells))
+            np.maximum.at(spread, inv, np.hypot(*(q - centroid[inv]).T))
+            cr, cc = np.divmod(cells, self.shape[1])
+            self._hit_xy[cr, cc] = centroid
+            self._hit_spread_m[cr, cc] = spread
+        self._update_master()
+
+    def _clear_rays(
+        self, p: FloatArray, d: FloatArray, length: FloatArray, sensor_xy: tuple[float, float]
+    ) -> None:
+        """Set the obstacle layer free along every ray, all rays at once."""
+        cfg = self.config
+        res = self.resolution_m
+        rows, cols = self.shape
+        # nothing beyond the grid's farthest corner from the sensor can be cleared
+        corners_x = np.array([self.origin_x_m, self.origin_x_m + cols * res])
+        corners_y = np.array([self.origin_y_m, self.origin_y_m + rows * res])
+        reach = float(
+            np.hypot(np.abs(corners_x - sensor_xy[0]).max(), np.abs(corners_y - sensor_xy[1]).max())
+        )
+        use = length >= max(cfg.raytrace_min_range_m, 1e-9)
+        if not np.any(use):
+            return
+        end = np.minimum(length[use], min(cfg.raytrace_max_range_m, reach))
+        stop = np.where(length[use] <= end, end - res, end)  # spare the return's own cell
+        step = 0.5 * res
+        n = math.ceil(float(stop.max()) / step) + 1 if stop.max() > 0.0 else 0
+        if n == 0:
+            return
+        s = np.arange(n) * step
+        unit = d[use] / length[use, None]
+        keep = s[None, :] <= stop[:, None]
+        x = sensor_xy[0] + unit[:, 0:1] * s[None, :]
+        y = sensor_xy[1] + unit[:, 1:2] * s[None, :]
+        r, c = self.world_to_cell(x[keep], y[keep])
+        ok = self.inside(r, c)
+        self._obstacle[r[ok], c[ok]] = FREE_SPACE
+
+    def clear_obstacles(self) -> None:
+        """Forget every scan (the clear-costmap recovery); the static layer stays."""
+        self._obstacle.fill(self._unknown)
+        self._update_master()
+
+    def _update_master(self) -> None:
+        """Combine the layers (maximum, unknown yields to knowledge) and inflate."""
+        master = self._static.copy()
+        known = self._obstacle != NO_INFORMATION
+        take = known & ((master == NO_INFORMATION) | (self._obstacle > master))
+        master[take] = self._obstacle[take]
+        lethal = master == LETHAL_OBSTACLE
+        dist: FloatArray
+        if np.any(lethal):
+            dist = np.asarray(ndimage.distance_transform_edt(~lethal), np.float64)
+            dist *= self.resolution_m
+        else:
+            dist = np.full(master.shape, math.inf)
+        cfg = self.config
+        inflated = inflation_cost(
+            dist, cfg.robot_radius_m, cfg.inflation_radius_m, cfg.cost_scaling_factor
+        )
+        unknown = master == NO_INFORMATION
+        raise_known = ~unknown & (inflated > master)
+        raise_unknown = unknown & (inflated >= INSCRIBED_INFLATED_OBSTACLE)
+        master[raise_known | raise_unknown] = inflated[raise_known | raise_unknown]
+        self.costs = master
+        self.version += 1
+        self.lethal_distance_m = dist
+        self._costs_padded = np.pad(master, 1, constant_values=NO_INFORMATION).ravel()
+        self._lethal_padded = np.pad(self.lethal_distance_m, 1, constant_values=-1.0).ravel()
+        self._index_obstacles(lethal)
+        cls = np.where(dist <= self._near_m, _NEAR, _CLEAR).astype(np.uint8)
+        cls[dist < self._deep_m] = _DEEP
+        cls[master >= LETHAL_OBSTACLE] = _BLOCKED  # lethal or unknown under the centre
+        self._class_padded = np.pad(cls, 1, constant_values=_BLOCKED).ravel()
+
+    def _index_obstacles(self, lethal: BoolArray) -> None:
+        """The obstacle discs the footprint test uses, and a padded grid of their ids.
+
+        A lethal cell marked by returns (and not by the static map) is the disc around the
+        returns' centroid of radius their spread; any other lethal cell is the disc around
+        its centre that covers the cell (radius res / sqrt 2).
+        """
+        rows, cols = self.shape
+        res = self.resolution_m
+        rr, cc = np.nonzero(lethal)
+        cx, cy = self.cell_to_world(rr, cc)
+        pts = np.column_stack((cx, cy))
+        radius = np.full(len(rr), res / math.sqrt(2.0))
+        scan = (self._obstacle[rr, cc] == LETHAL_OBSTACLE) & (
+            self._static[rr, cc] != LETHAL_OBSTACLE
+        )
+        pts[scan] = self._hit_xy[rr[scan], cc[scan]]
+        radius[scan] = self._hit_spread_m[rr[scan], cc[scan]]
+        self._obstacle_xy = pts
+        self._obstacle_r_m = radius
+        # how far from its cell centre an obstacle disc reaches, at most, and how far it may
+        # fall short of it: bounds between cell-centre distances and true clearances
+        # bounds between cell-centre distances and true clearances: how far beyond its cell
+        # centre a disc may reach (sqrt 2 h: the grown rectangle's corner), how far short of
+        # it it may stop, and a pose's offset from its own cell centre
+        off = np.hypot(pts[:, 0] - cx, pts[:, 1] - cy)
+        reach = float((off + math.sqrt(2.0) * radius).max()) if len(rr) else 0.0
+        short = float((off - radius).max()) if len(rr) else 0.0
+        half_cell = res / math.sqrt(2.0)
+        cfg = self.config
+        self._near_m = (
+            max(cfg.circumscribed_radius_m, cfg.robot_radius_m)
+            + reach
+            + half_cell
+            + self.max_margin_m
+        )
+        self._deep_m = cfg.robot_radius_m - max(short, 0.0) - half_cell
+        k = max(1, math.ceil(self._near_m / res))
+        self._pad_k = k
+        ids = np.full((rows + 2 * k, cols + 2 * k), -1, np.int32)
+        ids[k + rr, k + cc] = np.arange(len(rr), dtype=np.int32)
+        self._ids_padded = ids.ravel()
+        dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
+        disc = np.hypot(dr, dc) * res <= self._near_m
+        self._neighbour_offsets = (dr[disc] * (cols + 2 * k) + dc[disc]).astype(np.intp)
+
+    @property
+    def max_margin_m(self) -> float:
+        """The largest ``margin_m`` :meth:`trajectories_collide` accepts: a quarter cell [m]."""
+        return 0.25 * self.resolution_m
+
+    @property
+    def obstacle_layer(self) -> CostArray:
+        """The obstacle layer (LETHAL marked, FREE cleared, else unknown), read-only view."""
+        view = self._obstacle.view()
+        view.flags.writeable = False
+        return view
+
+    # ------------------------------------------------------------------ collision checks
+
+    def footprint_collides(
+        self, x_m: npt.ArrayLike, y_m: npt.ArrayLike, yaw_rad: npt.ArrayLike
+    ) -> BoolArray:
+        """Whether the robot at each pose overlaps an obstacle.
+
+        The robot is the disc of ``robot_radius_m`` (Nav2's circular robot, REFERENCE 0.16 m)
+        joined with the oriented footprint rectangle (the Stage 3 envelope), tested against
+        the obstacles themselves rather than their cells (:meth:`_footprint_hits`); a centre
+        on a lethal or unknown cell, or off the grid, collides too. Only poses within reach
+        of a lethal cell are tested in detail.
+
+        Parameters
+        ----------
+        x_m, y_m, yaw_rad : array_like
+            Poses in the map frame, matching shapes.
+
+        Returns
+        -------
+        ndarray of bool
+            True where the robot overlaps an obstacle.
+        """
+        x, y, yaw = (
+            np.ravel(a)
+            for a in np.broadcast_arrays(
+                np.asarray(x_m, np.float64), np.asarray(y_m, np.float64), np.asarray(yaw_rad)
+            )
+        )
+        shape = np.broadcast_shapes(np.shape(x_m), np.shape(y_m), np.shape(yaw_rad))
+        cls = np.take(self._class_padded, self._padded_index(x, y))
+        out = cls >= _DEEP
+        near = np.flatnonzero(cls == _NEAR)
+        out[near] = self._footprint_hits(x[near], y[near], yaw[near])[0] > 0
+        return out.reshape(shape)
+
+    def trajectories_collide(
+        self,
+        x_m: FloatArray,
+        y_m: FloatArray,
+        yaw_rad: FloatArray,
+        escape: bool = True,
+        margin_m: float = 0.0,
+    ) -> BoolArray:
+        """Which trajectories make the robot overlap an obstacle anywhere along them.
+
+        A pose collides as in :meth:`footprint_collides`. One lookup classifies every pose;
+        only poses near a lethal cell, on trajectories not yet rejected, get the exact test.
+
+        Escape: when the start pose already overlaps obstacles (an obstacle appeared beside
+        the robot, or a noisy return was marked next to it), a pose is allowed to overlap as
+        many obstacles as the start, no more, and its centre may come no nearer any obstacle
+        than the start's. Without this every trajectory would include the start and be
+        rejected, and only a recovery could move the robot.
+
+        Parameters
+        ----------
+        x_m, y_m, yaw_rad : ndarray, shape (M, K)
+            Poses of M trajectories of K poses each, all starting at one pose, map frame.
+        escape : bool
+            Apply the escape rule.
+        margin_m : float
+            Grow the robot's disc and rectangle by this much [m], at most
+            :attr:`max_margin_m`: for poses checked s apart (the farthest any point of the
+            robot moves between them), s / 2 makes the test catch every overlap in between.
+
+        Returns
+        -------
+        ndarray of bool, shape (M,)
+            True for a trajectory that collides.
+
+        Raises
+        ------
+        ValueError
+            If ``margin_m`` is negative or above :attr:`max_margin_m`.
+        """
+        if not 0.0 <= margin_m <= self.max_margin_m + 1e-12:
+            raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m, got {margin_m}")
+        idx = self._padded_index(x_m, y_m)
+        cls = np.take(self._class_padded, idx)
+        allowed, floor_m = 0, -math.inf
+        if escape and _NEAR <= cls.flat[0] <= _DEEP:
+            count0, clear0 = self._footprint_hits(
+                x_m.flat[0:1], y_m.flat[0:1], yaw_rad.flat[0:1], True, margin_m
+            )
+            if count0[0] > 0:
+                allowed, floor_m = int(count0[0]), float(clear0[0]) - 1e-9
+        if allowed:
+            hit = np.any(cls == _BLOCKED, axis=1)
+            test = (cls == _NEAR) | (cls == _DEEP)
+        else:
+            hit = np.any(cls >= _DEEP, axis=1)
+            test = cls == _NEAR
+        k = cls.shape[1]
+        chunk = max(1, math.ceil(k / 8))  # along time, so early collisions spare the rest
+        for c0 in range(0, k, chunk):
+            sub = test[:, c0 : c0 + chunk] & ~hit[:, None]
+            rows, cols = np.nonzero(sub)
+            if rows.size == 0:
+                continue
+            cols += c0
+            count, clearance = self._footprint_hits(
+                x_m[rows, cols], y_m[rows, cols], yaw_rad[rows, cols], allowed > 0, margin_m
+            )
+            bad = count > allowed
+            if allowed:
+                bad |= (count > 0) & (clearance < floor_m)
+            hit[rows[bad]] = True
+        return np.asarray(hit, bool)
+
+    def _footprint_hits(
+        self,
+        x: FloatArray,
+        y: FloatArray,
+        yaw: FloatArray,
+        with_clearance: bool = False,
+        margin_m: float = 0.0,
+    ) -> tuple[IntArray, FloatArray]:
+        """Obstacles overlapping the robot, and the centre's clearance, at each pose.
+
+        An obstacle disc (centre c, radius h) overlaps the robot when it meets the disc of
+        ``robot_radius_m`` (|c - p| < r + h) or when c lies in the footprint rectangle grown
+        by h on every side (exact for a point, conservative at the corners for a disc). The
+        clearance is min |c - p| - h over the discs near the pose (``inf`` without any).
+        The discs near each distinct cell are gathered once and shared by its poses.
+
+        Parameters
+        ----------
+        x, y, yaw : ndarray, shape (P,)
+            Poses, map frame.
+        with_clearance : bool
+            Compute the clearance (else it is all ``inf``).
+        margin_m : float
+            Grow the disc and the rectangle by this much [m].
+
+        Returns
+        -------
+        tuple of ndarray
+            (overlap count (P,), clearance [m] (P,)).
+        """
+        clearance = np.full(x.shape, math.inf)
+        n = x.size
+        if n == 0:
+            return np.zeros(0, np.int_), clearance
+        rows, cols = self.shape
+        k = self._pad_k
+        res = self.resolution_m
+        col = np.clip((x - self.origin_x_m) / res + k, 0.0, cols + 2 * k - 1).astype(np.intp)
+        row = np.clip((y - self.origin_y_m) / res + k, 0.0, rows + 2 * k - 1).astype(np.intp)
+        cells, cell_of = np.unique(row * (cols + 2 * k) + col, return_inverse=True)
+        cand = cells[:, None] + self._neighbour_offsets[None, :]
+        np.clip(cand, 0, self._ids_padded.size - 1, out=cand)
+        ids = np.take(self._ids_padded, cand)
+        cell_i, slot = np.nonzero(ids >= 0)
+        if cell_i.size == 0:
+            return np.zeros(n, np.int_), clearance
+        obs_of_cell = ids[cell_i, slot]
+        per_cell = np.bincount(cell_i, minlength=len(cells))
+        first = np.cumsum(per_cell) - per_cell
+        per_pose = per_cell[cell_of]
+        pose_i = np.repeat(np.arange(n), per_pose)
+        within = np.arange(pose_i.size) - np.repeat(np.cumsum(per_pose) - per_pose, per_pose)
+        obs = obs_of_cell[np.repeat(first[cell_of], per_pose) + within]
+        dx = self._obstacle_xy[obs, 0] - x[pose_i]
+        dy = self._obstacle_xy[obs, 1] - y[pose_i]
+        h = self._obstacle_r_m[obs]
+        gap = np.hypot(dx, dy) - h
+        if with_clearance:
+            np.minimum.at(clearance, pose_i, gap)
+        cfg = self.config
+        hit = gap < cfg.robot_radius_m + margin_m
+        # only discs within the grown rectangle's corner radius can touch it
+        grown = h + margin_m
+        reach = cfg.circumscribed_radius_m + math.sqrt(2.0) * grown - h
+        maybe = np.flatnonzero(~hit & (gap < reach))
+        if maybe.size:
+            pi = pose_i[maybe]
+            cos, sin = np.cos(yaw[pi]), np.sin(yaw[pi])
+            mx, my, g = dx[maybe], dy[maybe], grown[maybe]
+            lx = cos * mx + sin * my
+            ly = cos * my - sin * mx
+            (x0, x1), (y0, y1) = cfg.footprint_x_m, cfg.footprint_y_m
+            hit[maybe] = (lx >= x0 - g) & (lx <= x1 + g) & (ly >= y0 - g) & (ly <= y1 + g)
+        return np.bincount(pose_i[hit], minlength=n).astype(np.int_), clearance

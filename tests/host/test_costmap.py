@@ -1,0 +1,183 @@
+"""Costmaps: Nav2's cost values and inflation, marking and clearing from scans, the rolling
+window, and the collision test against the robot's disc and envelope."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from jackson.host.nav.costmap import (
+    ENVELOPE_X_M,
+    FREE_SPACE,
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+    Costmap,
+    CostmapConfig,
+    inflation_cost,
+    occupancy_from_costs,
+)
+from jackson.host.nav.grid import OccupancyGrid
+
+RES = 0.05
+
+
+def ring(radius_m: float, centre: tuple[float, float] = (0.0, 0.0), n: int = 1080) -> np.ndarray:
+    """Scan returns on a circle around the sensor."""
+    a = np.linspace(-math.pi, math.pi, n, endpoint=False)
+    return np.column_stack((centre[0] + radius_m * np.cos(a), centre[1] + radius_m * np.sin(a)))
+
+
+def test_inflation_follows_the_nav2_formula_at_chosen_distances() -> None:
+    d = np.array([0.0, 0.05, 0.16, 0.17, 0.20, 0.2236, 0.25, 0.2501, 1.0])
+    expected = [254, 253, 253]
+    expected += [math.floor(252.0 * math.exp(-10.0 * (x - 0.16))) for x in d[3:7]]
+    expected += [0, 0]
+    got = inflation_cost(
+        d, inscribed_radius_m=0.16, inflation_radius_m=0.25, cost_scaling_factor=10
+    )
+    assert got.tolist() == expected
+    assert expected[3:7] == [228, 168, 133, 102]  # the band between 0.16 m and 0.25 m
+
+
+def test_a_lethal_cell_inflates_by_the_distance_between_cell_centres() -> None:
+    grid = OccupancyGrid.empty(2.0, 2.0, RES, fill=0)
+    grid.data[20, 20] = 100
+    cm = Costmap.from_map(grid, CostmapConfig())
+    assert cm.costs[20, 20] == LETHAL_OBSTACLE
+    for cells in range(1, 8):  # along a row, so the distance is cells x RES
+        d = cells * RES
+        want = inflation_cost([d], 0.16, 0.25, 10.0)[0]
+        assert cm.costs[20, 20 + cells] == want, cells
+    assert cm.costs[20, 23] == INSCRIBED_INFLATED_OBSTACLE  # 0.15 m: inside the robot radius
+    assert cm.costs[20, 24] == 168  # 0.20 m
+    assert cm.costs[20, 26] == FREE_SPACE  # 0.30 m: beyond the inflation radius
+    diag = math.hypot(3, 3) * RES  # 0.212 m
+    assert cm.costs[23, 23] == math.floor(252.0 * math.exp(-10.0 * (diag - 0.16)))
+
+
+def test_unknown_space_is_kept_or_freed_by_the_flag() -> None:
+    grid = OccupancyGrid.empty(2.0, 1.0, RES, fill=-1)
+    grid.data[:, :20] = 0
+    grid.data[10, 19] = 100
+    tracked = Costmap.from_map(grid, CostmapConfig(track_unknown_space=True))
+    freed = Costmap.from_map(grid, CostmapConfig(track_unknown_space=False))
+    assert tracked.costs[5, 35] == NO_INFORMATION
+    assert freed.costs[5, 35] == FREE_SPACE
+    # unknown next to the wall is raised only to inscribed, never to an inflated cost
+    assert tracked.costs[10, 20] == INSCRIBED_INFLATED_OBSTACLE
+    assert tracked.costs[10, 23] == NO_INFORMATION
+    assert freed.costs[10, 23] == 168  # 0.20 m
+
+
+def test_a_scan_marks_its_returns_and_clears_the_rays_to_them() -> None:
+    cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)  # 3 m x 3 m at 0.05 m
+    cm.update(ring(1.0), (0.0, 0.0))
+    assert np.all(cm.cost_at(*ring(1.0).T) == LETHAL_OBSTACLE)
+    assert np.all(cm.obstacle_layer[cm.world_to_cell(*ring(0.6).T)] == FREE_SPACE)
+    # the obstacle moves away: the next scan's rays clear the old ring, mark the new one
+    cm.update(ring(1.3), (0.0, 0.0))
+    assert np.all(cm.cost_at(*ring(1.3).T) == LETHAL_OBSTACLE)
+    assert np.all(cm.obstacle_layer[cm.world_to_cell(*ring(1.0).T)] == FREE_SPACE)
+    assert np.all(cm.cost_at(*ring(1.0).T) < INSCRIBED_INFLATED_OBSTACLE)
+
+
+def test_returns_beyond_the_obstacle_range_clear_but_do_not_mark() -> None:
+    cfg = CostmapConfig(obstacle_max_range_m=1.0, raytrace_max_range_m=3.0)
+    cm = Costmap.rolling_window(cfg, 0.0, 0.0, size_m=4.0)
+    cm.update(np.array([[0.8, 0.0]]), (0.0, 0.0))
+    assert cm.cost_at(0.8, 0.0) == LETHAL_OBSTACLE
+    cm.update(np.array([[1.5, 0.0]]), (0.0, 0.0))  # beyond 1 m: the ray clears 0.8 m
+    assert cm.cost_at(1.5, 0.0) != LETHAL_OBSTACLE
+    assert cm.cost_at(0.8, 0.0) == FREE_SPACE
+
+
+def test_scans_never_clear_the_static_map() -> None:
+    grid = OccupancyGrid.empty(3.0, 1.0, RES, origin_x_m=-1.5, origin_y_m=-0.5, fill=0)
+    grid.data[:, 40] = 100  # a wall at x = 0.5 m
+    cm = Costmap.from_map(grid, CostmapConfig())
+    cm.update(np.array([[1.2, 0.0]]), (0.0, 0.0))  # a return seen through the wall
+    assert cm.cost_at(0.52, 0.0) == LETHAL_OBSTACLE
+    assert cm.cost_at(1.2, 0.0) == LETHAL_OBSTACLE
+
+
+def test_the_rolling_window_keeps_what_it_saw_while_it_moves() -> None:
+    cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+    cm.update(np.array([[0.7, 0.3]]), (0.0, 0.0))
+    cm.recentre(0.5, -0.2)
+    assert cm.origin_x_m == pytest.approx(0.5 - 1.5) and cm.origin_y_m == pytest.approx(-1.7)
+    assert cm.cost_at(0.7, 0.3) == LETHAL_OBSTACLE
+    cm.recentre(3.0, 0.0)  # the point leaves the window
+    assert cm.cost_at(0.7, 0.3) == NO_INFORMATION  # off the grid
+    cm.recentre(0.0, 0.0)
+    assert cm.cost_at(0.7, 0.3) == FREE_SPACE  # forgotten, unknown counts as free here
+
+
+def test_clearing_forgets_the_scans_but_keeps_the_map() -> None:
+    grid = OccupancyGrid.empty(2.0, 2.0, RES, origin_x_m=-1.0, origin_y_m=-1.0, fill=0)
+    grid.data[0, :] = 100
+    cm = Costmap.from_map(grid, CostmapConfig())
+    cm.update(np.array([[0.5, 0.5]]), (0.0, 0.0))
+    cm.clear_obstacles()
+    assert cm.cost_at(0.5, 0.5) == FREE_SPACE
+    assert cm.cost_at(0.0, -0.98) == LETHAL_OBSTACLE
+
+
+def test_collisions_use_the_oriented_envelope_and_the_robot_disc() -> None:
+    cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+    cm.update(np.array([[0.13, 0.13]]), (0.0, 0.0))  # 0.184 m away, at 45 degrees
+    # square to the axes the point lies inside the envelope (corners reach 0.191 m) ...
+    assert cm.footprint_collides(0.0, 0.0, 0.0)
+    # ... turned 45 degrees it lies 0.184 m straight ahead: beyond the 0.135 m front and
+    # beyond the 0.16 m disc
+    assert not cm.footprint_collides(0.0, 0.0, math.pi / 4)
+    # any heading collides once the disc of 0.16 m reaches it
+    far = ENVELOPE_X_M[1] + 0.02
+    cm2 = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+    cm2.update(np.array([[far, 0.0]]), (0.0, 0.0))
+    assert np.all(cm2.footprint_collides(0.0, 0.0, np.linspace(-math.pi, math.pi, 16)))
+
+
+def test_a_robot_touching_an_obstacle_may_move_away_but_not_closer() -> None:
+    cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+    cm.update(np.array([[0.15, 0.0]]), (0.0, 0.0))  # inside the 0.16 m disc already
+    s = np.linspace(0.0, 0.2, 9)
+    away = (-s[None, :], np.zeros((1, 9)), np.zeros((1, 9)))
+    closer = (0.5 * s[None, :] * 0.1, np.zeros((1, 9)), np.zeros((1, 9)))
+    assert not cm.trajectories_collide(*away)[0]
+    assert cm.trajectories_collide(*closer)[0]
+    assert cm.trajectories_collide(*away, escape=False)[0]
+
+
+def test_costs_publish_as_nav2_occupancy_values() -> None:
+    costs = np.array([0, 1, 128, 252, 253, 254, 255], np.uint8)
+    assert occupancy_from_costs(costs).tolist() == [0, 1, 50, 98, 99, 100, -1]
+
+
+def test_bad_configs_are_refused_with_the_field_named() -> None:
+    with pytest.raises(ValueError, match="inflation_radius_m"):
+        CostmapConfig(robot_radius_m=0.3, inflation_radius_m=0.25)
+    with pytest.raises(ValueError, match="footprint_x_m"):
+        CostmapConfig(footprint_x_m=(0.1, 0.2))
+    with pytest.raises(ValueError, match="obstacle_max_range_m"):
+        CostmapConfig(obstacle_max_range_m=0.0)
+
+
+def test_a_scan_updates_a_costmap_well_within_a_scan_period() -> None:
+    grid = OccupancyGrid.empty(4.0, 3.0, RES, origin_x_m=-2.0, origin_y_m=-1.5, fill=0)
+    grid.data[[0, -1], :] = 100
+    grid.data[:, [0, -1]] = 100
+    global_cm = Costmap.from_map(grid, CostmapConfig(track_unknown_space=True))
+    local_cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+    scan = np.vstack((ring(1.4)[::2], ring(0.4, (0.8, 0.0))[::4]))  # 540 + 270 returns
+    timings = {}
+    for name, cm in (("global 4 m x 3 m", global_cm), ("local 3 m x 3 m", local_cm)):
+        t0 = time.perf_counter()
+        for _ in range(10):
+            cm.update(scan, (0.0, 0.0))
+        timings[name] = (time.perf_counter() - t0) / 10 * 1e3
+    print("costmap update per scan: " + ", ".join(f"{k} {v:.2f} ms" for k, v in timings.items()))
+    assert max(timings.values()) < 134.65  # the A1M8's scan period
