@@ -23,6 +23,7 @@ SUITES: dict[str, str] = {
     "lockstep": "jackson.lockstep_bench",
     "host": "jackson.host_bench",
     "campaign": "jackson.calibration.bench",
+    "stage3": "jackson.calibration.bench_stage3",
     "ros": "jackson.ros_bench",
 }
 """Suite name -> module with a ``run(quick)`` function, in the order they run."""

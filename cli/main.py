@@ -8,6 +8,7 @@ stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections import Counter
 from collections.abc import Sequence
@@ -117,6 +118,101 @@ def _out(path: Path, option: str = "--out") -> Path:
         raise CliError(str(exc)) from exc
 
 
+STAGE3 = ("maze", "ofat", "robustness")
+
+
+def _map_file(path: Path | None) -> Path | None:
+    """A map_server YAML the user named, checked before anything runs."""
+    if path is None:
+        return None
+    from jackson.host.nav.grid import MapFileError, OccupancyGrid
+
+    try:
+        OccupancyGrid.load(path)
+    except MapFileError as exc:
+        raise CliError(f"--map: {exc}") from exc
+    return path
+
+
+def _cmd_map(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from jackson.calibration.stage3 import mapping_spec, run_nav_trial
+
+    _check_twin_files(args.robot, args.world)
+    waypoints = None
+    if args.waypoint:
+        from jackson.host.control.navigate import poses
+
+        try:
+            waypoints = poses(args.waypoint)
+        except ValueError as exc:
+            raise CliError(f"--waypoint: {exc}") from exc
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = _out(args.out or Path("maps") / f"{stamp}-{Path(args.world).stem}")
+    spec = mapping_spec(args.robot, args.world, args.seed, out)
+    if waypoints is not None:
+        spec = dataclasses.replace(spec, goals=waypoints)
+    r = run_nav_trial(spec)
+    if not r["completed"]:
+        print(f"jackson map: the survey stopped: {r['failure']}; the partial map is in {out}")
+        return 1
+    print(
+        f"map: {out / 'built_map.yaml'} (+ .pgm), SSIM {r['map_ssim']:.3f} against the twin's "
+        f"world; survey {r['path_length_m']:.2f} m in {r['sim_s']:.1f} s of sim time, "
+        f"localisation error mean {r['localisation_error_mean_cm']:.1f} cm"
+    )
+    return 0
+
+
+def _cmd_run_maze(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from rich.console import Console
+    from rich.table import Table
+
+    from jackson.calibration.stage3 import (
+        NavTrialSpec,
+        mapping_spec,
+        plot_stage3,
+        run_nav_trial,
+    )
+
+    world = args.world or "maze"
+    _check_twin_files(args.robot, world)
+    map_yaml = _map_file(args.map)
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = _out(args.out or Path("runs") / f"{stamp}-maze")
+    if map_yaml is None:
+        m = run_nav_trial(mapping_spec(args.robot, world, args.seed, out / "map"))
+        if not m["completed"]:
+            print(f"jackson run maze: the mapping run stopped: {m['failure']}")
+            return 1
+        map_yaml = out / "map" / "built_map.yaml"
+    r = run_nav_trial(NavTrialSpec(0, args.seed, args.robot, world, out / "nav", map_yaml))
+    r["run"] = "nav"
+    plot_stage3(out / "maze.png", out, [r])
+    table = Table(title=f"maze on the twin ({args.robot}, {world}, seed {args.seed})")
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    table.add_column("paper (physical / Isaac)", justify="right")
+    for label, value, paper in (
+        ("goal reached", "yes" if r["completed"] else f"no: {r['failure']}", "10/10"),
+        ("contacts", str(r["collisions"]), "0"),
+        ("d_min (Eq. 21)", f"{100 * r['d_min_m']:.1f} cm", "12.2 / 7.4 cm"),
+        ("path length", f"{r['path_length_m']:.3f} m", "1.958 / 1.888 m"),
+        ("t_nav", f"{r['t_nav_s']:.2f} s", "22.41 / 13.32 s"),
+        ("recoveries", str(r["recoveries"]), ""),
+        ("localisation error mean / max", f"{r['localisation_error_mean_cm']:.1f} / "
+         f"{r['localisation_error_max_cm']:.1f} cm", ""),
+        ("real-time factor", f"x{r['real_time_factor']:.1f}", "x0.7"),
+    ):  # fmt: skip
+        table.add_row(label, value, paper)
+    Console().print(table)
+    print(f"plot: {out / 'maze.png'}\nrun folder: {out / 'nav'}")
+    return 0 if r["completed"] else 1
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     import datetime as dt
 
@@ -126,6 +222,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from jackson.calibration.report import plot_trajectories
     from jackson.calibration.trial import TrialSpec, run_trial
 
+    if args.mission == "maze":
+        return _cmd_run_maze(args)
+    if args.mission in STAGE3:
+        raise CliError(f"{args.mission} is a campaign: jackson campaign {args.mission}")
+    if args.map is not None:
+        raise CliError("--map is for the maze")
     world = args.world or ("square_room" if args.mission == "square" else "open_floor")
     _check_twin_files(args.robot, world)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -156,14 +258,19 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
     from jackson.calibration.campaign import run_campaign
 
+    if args.mission in STAGE3:
+        return _cmd_campaign_stage3(args)
+    if args.map is not None:
+        raise CliError("--map is for the Stage 3 campaigns (maze, ofat, robustness)")
     _check_twin_files(
         args.robot, args.world or ("square_room" if args.mission == "square" else "open_floor")
     )
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    out = _out(args.out or Path("reports") / f"{stamp}-{args.mission}-x{args.trials}")
+    trials = args.trials if args.trials is not None else 10
+    out = _out(args.out or Path("reports") / f"{stamp}-{args.mission}-x{trials}")
     results = run_campaign(
         args.mission,
-        args.trials,
+        trials,
         out,
         robot=args.robot,
         world=args.world,
@@ -173,6 +280,34 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     done = sum(1 for r in results if r["completed"])
     print((out / "summary.md").read_text())
     print(f"report: {out}/summary.md ({done}/{len(results)} trials completed)")
+    return 0 if done == len(results) else 1
+
+
+def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from jackson.calibration.stage3 import CAMPAIGNS, run_stage3_campaign
+
+    world = args.world or "maze"
+    _check_twin_files(args.robot, world)
+    map_yaml = _map_file(args.map)
+    trials = args.trials if args.trials is not None else (10 if args.mission == "maze" else 15)
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    runs = trials * len(CAMPAIGNS[args.mission])
+    out = _out(args.out or Path("reports") / f"{stamp}-{args.mission}-x{runs}")
+    results = run_stage3_campaign(
+        args.mission,
+        trials,
+        out,
+        robot=args.robot,
+        world=world,
+        seed=args.seed,
+        workers=args.workers,
+        map_yaml=map_yaml,
+    )
+    done = sum(1 for r in results if r["completed"])
+    print((out / "summary.md").read_text())
+    print(f"report: {out}/summary.md ({done}/{len(results)} runs reached the goal)")
     return 0 if done == len(results) else 1
 
 
@@ -211,14 +346,24 @@ def build_parser() -> argparse.ArgumentParser:
         ("campaign", "many trials on the twin in parallel; a report folder like the paper's"),
     ):
         p = sub.add_parser(name, help=helptext)
-        p.add_argument("mission", choices=["square", "figure8"])
+        missions = ["square", "figure8", "maze"] + (
+            ["ofat", "robustness"] if name == "campaign" else []
+        )
+        p.add_argument("mission", choices=missions)
+        p.add_argument(
+            "--map", type=Path, help="maze: a map (map_server YAML) instead of mapping first"
+        )
         if name == "campaign":
-            p.add_argument("--trials", type=positive_int, default=10, help="number of trials (10)")
+            p.add_argument(
+                "--trials",
+                type=positive_int,
+                help="trials (per variant for ofat and robustness; default 10, ofat/robustness 15)",
+            )
             p.add_argument("--workers", type=positive_int, default=2, help="worker processes (2)")
         p.add_argument(
             "--robot", default="jackson_physical", help="twin robot file (default jackson_physical)"
         )
-        p.add_argument("--world", help="world (default: square_room / open_floor)")
+        p.add_argument("--world", help="world (default: square_room / open_floor / maze)")
         p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
         p.add_argument("--out", type=Path, help="output folder")
         p.set_defaults(func=_cmd_run if name == "run" else _cmd_campaign)
@@ -238,6 +383,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     sim_cli.add_parser(sub)
     sub.choices["sim"].set_defaults(func=sim_cli.run)
+    p = sub.add_parser(
+        "map",
+        help="map a world on the twin: the real host maps (scan matching) while it drives a survey",
+    )
+    p.add_argument("--world", default="maze", help="world (default maze)")
+    p.add_argument("--robot", default="jackson_physical", help="twin robot (jackson_physical)")
+    p.add_argument(
+        "--waypoint",
+        action="append",
+        metavar="X,Y[,YAW]",
+        help="survey route in world coordinates [m, rad], repeatable (default: the Stage 3 "
+        "goal and back to the start)",
+    )
+    p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
+    p.add_argument("--out", type=Path, help="output folder (default maps/<stamp>-<world>)")
+    p.set_defaults(func=_cmd_map)
     p = sub.add_parser(
         "faults",
         help="the fault matrix: each fault injected into the twin under the real daemon, a report",

@@ -8,6 +8,7 @@ import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from jackson.common.args import output_folder, positive_float, positive_int
 
@@ -29,6 +30,29 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "--mission",
         choices=["square", "figure8"],
         help="drive a mission, report and exit (else wait for velocity commands)",
+    )
+    p.add_argument(
+        "--lidar",
+        metavar="PORT",
+        help="the RPLIDAR's port (/dev/jackson-lidar, or the twin's lidar: pty); with --goal, "
+        "navigate (docs/stage3.md)",
+    )
+    p.add_argument(
+        "--goal",
+        action="append",
+        metavar="X,Y[,YAW]",
+        help="navigate to this map pose [m, rad]; repeatable, visited in order (needs --lidar)",
+    )
+    p.add_argument(
+        "--map",
+        type=Path,
+        help="localise on this map (map_server YAML); without it, map as it goes",
+    )
+    p.add_argument(
+        "--start",
+        metavar="X,Y[,YAW]",
+        default="0,0,0",
+        help="the robot's pose in the map frame at the start (default 0,0,0)",
     )
     p.add_argument("--run-dir", type=Path, help="run folder (default: RECORDING/<time>-<mission>)")
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
@@ -79,6 +103,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     from jackson.host.actuation.output import McuOutput, MotorOutput, ResilientPca9685Output
     from jackson.host.actuation.pca9685 import Pca9685
     from jackson.host.config import HostConfig
+    from jackson.host.control.navigate import MAP_NAME, navigate_meta
     from jackson.host.daemon import Daemon, DaemonError, with_port
     from jackson.host.i2c import I2cError, I2cSpecError, open_bus
     from jackson.host.sdnotify import notifier_from_env
@@ -94,6 +119,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         if problem is not None:
             raise HostCliError(problem)
     cfg = with_port(cfg, args.port)
+    navigate = _navigate(args, cfg)
     if args.i2c:
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=args.i2c))
 
@@ -119,10 +145,23 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             output_folder(run_dir, "--run-dir" if args.run_dir else "recording folder")
         except ValueError as exc:
             raise HostCliError(str(exc)) from exc
+    lidar = None
+    if args.lidar:
+        from jackson.host.lidar.rplidar import LidarError, RplidarDriver
+
+        try:
+            lidar = RplidarDriver(args.lidar)
+            lidar.start()
+        except LidarError as exc:
+            if lidar is not None:
+                lidar.close()
+            raise HostCliError(str(exc)) from exc
     transport = SerialTransport(cfg.serial.port, cfg.serial.baudrate)
     try:
         transport.open()
     except LinkError as exc:
+        if lidar is not None:
+            lidar.close()
         raise HostCliError(str(exc)) from exc
     pca = None
     if cfg.actuator == "pca9685":
@@ -141,7 +180,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             )
             return 1
     meta = {
-        "mission": args.mission,
+        "mission": "navigate" if navigate is not None else args.mission,
+        "navigate": navigate_meta(navigate.config) if navigate is not None else None,
         "config": str(args.config or "default"),
         "port": cfg.serial.port,
         "started": dt.datetime.now().isoformat(),
@@ -156,6 +196,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         ros_args=(["--ros-args", *args.ros_args] if args.ros_args else []) if args.ros else None,
         mission_timeout_s=args.mission_timeout,
         notifier=notifier_from_env(),
+        mission=navigate,
+        lidar=lidar,
     )
     if run_dir is not None:
         import yaml
@@ -164,6 +206,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
+        if navigate is not None and navigate.static_map is not None:
+            navigate.static_map.save(run_dir / f"{MAP_NAME}.yaml")  # the replay's map
     daemon.install_signals()
     print(
         f"daemon: {cfg.serial.port}, actuator {cfg.actuator}"
@@ -177,6 +221,13 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         raise HostCliError(str(exc)) from exc
     finally:
         transport.close()
+        if lidar is not None:
+            lidar.close()
+        if navigate is not None and run_dir is not None:
+            built = navigate.built_map()
+            if built is not None:
+                built.save(run_dir / "built_map.yaml")
+                print(f"map: {run_dir / 'built_map.yaml'}", flush=True)
     core = daemon.core
     e = core.ekf
     if core.abort_reason is not None:
@@ -186,6 +237,22 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             flush=True,
         )
         return status
+    if navigate is not None:
+        pose = navigate.pose_map()
+        goal = navigate.config.goals[-1]
+        state = (
+            f"failed: {navigate.failure}"
+            if navigate.failure
+            else ("reached the goal" if navigate.done else "stopped before the goal")
+        )
+        print(
+            f"navigation {state}: {core.frames} frames, {navigate.scans} scans, map pose "
+            f"x={pose.x:+.4f} m y={pose.y:+.4f} m yaw={pose.yaw:+.4f} rad, "
+            f"{pose.distance(goal) * 100:.1f} cm from the goal, recoveries "
+            f"{sum(navigate.recoveries.values())}",
+            flush=True,
+        )
+        return 0 if navigate.done and navigate.failure is None else 1
     if core.mission is not None:
         state = "done" if core.mission.done else "stopped before the end"
         print(
@@ -195,6 +262,46 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             flush=True,
         )
     return 0 if core.mission is None or core.mission.done else 1
+
+
+def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
+    """The navigation mission --goal asks for (None without), checked before anything opens."""
+    if not args.goal:
+        for name in ("map", "lidar"):
+            if name == "map" and getattr(args, name) is not None:
+                raise HostCliError("--map needs --goal (and --lidar)")
+        return None
+    if args.mission:
+        raise HostCliError("--goal navigates: give it or --mission, not both")
+    if not args.lidar:
+        raise HostCliError("--goal needs --lidar PORT (the RPLIDAR's port)")
+    from jackson.host.control.navigate import NavigateConfig, NavigateMission, parse_pose, poses
+    from jackson.host.nav.grid import MapFileError, OccupancyGrid
+
+    try:
+        start = parse_pose(args.start)
+    except ValueError as exc:
+        raise HostCliError(f"--start: {exc}") from exc
+    try:
+        goals = poses(args.goal)
+    except ValueError as exc:
+        raise HostCliError(f"--goal: {exc}") from exc
+    grid = None
+    if args.map is not None:
+        try:
+            grid = OccupancyGrid.load(args.map)
+        except MapFileError as exc:
+            raise HostCliError(f"--map: {exc}") from exc
+    xs = [start.x] + [g.x for g in goals]
+    ys = [start.y] + [g.y for g in goals]
+    extent = (min(xs) - 3.0, min(ys) - 3.0, max(xs) + 3.0, max(ys) + 3.0)
+    config = NavigateConfig(
+        start=start,
+        goals=goals,
+        localisation="amcl" if grid is not None else "slam",
+        extent=extent,
+    )
+    return NavigateMission(config, cfg.limits, grid)
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:

@@ -24,6 +24,7 @@ from jackson.host.control import MISSIONS, Mission
 from jackson.host.control.base import ScanMission
 from jackson.host.core import CoreListener, DutySource, FrameResult, HostCore
 from jackson.host.ekf import EkfState
+from jackson.host.nav.types import Scan
 from jackson.host.recording import RunRecorder, run_in_progress
 from jackson.protocol import (
     PROTOCOL_VERSION,
@@ -44,6 +45,10 @@ class _BridgeListener(CoreListener):
 
     def on_result(self, core: HostCore, result: FrameResult) -> None:
         self.bridge.on_telemetry(core, result.telemetry)
+        self.bridge.on_navigation(result.t_s)
+
+    def on_scan(self, core: HostCore, scan: Scan) -> None:
+        self.bridge.on_scan(scan.t_s, scan.angles_rad, scan.ranges_m)
 
     def on_filtered(self, t_s: float, state: EkfState) -> None:
         self.bridge.on_filtered(t_s, state)

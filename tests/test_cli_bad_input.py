@@ -125,6 +125,11 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     )
     w("worlds/mu.yaml", "floor:\n  mu_static: 0.5\n  mu_dynamic: 0.9\n")
     w("worlds/syntax.yaml", "walls: [[0, 0, 1\n")
+    # maps
+    w("maps/good.yaml", "image: good.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    w("maps/good.pgm", b"P5\n2 2\n255\n" + bytes([254, 0, 205, 254]))
+    w("maps/garbage.yaml", "image: [unclosed\n")
+    w("maps/no_image.yaml", "image: nope.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
     # host configs
     w("configs/syntax.yaml", "serial: {port: \n")
     w("configs/nan.yaml", "robot:\n  wheel_radius_m: .nan\n")
@@ -283,6 +288,39 @@ CASES: dict[str, Case] = {
     "daemon_timeout_zero": c("daemon --mission-timeout 0 --no-record", "--mission-timeout"),
     "daemon_timeout_inf": c("daemon --mission-timeout inf --no-record", "--mission-timeout"),
     "daemon_mission": c("daemon --mission zigzag", "zigzag"),
+    "daemon_goal_no_lidar": c("daemon --goal 1,0 --no-record", "--lidar"),
+    "daemon_goal_text": c("daemon --goal one,two --lidar robot_tty --no-record", "--goal"),
+    "daemon_goal_nan": c("daemon --goal nan,0 --lidar robot_tty --no-record", "--goal"),
+    "daemon_goal_and_mission": c(
+        "daemon --goal 1,0 --mission square --lidar robot_tty --no-record", "--mission"
+    ),
+    "daemon_start_short": c("daemon --goal 1,0 --lidar robot_tty --start 1 --no-record", "--start"),
+    "daemon_map_no_goal": c("daemon --map maps/good.yaml --no-record", "--goal"),
+    "daemon_map_missing": c(
+        f"daemon --goal 1,0 --lidar robot_tty --map {MISSING} --no-record", "missing.yaml"
+    ),
+    "daemon_map_garbage": c(
+        "daemon --goal 1,0 --lidar robot_tty --map maps/garbage.yaml --no-record", "garbage.yaml"
+    ),
+    "daemon_map_no_image": c(
+        "daemon --goal 1,0 --lidar robot_tty --map maps/no_image.yaml --no-record", "nope.pgm"
+    ),
+    "daemon_lidar_missing": c(
+        "daemon --goal 1,0 --lidar nowhere/lidar --port robot_tty --no-record", "nowhere/lidar"
+    ),
+    "daemon_lidar_silent": c(
+        "daemon --goal 1,0 --lidar robot_tty --port robot_tty --no-record", "GET_HEALTH"
+    ),
+    # Stage 3 on the twin
+    "map_world_missing": c(f"map --world {MISSING}", "missing.yaml"),
+    "map_waypoint_text": c(f"map --world {GOOD_WORLD} --waypoint a,b", "--waypoint"),
+    "map_seed": c("map --seed -1", "--seed"),
+    "map_out_file": c(f"map --world {GOOD_WORLD} --out a_file", "a_file"),
+    "run_ofat": c("run ofat", "ofat"),
+    "run_maze_map_missing": c(f"run maze --map {MISSING}", "missing.yaml"),
+    "run_square_map": c("run square --map maps/good.yaml", "--map"),
+    "campaign_ofat_map_file": c("campaign ofat --map a_file", "a_file"),
+    "campaign_robustness_trials": c("campaign robustness --trials 0", "--trials"),
     # monitor
     "monitor_port_missing": c("monitor --port nowhere/tty", "nowhere/tty"),
     "monitor_port_folder": c("monitor --port a_folder", "a_folder"),

@@ -47,6 +47,7 @@ from jackson.host.ros.qos import (
     cmd_vel_qos,
     diagnostics_qos,
     joint_states_qos,
+    map_qos,
     odometry_qos,
     sensor_qos,
     tf_qos,
@@ -333,6 +334,18 @@ class RosBridge:
         if p.publish_tf and m.TFMessage is not None:
             self.tf_pub = node.create_publisher(m.TFMessage, "/tf", tf_qos())
             self.tf_static_pub = node.create_publisher(m.TFMessage, "/tf_static", tf_static_qos())
+        self.scan_pub = node.create_publisher(m.LaserScan, "/scan", sensor_qos())
+        self.nav: Any = getattr(self.core, "mission", None)
+        if not hasattr(self.nav, "navigator"):
+            self.nav = None
+        self._map_sent_s: float | None = None
+        if self.nav is not None:  # Stage 3: Nav2's topics (docs/stage3.md)
+            self.map_pub = node.create_publisher(m.OccupancyGrid, "/map", map_qos())
+            self.plan_pub = node.create_publisher(m.Path, "/plan", odometry_qos())
+            self.local_plan_pub = node.create_publisher(m.Path, "/local_plan", odometry_qos())
+            self.goal_sub = node.create_subscription(
+                m.PoseStamped, "/goal_pose", self._on_goal, cmd_vel_qos()
+            )
         cmd_type = m.TwistStamped if p.cmd_vel_stamped else m.Twist
         self.cmd_vel_sub = node.create_subscription(
             cmd_type, p.cmd_vel_topic, self._on_cmd_vel, cmd_vel_qos()
@@ -380,7 +393,85 @@ class RosBridge:
             float(twist.linear.x), float(twist.angular.z), time.monotonic_ns()
         )
 
+    def _on_goal(self, msg: Any) -> None:
+        """A goal from RViz's "2D Goal Pose" (map frame): the navigator takes it at the next
+        control tick."""
+        from jackson.host.nav.types import Pose2D
+
+        q = msg.pose.orientation
+        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        self.nav.request_goal(Pose2D(float(msg.pose.position.x), float(msg.pose.position.y), yaw))
+
     # ------------------------------------------------------------------ outputs
+
+    def on_scan(self, t_s: float, angles_rad: Sequence[float], ranges_m: Sequence[float]) -> None:
+        """A LiDAR revolution the host read (the robot's RPLIDAR) as /scan in the laser frame."""
+        if self._stop.is_set() or len(angles_rad) < 2:
+            return
+        msg = self._msgs.LaserScan()
+        msg.header.stamp = self._stamp(t_s)
+        msg.header.frame_id = self.params.laser_frame
+        msg.angle_min = float(angles_rad[0])
+        msg.angle_max = float(angles_rad[-1])
+        msg.angle_increment = float((angles_rad[-1] - angles_rad[0]) / (len(angles_rad) - 1))
+        msg.scan_time = SCAN_PERIOD_S
+        msg.time_increment = SCAN_PERIOD_S / len(angles_rad)
+        msg.range_min = 0.15
+        msg.range_max = 8.0
+        msg.ranges = [float(r) for r in ranges_m]
+        self._publish("scan", self.scan_pub, msg)
+
+    def on_navigation(self, t_s: float) -> None:
+        """After a control tick of a navigation mission: /plan, /local_plan, map -> odom, and
+        /map (once on a known map; every 5 s of MCU time while mapping)."""
+        nav = self.nav
+        if nav is None or self._stop.is_set():
+            return
+        stamp = self._stamp(t_s)
+        frame = "map"
+        for key, pub, points in (
+            ("plan", self.plan_pub, nav.navigator.plan),
+            ("local_plan", self.local_plan_pub, nav.navigator.local_plan),
+        ):
+            path = self._msgs.Path()
+            path.header.stamp = stamp
+            path.header.frame_id = frame
+            poses = []
+            for row in points:
+                ps = self._msgs.PoseStamped()
+                ps.header = path.header
+                ps.pose.position.x, ps.pose.position.y = float(row[0]), float(row[1])
+                yaw = float(row[2]) if len(row) > 2 else 0.0
+                q = ps.pose.orientation
+                q.x, q.y, q.z, q.w = yaw_quaternion(yaw)
+                poses.append(ps)
+            path.poses = poses
+            self._publish(key, pub, path)
+        if self.tf_pub is not None:
+            c = nav.map_to_odom
+            start = nav.config.start
+            corr = c.compose(start)  # map -> odom: the odometry frame starts at the start pose
+            msg = self._msgs.TFMessage()
+            msg.transforms = [
+                self._transform(stamp, frame, self.params.odom_frame, corr.x, corr.y, 0.0, corr.yaw)
+            ]
+            self._publish("tf", self.tf_pub, msg)
+        mapping = nav.mapper is not None
+        due = self._map_sent_s is None or (mapping and t_s - self._map_sent_s >= MAP_PERIOD_S)
+        grid = nav.built_map() if mapping else nav.static_map
+        if due and grid is not None:
+            self._map_sent_s = t_s
+            msg = self._msgs.OccupancyGrid()
+            msg.header.stamp = stamp
+            msg.header.frame_id = frame
+            info = msg.info
+            info.resolution = float(grid.resolution_m)
+            info.width, info.height = grid.width, grid.height
+            info.origin.position.x = float(grid.origin_x_m)
+            info.origin.position.y = float(grid.origin_y_m)
+            info.origin.orientation.w = 1.0
+            msg.data = grid.data.ravel().tolist()
+            self._publish("map", self.map_pub, msg)
 
     def on_telemetry(self, core: CoreLike, telemetry: Telemetry) -> None:
         """After each telemetry frame: /wheel/odom, /imu/data, /joint_states (and /tf when
@@ -599,15 +690,19 @@ class RosBridge:
         self.published[key] = self.published.get(key, 0) + 1
 
 
+SCAN_PERIOD_S = 0.13465  # [s] the A1M8's turn (REFERENCE: LiDAR)
+MAP_PERIOD_S = 5.0  # [s] of MCU time between /map messages while mapping
+
+
 class _Messages:
     """The message classes, imported when the bridge is built (tf2_msgs and diagnostic_msgs are
     optional)."""
 
     def __init__(self) -> None:
         from builtin_interfaces.msg import Time
-        from geometry_msgs.msg import TransformStamped, Twist, TwistStamped
-        from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import Imu, JointState
+        from geometry_msgs.msg import PoseStamped, TransformStamped, Twist, TwistStamped
+        from nav_msgs.msg import OccupancyGrid, Odometry, Path
+        from sensor_msgs.msg import Imu, JointState, LaserScan
 
         self.Time: Any = Time
         self.Odometry: Any = Odometry
@@ -616,6 +711,10 @@ class _Messages:
         self.Twist: Any = Twist
         self.TwistStamped: Any = TwistStamped
         self.TransformStamped: Any = TransformStamped
+        self.PoseStamped: Any = PoseStamped
+        self.OccupancyGrid: Any = OccupancyGrid
+        self.Path: Any = Path
+        self.LaserScan: Any = LaserScan
         diagnostic = _optional("diagnostic_msgs.msg")
         tf2 = _optional("tf2_msgs.msg")
         self.DiagnosticArray: Any = diagnostic.DiagnosticArray if diagnostic else None

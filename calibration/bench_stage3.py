@@ -1,0 +1,153 @@
+"""Stage 3 benchmarks (run by ``jackson bench``): each cycle as a share of its own period.
+
+On scans the twin's exact ray caster makes along the maze's route (1080 beams, 0.01 m noise):
+
+- the mapping update per integrated scan (scan matching included) against the scan period;
+- the particle filter's sensor update (500 particles, 60 beams) against the scan period;
+- the DWB local planner's cycle against the 50 ms control period (Nav2's C++ DWB takes about
+  3 ms, 6 % of it; target: that share or less); the ray caster's own scan in the same run is
+  the machine's reference;
+- the full bench also runs the paper's 180-run OFAT + robustness set on 2 workers (target:
+  under 10 minutes).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jackson.common.bench import BenchResult
+from jackson.host.actuation.limiter import LimiterConfig
+from jackson.host.nav.amcl import AmclConfig, ParticleFilter
+from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.nav.mapping import Mapper, MappingConfig
+from jackson.host.nav.navigator import Navigator, NavigatorConfig
+from jackson.host.nav.types import Pose2D, Scan
+from jackson.sim.config import load_world
+from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
+from jackson.sim.raster import raster
+
+SCAN_PERIOD_S = 0.13465  # REFERENCE: LiDAR
+CONTROL_PERIOD_S = 0.05  # the daemon's tick: one telemetry frame at 20 Hz
+NAV2_DWB_SHARE = 0.003 / CONTROL_PERIOD_S  # Nav2's C++ DWB, about 3 ms per cycle
+
+
+def _scenario() -> tuple[OccupancyGrid, list[Pose2D], list[Scan], float]:
+    """The maze's static map, poses along the route and their scans; the ray cast's time [s]."""
+    world = load_world("maze")
+    occ, ox, oy = raster(world, 0.05)
+    grid = OccupancyGrid(np.where(occ, 100, 0).astype(np.int8), 0.05, ox, oy)
+    obstacles = Obstacles(
+        [list(w) for w in world.walls], [[c.x, c.y, c.radius] for c in world.cylinders]
+    )
+    rng = np.random.default_rng(1)
+    angles = np.asarray(-math.pi + np.arange(A1M8_BEAMS) * A1M8_ANGLE_INCREMENT_RAD, np.float64)
+    poses, scans, cast_s = [], [], []
+    for k, x in enumerate(np.linspace(-0.69, 0.3, 18)):
+        pose = Pose2D(float(x), -0.0364 + 0.01 * math.sin(k), 0.02 * math.cos(k))
+        t0 = time.perf_counter()
+        ranges = cast((pose.x, pose.y), angles + pose.yaw, obstacles, 8.0)
+        cast_s.append(time.perf_counter() - t0)
+        ranges = ranges + rng.normal(0.0, 0.01, ranges.shape)
+        poses.append(pose)
+        scans.append(Scan(0.1 * k, angles.copy(), ranges))
+    return grid, poses, scans, min(cast_s)
+
+
+def _mapping_ms(poses: list[Pose2D], scans: list[Scan]) -> float:
+    mapper = Mapper(MappingConfig())
+    times = []
+    for p, s in zip(poses, scans, strict=True):
+        t0 = time.perf_counter()
+        mapper.update(s, p)
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times[1:])  # every scan moved 0.06 m: each is integrated
+
+
+def _amcl_ms(grid: OccupancyGrid, poses: list[Pose2D], scans: list[Scan]) -> float:
+    pf = ParticleFilter(grid, AmclConfig(), np.random.default_rng(2))
+    pf.initialise(poses[0])
+    times = []
+    for p, s in zip(poses, scans, strict=True):
+        t0 = time.perf_counter()
+        pf.update(p, s)
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times[1:])
+
+
+def _dwb_ms(grid: OccupancyGrid, poses: list[Pose2D], scans: list[Scan]) -> float:
+    nav = Navigator(NavigatorConfig(), grid, LimiterConfig())
+    nav.set_goal(Pose2D(1.2091, -0.0364, 0.0))
+    times = []
+    for k, (p, s) in enumerate(zip(poses, scans, strict=True)):
+        nav.step(0.05 * k, p, (0.15, 0.0), s.points(p))  # costmaps, plan
+        path = nav.plan
+        if len(path) < 2:
+            continue
+        t0 = time.perf_counter()
+        nav.dwb.compute(p, (0.15, 0.0), path, nav.goal or p, nav.local_costmap)
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times)
+
+
+def _campaign_wall_s() -> float:
+    from jackson.calibration.stage3 import run_stage3_campaign
+
+    with tempfile.TemporaryDirectory(prefix="jackson-bench-stage3-") as tmp:
+        t0 = time.perf_counter()
+        ofat = run_stage3_campaign("ofat", 15, Path(tmp) / "ofat", progress=False)
+        map_yaml = Path(tmp) / "ofat" / "map" / "built_map.yaml"
+        run_stage3_campaign(
+            "robustness", 15, Path(tmp) / "robustness", map_yaml=map_yaml, progress=False
+        )
+        assert len(ofat) == 105
+        return time.perf_counter() - t0
+
+
+def run(quick: bool = False) -> list[BenchResult]:
+    grid, poses, scans, cast_s = _scenario()
+    best = {"mapping": math.inf, "amcl": math.inf, "dwb": math.inf}
+    for _ in range(1 if quick else 3):
+        best["mapping"] = min(best["mapping"], _mapping_ms(poses, scans))
+        best["amcl"] = min(best["amcl"], _amcl_ms(grid, poses, scans))
+        best["dwb"] = min(best["dwb"], _dwb_ms(grid, poses, scans))
+    period_ms = 1e3 * SCAN_PERIOD_S
+    out = [
+        BenchResult(
+            "stage3.mapping_update_share_of_scan_period",
+            best["mapping"] / period_ms,
+            f"of 134.65 ms ({best['mapping']:.2f} ms; ray cast {1e3 * cast_s:.3f} ms)",
+            0.25,
+            "lower",
+        ),
+        BenchResult(
+            "stage3.amcl_update_share_of_scan_period",
+            best["amcl"] / period_ms,
+            f"of 134.65 ms ({best['amcl']:.2f} ms, 500 particles x 60 beams)",
+            0.25,
+            "lower",
+        ),
+        BenchResult(
+            "stage3.dwb_cycle_share_of_control_period",
+            best["dwb"] / (1e3 * CONTROL_PERIOD_S),
+            f"of 50 ms ({best['dwb']:.2f} ms; Nav2 C++ ~3 ms)",
+            NAV2_DWB_SHARE,
+            "lower",
+        ),
+    ]
+    if not quick:
+        out.append(
+            BenchResult(
+                "stage3.ofat_robustness_180_runs_2_workers",
+                _campaign_wall_s() / 60.0,
+                "min wall",
+                10.0,
+                "lower",
+            )
+        )
+    return out

@@ -1,0 +1,343 @@
+"""Stage 3 as a command source of the daemon: localise (or map) on the LiDAR, navigate to goals.
+
+:class:`NavigateMission` is a :class:`jackson.host.control.base.Mission` that also takes scans
+(:meth:`NavigateMission.on_scan`, called by :class:`jackson.host.core.HostCore` with each
+LiDAR revolution, stamped on MCU time). Per telemetry frame it
+
+1. places the robot in the map: the EKF's odometry pose composed with the map -> odom
+   correction of the localiser;
+2. steps the :class:`jackson.host.nav.navigator.Navigator` (costmaps, A*, DWB, recoveries) with
+   that pose, the EKF's velocities and the newest scan's returns in the map frame;
+3. returns the navigator's (v, w), which go through the daemon's actuation chain (limits,
+   kinematics, deadband compensation) like any mission's.
+
+Two localisers (``localisation``):
+
+* ``amcl``: a particle filter on a known map (:class:`jackson.host.nav.amcl.ParticleFilter`),
+  started at the given start pose, as Nav2 with an initial pose;
+* ``slam``: a map built as the robot drives (:class:`jackson.host.nav.mapping.Mapper`, scan
+  matching against the map so far), as slam_toolbox; the navigator's static map is then a
+  blank grid over ``extent`` whose unknown space counts as free, so the robot explores on what
+  its scans show.
+
+Frames: the map frame is the world frame the start pose and the goals are given in. The EKF's
+odometry starts at (0, 0, 0), so the odometry pose handed to the localiser is ``start ⊕ odom``;
+the correction the localiser reports is then relative to the start-anchored odometry.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from jackson.host.actuation.limiter import LimiterConfig
+from jackson.host.control.base import NavState as MissionState
+from jackson.host.nav.amcl import AmclConfig, ParticleFilter
+from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
+from jackson.host.nav.mapping import Mapper, MappingConfig
+from jackson.host.nav.navigator import NavCommand, Navigator, NavigatorConfig, NavState
+from jackson.host.nav.types import Pose2D, Scan
+
+Localisation = Literal["amcl", "slam"]
+START_MOVING_M_S = 0.01  # [m/s] time zero: the first command faster than this (REFERENCE)
+
+
+@dataclass(frozen=True)
+class NavigateConfig:
+    """What a navigation run needs besides the map.
+
+    Attributes
+    ----------
+    start : Pose2D
+        The robot's pose in the map frame when the daemon starts (its odometry origin).
+    goals : tuple of Pose2D
+        Visited in order; the mission is done when the last is reached.
+    localisation : str
+        ``amcl`` (needs a map) or ``slam`` (builds one).
+    extent : tuple of 4 float
+        (x_min, y_min, x_max, y_max) [m] of the navigator's blank map in ``slam`` mode.
+    lidar_mount : Pose2D
+        The LiDAR's pose in the base frame.
+    seed : int
+        Seed of the particle filter's random numbers (a run is reproducible).
+    navigator : NavigatorConfig
+        Costmaps, planner, DWB, recoveries.
+    amcl : AmclConfig
+        The particle filter.
+    mapping : MappingConfig
+        The mapper.
+    """
+
+    start: Pose2D
+    goals: tuple[Pose2D, ...]
+    localisation: Localisation = "amcl"
+    extent: tuple[float, float, float, float] = (-2.0, -2.0, 2.0, 2.0)
+    lidar_mount: Pose2D = field(default_factory=Pose2D)
+    seed: int = 0
+    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
+    amcl: AmclConfig = field(default_factory=AmclConfig)
+    mapping: MappingConfig = field(default_factory=MappingConfig)
+
+    def __post_init__(self) -> None:
+        if not self.goals:
+            raise ValueError("NavigateConfig.goals: at least one goal")
+        if self.localisation not in ("amcl", "slam"):
+            raise ValueError(
+                f"NavigateConfig.localisation must be amcl or slam, got {self.localisation!r}"
+            )
+        x0, y0, x1, y1 = self.extent
+        if not (x1 > x0 and y1 > y0):
+            raise ValueError(f"NavigateConfig.extent must be x0 < x1, y0 < y1, got {self.extent}")
+
+
+@dataclass(frozen=True)
+class NavSample:
+    """One control tick of the mission, for the run folder (``nav.csv``)."""
+
+    t_s: float
+    x_m: float  # the robot in the map frame, as the mission believes
+    y_m: float
+    yaw_rad: float
+    v_cmd: float
+    w_cmd: float
+    state: str
+    goal_index: int
+    distance_to_goal_m: float
+
+
+class NavigateMission:
+    """Localise on the LiDAR and drive through ``config.goals`` (a daemon mission).
+
+    Parameters
+    ----------
+    config : NavigateConfig
+        Start, goals, localiser and their settings.
+    limits : LimiterConfig
+        The daemon's velocity and acceleration limits (the local planner samples within them).
+    static_map : OccupancyGrid or None
+        The known map (``amcl``); None in ``slam`` mode.
+
+    Attributes
+    ----------
+    done : bool
+        The last goal was reached, or navigation failed (see :attr:`failure`).
+    failure : str or None
+        Why navigation gave up (the navigator's reason), or None.
+    samples : list of NavSample
+        Every control tick.
+    t_start_s, t_goal_s : float or None
+        MCU time of the first command above 0.01 m/s, and of reaching the last goal.
+    scans : int
+        Scans taken.
+    """
+
+    name = "navigate"
+
+    def __init__(
+        self,
+        config: NavigateConfig,
+        limits: LimiterConfig,
+        static_map: OccupancyGrid | None = None,
+    ) -> None:
+        self.config = config
+        self.done = False
+        self.failure: str | None = None
+        self.samples: list[NavSample] = []
+        self.t_start_s: float | None = None
+        self.t_goal_s: float | None = None
+        self.scans = 0
+        self.goal_index = 0
+        self._scan_points: npt.NDArray[np.float64] | None = None
+        self._odom = Pose2D()  # start ⊕ the EKF's odometry pose, at the last tick or scan
+        self.static_map = static_map
+        self.mapper: Mapper | None = None
+        self.filter: ParticleFilter | None = None
+        if config.localisation == "amcl":
+            if static_map is None:
+                raise ValueError("amcl localisation needs a map (jackson map makes one)")
+            self.filter = ParticleFilter(
+                static_map, config.amcl, np.random.default_rng(config.seed)
+            )
+            self.filter.initialise(config.start)
+            nav_map = static_map
+        else:
+            self.mapper = Mapper(config.mapping)
+            x0, y0, x1, y1 = config.extent
+            nav_map = OccupancyGrid.empty(
+                x1 - x0, y1 - y0, config.mapping.resolution_m, x0, y0, UNKNOWN
+            )
+        nav_config = config.navigator
+        if self.mapper is not None:  # unknown space is free until a scan shows otherwise
+            nav_config = dataclasses.replace(nav_config, global_track_unknown_space=False)
+        self.map_to_odom = Pose2D()  # the localiser's correction (identity until it has one)
+        self._requested: Pose2D | None = None  # a goal from another thread (ROS /goal_pose)
+        self.navigator = Navigator(nav_config, nav_map, limits)
+        self.navigator.set_goal(config.goals[0])
+        self.last: NavCommand | None = None
+
+    # ------------------------------------------------------------------ inputs
+
+    def _odom_pose(self, s: MissionState) -> Pose2D:
+        return self.config.start.compose(Pose2D(s.x_m, s.y_m, s.yaw_rad))
+
+    def pose_map(self) -> Pose2D:
+        """The robot in the map frame: the correction composed with the start-anchored
+        odometry."""
+        return self.map_to_odom.compose(self._odom)
+
+    def on_scan(self, scan: Scan, s: MissionState) -> None:
+        """One LiDAR revolution, with the EKF's state at its MCU time."""
+        self._odom = self._odom_pose(s)
+        self.scans += 1
+        mount = self.config.lidar_mount
+        if self.filter is not None:
+            self.filter.update(self._odom, scan, mount)
+            self.map_to_odom = self.filter.map_to_odom(self._odom)
+        elif self.mapper is not None:
+            self.mapper.update(scan, self._odom, mount)
+            self.map_to_odom = self.mapper.map_to_odom
+        self._scan_points = scan.points(self.pose_map(), mount)
+
+    # ------------------------------------------------------------------ the tick
+
+    def request_goal(self, goal: Pose2D) -> None:
+        """A new single goal (map frame), taken at the next tick; safe from another thread."""
+        self._requested = goal
+
+    def command(self, s: MissionState) -> tuple[float, float]:
+        """(v [m/s], w [rad/s]) for this tick, from the navigator."""
+        requested, self._requested = self._requested, None
+        if requested is not None:
+            self.config = dataclasses.replace(self.config, goals=(requested,))
+            self.goal_index = 0
+            self.done = False
+            self.failure = None
+            self.t_goal_s = None
+            self.navigator.set_goal(requested)
+        if self.done:
+            return 0.0, 0.0
+        self._odom = self._odom_pose(s)
+        if self.filter is not None:
+            self.filter.update(self._odom, None, self.config.lidar_mount)
+        pose = self.pose_map()
+        cmd = self.navigator.step(s.t_s, pose, (s.v_m_s, s.w_rad_s), self._scan_points)
+        self._scan_points = None
+        self.last = cmd
+        if cmd.state == NavState.SUCCEEDED:
+            if self.goal_index + 1 < len(self.config.goals):
+                self.goal_index += 1
+                self.navigator.set_goal(self.config.goals[self.goal_index])
+            else:
+                self.done = True
+                self.t_goal_s = s.t_s
+        elif cmd.state == NavState.FAILED:
+            self.done = True
+            self.failure = cmd.reason or "navigation failed"
+        v, w = (0.0, 0.0) if self.done else (cmd.v_m_s, cmd.w_rad_s)
+        if self.t_start_s is None and abs(v) > START_MOVING_M_S:
+            self.t_start_s = s.t_s
+        self.samples.append(
+            NavSample(
+                s.t_s,
+                pose.x,
+                pose.y,
+                pose.yaw,
+                v,
+                w,
+                cmd.state.value,
+                self.goal_index,
+                cmd.distance_to_goal_m,
+            )
+        )
+        return v, w
+
+    @property
+    def recoveries(self) -> dict[str, int]:
+        """Recoveries run for the current goal, by behaviour."""
+        return dict(self.navigator.recoveries)
+
+    def built_map(self) -> OccupancyGrid | None:
+        """The map built in ``slam`` mode (None with ``amcl``)."""
+        return self.mapper.grid() if self.mapper is not None else None
+
+
+def parse_pose(text: str) -> Pose2D:
+    """``x,y`` or ``x,y,yaw`` [m, m, rad] as a pose; ValueError naming the text."""
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"expected x,y or x,y,yaw in metres and radians, got {text!r}")
+    return Pose2D(values[0], values[1], values[2] if len(values) == 3 else 0.0)
+
+
+def poses(texts: Sequence[str]) -> tuple[Pose2D, ...]:
+    """:func:`parse_pose` of each."""
+    return tuple(parse_pose(t) for t in texts)
+
+
+MAP_NAME = "map"
+"""A navigation run's folder keeps the map it navigated on as ``map.yaml`` + ``map.pgm``."""
+
+
+def _pose_list(p: Pose2D) -> list[float]:
+    return [p.x, p.y, p.yaw]
+
+
+def navigate_meta(config: NavigateConfig) -> dict[str, object]:
+    """What ``meta.json`` records of a navigation run, so a replay rebuilds the mission."""
+    return {
+        "start": _pose_list(config.start),
+        "goals": [_pose_list(g) for g in config.goals],
+        "localisation": config.localisation,
+        "extent": list(config.extent),
+        "lidar_mount": _pose_list(config.lidar_mount),
+        "seed": config.seed,
+        "map": f"{MAP_NAME}.yaml" if config.localisation == "amcl" else None,
+    }
+
+
+def mission_from_meta(
+    run: Path, meta: Mapping[str, object], limits: LimiterConfig
+) -> NavigateMission:
+    """The mission a navigation run folder was driven by (its ``meta.json`` and map).
+
+    Raises
+    ------
+    RecordingError
+        The ``navigate`` entry or the map is missing or damaged.
+    """
+    from jackson.host.nav.grid import MapFileError
+    from jackson.host.recording import RecordingError
+
+    where = run / "meta.json"
+    nav = meta.get("navigate")
+    if not isinstance(nav, Mapping):
+        raise RecordingError(f"{where}: a navigate run without its navigate entry")
+    try:
+        config = NavigateConfig(
+            start=Pose2D(*nav["start"]),
+            goals=tuple(Pose2D(*g) for g in nav["goals"]),
+            localisation=nav["localisation"],
+            extent=tuple(nav["extent"]),
+            lidar_mount=Pose2D(*nav["lidar_mount"]),
+            seed=int(nav["seed"]),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise RecordingError(f"{where}: navigate: {exc}") from exc
+    grid = None
+    if nav.get("map"):
+        try:
+            grid = OccupancyGrid.load(run / str(nav["map"]))
+        except MapFileError as exc:
+            raise RecordingError(str(exc)) from exc
+    return NavigateMission(config, limits, grid)
