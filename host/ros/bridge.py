@@ -339,6 +339,7 @@ class RosBridge:
         if not hasattr(self.nav, "navigator"):
             self.nav = None
         self._map_sent_s: float | None = None
+        self._plan_version = -1
         if self.nav is not None:  # Stage 3: Nav2's topics (docs/stage3.md)
             self.map_pub = node.create_publisher(m.OccupancyGrid, "/map", map_qos())
             self.plan_pub = node.create_publisher(m.Path, "/plan", odometry_qos())
@@ -422,17 +423,23 @@ class RosBridge:
         self._publish("scan", self.scan_pub, msg)
 
     def on_navigation(self, t_s: float) -> None:
-        """After a control tick of a navigation mission: /plan, /local_plan, map -> odom, and
-        /map (once on a known map; every 5 s of MCU time while mapping)."""
+        """After a control tick of a navigation mission: /plan (each new global plan),
+        /local_plan (the trajectory DWB chose), map -> odom, and /map (once on a known map;
+        every 5 s of MCU time while mapping)."""
         nav = self.nav
         if nav is None or self._stop.is_set():
             return
         stamp = self._stamp(t_s)
         frame = "map"
+        replans = nav.navigator.replans
+        new_plan = replans != self._plan_version
+        self._plan_version = replans
         for key, pub, points in (
-            ("plan", self.plan_pub, nav.navigator.plan),
+            ("plan", self.plan_pub, nav.navigator.plan if new_plan else ()),
             ("local_plan", self.local_plan_pub, nav.navigator.local_plan),
         ):
+            if len(points) == 0:  # a new global plan; a trajectory DWB chose
+                continue
             path = self._msgs.Path()
             path.header.stamp = stamp
             path.header.frame_id = frame

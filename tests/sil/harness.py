@@ -38,14 +38,17 @@ class TwinThread:
         tmp: Path,
         world: str | WorldSpec = "square_room",
         robot: str | RobotSpec = "jackson",
+        *,
+        lidar: bool = False,
         **runner: Any,
     ) -> None:
         w = load_world(world) if isinstance(world, str) else world
         r = load_robot(robot) if isinstance(robot, str) else robot
-        self.twin = Twin(w, r, lidar=False, seed=1)
+        self.twin = Twin(w, r, lidar=lidar, seed=1)
         self.i2c = f"unix:{tmp / 'i2c.sock'}"
         self.runner = TwinRunner(self.twin, i2c_path=tmp / "i2c.sock", **runner)
         self.serial = self.runner.serial_path
+        self.lidar = self.runner.lidar_path  # the emulated RPLIDAR's pty (None without)
         self._stop = threading.Event()
         self.stats: RunnerStats | None = None
         self.thread = threading.Thread(target=self._run, daemon=True)
