@@ -145,11 +145,14 @@ class WorldSpec:
 
 
 def resolve(name_or_path: str | Path, folder: Path, kind: str = "file") -> Path:
-    """A bundled name (``jackson``) or a path to a YAML file."""
+    """A bundled name (``jackson``) or a path to a YAML file. A bare name is the bundled file
+    even when the working folder holds a folder of that name (a run folder called ``maze``)."""
     p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") or p.exists():
-        return p
     bundled = folder / f"{name_or_path}.yaml"
+    if p.suffix in (".yaml", ".yml") or p.is_file():
+        return p
+    if p.exists() and not bundled.exists():
+        return p  # a folder: read_yaml says so
     if not bundled.exists():
         names = ", ".join(sorted(f.stem for f in folder.glob("*.yaml")))
         raise ConfigError(f"{kind} {name_or_path!r}: no such file, nor a bundled {kind} ({names})")
