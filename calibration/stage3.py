@@ -351,6 +351,8 @@ def nav_metrics(
         "recoveries_by_kind": dict(mission.navigator.recoveries),
         "replans": mission.navigator.replans,
         "goal_error_m": float(math.hypot(end[0] - goal.x, end[1] - goal.y)),
+        "start": [mission.config.start.x, mission.config.start.y],
+        "goal": [goal.x, goal.y],
         "localisation_error_mean_cm": 100 * float(np.mean(err)) if err else math.nan,
         "localisation_error_max_cm": 100 * float(np.max(err)) if err else math.nan,
         "localisation_yaw_error_max_deg": math.degrees(float(np.max(yaw_err)))
@@ -621,9 +623,11 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]]) -> None:
         world = corners @ np.array([[c, s], [-s, c]]) + (x, y)
         label = f"envelope at d_min {100 * d:.1f} cm"
         ax.add_patch(Polygon(world, fill=False, ec="k", lw=1.2, label=label))
-    ax.plot(STAGE3_START.x, STAGE3_START.y, "go", label="start")
-    ax.plot(STAGE3_GOAL.x, STAGE3_GOAL.y, "r*", ms=12, label="goal")
-    tolerance = Circle((STAGE3_GOAL.x, STAGE3_GOAL.y), 0.25, fill=False, ls="--", ec="tab:red")
+    start = results[0].get("start", [STAGE3_START.x, STAGE3_START.y]) if results else [0, 0]
+    goal = results[0].get("goal", [STAGE3_GOAL.x, STAGE3_GOAL.y]) if results else [0, 0]
+    ax.plot(start[0], start[1], "go", label="start")
+    ax.plot(goal[0], goal[1], "r*", ms=12, label="goal")
+    tolerance = Circle((goal[0], goal[1]), 0.25, fill=False, ls="--", ec="tab:red")
     tolerance.set_label("xy goal tolerance 0.25 m")
     ax.add_patch(tolerance)
     ax.set_aspect("equal")
