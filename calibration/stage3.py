@@ -27,8 +27,6 @@ import csv
 import dataclasses
 import json
 import math
-import tempfile
-import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -40,9 +38,7 @@ import numpy.typing as npt
 import yaml
 
 from jackson.calibration import metrics as m
-from jackson.calibration.trial import write_ground_truth
-from jackson.host.actuation.output import MotorOutput, Pca9685Output
-from jackson.host.actuation.pca9685 import Pca9685
+from jackson.calibration.trial import twin_session, write_ground_truth
 from jackson.host.config import HostConfig, dump_config, load_config
 from jackson.host.control.navigate import (
     MAP_NAME,
@@ -52,11 +48,8 @@ from jackson.host.control.navigate import (
     navigate_meta,
 )
 from jackson.host.daemon import Daemon
-from jackson.host.i2c import open_bus
-from jackson.host.lidar.rplidar import RplidarDriver
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
-from jackson.host.transport import SerialTransport
 from jackson.sim.config import RobotSpec, Sides, WorldSpec, load_robot, load_world
 
 STAGE3_START = Pose2D(-0.6909, -0.0364, 0.0)  # REFERENCE: Stage 3
@@ -197,7 +190,6 @@ def world_extent(world: WorldSpec, margin_m: float = 0.5) -> tuple[float, float,
 
 def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     """Drive one navigation (or mapping) run and return its metrics (also ``metrics.json``)."""
-    from jackson.sim.runner import TwinRunner
     from jackson.sim.twin import Twin
 
     run_dir = spec.out
@@ -220,54 +212,30 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     mission = NavigateMission(nav, cfg.limits, grid)
     if grid is not None:
         grid.save(run_dir / f"{MAP_NAME}.yaml")  # the replay localises on the same map
-    with tempfile.TemporaryDirectory(prefix="jackson-nav-") as tmp:
-        sock = Path(tmp) / "i2c.sock"
-        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=5.0)
-        cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
-        stop = threading.Event()
-        thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
-        thread.start()
-        wall0 = time.perf_counter()
-        pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
-        pca.init(cfg.pca9685.frequency_hz)
-
-        def output(send: Any) -> MotorOutput:
-            p = cfg.pca9685
-            return Pca9685Output(pca, p.left, p.right, p.stby_channel)
-
-        assert runner.lidar_path is not None
-        lidar = RplidarDriver(runner.lidar_path)
-        transport = SerialTransport(runner.serial_path, cfg.serial.baudrate)
-        try:
-            lidar.start()
-            transport.open()
-            (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
-            meta = {
-                "mission": "navigate",
-                "navigate": navigate_meta(nav),
-                "trial": spec.index,
-                "seed": spec.seed,
-                "robot": spec.robot,
-                "world": spec.world,
-                "variant": dataclasses.asdict(spec.variant),
-            }
-            daemon = Daemon(
-                cfg,
-                output,
-                transport,
-                mission=mission,
-                run_folder=run_dir,
-                meta=meta,
-                lidar=lidar,
-            )
-            daemon.run(max_s=NAV_TIMEOUT_S)
-            wall = time.perf_counter() - wall0
-        finally:
-            transport.close()
-            lidar.close()
-            stop.set()
-            thread.join(timeout=30)
-            runner.close()
+    wall0 = time.perf_counter()
+    with twin_session(twin, cfg, lidar=True) as session:
+        cfg = session.cfg
+        (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
+        meta = {
+            "mission": "navigate",
+            "navigate": navigate_meta(nav),
+            "trial": spec.index,
+            "seed": spec.seed,
+            "robot": spec.robot,
+            "world": spec.world,
+            "variant": dataclasses.asdict(spec.variant),
+        }
+        daemon = Daemon(
+            cfg,
+            session.output,
+            session.transport,
+            mission=mission,
+            run_folder=run_dir,
+            meta=meta,
+            lidar=session.lidar,
+        )
+        daemon.run(max_s=NAV_TIMEOUT_S)
+        wall = time.perf_counter() - wall0
     t_host = daemon.core.t_s if daemon.core.t_s is not None else math.inf
     truth = [s for s in twin.truth_log if s.t_s <= t_host + 1e-9]
     write_ground_truth(run_dir / "ground_truth.csv", truth)

@@ -14,6 +14,8 @@ import math
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,6 +33,70 @@ from jackson.host.i2c import open_bus
 from jackson.host.transport import SerialTransport
 
 MISSIONS = ("square", "figure8")
+
+
+@dataclass
+class TwinSession:
+    """The twin in a thread of this process, in lockstep, and the host's links to it.
+
+    Attributes
+    ----------
+    runner : TwinRunner
+        The twin's loop (MCU, I2C socket, LiDAR pty).
+    cfg : HostConfig
+        The host configuration with the PCA9685 on the twin's I2C socket.
+    transport : SerialTransport
+        The daemon's serial link, open on the twin's MCU pty.
+    lidar : RplidarDriver or None
+        The host's RPLIDAR driver, scanning the twin's emulated sensor (with ``lidar=True``).
+    pca : Pca9685
+        The PCA9685 driver, initialised.
+    """
+
+    runner: Any
+    cfg: HostConfig
+    transport: SerialTransport
+    lidar: Any
+    pca: Pca9685
+
+    def output(self, send: Any) -> MotorOutput:
+        """The daemon's motor output: the PCA9685 over the twin's I2C socket."""
+        p = self.cfg.pca9685
+        return Pca9685Output(self.pca, p.left, p.right, p.stby_channel)
+
+
+@contextmanager
+def twin_session(twin: Any, cfg: HostConfig, *, lidar: bool = False) -> Iterator[TwinSession]:
+    """Run ``twin`` in lockstep in a thread and open the host's links to it; all closed at the
+    end (the twin stops)."""
+    from jackson.host.lidar.rplidar import RplidarDriver
+    from jackson.sim.runner import TwinRunner
+
+    with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp:
+        sock = Path(tmp) / "i2c.sock"
+        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=5.0, lidar=lidar)
+        cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
+        stop = threading.Event()
+        thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
+        thread.start()
+        transport = SerialTransport(runner.serial_path, cfg.serial.baudrate)
+        driver = None
+        try:
+            pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
+            pca.init(cfg.pca9685.frequency_hz)
+            if lidar:
+                assert runner.lidar_path is not None
+                driver = RplidarDriver(runner.lidar_path)
+                driver.start()
+            transport.open()
+            yield TwinSession(runner, cfg, transport, driver, pca)
+        finally:
+            transport.close()
+            if driver is not None:
+                driver.close()
+            stop.set()
+            thread.join(timeout=30)
+            runner.close()
 
 
 @dataclass(frozen=True)
@@ -55,29 +121,15 @@ def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
 def run_trial(spec: TrialSpec) -> dict[str, Any]:
     """Drive one mission on the twin and return its metrics (also written to metrics.json)."""
     from jackson.sim.config import load_robot, load_world
-    from jackson.sim.runner import TwinRunner
     from jackson.sim.twin import Twin
 
     run_dir = spec.out
     run_dir.mkdir(parents=True, exist_ok=True)
     cfg = load_config(spec.config) if spec.config else HostConfig()
     twin = Twin(load_world(spec.world), load_robot(spec.robot), lidar=False, seed=spec.seed)
-    with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp:
-        sock = Path(tmp) / "i2c.sock"
-        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=5.0)
-        cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
-        stop = threading.Event()
-        thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
-        thread.start()
-        wall0 = time.perf_counter()
-        pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
-        pca.init(cfg.pca9685.frequency_hz)
-
-        def output(send: Any) -> MotorOutput:
-            return Pca9685Output(pca, cfg.pca9685.left, cfg.pca9685.right, cfg.pca9685.stby_channel)
-
-        transport = SerialTransport(runner.serial_path, cfg.serial.baudrate)
-        transport.open()
+    wall0 = time.perf_counter()
+    with twin_session(twin, cfg) as session:
+        cfg = session.cfg
         (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
         meta = {
             "mission": spec.mission,
@@ -87,16 +139,15 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
             "world": spec.world,
         }
         daemon = Daemon(
-            cfg, output, transport, mission_name=spec.mission, run_folder=run_dir, meta=meta
+            cfg,
+            session.output,
+            session.transport,
+            mission_name=spec.mission,
+            run_folder=run_dir,
+            meta=meta,
         )
-        try:
-            daemon.run(max_s=300.0)
-            wall = time.perf_counter() - wall0
-        finally:
-            transport.close()
-            stop.set()
-            thread.join(timeout=30)
-            runner.close()
+        daemon.run(max_s=300.0)
+        wall = time.perf_counter() - wall0
     done = bool(daemon.core.mission is not None and daemon.core.mission.done)
     # the truth up to the host's last frame: the twin may run a few steps more in real time
     # between the host's exit and its own stop, as many as the machine's load allows
