@@ -6,7 +6,11 @@ calibration edits the lines of the fields it changes and nothing else:
 - a scalar line ``  wheel_separation_m: 0.198    # [m] ...`` gets its value replaced, the comment
   kept in its column;
 - a per-side field written as one number (``ticks_per_rev: 621``) becomes a flow mapping
-  ``{left: 617.2, right: 625.9}`` when the sides differ; a flow mapping is rewritten in place;
+  ``{left: 617.2, right: 625.9}`` when the sides differ, and a per-direction one
+  (``deadband.gain.left: 1.0``) becomes ``{forward: 0.92, reverse: 0.95}``; the number stays
+  the value of the pair's other key until that is set too (setting only ``left`` of
+  ``ticks_per_rev: 621`` gives ``{left: 617.2, right: 621}``); a flow mapping is rewritten in
+  place;
 - a missing field is inserted after the last field of its section (a missing section, such as
   ``imu.calibration``, is inserted as a block), ``key: null`` becomes a block.
 
@@ -21,6 +25,7 @@ from __future__ import annotations
 
 import datetime as dt
 import difflib
+import itertools
 import os
 import re
 import shutil
@@ -39,6 +44,7 @@ Updates = Mapping[str, Value]
 
 _KEY = re.compile(r"^(?P<indent>[ ]*)(?P<key>[A-Za-z_][A-Za-z0-9_\-]*)[ ]*:(?P<rest>.*)$")
 _COMMENT = re.compile(r"(^|\s)#")
+_PAIRS = (("left", "right"), ("forward", "reverse"))  # keys one number can stand for together
 
 
 class YamlUpdateError(ValueError):
@@ -210,7 +216,9 @@ def _set(lines: list[str], path: tuple[str, ...], value: str) -> bool:
             lines[anc.end : anc.end] = _block(indent, rest, value)
             return True
         if len(rest) == 1:  # a scalar that becomes a mapping, e.g. per-side values
-            text = "{" + f"{rest[0]}: {value}" + "}"
+            pair = {k: anc.value for k in _pair(rest[0])} if _is_number(anc.value) else {}
+            pair[rest[0]] = value
+            text = "{" + ", ".join(f"{k}: {v}" for k, v in pair.items()) + "}"
             lines[anc.line] = _render(anc.indent, anc.key, text, anc.comment, anc.comment_col)
             return True
         return False
@@ -219,6 +227,23 @@ def _set(lines: list[str], path: tuple[str, ...], value: str) -> bool:
         lines.append("")
     lines.extend(_block(0, path, value))
     return True
+
+
+def _pair(key: str) -> tuple[str, ...]:
+    """The keys a single number stood for when ``key`` of it is set: the pair it belongs to,
+    in the file's order (``left, right``; ``forward, reverse``), or ``key`` alone."""
+    for pair in _PAIRS:
+        if key in pair:
+            return pair
+    return (key,)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return False
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _mapping_get(data: Any, path: Sequence[str]) -> Any:
@@ -269,11 +294,13 @@ def _rewrite(path: Path, updates: Updates) -> str:
     for dotted, value in updates.items():
         keys = dotted.split(".")
         node = data
-        for key in keys[:-1]:
+        for key, next_key in itertools.pairwise(keys):
             child = node.get(key)
             if not isinstance(child, dict):
                 child = (
-                    {} if not isinstance(child, (int, float)) else {"left": child, "right": child}
+                    {}
+                    if not isinstance(child, (int, float))
+                    else dict.fromkeys(_pair(next_key), child)
                 )
                 node[key] = child
             node = child

@@ -39,6 +39,7 @@ Actuator = Literal["pca9685", "mcu"]
 ACTUATORS: dict[str, Actuator] = {"pca9685": "pca9685", "mcu": "mcu"}
 
 MAX_DEADBAND_DUTY = 0.9  # a breakaway duty at or above this leaves no range to control
+MAX_GAIN = 2.0  # a deadband gain trim above this hides a miswired or stalled motor
 PWM_FREQUENCY_RANGE_HZ = (24.0, 1526.0)  # PCA9685 PRE_SCALE 253..3 (datasheet eq. 1)
 MAX_TELEMETRY_RATE_HZ = TELEMETRY_RATE_HZ_RANGE[1]  # SET_RATE limit (protocol/schema.yaml)
 WATCHDOG_RANGE_S = (FAILSAFE_MS_RANGE[0] / 1000.0, FAILSAFE_MS_RANGE[1] / 1000.0)
@@ -248,8 +249,8 @@ def _deadband(s: Fields) -> DeadbandConfig:
             duty[name] = w.number(direction, getattr(d, name), 0.0, MAX_DEADBAND_DUTY, hi_open=True)
         w.finish()
     gain = s.section("gain")
-    gain_left = gain.number("left", d.gain_left, 0.0, 2.0, lo_open=True)
-    gain_right = gain.number("right", d.gain_right, 0.0, 2.0, lo_open=True)
+    gain_left, gain_reverse_left = _gain(gain, "left", d.gain_left)
+    gain_right, gain_reverse_right = _gain(gain, "right", d.gain_right)
     gain.finish()
     max_wheel = s.number("max_wheel_rad_s", d.max_wheel_rad_s, 0.0, lo_open=True)
     zero = s.number("zero_threshold_rad_s", d.zero_threshold_rad_s, 0.0, max_wheel, hi_open=True)
@@ -260,7 +261,23 @@ def _deadband(s: Fields) -> DeadbandConfig:
         zero_threshold_rad_s=zero,
         gain_left=gain_left,
         gain_right=gain_right,
+        gain_reverse_left=gain_reverse_left,
+        gain_reverse_right=gain_reverse_right,
     )
+
+
+def _gain(s: Fields, side: str, default: float) -> tuple[float, float | None]:
+    """``side: 0.95`` (both directions) or ``side: {forward: 0.95, reverse: 0.97}``; the
+    (forward, reverse) gains, reverse None when it follows forward."""
+    if not isinstance(s.data.get(side), Mapping):
+        return s.number(side, default, 0.0, MAX_GAIN, lo_open=True), None
+    w = s.section(side)
+    forward = w.number("forward", default, 0.0, MAX_GAIN, lo_open=True)
+    reverse = (
+        w.number("reverse", forward, 0.0, MAX_GAIN, lo_open=True) if w.has("reverse") else None
+    )
+    w.finish()
+    return forward, reverse
 
 
 def _wheel_pi(s: Fields) -> WheelPiConfig:
@@ -415,6 +432,10 @@ def _per_side(left: float, right: float) -> float | dict[str, float]:
     return left if left == right else {"left": left, "right": right}
 
 
+def _per_direction(forward: float, reverse: float | None) -> float | dict[str, float]:
+    return forward if reverse is None else {"forward": forward, "reverse": reverse}
+
+
 def dump_config(cfg: HostConfig) -> dict[str, Any]:
     """The configuration in the layout of the YAML file; ``parse_config`` reads it back equal."""
     robot, odo, ekf, db, pca, imu = (
@@ -454,7 +475,10 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "right": {"forward": db.forward_right, "reverse": db.reverse_right},
             "max_wheel_rad_s": db.max_wheel_rad_s,
             "zero_threshold_rad_s": db.zero_threshold_rad_s,
-            "gain": {"left": db.gain_left, "right": db.gain_right},
+            "gain": {
+                "left": _per_direction(db.gain_left, db.gain_reverse_left),
+                "right": _per_direction(db.gain_right, db.gain_reverse_right),
+            },
         },
         "wheel_pi": {f.name: getattr(cfg.wheel_pi, f.name) for f in fields(WheelPiConfig)},
         "actuator": cfg.actuator,

@@ -12,7 +12,10 @@ recorders live in :mod:`jackson.calibration.runs`, the command line in
    REP-103 yaw-sign audit against wheel odometry, and the datasheet noise sigmas of Sec. 2.2.4.
 4. **PWM deadband** per wheel and direction from slow duty staircases, and the step
    **characterisation** (top speed, time to 90 %, stopping distance).
-5. **Twin fit**: effective wheel radius, wheel separation and IMU yaw scale (the paper's
+5. **Step response**: a first-order model per wheel and direction (gain K, time constant,
+   dead time) from duty steps, and the deadband compensation's per-wheel, per-direction gains
+   that make every wheel reach the same commanded speed.
+6. **Twin fit**: effective wheel radius, wheel separation and IMU yaw scale (the paper's
    V16/V17 values) by least squares of dead-reckoned against reference trajectories.
 
 Every failure a user can cause (a robot that did not move, a zero tape measurement) raises
@@ -70,6 +73,19 @@ from jackson.calibration.procedures.imu import (
     rotation_matrix,
     yaw_sign_audit,
 )
+from jackson.calibration.procedures.step import (
+    DutyStep,
+    HostGains,
+    StepIdentification,
+    WheelModel,
+    WheelStep,
+    WheelStepScript,
+    find_steps,
+    fit_wheel,
+    identify_steps,
+    step_angle,
+    step_plan,
+)
 from jackson.calibration.procedures.track import (
     RotationRun,
     TrackCalibration,
@@ -104,19 +120,25 @@ __all__ = [
     "DatasheetNoise",
     "DeadReckoning",
     "DeadbandCalibration",
+    "DutyStep",
     "EncoderCalibration",
     "FitSegment",
     "FloatArray",
     "Heading",
+    "HostGains",
     "ImuProfile",
     "IntArray",
     "Ramp",
     "Reference",
     "RotationRun",
     "RunData",
+    "StepIdentification",
     "StraightRun",
     "TrackCalibration",
     "TwinFit",
+    "WheelModel",
+    "WheelStep",
+    "WheelStepScript",
     "YawAudit",
     "braking_distance",
     "breakaway_bracket",
@@ -129,13 +151,18 @@ __all__ = [
     "dead_reckon",
     "encoder_resolution",
     "find_ramps",
+    "find_steps",
     "fit_segment",
     "fit_twin",
+    "fit_wheel",
+    "identify_steps",
     "imu_profile",
     "noise_sigma",
     "odometry_yaw_rate",
     "rotation_matrix",
     "rotation_run",
+    "step_angle",
+    "step_plan",
     "straight_run",
     "wheel_angle_rad",
     "wheel_separation",

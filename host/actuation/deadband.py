@@ -9,10 +9,21 @@ deadband, which drops small commands):
     duty = sign(omega) min(1, d_b + (1 - d_b) g |omega| / omega_max)   otherwise
 
 with omega_0 the zero threshold, d_b the breakaway duty of that wheel in that direction,
-g that wheel's gain trim and omega_max the wheel speed at duty 1. A duty of 0 brakes (the
-TB6612FNG's short brake, see :mod:`jackson.host.actuation.tb6612`). The gain trim scales
-only the part above breakaway, so it corrects a wheel that is faster or slower at speed
-without moving its start-up point.
+g the gain trim of that wheel in that direction and omega_max the wheel speed at duty 1. A
+duty of 0 brakes (the TB6612FNG's short brake, see :mod:`jackson.host.actuation.tb6612`). The
+gain trim scales only the part above breakaway, so it corrects a wheel that is faster or
+slower at speed without moving its start-up point.
+
+With a first-order motor model whose steady state is omega = K (d - d_b) (K the wheel's
+speed per unit duty above breakaway in that direction), the map gives omega = K (1 - d_b) g
+omega_cmd / omega_max, so every wheel and direction reaches the commanded speed when
+g = omega_max / (K (1 - d_b)): a faster wheel gets a smaller gain. The step-response
+identification (:mod:`jackson.calibration.procedures.step`) computes these gains, taking the
+slowest wheel and direction as the reference (gain 1, omega_max its speed at duty 1).
+
+A wheel's gain holds for both directions unless a reverse gain is given
+(``gain_reverse_left`` / ``gain_reverse_right`` None: as forward), so a configuration of one
+gain per wheel behaves as before.
 """
 
 from __future__ import annotations
@@ -24,11 +35,12 @@ from typing import Literal
 NOMINAL_MAX_WHEEL_RAD_S = 100.0 * 2.0 * math.pi / 60.0  # [rad/s] the 100 RPM gear motor
 
 Side = Literal["left", "right"]
+Direction = Literal["forward", "reverse"]
 
 
 @dataclass(frozen=True)
 class DeadbandConfig:
-    """Breakaway duties, full-duty wheel speed, zero threshold and gain trim.
+    """Breakaway duties, full-duty wheel speed, zero threshold and gain trims.
 
     Attributes
     ----------
@@ -45,9 +57,15 @@ class DeadbandConfig:
     zero_threshold_rad_s : float
         omega_0: commands with |omega| at or below it brake [rad/s].
     gain_left : float
-        Left gain trim g (dimensionless, > 0).
+        Left gain trim g driving forward, and backward unless ``gain_reverse_left``
+        is given (dimensionless, > 0).
     gain_right : float
-        Right gain trim g (dimensionless, > 0).
+        Right gain trim g driving forward, and backward unless ``gain_reverse_right``
+        is given (dimensionless, > 0).
+    gain_reverse_left : float or None
+        Left gain trim g driving backward (> 0); None: ``gain_left``.
+    gain_reverse_right : float or None
+        Right gain trim g driving backward (> 0); None: ``gain_right``.
     """
 
     forward_left: float = 0.10
@@ -58,6 +76,8 @@ class DeadbandConfig:
     zero_threshold_rad_s: float = 0.05
     gain_left: float = 1.0
     gain_right: float = 1.0
+    gain_reverse_left: float | None = None
+    gain_reverse_right: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("forward_left", "reverse_left", "forward_right", "reverse_right"):
@@ -68,11 +88,76 @@ class DeadbandConfig:
             value = getattr(self, name)
             if not 0.0 < value < math.inf:
                 raise ValueError(f"DeadbandConfig.{name} must be finite and > 0, got {value}")
+        for name in ("gain_reverse_left", "gain_reverse_right"):
+            value = getattr(self, name)
+            if value is not None and not 0.0 < value < math.inf:
+                raise ValueError(
+                    f"DeadbandConfig.{name} must be finite and > 0 or None, got {value}"
+                )
         if not 0.0 <= self.zero_threshold_rad_s < math.inf:
             raise ValueError(
                 f"DeadbandConfig.zero_threshold_rad_s must be finite and >= 0, "
                 f"got {self.zero_threshold_rad_s}"
             )
+
+    def gain(self, side: Side, direction: Direction) -> float:
+        """The gain trim g of one wheel in one direction.
+
+        Parameters
+        ----------
+        side : Side
+            ``"left"`` or ``"right"``.
+        direction : Direction
+            ``"forward"`` or ``"reverse"``.
+
+        Returns
+        -------
+        float
+            g (dimensionless, > 0).
+
+        Raises
+        ------
+        ValueError
+            If ``side`` or ``direction`` is unknown.
+        """
+        if side == "left":
+            forward, reverse = self.gain_left, self.gain_reverse_left
+        elif side == "right":
+            forward, reverse = self.gain_right, self.gain_reverse_right
+        else:
+            raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+        if direction == "forward":
+            return forward
+        if direction == "reverse":
+            return forward if reverse is None else reverse
+        raise ValueError(f"direction must be 'forward' or 'reverse', got {direction!r}")
+
+    def breakaway(self, side: Side, direction: Direction) -> float:
+        """The breakaway duty d_b of one wheel in one direction.
+
+        Parameters
+        ----------
+        side : Side
+            ``"left"`` or ``"right"``.
+        direction : Direction
+            ``"forward"`` or ``"reverse"``.
+
+        Returns
+        -------
+        float
+            d_b in [0, 1).
+
+        Raises
+        ------
+        ValueError
+            If ``side`` or ``direction`` is unknown.
+        """
+        if side not in ("left", "right"):
+            raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+        if direction not in ("forward", "reverse"):
+            raise ValueError(f"direction must be 'forward' or 'reverse', got {direction!r}")
+        value: float = getattr(self, f"{direction}_{side}")
+        return value
 
 
 def wheel_duty(omega_cmd_rad_s: float, side: Side, cfg: DeadbandConfig) -> float:
@@ -86,7 +171,8 @@ def wheel_duty(omega_cmd_rad_s: float, side: Side, cfg: DeadbandConfig) -> float
     omega_cmd_rad_s : float
         Wheel speed command [rad/s], positive forward.
     side : Side
-        ``"left"`` or ``"right"``: which breakaway duties and gain apply.
+        ``"left"`` or ``"right"``: which breakaway duties and gains apply (those of the
+        command's direction).
     cfg : DeadbandConfig
         The wheel's calibration.
 
@@ -101,9 +187,11 @@ def wheel_duty(omega_cmd_rad_s: float, side: Side, cfg: DeadbandConfig) -> float
         If ``side`` is neither wheel or the command is NaN or infinite.
     """
     if side == "left":
-        forward, reverse, gain = cfg.forward_left, cfg.reverse_left, cfg.gain_left
+        forward, reverse = cfg.forward_left, cfg.reverse_left
+        gain_forward, gain_reverse = cfg.gain_left, cfg.gain_reverse_left
     elif side == "right":
-        forward, reverse, gain = cfg.forward_right, cfg.reverse_right, cfg.gain_right
+        forward, reverse = cfg.forward_right, cfg.reverse_right
+        gain_forward, gain_reverse = cfg.gain_right, cfg.gain_reverse_right
     else:
         raise ValueError(f"side must be 'left' or 'right', got {side!r}")
     if not math.isfinite(omega_cmd_rad_s):
@@ -111,7 +199,11 @@ def wheel_duty(omega_cmd_rad_s: float, side: Side, cfg: DeadbandConfig) -> float
     magnitude = abs(omega_cmd_rad_s)
     if magnitude <= cfg.zero_threshold_rad_s:
         return 0.0
-    breakaway = forward if omega_cmd_rad_s > 0.0 else reverse
+    if omega_cmd_rad_s > 0.0:
+        breakaway, gain = forward, gain_forward
+    else:
+        breakaway = reverse
+        gain = gain_forward if gain_reverse is None else gain_reverse
     duty = min(1.0, breakaway + (1.0 - breakaway) * gain * magnitude / cfg.max_wheel_rad_s)
     return math.copysign(duty, omega_cmd_rad_s)
 
