@@ -43,6 +43,15 @@ class MotorSpec:
     deadband_duty: Sides = Sides(0.10, 0.10)  # static breakaway duty at the battery voltage
     gain: Sides = Sides(1.0, 1.0)  # left/right asymmetry of the whole drive
     wheel_inertia_kg_m2: float = 2.0e-4  # wheel plus reflected rotor inertia
+    ratings_net_of_friction: bool = False  # no_load_rpm, stall_torque_nm measured at the wheel
+    running_friction_fraction: float = 1.0  # Coulomb (running) / breakaway gearbox friction
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.running_friction_fraction <= 1.0:
+            raise ValueError(
+                "motor.running_friction_fraction: expected a number in (0, 1], "
+                f"got {self.running_friction_fraction}"
+            )
 
     @property
     def no_load_rad_s(self) -> float:
@@ -66,6 +75,9 @@ class WiringSpec:
     interlock: str = "pca9685_oe"
 
 
+MAX_GYRO_DRIFT = 0.01  # [rad/s/sqrt(s)] far above any MEMS gyro's bias instability
+
+
 @dataclass(frozen=True)
 class ImuSpec:
     """MPU-6050 error model, Eq. 7-8: a = a_true + b_a + eta_a, omega = omega_true + b_w + eta_w."""
@@ -77,6 +89,108 @@ class ImuSpec:
     gravity_scale: float = 1.0  # the paper's sensor read 9.299 at rest: 0.9479
     yaw_scale: float = 1.0  # gyro z scale error
     present: bool = True
+    gyro_bias_drift_rad_s_per_sqrt_s: float = 0.0  # random walk of b_w, each axis
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.gyro_bias_drift_rad_s_per_sqrt_s <= MAX_GYRO_DRIFT:
+            raise ValueError(
+                "imu.gyro_bias_drift_rad_s_per_sqrt_s: expected a number in "
+                f"[0, {MAX_GYRO_DRIFT:g}], got {self.gyro_bias_drift_rad_s_per_sqrt_s}"
+            )
+
+
+def _check_range(section: str, values: dict[str, tuple[float, float]], obj: object) -> None:
+    """ValueError naming the first field of ``obj`` outside its closed range."""
+    for name, (lo, hi) in values.items():
+        v = getattr(obj, name)
+        if not lo <= v <= hi:
+            raise ValueError(f"{section}.{name}: expected a number in [{lo:g}, {hi:g}], got {v}")
+
+
+TYRE_RANGES = {
+    "longitudinal_compliance": (0.0, 10.0),
+    "cornering_compliance_rad": (0.0, 10.0),
+    "scrub_arm_m": (0.0, 0.1),
+    "scrub_saturation_curvature_1_m": (0.0, 1000.0),
+}
+
+
+@dataclass(frozen=True)
+class TyreSpec:
+    """Tyre compliance and scrub (all 0: rigid tyres that roll without slip, today's twin).
+
+    Attributes
+    ----------
+    longitudinal_compliance : float
+        Longitudinal creep: the slip ratio ``(omega r - v) / v`` per unit of the traction
+        force over the wheel load, ``kappa = c F_x / N`` (the inverse of the tyre's
+        normalised longitudinal stiffness) [1]. 0: no creep.
+    cornering_compliance_rad : float
+        Lateral slip: the slip angle of the axle per unit of the lateral force over the axle
+        load, ``alpha = c F_y / N`` (the inverse of the normalised cornering stiffness)
+        [rad]. 0: no side slip.
+    scrub_arm_m : float
+        Tyre scrub and caster drag in yaw: a moment of at most ``mu_d (N_L + N_R)
+        scrub_arm_m`` against the yaw rate, which the wheels must overcome through their
+        creep [m]. 0: no yaw friction.
+    scrub_saturation_curvature_1_m : float
+        Path curvature of a wheel at which its scrub reaches 76 % (tanh 1) of its full
+        share [1/m]; 0: the full moment at any turn (Coulomb).
+    """
+
+    longitudinal_compliance: float = 0.0
+    cornering_compliance_rad: float = 0.0
+    scrub_arm_m: float = 0.0
+    scrub_saturation_curvature_1_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_range("tyre", TYRE_RANGES, self)
+
+
+VARIATION_RANGES = {
+    "battery_v_sigma": (0.0, 1.0),
+    "wheel_radius_sigma": (0.0, 0.05),
+    "encoder_scale_sigma": (0.0, 0.05),
+    "gyro_bias_sigma_rad_s": (0.0, 0.1),
+    "floor_mu_sigma": (0.0, 0.3),
+    "floor_patch_size_m": (0.01, 5.0),
+}
+
+
+@dataclass(frozen=True)
+class VariationSpec:
+    """Per-trial variation, drawn from the twin's seed at the start of each trial (all sigmas
+    0: every trial the same robot on the same floor, today's twin). Each draw is normal,
+    truncated at 3 sigma, one per trial (per wheel where it says so).
+
+    Attributes
+    ----------
+    battery_v_sigma : float
+        Supply voltage of the motor rail around ``motor.battery_v`` [V]; the drive torque
+        follows it, the gearbox friction does not (a low battery raises the breakaway duty).
+    wheel_radius_sigma : float
+        Effective rolling radius of each wheel, relative (0.005: 0.5 % SD) [1].
+    encoder_scale_sigma : float
+        Encoder mounting: each encoder's counts per wheel revolution, relative [1].
+    gyro_bias_sigma_rad_s : float
+        Turn-on gyro bias added to ``imu.gyro_bias_rad_s``, each axis [rad/s].
+    floor_mu_sigma : float
+        Friction patches: the floor's mu_s and mu_d times a smooth random field of mean 1
+        and this SD, seeded per trial [1].
+    floor_patch_size_m : float
+        SD of the Gaussian kernel that smooths the field (patches about twice this
+        across) [m].
+    """
+
+    battery_v_sigma: float = 0.0
+    wheel_radius_sigma: float = 0.0
+    encoder_scale_sigma: float = 0.0
+    gyro_bias_sigma_rad_s: float = 0.0
+    floor_mu_sigma: float = 0.0
+    floor_patch_size_m: float = 0.3
+
+    def __post_init__(self) -> None:
+        _check_range("variation", VARIATION_RANGES, self)
 
 
 @dataclass(frozen=True)
@@ -111,6 +225,15 @@ class RobotSpec:
     wiring: WiringSpec = field(default_factory=WiringSpec)
     imu: ImuSpec = field(default_factory=ImuSpec)
     lidar: LidarMount = field(default_factory=LidarMount)
+    tyre: TyreSpec = field(default_factory=TyreSpec)
+    variation: VariationSpec = field(default_factory=VariationSpec)
+
+    def __post_init__(self) -> None:
+        if self.variation.battery_v_sigma * 3.0 >= self.motor.battery_v:
+            raise ValueError(
+                "variation.battery_v_sigma: 3 sigma must stay below motor.battery_v "
+                f"({self.motor.battery_v:g}), got {self.variation.battery_v_sigma:g}"
+            )
 
 
 @dataclass(frozen=True)
@@ -180,6 +303,10 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         wheel_inertia_kg_m2=m.number(
             "wheel_inertia_kg_m2", dm.wheel_inertia_kg_m2, 0, lo_open=True
         ),
+        ratings_net_of_friction=m.boolean("ratings_net_of_friction", dm.ratings_net_of_friction),
+        running_friction_fraction=m.number(
+            "running_friction_fraction", dm.running_friction_fraction, 0, 1.0, lo_open=True
+        ),
     )
     m.finish()
     w = r.section("wiring")
@@ -223,6 +350,12 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         gravity_scale=i.number("gravity_scale", di.gravity_scale, 0, lo_open=True),
         yaw_scale=i.number("yaw_scale", di.yaw_scale, 0, lo_open=True),
         present=i.boolean("present", di.present),
+        gyro_bias_drift_rad_s_per_sqrt_s=i.number(
+            "gyro_bias_drift_rad_s_per_sqrt_s",
+            di.gyro_bias_drift_rad_s_per_sqrt_s,
+            0,
+            MAX_GYRO_DRIFT,
+        ),
     )
     i.finish()
     li = r.section("lidar")
@@ -236,6 +369,25 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         mount_yaw_rad=li.number("mount_yaw_rad", dl.mount_yaw_rad),
     )
     li.finish()
+    ty = r.section("tyre")
+    tyre = TyreSpec(
+        **{k: ty.number(k, getattr(d.tyre, k), lo, hi) for k, (lo, hi) in TYRE_RANGES.items()}
+    )
+    ty.finish()
+    va = r.section("variation")
+    variation = VariationSpec(
+        **{
+            k: va.number(k, getattr(d.variation, k), lo, hi)
+            for k, (lo, hi) in VARIATION_RANGES.items()
+        }
+    )
+    if variation.battery_v_sigma * 3.0 >= motor.battery_v:
+        raise va.fail(
+            "battery_v_sigma",
+            f"3 sigma must stay below motor.battery_v ({motor.battery_v:g}), "
+            f"got {variation.battery_v_sigma:g}",
+        )
+    va.finish()
     ex = r.vector("envelope_x_m", d.envelope_x_m, 2)
     ey = r.vector("envelope_y_m", d.envelope_y_m, 2)
     for key, (lo, hi) in (("envelope_x_m", ex), ("envelope_y_m", ey)):
@@ -261,6 +413,8 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         wiring=wiring,
         imu=imu,
         lidar=lidar,
+        tyre=tyre,
+        variation=variation,
     )
     r.finish()
     return spec

@@ -7,17 +7,41 @@ Per physics step of ``dt`` (semi-implicit, stable at any friction):
 
 1. **Motor torque** at each wheel shaft from the TB6612 output (signed supply fraction ``drive``
    and the fraction of time the windings are connected ``conn``): the linear torque-speed line
-   ``tau* = tau_stall * gain * drive * V_batt / V_nom - k_e * omega * conn`` with
-   ``k_e = tau_stall / omega_no_load``, reached through a first-order lag ``time_constant_s``
-   (integrated exactly for a constant input).
-2. **Gearbox stiction**: a wheel at rest stays locked while ``|tau| <= tau_c``, the torque of the
-   breakaway duty (``deadband_duty``); a turning wheel loses ``tau_c`` to Coulomb friction.
+   ``tau* = tau_d * drive - k_e * omega * conn`` with ``tau_d = tau_stall * gain * V_batt /
+   V_nom`` and ``k_e = tau_stall / omega_no_load``, reached through a first-order lag
+   ``time_constant_s`` (integrated exactly for a constant input). With
+   ``ratings_net_of_friction`` the ratings are those measured at the wheel, net of the gearbox's
+   running friction ``tau_r``: ``tau_d = tau_stall * gain * V_batt / V_nom / (1 - f d_b)``, so
+   a wheel at full duty and no load turns at ``omega_no_load * gain * V_batt / V_nom`` (a
+   datasheet's no-load speed is measured with the gearbox in it). A trial's supply voltage
+   (``variation.battery_v_sigma``) scales ``tau_d``, not the friction.
+2. **Gearbox stiction**: a wheel at rest stays locked while ``|tau| <= tau_c``, the breakaway
+   torque of the breakaway duty ``d_b`` (``deadband_duty``), ``tau_c = d_b tau_d``; a turning
+   wheel loses ``tau_r = f tau_c`` to Coulomb friction (``f = running_friction_fraction``, 1:
+   running friction equal to breakaway).
 3. **Longitudinal traction**: the ground forces ``F_L, F_R`` that make both contact slips
    ``omega_i r_i - (v_x -+ omega_z B/2)`` vanish at the end of the step solve a 2x2 system
    coupling wheel inertia, mass and yaw inertia; each is limited to ``mu_s N_i`` (sticking) or
    set to ``mu_d N_i`` against the slip (sliding). A rolling-resistance force acts at the caster.
+   With tyre creep (``tyre.longitudinal_compliance`` c) the slip at the end of the step is not
+   zero but the brush model's linear creep ``kappa v_ref = c F_i v_ref / N_i`` (``v_ref``
+   the larger of the wheel's rim and ground speeds, at least ``V_CREEP_MIN_M_S``): the same
+   system with ``c v_ref / (N_i dt)`` added to its diagonal.
 4. **Lateral grip**: the lateral force that cancels sideways velocity at the axle, limited by the
-   friction left in each wheel's cone ``sqrt((mu N)^2 - F_long^2)``.
+   friction left in each wheel's cone ``sqrt((mu N)^2 - F_long^2)``. With
+   ``tyre.cornering_compliance_rad`` c the axle keeps the slip angle ``alpha = c F_y / N``
+   (``F_y = -v_y / (dt / m + c max(|v_x|, V_CREEP_MIN_M_S) / N)``, implicit in ``v_y``).
+5. **Scrub**: ``tyre.scrub_arm_m`` a adds a yaw moment against the yaw rate, at most
+   ``a mu_d (N_L + N_R)`` (never more than stops the yaw in one step): the contact patches'
+   spin friction and the caster's drag. Saturated (Coulomb) at any turn, or with
+   ``tyre.scrub_saturation_curvature_1_m`` phi_s > 0 each wheel's share grows as
+   ``tanh(phi_i / phi_s)`` of its path curvature ``phi_i = |omega_z| / |v_i|`` (a rolling
+   tyre scrubs less than one pivoting on the spot: phi_i = 2/B there). With creep the wheels
+   give way to it, so a turning robot turns slower than its wheels say (a wider effective
+   track); with rigid tyres it only loads the motors.
+
+Friction patches (a :class:`~jackson.sim.world.FrictionField`) multiply mu_s and mu_d under
+each wheel, and so its traction limits and its share of the scrub.
 
 The centre of mass is at the axle centre (``base_footprint``), the caster carries
 ``caster_load_fraction`` of the weight. Collisions with walls and obstacles are pymunk's.
@@ -37,9 +61,11 @@ from dataclasses import dataclass
 import pymunk
 
 from jackson.protocol.messages import GRAVITY_M_S2  # the twin's g is the nominal one
-from jackson.sim.config import RobotSpec
+from jackson.sim.config import RobotSpec, Sides
+from jackson.sim.world import FrictionField
 
 _STICK_RAD_S = 1e-3  # a wheel slower than this may stick in its gearbox
+V_CREEP_MIN_M_S = 0.01  # [m/s] reference speed of the creep and slip-angle models near rest
 
 
 @dataclass(frozen=True)
@@ -59,26 +85,59 @@ class DiffDriveRobot:
 
     Attributes are named as in the module docstring; ``omega_l/omega_r`` are wheel speeds
     [rad/s], ``angle_l/angle_r`` integrated wheel angles [rad], ``tau_l/tau_r`` motor torques
-    at the wheel [N m].
+    at the wheel [N m], ``tau_c_*`` breakaway and ``tau_run_*`` running friction [N m].
+
+    Parameters
+    ----------
+    spec : RobotSpec
+        The robot file.
+    space : pymunk.Space
+        The world's space, which receives the chassis.
+    mu_static, mu_dynamic : float
+        The floor's friction coefficients.
+    battery_v : float or None
+        This trial's supply voltage [V] (None: ``spec.motor.battery_v``).
+    wheel_radius_m : Sides or None
+        This trial's effective wheel radii [m] (None: ``spec.wheel_radius_m``).
+    floor : FrictionField or None
+        This trial's friction patches (None: a uniform floor).
     """
 
     def __init__(
-        self, spec: RobotSpec, space: pymunk.Space, mu_static: float, mu_dynamic: float
+        self,
+        spec: RobotSpec,
+        space: pymunk.Space,
+        mu_static: float,
+        mu_dynamic: float,
+        *,
+        battery_v: float | None = None,
+        wheel_radius_m: Sides | None = None,
+        floor: FrictionField | None = None,
     ) -> None:
         self.spec = spec
         m = spec.motor
         self.mass = spec.mass_kg
         self.inertia = spec.inertia_kg_m2
         self.half_track = spec.wheel_separation_m / 2.0
-        self.r_l = spec.wheel_radius_m.left
-        self.r_r = spec.wheel_radius_m.right
+        radius = spec.wheel_radius_m if wheel_radius_m is None else wheel_radius_m
+        self.r_l = radius.left
+        self.r_r = radius.right
         self.j_w = m.wheel_inertia_kg_m2
         self.k_e = m.stall_torque_nm / m.no_load_rad_s  # [N m s/rad]
         v_ratio = m.battery_v / m.nominal_v
         self.tau_drive_l = m.stall_torque_nm * m.gain.left * v_ratio  # torque at drive = 1
         self.tau_drive_r = m.stall_torque_nm * m.gain.right * v_ratio
+        f_run = m.running_friction_fraction
+        if m.ratings_net_of_friction:  # the ratings are measured past the running friction
+            self.tau_drive_l /= 1.0 - f_run * m.deadband_duty.left
+            self.tau_drive_r /= 1.0 - f_run * m.deadband_duty.right
         self.tau_c_l = m.deadband_duty.left * self.tau_drive_l  # breakaway at the deadband duty
         self.tau_c_r = m.deadband_duty.right * self.tau_drive_r
+        self.tau_run_l = f_run * self.tau_c_l
+        self.tau_run_r = f_run * self.tau_c_r
+        if battery_v is not None and battery_v != m.battery_v:  # friction stays mechanical
+            self.tau_drive_l *= battery_v / m.battery_v
+            self.tau_drive_r *= battery_v / m.battery_v
         self.time_constant = m.time_constant_s
         n_wheel = self.mass * GRAVITY_M_S2 * (1.0 - spec.caster_load_fraction) / 2.0
         self.n_wheel = n_wheel
@@ -87,6 +146,17 @@ class DiffDriveRobot:
         )
         self.mu_s = mu_static
         self.mu_d = mu_dynamic
+        self.floor = floor
+        if floor is not None:  # read inline by step_forces, as FrictionField.factor does
+            self._cells = floor.cells
+            self._cells_n = len(floor.cells)
+            self._cells_per_m = floor.cells_per_m
+            self._cells_x0, self._cells_y0 = floor.origin_x_m, floor.origin_y_m
+        t = spec.tyre
+        self.creep = t.longitudinal_compliance
+        self.corner = t.cornering_compliance_rad
+        self.scrub_arm = t.scrub_arm_m
+        self.scrub_phi = t.scrub_saturation_curvature_1_m
 
         self.body = pymunk.Body(self.mass, self.inertia)
         (x0, x1), (y0, y1) = spec.envelope_x_m, spec.envelope_y_m
@@ -154,6 +224,9 @@ class DiffDriveRobot:
                 self.mu_s * self.n_wheel,
                 self.mu_d * self.n_wheel,
             )
+            self._creep_k = self.creep / (self.n_wheel * dt)  # slip per dt per N, per m/s
+            self._corner_k = self.corner / (2.0 * self.n_wheel)
+            self._i_dt = self.inertia / dt
             self._const_dt = dt
         return self._const
 
@@ -172,6 +245,7 @@ class DiffDriveRobot:
         r_l, r_r = self.r_l, self.r_r
         om_l, om_r = self.omega_l, self.omega_r
         tc_l, tc_r = self.tau_c_l, self.tau_c_r
+        tr_l, tr_r = self.tau_run_l, self.tau_run_r
         k_e = self.k_e
 
         # motor torque: first-order lag towards the torque-speed line
@@ -185,32 +259,68 @@ class DiffDriveRobot:
         free_l = abs(om_l) > _STICK_RAD_S or abs(tau_l) > tc_l
         free_r = abs(om_r) > _STICK_RAD_S or abs(tau_r) > tc_r
 
-        # caster rolling resistance, smooth through zero
+        # friction under each wheel
+        lim_s_l = lim_s_r = lim_s
+        lim_d_l = lim_d_r = lim_d
+        if self.floor is not None:  # FrictionField.factor under each wheel, inline
+            cells, n, per_m = self._cells, self._cells_n, self._cells_per_m
+            x0, y0, sh, ch = self._cells_x0, self._cells_y0, s * h, c * h
+            k_l = cells[math.floor((self.x - sh - x0) * per_m) % n][
+                math.floor((self.y + ch - y0) * per_m) % n
+            ]
+            k_r = cells[math.floor((self.x + sh - x0) * per_m) % n][
+                math.floor((self.y - ch - y0) * per_m) % n
+            ]
+            lim_s_l, lim_d_l = lim_s * k_l, lim_d * k_l
+            lim_s_r, lim_d_r = lim_s * k_r, lim_d * k_r
+
+        # caster rolling resistance, smooth through zero; tyre scrub against the yaw rate
         f_c = -self.f_caster * math.tanh(vx / 0.005)
         v_pred = vx + dt * f_c / m
-        net_l = tau_l - math.copysign(tc_l, om_l if om_l else tau_l)
-        net_r = tau_r - math.copysign(tc_r, om_r if om_r else tau_r)
+        wz_pred = wz
+        if self.scrub_arm > 0.0 and wz:
+            phi = self.scrub_phi
+            if phi > 0.0:  # the unsaturated share: each wheel's path curvature / phi_sat
+                w = abs(wz)
+                m_l = lim_d_l * math.tanh(w / (max(abs(vx - h * wz), V_CREEP_MIN_M_S) * phi))
+                m_r = lim_d_r * math.tanh(w / (max(abs(vx + h * wz), V_CREEP_MIN_M_S) * phi))
+                m_z = self.scrub_arm * (m_l + m_r)
+            else:
+                m_z = self.scrub_arm * (lim_d_l + lim_d_r)
+            stop = self._i_dt * abs(wz)
+            wz_pred = 0.0 if m_z >= stop else wz - math.copysign(m_z, wz) / self._i_dt
+        net_l = tau_l - math.copysign(tr_l, om_l if om_l else tau_l)
+        net_r = tau_r - math.copysign(tr_r, om_r if om_r else tau_r)
+        cl_l = cl_r = 0.0  # creep: slip per unit force, per dt
+        if self.creep > 0.0:  # reference speed: the larger of rim and ground speed
+            ref_l, g = abs(om_l * r_l), abs(v_pred - h * wz_pred)
+            ref_l = g if g > ref_l else ref_l
+            ref_r, g = abs(om_r * r_r), abs(v_pred + h * wz_pred)
+            ref_r = g if g > ref_r else ref_r
+            k = self._creep_k
+            cl_l = k * (ref_l if ref_l > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S)
+            cl_r = k * (ref_r if ref_r > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S)
         while True:
             w_l = om_l + dt * net_l / jw if free_l else 0.0
             w_r = om_r + dt * net_r / jw if free_r else 0.0
-            b1 = (w_l * r_l - (v_pred - h * wz)) / dt  # slip without ground forces, per dt
-            b2 = (w_r * r_r - (v_pred + h * wz)) / dt
-            a11 = (a_free_l if free_l else 0.0) + d
-            a22 = (a_free_r if free_r else 0.0) + d
+            b1 = (w_l * r_l - (v_pred - h * wz_pred)) / dt  # slip without ground forces, per dt
+            b2 = (w_r * r_r - (v_pred + h * wz_pred)) / dt
+            a11 = (a_free_l if free_l else 0.0) + d + cl_l
+            a22 = (a_free_r if free_r else 0.0) + d + cl_r
             det = a11 * a22 - o * o
             f_l = (b1 * a22 - o * b2) / det
             f_r = (a11 * b2 - o * b1) / det
-            slip_l = abs(f_l) > lim_s
-            slip_r = abs(f_r) > lim_s
+            slip_l = abs(f_l) > lim_s_l
+            slip_r = abs(f_r) > lim_s_r
             if slip_l and slip_r:
-                f_l = math.copysign(lim_d, f_l)
-                f_r = math.copysign(lim_d, f_r)
+                f_l = math.copysign(lim_d_l, f_l)
+                f_r = math.copysign(lim_d_r, f_r)
             elif slip_l:
-                f_l = math.copysign(lim_d, f_l)
-                f_r = max(-lim_s, min(lim_s, (b2 - o * f_l) / a22))
+                f_l = math.copysign(lim_d_l, f_l)
+                f_r = max(-lim_s_r, min(lim_s_r, (b2 - o * f_l) / a22))
             elif slip_r:
-                f_r = math.copysign(lim_d, f_r)
-                f_l = max(-lim_s, min(lim_s, (b1 - o * f_r) / a11))
+                f_r = math.copysign(lim_d_r, f_r)
+                f_l = max(-lim_s_l, min(lim_s_l, (b1 - o * f_r) / a11))
             # a locked wheel breaks free when the ground back-drives it past stiction
             unlock_l = not free_l and abs(tau_l - f_l * r_l) > tc_l
             unlock_r = not free_r and abs(tau_r - f_r * r_r) > tc_r
@@ -220,10 +330,10 @@ class DiffDriveRobot:
             free_r = free_r or unlock_r
 
         slipping = slip_l or slip_r
-        # wheels
+        # wheels: running friction while turning; stopped unless the torque breaks stiction
         if free_l:
             net = tau_l - f_l * r_l
-            new = om_l + dt * (net - math.copysign(tc_l, om_l if om_l else net)) / jw
+            new = om_l + dt * (net - math.copysign(tr_l, om_l if om_l else net)) / jw
             if om_l and new * om_l < 0 and abs(net) <= tc_l:
                 new = 0.0  # Coulomb friction stops the wheel; it does not reverse it
             om_l = new
@@ -231,7 +341,7 @@ class DiffDriveRobot:
             om_l = 0.0
         if free_r:
             net = tau_r - f_r * r_r
-            new = om_r + dt * (net - math.copysign(tc_r, om_r if om_r else net)) / jw
+            new = om_r + dt * (net - math.copysign(tr_r, om_r if om_r else net)) / jw
             if om_r and new * om_r < 0 and abs(net) <= tc_r:
                 new = 0.0
             om_r = new
@@ -243,11 +353,16 @@ class DiffDriveRobot:
 
         # chassis: longitudinal and yaw from the wheel forces, lateral grip at the axle
         vx_new = vx + dt * (f_l + f_r + f_c) / m
-        wz_new = wz + dt * (f_r - f_l) * h / self.inertia
-        f_lat = -m * vy / dt
-        cap = _cone(lim_s, f_l) + _cone(lim_s, f_r)
+        wz_new = wz_pred + dt * (f_r - f_l) * h / self.inertia
+        if self.corner > 0.0:  # the slip angle the lateral force needs, implicit in v_y
+            ref = abs(vx)
+            ref = ref if ref > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S
+            f_lat = -vy / (dt / m + self._corner_k * ref)
+        else:
+            f_lat = -m * vy / dt
+        cap = _cone(lim_s_l, f_l) + _cone(lim_s_r, f_r)
         if abs(f_lat) > cap:
-            f_lat = math.copysign(_cone(lim_d, f_l) + _cone(lim_d, f_r), f_lat)
+            f_lat = math.copysign(_cone(lim_d_l, f_l) + _cone(lim_d_r, f_r), f_lat)
             slipping = True
         self.slipping = slipping
         vy_new = vy + dt * f_lat / m

@@ -4,7 +4,10 @@ Encoders are quantised at the robot's *true* ticks per revolution (which the hos
 differently). The IMU follows Eq. 7-8 of the paper, a = a_true + b_a + eta_a and
 omega = omega_true + b_omega + eta_omega, with white noise of the configured sigma per
 telemetry sample, gravity on z with an optional scale error, and quantisation at the configured
-MPU-6050 sensitivity; the result is the 14 register bytes 0x3B..0x48 the firmware reads.
+MPU-6050 sensitivity; the result is the 14 register bytes 0x3B..0x48 the firmware reads. The gyro
+bias b_omega may drift as a random walk, ``b += sigma_d sqrt(dt) N(0, 1)`` per axis between
+samples (``imu.gyro_bias_drift_rad_s_per_sqrt_s`` = sigma_d): after T seconds its SD is
+sigma_d sqrt(T).
 """
 
 from __future__ import annotations
@@ -32,20 +35,65 @@ def _lsb(value: float, scale: float) -> int:
 
 
 class ImuModel:
-    """Turns true body-frame specific force and rate into MPU-6050 register values."""
+    """Turns true body-frame specific force and rate into MPU-6050 register values.
 
-    def __init__(self, spec: ImuSpec, rng: np.random.Generator) -> None:
+    Parameters
+    ----------
+    spec : ImuSpec
+        The error model (its ``gyro_bias_rad_s`` is the bias at the start).
+    rng : numpy.random.Generator
+        White noise.
+    drift_rng : numpy.random.Generator or None
+        The bias random walk's steps (needed when the spec has a drift).
+
+    Attributes
+    ----------
+    gyro_bias_rad_s : tuple of float
+        The gyro bias now, xyz [rad/s].
+    """
+
+    def __init__(
+        self,
+        spec: ImuSpec,
+        rng: np.random.Generator,
+        drift_rng: np.random.Generator | None = None,
+    ) -> None:
         self.spec = spec
         self.rng = rng
         self.accel_fs = 0
         self.gyro_fs = 0
         self._noise: list[float] = []  # drawn in blocks: the same stream as one draw per sample
+        self.gyro_bias_rad_s = spec.gyro_bias_rad_s
+        self._drift = spec.gyro_bias_drift_rad_s_per_sqrt_s
+        if self._drift > 0.0 and drift_rng is None:
+            raise ValueError("imu.gyro_bias_drift_rad_s_per_sqrt_s: needs a drift_rng")
+        self._drift_rng = drift_rng
+        self._steps: list[float] = []
+
+    def drift(self, elapsed_s: float) -> None:
+        """Let the gyro bias walk for ``elapsed_s`` (nothing without a drift).
+
+        Parameters
+        ----------
+        elapsed_s : float
+            Time since the previous call [s].
+        """
+        if self._drift <= 0.0 or elapsed_s <= 0.0:
+            return
+        if len(self._steps) < 3:
+            assert self._drift_rng is not None
+            self._steps = self._drift_rng.standard_normal(3 * 256).tolist()[::-1]
+        pop = self._steps.pop
+        k = self._drift * math.sqrt(elapsed_s)
+        bx, by, bz = self.gyro_bias_rad_s
+        self.gyro_bias_rad_s = (bx + k * pop(), by + k * pop(), bz + k * pop())
 
     def sample(
         self, accel_body: tuple[float, float], yaw_rate: float
     ) -> tuple[tuple[int, int, int], int, tuple[int, int, int]]:
         """(accel LSB xyz, temperature raw, gyro LSB xyz) for one telemetry sample."""
         s = self.spec
+        bias = self.gyro_bias_rad_s
         if len(self._noise) < 6:
             self._noise = self.rng.standard_normal(6 * 256).tolist()[::-1]
         pop = self._noise.pop
@@ -59,9 +107,7 @@ class ImuModel:
             for i in range(3)
         )
         gyro = tuple(
-            _lsb(
-                w_true[i] + s.gyro_bias_rad_s[i] + s.gyro_noise_sigma_rad_s * noise[3 + i], g_scale
-            )
+            _lsb(w_true[i] + bias[i] + s.gyro_noise_sigma_rad_s * noise[3 + i], g_scale)
             for i in range(3)
         )
         return (accel[0], accel[1], accel[2]), TEMP_RAW_AT_25C, (gyro[0], gyro[1], gyro[2])

@@ -5,10 +5,16 @@ forces (:mod:`jackson.sim.robot`) and lets pymunk integrate and resolve collisio
 values for the MCU are read at telemetry instants; the IMU sample is the mean specific force
 and yaw rate over the steps since the previous read, as the firmware's averaging of its 100 Hz
 samples gives. Motor commands take effect after the robot's actuation latency.
+
+A trial is one ``Twin``: at its start it draws the robot file's per-trial variation
+(``variation:``, :func:`draw_trial`) from its seed, on random streams of their own, so the
+sensor noise of a seed stays the same whether or not variation is on, each varied quantity
+keeps its draw when another is switched on, and one seed reproduces a trial bit for bit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -18,15 +24,117 @@ import numpy as np
 import pymunk
 from numpy.typing import NDArray
 
-from jackson.sim.config import ConfigError, RobotSpec, WorldSpec
+from jackson.sim.config import ConfigError, RobotSpec, Sides, WorldSpec
 from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 from jackson.sim.mcu import SensorSample
 from jackson.sim.robot import DiffDriveRobot, WheelDrive
 from jackson.sim.sensors import ImuModel, encoder_counts
-from jackson.sim.world import World
+from jackson.sim.world import FrictionField, World
 
 PHYSICS_HZ = 200
 CONTACT_MARGIN_M = 0.05  # pymunk takes over within this distance of an obstacle
+VARIATION_STREAM = 0x7472_6961  # keys the per-trial streams apart from the seed's noise stream
+TRUNCATE_SIGMA = 3.0  # per-trial draws are normal, truncated at this many sigma
+
+
+@dataclass(frozen=True)
+class TrialConditions:
+    """What the robot and the floor are in one trial (the robot file's values when its
+    ``variation`` sigmas are 0).
+
+    Attributes
+    ----------
+    battery_v : float
+        Motor supply voltage [V].
+    wheel_radius_m : Sides
+        Effective rolling radius of each wheel [m].
+    encoder_scale : Sides
+        Factor on each encoder's ticks per revolution [1].
+    gyro_bias_rad_s : tuple of float
+        Gyro bias at the start, xyz [rad/s].
+    floor : FrictionField or None
+        Friction patches (None: a uniform floor).
+    """
+
+    battery_v: float
+    wheel_radius_m: Sides
+    encoder_scale: Sides
+    gyro_bias_rad_s: tuple[float, float, float]
+    floor: FrictionField | None
+
+
+def trial_stream(seed: int, index: int) -> np.random.Generator:
+    """The random stream of one per-trial quantity: independent of the seed's noise stream
+    (``default_rng(seed)``) and of the other quantities' streams.
+
+    Parameters
+    ----------
+    seed : int
+        The twin's seed (>= 0).
+    index : int
+        Which quantity: 0 supply, 1 wheel radii, 2 encoders, 3 gyro bias, 4 floor, 5 bias walk.
+
+    Returns
+    -------
+    numpy.random.Generator
+        Its generator.
+    """
+    return np.random.default_rng([seed, VARIATION_STREAM, index])
+
+
+def _normal(seed: int, index: int, n: int) -> list[float]:
+    z = np.clip(trial_stream(seed, index).standard_normal(n), -TRUNCATE_SIGMA, TRUNCATE_SIGMA)
+    return [float(v) for v in z]
+
+
+def draw_trial(
+    robot: RobotSpec, seed: int, origin: tuple[float, float] = (0.0, 0.0)
+) -> TrialConditions:
+    """Draw one trial's conditions from the robot file's ``variation`` and a seed.
+
+    Parameters
+    ----------
+    robot : RobotSpec
+        The robot file.
+    seed : int
+        The trial's seed (>= 0).
+    origin : tuple of float
+        Where the friction field's cell (0, 0) starts (the start position) [m].
+
+    Returns
+    -------
+    TrialConditions
+        The draws; a quantity whose sigma is 0 keeps the robot file's value, drawn from nothing.
+    """
+    v = robot.variation
+    battery_v = robot.motor.battery_v
+    if v.battery_v_sigma > 0.0:
+        battery_v += v.battery_v_sigma * _normal(seed, 0, 1)[0]
+    radius = robot.wheel_radius_m
+    if v.wheel_radius_sigma > 0.0:
+        zl, zr = _normal(seed, 1, 2)
+        radius = Sides(
+            radius.left * (1.0 + v.wheel_radius_sigma * zl),
+            radius.right * (1.0 + v.wheel_radius_sigma * zr),
+        )
+    scale = Sides(1.0, 1.0)
+    if v.encoder_scale_sigma > 0.0:
+        zl, zr = _normal(seed, 2, 2)
+        scale = Sides(1.0 + v.encoder_scale_sigma * zl, 1.0 + v.encoder_scale_sigma * zr)
+    bias = robot.imu.gyro_bias_rad_s
+    if v.gyro_bias_sigma_rad_s > 0.0:
+        z = _normal(seed, 3, 3)
+        bias = (
+            bias[0] + v.gyro_bias_sigma_rad_s * z[0],
+            bias[1] + v.gyro_bias_sigma_rad_s * z[1],
+            bias[2] + v.gyro_bias_sigma_rad_s * z[2],
+        )
+    floor = None
+    if v.floor_mu_sigma > 0.0:
+        floor = FrictionField.random(
+            trial_stream(seed, 4), v.floor_mu_sigma, v.floor_patch_size_m, origin
+        )
+    return TrialConditions(battery_v, radius, scale, bias, floor)
 
 
 class Truth(NamedTuple):
@@ -87,9 +195,18 @@ class Twin:
         self.steps = 0
         self.rng = np.random.default_rng(seed)
         self.world = World(world)
-        self.robot = DiffDriveRobot(robot, self.world.space, world.mu_static, world.mu_dynamic)
-        self.robot.shape.collision_type = 1
         x0, y0, yaw0 = world.start_pose
+        self.trial = trial = draw_trial(robot, seed, (x0, y0))
+        self.robot = DiffDriveRobot(
+            robot,
+            self.world.space,
+            world.mu_static,
+            world.mu_dynamic,
+            battery_v=trial.battery_v,
+            wheel_radius_m=trial.wheel_radius_m,
+            floor=trial.floor,
+        )
+        self.robot.shape.collision_type = 1
         self.robot.place(x0, y0, yaw0)
         self._check_start()
         (ex0, ex1), (ey0, ey1) = robot.envelope_x_m, robot.envelope_y_m
@@ -97,7 +214,13 @@ class Twin:
         self._free_budget = -1.0  # metres the robot may move before clearance is checked again
         self._recheck = 0
         self.start_xy = (x0, y0)
-        self.imu = ImuModel(robot.imu, self.rng)
+        imu = robot.imu
+        if trial.gyro_bias_rad_s != imu.gyro_bias_rad_s:
+            imu = dataclasses.replace(imu, gyro_bias_rad_s=trial.gyro_bias_rad_s)
+        drift = trial_stream(seed, 5) if imu.gyro_bias_drift_rad_s_per_sqrt_s > 0.0 else None
+        self.imu = ImuModel(imu, self.rng, drift)
+        tpr, k = robot.ticks_per_rev, trial.encoder_scale
+        self._ticks = tpr if k == Sides(1.0, 1.0) else Sides(tpr.left * k.left, tpr.right * k.right)
         self._drive = (WheelDrive(), WheelDrive())  # coasting until commanded
         self._pending: deque[tuple[float, WheelDrive, WheelDrive]] = deque()
         self._acc_sum = [0.0, 0.0, 0.0]
@@ -278,13 +401,14 @@ class Twin:
     def sensors(self) -> SensorSample:
         """Encoder counts now, and the IMU sample averaged since the previous call."""
         r = self.robot
-        enc_l, enc_r = encoder_counts(r.angle_l, r.angle_r, self.robot_spec.ticks_per_rev)
+        enc_l, enc_r = encoder_counts(r.angle_l, r.angle_r, self._ticks)
         count = self.steps - self._acc_from_step
         n = count or 1
         accel = (self._acc_sum[0] / n, self._acc_sum[1] / n)
         yaw_rate = self._acc_sum[2] / n if count else r.wz
         self._acc_sum[:] = [0.0, 0.0, 0.0]
         self._acc_from_step = self.steps
+        self.imu.drift(count * self.dt)
         a, temp, g = self.imu.sample(accel, yaw_rate)
         return SensorSample(enc_l, enc_r, self.robot_spec.imu.present, a, temp, g)
 

@@ -1,8 +1,10 @@
-"""The twin's static world in pymunk: walls, cylinders, obstacles that appear on a trigger."""
+"""The twin's static world in pymunk: walls, cylinders, obstacles that appear on a trigger;
+and the floor's friction patches of one trial."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pymunk
@@ -82,3 +84,94 @@ class World:
     @staticmethod
     def distance(x0: float, y0: float, x1: float, y1: float) -> float:
         return math.hypot(x1 - x0, y1 - y0)
+
+
+FIELD_CELLS = 128  # the field is a periodic tile of FIELD_CELLS x FIELD_CELLS cells
+CELLS_PER_PATCH = 4  # cells per floor_patch_size_m
+
+
+@dataclass(frozen=True)
+class FrictionField:
+    """Friction patches: a periodic tile of factors on the floor's mu, nearest cell.
+
+    The tile repeats in x and y, so the field covers any floor; with the default 128 cells
+    of a quarter patch size each it is 32 patch sizes across (9.6 m at 0.3 m).
+
+    Attributes
+    ----------
+    cells : tuple of tuple of float
+        ``cells[i][j]`` multiplies mu at x in cell ``i``, y in cell ``j`` [1].
+    resolution_m : float
+        Cell size [m].
+    origin_x_m, origin_y_m : float
+        Lower-left corner of cell (0, 0) [m].
+    """
+
+    cells: tuple[tuple[float, ...], ...]
+    resolution_m: float
+    origin_x_m: float = 0.0
+    origin_y_m: float = 0.0
+
+    @staticmethod
+    def random(
+        rng: np.random.Generator,
+        sigma: float,
+        patch_size_m: float,
+        origin: tuple[float, float] = (0.0, 0.0),
+    ) -> FrictionField:
+        """White noise smoothed by a Gaussian kernel of SD ``patch_size_m`` (periodic),
+        scaled to mean 1 and SD ``sigma``, truncated at 3 sigma.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            Source of the noise (the trial's).
+        sigma : float
+            SD of the factor [1].
+        patch_size_m : float
+            SD of the smoothing kernel [m].
+        origin : tuple of float
+            Where cell (0, 0) starts (the start pose: the robot begins on a cell corner).
+
+        Returns
+        -------
+        FrictionField
+            The field.
+        """
+        # imported here: scipy's many objects would slow every full garbage collection of a
+        # twin that has no patches
+        from scipy.ndimage import gaussian_filter
+
+        noise = rng.standard_normal((FIELD_CELLS, FIELD_CELLS))
+        smooth = gaussian_filter(noise, CELLS_PER_PATCH, mode="wrap")
+        unit = (smooth - smooth.mean()) / smooth.std()
+        factor = 1.0 + sigma * np.clip(unit, -3.0, 3.0)
+        return FrictionField(
+            tuple(tuple(float(v) for v in row) for row in factor),
+            patch_size_m / CELLS_PER_PATCH,
+            origin[0],
+            origin[1],
+        )
+
+    def factor(self, x: float, y: float) -> float:
+        """The factor on mu at a point of the floor.
+
+        Parameters
+        ----------
+        x, y : float
+            World position [m].
+
+        Returns
+        -------
+        float
+            The multiplier of mu_s and mu_d there [1].
+        """
+        n, per_m = len(self.cells), self.cells_per_m
+        i = math.floor((x - self.origin_x_m) * per_m) % n
+        j = math.floor((y - self.origin_y_m) * per_m) % n
+        return self.cells[i][j]
+
+    @property
+    def cells_per_m(self) -> float:
+        """Cells per metre, 1 / ``resolution_m`` [1/m]."""
+        return 1.0 / self.resolution_m
