@@ -12,7 +12,12 @@ into the host YAML (showing the diff, keeping ``CONFIG.bak-<time>``, keeping the
     jackson calibrate characterise  a full-duty step and a brake: top speed, t90, stopping
     jackson calibrate twin-fit      runs and reference trajectories: effective r, B, yaw scale
 
-Errors a user can cause end as one line and exit status 2.
+On the twin, ``--twin-truth PATH`` (the file ``jackson sim --truth PATH`` writes) answers the
+tape measure and the turn count of ``encoders`` and ``track`` and is the reference of
+``twin-fit``, read for each run by its MCU time, from another process as well.
+
+Errors a user can cause end as one line and exit status 2; so does a result that is not a
+number (it is never printed or written as one).
 """
 
 from __future__ import annotations
@@ -52,7 +57,7 @@ class CalibrateCliError(Exception):
 # ------------------------------------------------------------------------- the parser
 
 
-def _common(p: argparse.ArgumentParser, *, record: bool = True) -> None:
+def _common(p: argparse.ArgumentParser, *, record: bool = True, truth: str = "") -> None:
     src = p.add_argument_group("where the runs come from")
     if record:
         src.add_argument("--port", help="record on the robot (or twin) at this serial port")
@@ -65,6 +70,14 @@ def _common(p: argparse.ArgumentParser, *, record: bool = True) -> None:
     src.add_argument(
         "--runs", nargs="+", type=Path, metavar="DIR", help="use these recorded run folders"
     )
+    if truth:
+        src.add_argument(
+            "--twin-truth",
+            type=Path,
+            metavar="PATH",
+            help=f"on the twin: take {truth} from the ground truth that jackson sim --truth "
+            "PATH writes (by each run's MCU time)",
+        )
     p.add_argument(
         "--config",
         type=Path,
@@ -92,7 +105,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         description="Drives straight runs (alternately forward and back) and asks for the "
         "distance measured on the floor after each; C_cal = C_0 d_odom / d_meas per wheel.",
     )
-    _common(e)
+    _common(e, truth="each run's distance (instead of a tape measure)")
     e.add_argument(
         "--count", type=positive_int, default=3, help="straight runs to record (default 3)"
     )
@@ -105,8 +118,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=positive_float,
         nargs="+",
         metavar="M",
-        help="measured floor distance [m]: one for all runs or one per run (else asked, or "
-        "read from each run's calibration.json)",
+        help="measured floor distance [m]: one for all runs or one per run (else "
+        "--twin-truth, asked, or read from each run's calibration.json)",
     )
 
     t = procs.add_parser(
@@ -115,7 +128,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         description="Turns the robot in place (alternately CCW and CW) by --turns by its gyro "
         "and asks how many turns it really made; B = r (dphi_R - dphi_L) / dtheta.",
     )
-    _common(t)
+    _common(t, truth="each run's true rotation (instead of counting turns)")
     t.add_argument("--count", type=positive_int, default=2, help="rotations to record (default 2)")
     t.add_argument(
         "--turns", type=positive_float, default=2.0, help="turns per rotation (default 2)"
@@ -128,8 +141,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=nonzero_float,
         nargs="+",
         metavar="N",
-        help="the true rotation in turns: one for all runs or one per run (else asked, or "
-        "read from each run's calibration.json)",
+        help="the true rotation in turns: one for all runs or one per run (else "
+        "--twin-truth, asked, or read from each run's calibration.json)",
     )
 
     i = procs.add_parser(
@@ -180,7 +193,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "against reference trajectories (CSV t_s,x_m,y_m,yaw_rad on the MCU clock). With "
         "--port it records an excitation run to fit later.",
     )
-    _common(f)
+    _common(f, truth="the reference trajectories (instead of --reference)")
     f.add_argument("--reference", nargs="+", type=Path, metavar="CSV", help="one reference per run")
     f.add_argument(
         "--heading",
@@ -283,7 +296,34 @@ def _load(folders: Sequence[Path]) -> list[proc.RunData]:
     return [runs.load_run(f) for f in folders]
 
 
+def _truth_references(
+    folders: Sequence[Path], data: Sequence[proc.RunData], path: Path
+) -> list[proc.Reference]:
+    """Each run's true poses from the twin's ground-truth file (``jackson sim --truth``)."""
+    from jackson.calibration import runs
+
+    truth = runs.load_twin_truth(path)
+    return [
+        runs.truth_reference(run, truth, runs.run_boot_ids(folder))
+        for folder, run in zip(folders, data, strict=True)
+    ]
+
+
+def _exclusive(args: argparse.Namespace, option: str, dest: str) -> None:
+    if args.twin_truth is not None and getattr(args, dest) is not None:
+        raise CalibrateCliError(f"give either {option} or --twin-truth, not both")
+
+
+def _finite(updates: Updates) -> None:
+    """Refuse a result that is not a number: it is neither printed nor written as one."""
+    for key, value in updates.items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, float) and not math.isfinite(v) for v in values):
+            raise CalibrateCliError(f"{key}: the result is not a number ({value}); nothing written")
+
+
 def _write(args: argparse.Namespace, updates: Updates) -> None:
+    _finite(updates)
     if args.write is None:
         print("(not written: add --write CONFIG to update the host YAML)")
         return
@@ -310,17 +350,25 @@ def cmd_encoders(args: argparse.Namespace) -> int:
     cfg = _config(args)
     if args.count < 1 or args.length <= 0 or args.speed <= 0:
         raise CalibrateCliError("--count, --length and --speed must be > 0")
+    _exclusive(args, "--distance", "distance")
+    truth = args.twin_truth
     if _source(args) == "record":
         given = _per_run(args.distance, args.count, "--distance")
         print(
             f"Mark the floor under the axle midpoint. The robot drives {args.count} x "
             f"{args.length:g} m, alternately forward and back; measure each run with a tape."
+            if truth is None
+            else f"The robot drives {args.count} x {args.length:g} m, alternately forward and "
+            f"back; the twin's ground truth {truth} measures each run."
         )
 
         def measure(folder: Path, index: int) -> float:
             print(f"run {index + 1} recorded in {folder}")
             if given is not None:
                 return given[index]
+            if truth is not None:
+                (ref,) = _truth_references([folder], _load([folder]), truth)
+                return runs.truth_distance_m(ref)
             return _ask_float(f"run {index + 1}: distance the axle midpoint moved [m]: ")
 
         folders = runs.record_straight_runs(
@@ -334,8 +382,13 @@ def cmd_encoders(args: argparse.Namespace) -> int:
     else:
         folders = list(args.runs)
     data = _load(folders)
-    given = _per_run(args.distance, len(data), "--distance")
-    distances = _measured(data, given, "measured_distance_m", "measured distance", "--distance")
+    if truth is not None:
+        refs = _truth_references(folders, data, truth)
+        distances = [runs.truth_distance_m(ref) for ref in refs]
+        print(f"measured distances: the twin's ground truth {truth}")
+    else:
+        given = _per_run(args.distance, len(data), "--distance")
+        distances = _measured(data, given, "measured_distance_m", "measured distance", "--distance")
     straight = [proc.straight_run(r, d) for r, d in zip(data, distances, strict=True)]
     g = cfg.robot
     res = proc.calibrate_encoders(straight, g)
@@ -368,17 +421,25 @@ def cmd_track(args: argparse.Namespace) -> int:
     cfg = _config(args)
     if args.count < 1 or args.turns <= 0 or args.rate <= 0:
         raise CalibrateCliError("--count, --turns and --rate must be > 0")
+    _exclusive(args, "--true-turns", "true_turns")
+    truth = args.twin_truth
     if _source(args) == "record":
         given = _per_run(args.true_turns, args.count, "--true-turns")
         print(
             f"Mark the robot's heading on the floor. It turns {args.count} x {args.turns:g} "
             "turns in place, alternately CCW and CW; count the turns it really makes."
+            if truth is None
+            else f"The robot turns {args.count} x {args.turns:g} turns in place, alternately "
+            f"CCW and CW; the twin's ground truth {truth} counts the turns."
         )
 
         def true_rotation(folder: Path, index: int) -> float:
             print(f"run {index + 1} recorded in {folder}")
             if given is not None:
                 return given[index] * TWO_PI
+            if truth is not None:
+                (ref,) = _truth_references([folder], _load([folder]), truth)
+                return runs.truth_rotation_rad(ref)
             turns = _ask_float(
                 f"run {index + 1}: turns the robot really made [{args.turns:g}]: ", args.turns
             )
@@ -395,10 +456,15 @@ def cmd_track(args: argparse.Namespace) -> int:
     else:
         folders = list(args.runs)
     data = _load(folders)
-    given = _per_run(args.true_turns, len(data), "--true-turns")
-    if given is not None:
-        given = [turns * TWO_PI for turns in given]
-    true_rad = _measured(data, given, "true_rotation_rad", "true rotation", "--true-turns")
+    if truth is not None:
+        refs = _truth_references(folders, data, truth)
+        true_rad = [runs.truth_rotation_rad(ref) for ref in refs]
+        print(f"true rotations: the twin's ground truth {truth}")
+    else:
+        given = _per_run(args.true_turns, len(data), "--true-turns")
+        if given is not None:
+            given = [turns * TWO_PI for turns in given]
+        true_rad = _measured(data, given, "true_rotation_rad", "true rotation", "--true-turns")
     rotations = [proc.rotation_run(r, rot) for r, rot in zip(data, true_rad, strict=True)]
     g = cfg.robot
     res = proc.calibrate_track(rotations, g)
@@ -565,6 +631,14 @@ def cmd_characterise(args: argparse.Namespace) -> int:
     rotation = cfg.imu.calibration.rotation if cfg.imu.calibration is not None else IDENTITY
     results = [proc.characterise(r, cfg.robot, rotation) for r in _load(folders)]
     for name, c in zip((Path(f).name for f in folders), results, strict=True):
+        missing = [k for k, v in dataclasses.asdict(c).items() if not math.isfinite(v)]
+        if missing:
+            raise CalibrateCliError(
+                f"run {name}: the accelerometer gives no {', '.join(missing)} (its samples "
+                "are missing, or the chassis speed it integrates never reached 90 % of the top "
+                "speed or never came back to zero)"
+            )
+    for name, c in zip((Path(f).name for f in folders), results, strict=True):
         print(f"{name}: duty step {c.duty:+.2f}")
         print(
             f"  top speed {c.top_speed_m_s:.4f} m/s (wheels {c.top_wheel_speed_left_rad_s:.3f} / "
@@ -596,29 +670,32 @@ def cmd_twin_fit(args: argparse.Namespace) -> int:
     from jackson.calibration import runs
 
     cfg = _config(args)
+    _exclusive(args, "--reference", "reference")
     if _source(args) == "record":
         folder = runs.record_excitation_run(_link(args, cfg), _out(args, cfg))
         print(f"recorded {folder}")
-        if not args.reference:
+        if not args.reference and args.twin_truth is None:
             print(f"fit it with: jackson calibrate twin-fit --runs {folder} --reference REF.csv")
             return 0
         folders = [folder]
     else:
         folders = list(args.runs)
-    if not args.reference or len(args.reference) != len(folders):
+    data = _load(folders)
+    if args.twin_truth is not None:
+        references = _truth_references(folders, data, args.twin_truth)
+        print(f"references: the twin's ground truth {args.twin_truth}")
+    elif not args.reference or len(args.reference) != len(folders):
         raise CalibrateCliError(
-            f"--reference: give one reference trajectory per run ({len(folders)})"
+            f"--reference: give one reference trajectory per run ({len(folders)}), or "
+            "--twin-truth on the twin"
         )
+    else:
+        references = [runs.load_reference(ref) for ref in args.reference]
     g = cfg.robot
     rotation = cfg.imu.calibration.rotation if cfg.imu.calibration is not None else IDENTITY
     segments = [
-        proc.fit_segment(
-            runs.load_run(f),
-            runs.load_reference(ref),
-            (g.ticks_per_rev_left, g.ticks_per_rev_right),
-            rotation,
-        )
-        for f, ref in zip(folders, args.reference, strict=True)
+        proc.fit_segment(run, ref, (g.ticks_per_rev_left, g.ticks_per_rev_right), rotation)
+        for run, ref in zip(data, references, strict=True)
     ]
     r0 = 0.5 * (g.wheel_radius_left_m + g.wheel_radius_right_m)
     fit = proc.fit_twin(

@@ -134,12 +134,26 @@ def _map_file(path: Path | None) -> Path | None:
     return path
 
 
+def _host_config(path: Path | None) -> Path | None:
+    """A host YAML the user named (``--config``), read and checked before anything runs."""
+    if path is None:
+        return None
+    from jackson.host.config import load_config
+
+    try:
+        load_config(path)
+    except ConfigError as exc:
+        raise CliError(f"--config: {one_line(exc)}") from exc
+    return path.resolve()  # the campaign's worker processes read it too
+
+
 def _cmd_map(args: argparse.Namespace) -> int:
     import datetime as dt
 
     from jackson.calibration.stage3 import mapping_spec, run_nav_trial
 
     _check_twin_files(args.robot, args.world)
+    config = _host_config(args.config)
     waypoints = None
     if args.waypoint:
         from jackson.host.control.navigate import poses
@@ -150,7 +164,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
             raise CliError(f"--waypoint: {exc}") from exc
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("maps") / f"{stamp}-{Path(args.world).stem}")
-    spec = mapping_spec(args.robot, args.world, args.seed, out)
+    spec = mapping_spec(args.robot, args.world, args.seed, out, config)
     if waypoints is not None:
         spec = dataclasses.replace(spec, goals=waypoints)
     r = run_nav_trial(spec)
@@ -180,6 +194,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
 
     world = args.world or "maze"
     _check_twin_files(args.robot, world)
+    config = _host_config(args.config)
     map_yaml = _map_file(args.map)
     goals = None
     if args.goal:
@@ -192,12 +207,12 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("runs") / f"{stamp}-maze")
     if map_yaml is None:
-        m = run_nav_trial(mapping_spec(args.robot, world, args.seed, out / "map"))
+        m = run_nav_trial(mapping_spec(args.robot, world, args.seed, out / "map", config))
         if not m["completed"]:
             print(f"jackson run maze: the mapping run stopped: {m['failure']}")
             return 1
         map_yaml = out / "map" / "built_map.yaml"
-    spec = NavTrialSpec(0, args.seed, args.robot, world, out / "nav", map_yaml)
+    spec = NavTrialSpec(0, args.seed, args.robot, world, out / "nav", map_yaml, config=config)
     if goals is not None:
         spec = dataclasses.replace(spec, goals=goals)
     r = run_nav_trial(spec)
@@ -245,9 +260,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise CliError("--map and --goal are for the maze")
     world = args.world or ("square_room" if args.mission == "square" else "open_floor")
     _check_twin_files(args.robot, world)
+    config = _host_config(args.config)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("runs") / f"{stamp}-{args.mission}")
-    r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out))
+    r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out, config))
     png = out / "trajectory.png"
     plot_trajectories(png, args.mission, [out])
     table = Table(title=f"{args.mission} on the twin ({args.robot}, {world}, seed {args.seed})")
@@ -280,6 +296,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     _check_twin_files(
         args.robot, args.world or ("square_room" if args.mission == "square" else "open_floor")
     )
+    config = _host_config(args.config)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     trials = args.trials if args.trials is not None else 10
     out = _out(args.out or Path("reports") / f"{stamp}-{args.mission}-x{trials}")
@@ -291,6 +308,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         world=args.world,
         seed=args.seed,
         workers=args.workers,
+        config=config,
     )
     done = sum(1 for r in results if r["completed"])
     print((out / "summary.md").read_text())
@@ -305,6 +323,7 @@ def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
 
     world = args.world or "maze"
     _check_twin_files(args.robot, world)
+    config = _host_config(args.config)
     map_yaml = _map_file(args.map)
     trials = args.trials if args.trials is not None else (10 if args.mission == "maze" else 15)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -318,6 +337,7 @@ def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
         world=world,
         seed=args.seed,
         workers=args.workers,
+        config=config,
         map_yaml=map_yaml,
     )
     done = sum(1 for r in results if r["completed"])
@@ -388,6 +408,13 @@ def build_parser() -> argparse.ArgumentParser:
         )
         p.add_argument("--world", help="world (default: square_room / open_floor / maze)")
         p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
+        p.add_argument(
+            "--config",
+            type=Path,
+            metavar="FILE",
+            help="host YAML the robot runs with, e.g. one jackson calibrate --write made "
+            "(default: the paper's robot)",
+        )
         p.add_argument("--out", type=Path, help="output folder")
         p.set_defaults(func=_cmd_run if name == "run" else _cmd_campaign)
 
@@ -420,6 +447,12 @@ def build_parser() -> argparse.ArgumentParser:
         "goal and back to the start)",
     )
     p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="host YAML the robot runs with (default: the paper's robot)",
+    )
     p.add_argument("--out", type=Path, help="output folder (default maps/<stamp>-<world>)")
     p.set_defaults(func=_cmd_map)
     p = sub.add_parser(

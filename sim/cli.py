@@ -1,7 +1,9 @@
 """``jackson sim``: start the twin and print where the host connects.
 
 It prints ``serial: PATH`` and ``i2c: unix:PATH`` first, in that order (tools read them), then
-``lidar: PATH`` (the emulated RPLIDAR's pty) unless the twin runs without a LiDAR.
+``lidar: PATH`` (the emulated RPLIDAR's pty) unless the twin runs without a LiDAR, then
+``truth: PATH`` with ``--truth`` (the ground-truth file ``jackson calibrate --twin-truth``
+reads, :class:`jackson.sim.runner.TruthStream`).
 """
 
 from __future__ import annotations
@@ -69,6 +71,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         action="store_true",
         help="publish /scan, /ground_truth/odom and /clock (sim time) over ROS 2",
     )
+    p.add_argument(
+        "--truth",
+        type=Path,
+        metavar="PATH",
+        help="write the ground truth here as it happens (CSV t_us,t_s,x_m,y_m,yaw_rad, one row "
+        "per telemetry instant; for jackson calibrate --twin-truth)",
+    )
     p.add_argument("--duration", type=positive_float, help="stop after this many simulated seconds")
     p.add_argument(
         "--heartbeat-timeout",
@@ -83,6 +92,23 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="lockstep: poll this many microseconds for the host before blocking "
         "(0: block at once, for a busy machine; default %(default).0f)",
     )
+
+
+def _replaceable_truth(path: Path) -> bool:
+    """Whether ``--truth`` may write ``path``: a new path, an empty file, or a ground-truth
+    file of before."""
+    from jackson.sim.runner import TRUTH_MAGIC
+
+    if not path.exists() and not path.is_symlink():
+        return True
+    if not path.is_file():
+        return False
+    try:
+        with path.open("rb") as f:
+            head = f.read(len(TRUTH_MAGIC))
+    except OSError:
+        return False
+    return head in (b"", TRUTH_MAGIC.encode("ascii"))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -110,6 +136,13 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
+    if args.truth is not None and not _replaceable_truth(args.truth):
+        print(
+            f"jackson sim: --truth {args.truth}: is there and is not a ground-truth file of "
+            "jackson sim; give a new path (only an old ground-truth file is replaced)",
+            file=sys.stderr,
+        )
+        return 2
     if args.lidar_link is not None and args.no_lidar:
         print("jackson sim: --lidar-link needs the LiDAR: drop --no-lidar", file=sys.stderr)
         return 2
@@ -156,6 +189,7 @@ def run(args: argparse.Namespace) -> int:
             boot_id=args.boot_id,
             lidar=not args.no_lidar,
             lidar_link=args.lidar_link,
+            truth=args.truth,
         )
     except (I2cServerError, FirmwareError, OSError) as exc:
         if publisher is not None:
@@ -176,6 +210,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"i2c: unix:{i2c_path}", flush=True)
     if runner.lidar_path is not None:
         print(f"lidar: {runner.lidar_path}", flush=True)
+    if runner.truth is not None:
+        print(f"truth: {runner.truth.path}", flush=True)
     mode = "real time" if args.realtime else "lockstep"
     mcu = "POSIX firmware" if args.firmware else "MCU emulator"
     if publisher is not None:

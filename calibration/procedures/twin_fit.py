@@ -80,12 +80,14 @@ def fit_segment(
     The reference is interpolated at the frames inside its time span (its clock must be the
     MCU's, as the twin's ground truth is). The gyro bias is the mean yaw rate over the frames
     before the wheels first move (:attr:`RunData.still_frames`, the host's start-up
-    standstill); fewer than 5 such frames: no bias is removed.
+    standstill); fewer than 5 such frames: no bias is removed. Frames without an IMU sample
+    during that standstill (while a new IMU calibration takes over on the device) move the
+    segment's first frame past them.
 
     Raises
     ------
     CalibrationError
-        Fewer than 10 frames overlap, or the IMU samples are missing.
+        Fewer than 10 frames overlap, or IMU samples are missing once the robot moves.
     """
     t = run.t_s
     inside = (t >= reference.t_s[0]) & (t <= reference.t_s[-1])
@@ -97,8 +99,17 @@ def fit_segment(
         )
     r = rotation_matrix(rotation)
     gz_all = (run.gyro_rad_s @ r.T)[:, 2]
-    if np.isnan(gz_all[idx[1:]]).any():
-        raise CalibrationError(f"run {run.name}: IMU samples are missing in the fitted span")
+    gaps = np.flatnonzero(np.isnan(gz_all[idx[1:]]))
+    if len(gaps):
+        # a gap while the robot still stands at the start (a calibration taking over) only
+        # moves the fit's first frame past it; a gap once it has moved is missing data
+        first = int(gaps[-1]) + 1
+        if idx[first] > run.still_frames or len(idx) - first < 10:
+            t_gap = t[idx[int(gaps[0]) + 1]]
+            raise CalibrationError(
+                f"run {run.name}: IMU samples are missing in the fitted span (at {t_gap:.2f} s)"
+            )
+        idx = idx[first:]
     still = gz_all[1 : run.still_frames]
     bias = float(np.nanmean(still)) if np.isfinite(still).sum() >= 5 else 0.0
     t_sel = t[idx]

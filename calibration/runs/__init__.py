@@ -17,7 +17,9 @@ through the host's own classes, on the robot or on the twin alike:
   received and the raw duties in ``commands.csv`` (``v_cmd`` and ``w_cmd`` are 0 there). One
   per-frame loop serves every run.
 
-:func:`load_run` turns a folder into a :class:`~jackson.calibration.procedures.RunData`.
+:func:`load_run` turns a folder into a :class:`~jackson.calibration.procedures.RunData`;
+on the twin, :func:`truth_reference` takes a run's true poses from the ground-truth file of
+``jackson sim --truth`` (the tape measure a command-line user cannot hold to the twin).
 """
 
 from __future__ import annotations
@@ -36,10 +38,17 @@ from jackson.calibration.runs.folders import (
     RunError,
     load_reference,
     load_run,
+    run_boot_ids,
     write_notes,
 )
 from jackson.calibration.runs.link import (
     Link,
+)
+from jackson.calibration.runs.truth import (
+    load_twin_truth,
+    truth_distance_m,
+    truth_reference,
+    truth_rotation_rad,
 )
 from jackson.calibration.runs.velocity import (
     CalibrationMission,
@@ -71,11 +80,16 @@ __all__ = [
     "duty_run",
     "load_reference",
     "load_run",
+    "load_twin_truth",
     "record_deadband_run",
     "record_excitation_run",
     "record_imu_runs",
     "record_rotation_runs",
     "record_step_run",
     "record_straight_runs",
+    "run_boot_ids",
+    "truth_distance_m",
+    "truth_reference",
+    "truth_rotation_rad",
     "write_notes",
 ]

@@ -53,8 +53,9 @@ def duty_run(
     link: Link, folder: Path, script: DutyScript, *, label: str, meta: dict[str, Any]
 ) -> Path:
     """Record one raw duty run: the daemon with ``script`` as its command source, so the duties
-    go to the PCA9685 as they are (no limits, no deadband compensation) and the device sends
-    raw IMU registers (no calibration: the procedures read raw values).
+    go to the PCA9685 as they are (no limits, no deadband compensation); no IMU calibration is
+    sent (the device keeps the one it holds, and :func:`load_run` undoes it with the one the
+    device's INFO states, so the procedures read raw values either way).
 
     Raises
     ------

@@ -16,6 +16,7 @@ from jackson.host.odometry import tick_delta
 from jackson.host.recording import KIND_RX, KIND_TX, RecordingError, read_log
 from jackson.protocol import (
     FrameDecoder,
+    Info,
     SetImuCalibration,
     Telemetry,
     TelemetryFlags,
@@ -33,9 +34,48 @@ from jackson.protocol.messages import (
 NOTES_FILE = "calibration.json"
 CALIBRATION_SETTLE_FRAMES = 2  # frames after a SET_IMU_CALIBRATION still in flight
 
+_DeviceCalibration = tuple[tuple[float, ...], tuple[float, ...], float]
+"""A calibration the device applies: rotation (row-major), gyro bias [rad/s], accel scale."""
+
 
 class RunError(RuntimeError):
     """A calibration run could not be recorded (link, bus, a robot that does not move)."""
+
+
+class _DeviceImu:
+    """Which calibration the device applied to each frame, as the log tells it.
+
+    INFO states the calibration the device holds at that point of the stream (protocol/spec.md
+    §8.2: its fields are the ones applied to frames flagged ``IMU_CALIBRATED``); a
+    SET_IMU_CALIBRATION the host sent takes over within :data:`CALIBRATION_SETTLE_FRAMES`
+    frames, during which a calibrated frame that follows a calibrated frame may carry the old
+    calibration or the new one: unknown, unless both are the same.
+    """
+
+    def __init__(self) -> None:
+        self.active: _DeviceCalibration | None = None  # None: not known from the log
+        self.previous: _DeviceCalibration | None = None
+        self.since_set = CALIBRATION_SETTLE_FRAMES + 1
+        self.last_calibrated = True  # before the first frame: the device may be calibrated
+
+    def info(self, msg: Info) -> None:
+        valid = msg.accel_scale > 0.0 and all(map(math.isfinite, msg.imu_rotation))
+        cal = (tuple(msg.imu_rotation), tuple(msg.gyro_bias), msg.accel_scale)
+        self.active = cal if valid else None
+        self.since_set = CALIBRATION_SETTLE_FRAMES + 1
+
+    def set(self, msg: SetImuCalibration) -> None:
+        self.previous = self.active
+        self.active = (tuple(msg.imu_rotation), tuple(msg.gyro_bias), msg.accel_scale)
+        self.since_set = 0
+
+    def frame(self, calibrated: bool) -> _DeviceCalibration | None:
+        """The calibration of the next frame (flagged ``calibrated``): None if unknown."""
+        self.since_set += 1
+        settling = self.since_set <= CALIBRATION_SETTLE_FRAMES
+        ambiguous = settling and self.last_calibrated and self.previous != self.active
+        self.last_calibrated = calibrated
+        return None if ambiguous else self.active
 
 
 def _imu_si(t: Telemetry) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any]]:
@@ -86,9 +126,11 @@ def load_run(folder: str | Path) -> RunData:
     """Read a run folder: telemetry from ``log.jrec``, duties, and the user's measurements.
 
     Frames the device sent calibrated (``IMU_CALIBRATED``) are turned back into sensor-frame
-    values with the SET_IMU_CALIBRATION the host sent before them (omega_s = R^T (omega + b),
-    a_s = R^T a / s); frames calibrated by a calibration the log does not show (one stored in
-    the device's flash) have no usable IMU values (NaN).
+    values (omega_s = R^T (omega + b), a_s = R^T a / s) with the calibration the device held:
+    the one its INFO states (a calibration of an earlier session or from its flash) or the
+    SET_IMU_CALIBRATION the host sent since. So a run reads the same whether the device had
+    a calibration or not. Only a calibrated frame whose calibration the log cannot tell (the
+    few frames while a different calibration takes over) has no IMU values (NaN).
 
     Parameters
     ----------
@@ -116,8 +158,7 @@ def load_run(folder: str | Path) -> RunData:
     gyro: list[np.ndarray[Any, Any]] = []
     accel: list[np.ndarray[Any, Any]] = []
     nan3 = np.full(3, np.nan)
-    calibration: SetImuCalibration | None = None
-    since_calibration = 0
+    device = _DeviceImu()
     raw_left = raw_right = 0
     try:
         for rec in read_log(path):
@@ -125,13 +166,17 @@ def load_run(folder: str | Path) -> RunData:
                 for frame in FrameDecoder().feed(rec.payload):
                     msg = decode_message(frame)
                     if isinstance(msg, SetImuCalibration):
-                        calibration = msg
-                        since_calibration = 0
+                        device.set(msg)
                 continue
-            if rec.kind != KIND_RX or len(rec.payload) < 2 or rec.payload[0] != Telemetry.TYPE:
+            if rec.kind != KIND_RX or len(rec.payload) < 2:
+                continue
+            if rec.payload[0] == Info.TYPE:
+                device.info(Info.unpack(rec.payload[2:]))
+                continue
+            if rec.payload[0] != Telemetry.TYPE:
                 continue
             t = Telemetry.unpack(rec.payload[2:])
-            since_calibration += 1
+            calibration = device.frame(bool(t.flags & TelemetryFlags.IMU_CALIBRATED))
             t_s.append(unwrapper.unwrap(t.t_us) / 1e6)
             if enc:
                 enc.append(
@@ -149,13 +194,14 @@ def load_run(folder: str | Path) -> RunData:
                 continue
             g, a = _imu_si(t)
             if t.flags & TelemetryFlags.IMU_CALIBRATED:
-                if calibration is None or since_calibration <= CALIBRATION_SETTLE_FRAMES:
+                if calibration is None:
                     gyro.append(nan3)
                     accel.append(nan3)
                     continue
-                r = np.array(calibration.imu_rotation, dtype=np.float64).reshape(3, 3)
-                g = r.T @ (g + np.array(calibration.gyro_bias, dtype=np.float64))
-                a = r.T @ a / calibration.accel_scale
+                rotation, bias, scale = calibration
+                r = np.array(rotation, dtype=np.float64).reshape(3, 3)
+                g = r.T @ (g + np.array(bias, dtype=np.float64))
+                a = r.T @ a / scale
             gyro.append(g)
             accel.append(a)
     except RecordingError as exc:
@@ -176,9 +222,29 @@ def load_run(folder: str | Path) -> RunData:
     )
 
 
+def run_boot_ids(folder: str | Path) -> set[int]:
+    """The MCU boot_ids the INFO messages in a run's ``log.jrec`` carry (one per boot).
+
+    Raises
+    ------
+    CalibrationError
+        The folder holds no readable log.
+    """
+    path = Path(folder)
+    ids: set[int] = set()
+    try:
+        for rec in read_log(path):
+            if rec.kind == KIND_RX and len(rec.payload) >= 2 and rec.payload[0] == Info.TYPE:
+                ids.add(Info.unpack(rec.payload[2:]).boot_id)
+    except RecordingError as exc:
+        raise CalibrationError(str(exc)) from exc
+    return ids
+
+
 def load_reference(path: str | Path) -> Reference:
     """A reference trajectory: CSV with a header ``t_s,x_m,y_m,yaw_rad`` (MCU clock, metres,
-    radians; other columns are ignored), sorted by time.
+    radians; other columns and lines starting with ``#`` are ignored, so the twin's
+    ground-truth file of ``jackson sim --truth`` is one), sorted by time.
 
     Raises
     ------
@@ -188,7 +254,7 @@ def load_reference(path: str | Path) -> Reference:
     p = Path(path)
     try:
         with p.open(newline="", encoding="utf-8") as f:
-            rows = list(csv.DictReader(f))
+            rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
     except OSError as exc:
         raise CalibrationError(f"reference {p}: cannot read it ({exc.strerror})") from exc
     except (UnicodeDecodeError, csv.Error) as exc:
