@@ -186,6 +186,31 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--rate", type=int_in(1, 500), default=200, help="telemetry rate [Hz] while recording (200)"
     )
 
+    st = procs.add_parser(
+        "step",
+        help="each wheel's motor model per direction from duty steps; per-wheel gains",
+        description="Raw duty steps from rest, forward then back, at each --duty (both wheels, "
+        "or --single-wheel one at a time), --seconds each; a first-order model is fitted per "
+        "wheel and direction. About 0.4 m of free floor ahead. --write sets "
+        "deadband.gain.<side>.<direction> and deadband.max_wheel_rad_s.",
+    )
+    _common(st)
+    st.add_argument(
+        "--duty", type=fraction, nargs="+", default=[0.35, 0.7], help="step duties (0.35 0.7)"
+    )
+    st.add_argument("--seconds", type=positive_float, default=1.5, help="step length [s] (1.5)")
+    st.add_argument(
+        "--single-wheel", action="store_true", help="one wheel at a time, the other braked"
+    )
+    st.add_argument(
+        "--hold-breakaway",
+        action="store_true",
+        help="use the config's breakaway duties as d_0 instead of fitting (one --duty suffices)",
+    )
+    st.add_argument(
+        "--rate", type=int_in(1, 500), default=200, help="telemetry rate [Hz] while recording (200)"
+    )
+
     f = procs.add_parser(
         "twin-fit",
         help="effective wheel radius, track width, IMU yaw scale against references",
@@ -665,6 +690,41 @@ def cmd_characterise(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_step(args: argparse.Namespace) -> int:
+    from jackson.calibration import procedures as proc
+    from jackson.calibration import runs
+
+    cfg = _config(args)
+    if _source(args) == "record":
+        print("The robot drives straight ahead and back at each duty: leave 0.4 m of free floor.")
+        script = proc.WheelStepScript(
+            proc.step_plan(args.duty, args.seconds, single_wheel=args.single_wheel)
+        )
+        link = _link(args, cfg)
+        folders = [runs.record_wheel_step_run(link, _out(args, cfg), script, rate_hz=args.rate)]
+    else:
+        folders = list(args.runs)
+    ident = proc.identify_steps(
+        _load(folders), cfg.robot, breakaway=cfg.deadband if args.hold_breakaway else None
+    )
+    print("Motor model per wheel and direction: omega = K (|d| - d_0) (1 - exp(-(t - t_d) / tau))")
+    for m in ident.models:
+        print(
+            f"  {m.side:5s} {m.direction:7s} K {m.gain_rad_s:.3f} +- {m.gain_sd_rad_s:.3f} "
+            f"rad/s, d_0 {m.breakaway_duty:.4f}{'' if m.breakaway_fitted else ' (config)'}, "
+            f"tau {m.time_constant_s * 1e3:.1f} ms, t_d {m.dead_time_s * 1e3:.1f} ms, "
+            f"rms {m.rms_residual_rad:.4f} rad"
+        )
+    hg = ident.host_gains(cfg.deadband)
+    print(
+        f"  host gains: reference {' '.join(hg.reference)}, max_wheel_rad_s "
+        f"{hg.max_wheel_rad_s:.3f}; "
+        + ", ".join(f"{side} {d} {g:.4f}" for (side, d), g in hg.gains.items())
+    )
+    _write(args, hg.yaml_updates())
+    return 0
+
+
 def cmd_twin_fit(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
@@ -733,6 +793,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "imu": cmd_imu,
     "deadband": cmd_deadband,
     "characterise": cmd_characterise,
+    "step": cmd_step,
     "twin-fit": cmd_twin_fit,
 }
 

@@ -321,6 +321,8 @@ CASES: dict[str, Case] = {
     "run_square_map": c("run square --map maps/good.yaml", "--map"),
     "campaign_ofat_map_file": c("campaign ofat --map a_file", "a_file"),
     "campaign_robustness_trials": c("campaign robustness --trials 0", "--trials"),
+    "calibrate_step_duty": c("calibrate step --duty 1.5", "--duty"),
+    "calibrate_step_runs_missing": c("calibrate step --runs nowhere/run", "nowhere/run"),
     # monitor
     "monitor_port_missing": c("monitor --port nowhere/tty", "nowhere/tty"),
     "monitor_port_folder": c("monitor --port a_folder", "a_folder"),

@@ -31,6 +31,7 @@ from jackson.calibration.runs.duty import (
     duty_run,
     record_deadband_run,
     record_step_run,
+    record_wheel_step_run,
 )
 from jackson.calibration.runs.folders import (
     CALIBRATION_SETTLE_FRAMES,
@@ -87,6 +88,7 @@ __all__ = [
     "record_rotation_runs",
     "record_step_run",
     "record_straight_runs",
+    "record_wheel_step_run",
     "run_boot_ids",
     "truth_distance_m",
     "truth_reference",

@@ -9,6 +9,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Protocol
 
+from jackson.calibration.procedures.step import WheelStepScript
 from jackson.calibration.runs.folders import RunError
 from jackson.calibration.runs.link import (
     Link,
@@ -257,4 +258,26 @@ def record_step_run(
         script,
         label=f"duty step {script.duty:g} for {script.drive_s:g} s",
         meta=_meta(link, "characterise", duty=script.duty, drive_s=script.drive_s, rate_hz=rate_hz),
+    )
+
+
+def record_wheel_step_run(
+    link: Link, out: Path, script: WheelStepScript | None = None, *, rate_hz: int = 200
+) -> Path:
+    """Duty steps from rest per wheel and direction (:mod:`jackson.calibration.procedures.
+    step`), in one raw duty run at ``rate_hz`` telemetry (the motor's time constant is tens of
+    milliseconds: 20 Hz frames cannot tell it from the dead time)."""
+    script = script or WheelStepScript()
+    cfg = link.config
+    fast = dataclasses.replace(
+        cfg, serial=dataclasses.replace(cfg.serial, telemetry_rate_hz=rate_hz)
+    )
+    return duty_run(
+        dataclasses.replace(link, config=fast),
+        out / "step",
+        script,
+        label=f"{len(script.steps)} duty steps",
+        meta=_meta(
+            link, "step", steps=[dataclasses.asdict(s) for s in script.steps], rate_hz=rate_hz
+        ),
     )
