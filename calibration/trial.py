@@ -127,6 +127,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
     run_dir.mkdir(parents=True, exist_ok=True)
     cfg = load_config(spec.config) if spec.config else HostConfig()
     twin = Twin(load_world(spec.world), load_robot(spec.robot), lidar=False, seed=spec.seed)
+    conditions = trial_conditions(twin.trial)
     wall0 = time.perf_counter()
     with twin_session(twin, cfg) as session:
         cfg = session.cfg
@@ -137,6 +138,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
             "seed": spec.seed,
             "robot": spec.robot,
             "world": spec.world,
+            "twin_trial": conditions,
         }
         daemon = Daemon(
             cfg,
@@ -163,9 +165,40 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         collisions=twin.collisions,
         sim_s=twin.t_s,
         real_time_factor=twin.t_s / wall if wall > 0 else math.inf,
+        twin_trial=conditions,
     )
     (run_dir / "metrics.json").write_text(__import__("json").dumps(result, indent=2) + "\n")
     return result
+
+
+def trial_conditions(trial: Any) -> dict[str, Any]:
+    """A twin's per-trial draws as plain data, for a trial's metrics and meta.
+
+    Parameters
+    ----------
+    trial : TrialConditions
+        ``Twin.trial``: supply voltage, wheel radii, encoder scales, turn-on gyro bias, floor.
+
+    Returns
+    -------
+    dict
+        ``dataclasses.asdict`` of the draws, the friction field's cells (128 x 128 factors)
+        summarised by their extremes and SD [1] beside its resolution and origin [m]; ``floor``
+        is None on a uniform floor.
+    """
+    floor = trial.floor
+    out = dataclasses.asdict(dataclasses.replace(trial, floor=None))
+    if floor is not None:
+        cells = np.asarray(floor.cells, dtype=float)
+        out["floor"] = {
+            "resolution_m": floor.resolution_m,
+            "origin_x_m": floor.origin_x_m,
+            "origin_y_m": floor.origin_y_m,
+            "mu_factor_min": float(cells.min()),
+            "mu_factor_max": float(cells.max()),
+            "mu_factor_sd": float(cells.std()),
+        }
+    return out
 
 
 def write_ground_truth(path: Path, truth: list[Any]) -> None:
