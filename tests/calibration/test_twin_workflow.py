@@ -1,12 +1,14 @@
 """A new robot's owner calibrates it from the command line alone, on the twin, in one session.
 
 The robot file is one the project has never seen (40 mm wheels, a 0.25 m track, 1000 / 980
-ticks per revolution, a gyro bias, unequal deadbands). ``jackson sim --robot FILE --truth
-PATH`` runs in its own process, as a user starts it; the documented order imu -> encoders ->
-track -> deadband -> characterise -> twin-fit runs through ``jackson``'s own entry point with
-``--write`` into a copy of the host YAML, the tape measure and the turn count taken from the
-twin's ground-truth file (``--twin-truth``). Every calibrated value must land within 1 % of
-the hidden truth (the deadbands within the staircase's finest step).
+ticks per revolution, a gyro bias, unequal deadbands, a weaker right drive). ``jackson sim
+--robot FILE --truth PATH`` runs in its own process, as a user starts it; the documented order
+imu -> encoders -> track -> deadband -> characterise -> step -> twin-fit runs through
+``jackson``'s own entry point with ``--write`` into a copy of the host YAML, the tape measure
+and the turn count taken from the twin's ground-truth file (``--twin-truth``). Every calibrated
+value must land within 1 % of the hidden truth (the deadbands within the staircase's finest
+step); then that YAML drives the robot's square and figure-eight within twice
+jackson_physical's closures.
 """
 
 from __future__ import annotations
@@ -44,6 +46,9 @@ TRUE_TPR = (1000.0, 980.0)
 TRUE_GYRO_BIAS_Z = 0.012  # [rad/s]
 TRUE_GRAVITY_SCALE = 0.962
 TRUE_DEADBAND = (0.13, 0.085)  # breakaway duty left, right (both directions)
+TRUE_RIGHT_GAIN = 0.93  # the right drive 7 % weaker than the left
+# jackson_physical's mean ground-truth closures (docs/fidelity.md, seeds 0-9) [cm]
+PHYSICAL_CLOSURE_CM = {"square": 4.13, "figure8": 9.25}
 FINEST_STEP = 0.001  # the deadband staircase's finest step
 ROBOT_FILE = f"""\
 name: owners_robot
@@ -52,6 +57,7 @@ wheel_separation_m: {TRUE_SEPARATION_M}
 ticks_per_rev: {{left: {TRUE_TPR[0]:g}, right: {TRUE_TPR[1]:g}}}
 motor:
   deadband_duty: {{left: {TRUE_DEADBAND[0]}, right: {TRUE_DEADBAND[1]}}}
+  gain: {{left: 1.0, right: {TRUE_RIGHT_GAIN}}}
 imu:
   gyro_bias_rad_s: [0.004, -0.003, {TRUE_GYRO_BIAS_Z}]
   gravity_scale: {TRUE_GRAVITY_SCALE}
@@ -177,6 +183,14 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
     top_wheel = path_m / (t_s[sel][-1] - t_s[sel][0]) / TRUE_RADIUS_M
     got["max wheel speed [rad/s]"] = (cfg.deadband.max_wheel_rad_s, top_wheel)
 
+    cfg = calibrate("step")
+    gains = cfg.deadband
+    # the weaker right drive gets the full feed-forward, the left is scaled down to match
+    got["gain left/right forward"] = (
+        gains.gain_left / gains.gain_right,
+        (1.0 - TRUE_DEADBAND[1]) * TRUE_RIGHT_GAIN / (1.0 - TRUE_DEADBAND[0]),
+    )
+
     cfg = calibrate("twin-fit", *truth)
     got["radius (twin-fit) [m]"] = (cfg.robot.wheel_radius_left_m, TRUE_RADIUS_M)
     got["separation (twin-fit) [m]"] = (cfg.robot.wheel_separation_m, TRUE_SEPARATION_M)
@@ -191,21 +205,28 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
     assert max(errors.values()) < 0.01, errors
     assert max(abs(v - t) for v, t in deadband.values()) <= FINEST_STEP, deadband
 
-    # the calibrated YAML drives that robot: jackson run figure8 --config (a twin of its own)
-    fig8 = tmp_path / "figure8"
-    argv = ["run", "figure8", "--robot", str(tmp_path / "owners_robot.yaml"), "--out", str(fig8)]
-    assert main([*argv, "--config", str(config)]) == 0
-    capsys.readouterr()
-    metrics = json.loads((fig8 / "metrics.json").read_text())
+    # the calibrated YAML drives that robot (jackson run --config, a twin of its own): closures
+    # within twice jackson_physical's, the loops equal (the weaker right drive compensated)
+    assert load_config(config).robot == cfg.robot
+    for mission in ("square", "figure8"):
+        run = tmp_path / mission
+        argv = ["run", mission, "--robot", str(tmp_path / "owners_robot.yaml"), "--out", str(run)]
+        assert main([*argv, "--config", str(config)]) == 0
+        capsys.readouterr()
+        m = json.loads((run / "metrics.json").read_text())
+        with capsys.disabled():
+            print(
+                f"{mission} with the calibrated YAML: closure ground truth "
+                f"{m['gt_closure_cm']:.2f} cm (jackson_physical {PHYSICAL_CLOSURE_CM[mission]} cm),"
+                f" EKF {m['ekf_closure_cm']:.2f} cm, raw odometry {m['odom_closure_cm']:.2f} cm"
+                f" in {m['duration_s']:.1f} s"
+            )
+        assert m["completed"] and m["gt_closure_cm"] < 2.0 * PHYSICAL_CLOSURE_CM[mission]
+        assert m["odom_closure_cm"] < 10.0  # the packaged beliefs' odometry misses by 1.4 m
+    ccw, cw = m["gt_loop_diameter_ccw_m"], m["gt_loop_diameter_cw_m"]
     with capsys.disabled():
-        print(
-            f"figure-eight with the calibrated YAML: closure ground truth "
-            f"{metrics['gt_closure_cm']:.2f} cm, EKF {metrics['ekf_closure_cm']:.2f} cm, "
-            f"raw odometry {metrics['odom_closure_cm']:.2f} cm in {metrics['duration_s']:.1f} s"
-        )
-    assert load_config(fig8 / "config.yaml").robot == cfg.robot
-    # the packaged beliefs' own odometry misses the start by 1.4 m on this robot
-    assert metrics["completed"] and metrics["odom_closure_cm"] < 10.0
+        print(f"figure-eight loops: CCW {ccw:.3f} m, CW {cw:.3f} m")
+    assert abs(ccw - cw) < 0.02 * (ccw + cw) / 2
 
 
 def test_each_run_is_measured_by_the_truth_of_its_own_twin_session(
