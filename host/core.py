@@ -192,6 +192,7 @@ class RunFolderListener(CoreListener):
                 s.p_xx,
                 s.p_yy,
                 s.p_yawyaw,
+                *s.pose_cross,
             ),
         )
 

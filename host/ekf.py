@@ -217,12 +217,23 @@ class EkfState:
         diag(P) in the same order.
     initialized : bool
         Whether a measurement (or :meth:`Ekf.set_state`) has initialised the filter.
+    pose_cross : tuple of 3 float
+        The pose block's off-diagonal terms (P_xy, P_x,yaw, P_y,yaw), for the full 3x3 pose
+        covariance (:meth:`pose_covariance`; NEES needs the correlations).
     """
 
     t_s: float | None
     x: tuple[float, ...]
     covariance_diagonal: tuple[float, ...]
     initialized: bool
+    pose_cross: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def pose_covariance(self) -> Matrix:
+        """The 3x3 covariance of [x, y, yaw]."""
+        d, (xy, xyaw, yyaw) = self.covariance_diagonal, self.pose_cross
+        return np.array(
+            [[d[X], xy, xyaw], [xy, d[Y], yyaw], [xyaw, yyaw, d[YAW]]], dtype=np.float64
+        )
 
     @property
     def x_m(self) -> float:
@@ -474,6 +485,7 @@ class Ekf:
             x=tuple(self.x.tolist()),
             covariance_diagonal=tuple(np.diagonal(self._kf.P).tolist()),
             initialized=self._initialized,
+            pose_cross=_pose_cross(np.asarray(self._kf.P, dtype=np.float64)),
         )
 
     def state_at(self, t_s: float) -> EkfState:
@@ -492,11 +504,13 @@ class Ekf:
         # only the diagonal of F P F^T + dt Q: row i of F P times row i of F
         jp = jac @ np.asarray(self._kf.P, dtype=np.float64)
         p_diag = np.einsum("ij,ij->i", jp, jac) + dt_s * np.diagonal(self._q_per_s)
+        pose = jp[:3] @ jac[:3].T  # the pose block of F P F^T (Q is diagonal)
         return EkfState(
             t_s=t_s,
             x=tuple(transition(x, dt_s).tolist()),
             covariance_diagonal=tuple(p_diag.tolist()),
             initialized=True,
+            pose_cross=_pose_cross(pose),
         )
 
     # ---- prediction --------------------------------------------------------------------------
@@ -699,6 +713,11 @@ class Ekf:
             mahalanobis_sq=d2,
             accepted=accepted,
         )
+
+
+def _pose_cross(p: Matrix) -> tuple[float, float, float]:
+    """(P_xy, P_x,yaw, P_y,yaw) of a covariance whose first three states are x, y, yaw."""
+    return (float(p[X, Y]), float(p[X, YAW]), float(p[Y, YAW]))
 
 
 @functools.lru_cache(maxsize=64)

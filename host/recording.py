@@ -56,6 +56,9 @@ EKF_COLUMNS = (
     "p_xx",
     "p_yy",
     "p_yawyaw",
+    "p_xy",
+    "p_xyaw",
+    "p_yyaw",
 )
 FLUSH_PERIOD_S = 1.0  # [s] wall time between flushes of the whole run folder
 FLUSH_FRAMES = 100  # ... or this many frames (lockstep runs many per second)
