@@ -4,6 +4,10 @@ The twin runs in a thread of this process in lockstep; the host is the daemon's 
 (serial transport on the pty, PCA9685 driver on the twin's I2C socket), so a trial exercises
 exactly what runs on the robot. A trial writes the daemon's run folder plus the twin's ground
 truth (``ground_truth.csv``, every physics step) and returns its metrics.
+
+A trial's faults (``TrialSpec.faults``, injected besides the robot file's:
+:mod:`jackson.sim.faults`) ride on the twin into :func:`twin_session`; meta.json lists their
+schedule and metrics.json what each injected (``faults``).
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -31,6 +35,9 @@ from jackson.host.config import HostConfig, dump_config, load_config
 from jackson.host.daemon import Daemon
 from jackson.host.i2c import open_bus
 from jackson.host.transport import SerialTransport
+
+if TYPE_CHECKING:
+    from jackson.sim.faults import FaultSpec
 
 MISSIONS = ("square", "figure8")
 
@@ -68,7 +75,8 @@ class TwinSession:
 @contextmanager
 def twin_session(twin: Any, cfg: HostConfig, *, lidar: bool = False) -> Iterator[TwinSession]:
     """Run ``twin`` in lockstep in a thread and open the host's links to it; all closed at the
-    end (the twin stops)."""
+    end (the twin stops). The twin's faults (``Twin(..., faults=...)`` and its robot file's)
+    act as it runs, the link faults on the MCU's pty the daemon reads."""
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.sim.runner import TwinRunner
 
@@ -101,6 +109,14 @@ def twin_session(twin: Any, cfg: HostConfig, *, lidar: bool = False) -> Iterator
 
 @dataclass(frozen=True)
 class TrialSpec:
+    """One trial: a mission on a robot file in a world, a seed, where to write.
+
+    Attributes
+    ----------
+    faults : tuple of FaultSpec
+        Faults injected besides the robot file's (:mod:`jackson.sim.faults`).
+    """
+
     mission: str
     index: int
     seed: int
@@ -108,6 +124,7 @@ class TrialSpec:
     world: str
     out: Path
     config: Path | None = None
+    faults: tuple[FaultSpec, ...] = ()
 
 
 def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
@@ -121,13 +138,21 @@ def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
 def run_trial(spec: TrialSpec) -> dict[str, Any]:
     """Drive one mission on the twin and return its metrics (also written to metrics.json)."""
     from jackson.sim.config import load_robot, load_world
+    from jackson.sim.faults import schedule
     from jackson.sim.twin import Twin
 
     run_dir = spec.out
     run_dir.mkdir(parents=True, exist_ok=True)
     cfg = load_config(spec.config) if spec.config else HostConfig()
-    twin = Twin(load_world(spec.world), load_robot(spec.robot), lidar=False, seed=spec.seed)
+    twin = Twin(
+        load_world(spec.world),
+        load_robot(spec.robot),
+        lidar=False,
+        seed=spec.seed,
+        faults=spec.faults,
+    )
     conditions = trial_conditions(twin.trial)
+    faults = twin.faults.faults if twin.faults is not None else ()
     wall0 = time.perf_counter()
     with twin_session(twin, cfg) as session:
         cfg = session.cfg
@@ -139,6 +164,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
             "robot": spec.robot,
             "world": spec.world,
             "twin_trial": conditions,
+            "faults": schedule(faults),
         }
         daemon = Daemon(
             cfg,
@@ -166,6 +192,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         sim_s=twin.t_s,
         real_time_factor=twin.t_s / wall if wall > 0 else math.inf,
         twin_trial=conditions,
+        faults=twin.faults.record() if twin.faults is not None else [],
     )
     (run_dir / "metrics.json").write_text(__import__("json").dumps(result, indent=2) + "\n")
     return result

@@ -251,7 +251,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     from jackson.calibration.report import plot_trajectories
     from jackson.calibration.trial import TrialSpec, run_trial
+    from jackson.sim.faults import summary
 
+    if args.fault and args.mission != "square" and args.mission != "figure8":
+        raise CliError("--fault is for square and figure8")
     if args.mission == "maze":
         return _cmd_run_maze(args)
     if args.mission in STAGE3:
@@ -263,7 +266,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     config = _host_config(args.config)
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("runs") / f"{stamp}-{args.mission}")
-    r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out, config))
+    faults = tuple(args.fault)
+    r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out, config, faults))
     png = out / "trajectory.png"
     plot_trajectories(png, args.mission, [out])
     table = Table(title=f"{args.mission} on the twin ({args.robot}, {world}, seed {args.seed})")
@@ -277,6 +281,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         ("EKF cross-track RMSE", f"{r['ekf_cross_track_rmse_cm']:.2f} cm"),
         ("duration (from time zero)", f"{r['duration_s']:.1f} s"),
         ("real-time factor", f"x{r['real_time_factor']:.0f}"),
+        *((f"fault {f['fault']}", summary(f)) for f in r["faults"]),
     ):
         table.add_row(label, value)
     Console().print(table)
@@ -389,6 +394,16 @@ def build_parser() -> argparse.ArgumentParser:
             "--map", type=Path, help="maze: a map (map_server YAML) instead of mapping first"
         )
         if name == "run":
+            from jackson.sim.cli import FAULT_HELP, fault_arg
+
+            p.add_argument(
+                "--fault",
+                type=fault_arg,
+                action="append",
+                default=[],
+                metavar="SPEC",
+                help=f"square and figure8: {FAULT_HELP}",
+            )
             p.add_argument(
                 "--goal",
                 action="append",

@@ -4,6 +4,10 @@ It prints ``serial: PATH`` and ``i2c: unix:PATH`` first, in that order (tools re
 ``lidar: PATH`` (the emulated RPLIDAR's pty) unless the twin runs without a LiDAR, then
 ``truth: PATH`` with ``--truth`` (the ground-truth file ``jackson calibrate --twin-truth``
 reads, :class:`jackson.sim.runner.TruthStream`).
+
+``--fault KIND@AT_S[+DURATION_S][:key=value,...]`` (repeatable) injects a fault besides the
+robot file's (:mod:`jackson.sim.faults`); the twin prints ``fault: ...`` for each at the start
+and what each injected on the way out.
 """
 
 from __future__ import annotations
@@ -25,8 +29,40 @@ from jackson.common.args import (
 )
 from jackson.common.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
+from jackson.sim.faults import FaultError, FaultSpec, format_fault, parse_fault, summary
 from jackson.sim.fil import FirmwareError
 from jackson.sim.i2c_server import I2cServerError
+
+
+def fault_arg(text: str) -> FaultSpec:
+    """``--fault``'s type: :func:`jackson.sim.faults.parse_fault`, its error as argparse's.
+
+    Parameters
+    ----------
+    text : str
+        ``KIND@AT_S[+DURATION_S][:key=value,...]``.
+
+    Returns
+    -------
+    FaultSpec
+        The fault.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        One line naming the problem and the valid kinds or keys.
+    """
+    try:
+        return parse_fault(text)
+    except FaultError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+FAULT_HELP = (
+    "inject a fault besides the robot file's (repeatable): KIND@AT_S[+DURATION_S][:key=value,"
+    "...] on MCU time, e.g. imu_bias_step@20:magnitude_rad_s=0.05, encoder_dropout@15+5:"
+    "side=left, frame_loss@0:probability=0.05 (kinds and keys: docs/sim.md, Faults)"
+)
 
 SCAN_HISTORY = 64
 """Scans ``jackson sim`` keeps (8.6 s at 7.43 Hz): enough for the /scan publisher, which takes
@@ -77,6 +113,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         metavar="PATH",
         help="write the ground truth here as it happens (CSV t_us,t_s,x_m,y_m,yaw_rad, one row "
         "per telemetry instant; for jackson calibrate --twin-truth)",
+    )
+    p.add_argument(
+        "--fault", type=fault_arg, action="append", default=[], metavar="SPEC", help=FAULT_HELP
     )
     p.add_argument("--duration", type=positive_float, help="stop after this many simulated seconds")
     p.add_argument(
@@ -159,6 +198,7 @@ def run(args: argparse.Namespace) -> int:
             lidar=False if args.no_lidar else None,
             record_truth=False,  # a long-running twin keeps no history (the host records it)
             scan_history=SCAN_HISTORY,
+            faults=args.fault,
         )
     except ConfigError as exc:
         print(f"jackson sim: {exc}", file=sys.stderr)
@@ -191,7 +231,7 @@ def run(args: argparse.Namespace) -> int:
             lidar_link=args.lidar_link,
             truth=args.truth,
         )
-    except (I2cServerError, FirmwareError, OSError) as exc:
+    except (I2cServerError, FirmwareError, FaultError, OSError) as exc:
         if publisher is not None:
             publisher.close()
         if tmp is not None:
@@ -212,6 +252,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"lidar: {runner.lidar_path}", flush=True)
     if runner.truth is not None:
         print(f"truth: {runner.truth.path}", flush=True)
+    if twin.faults is not None:
+        for f in twin.faults.faults:
+            print(f"fault: {format_fault(f)}", flush=True)
     mode = "real time" if args.realtime else "lockstep"
     mcu = "POSIX firmware" if args.firmware else "MCU emulator"
     if publisher is not None:
@@ -236,4 +279,7 @@ def run(args: argparse.Namespace) -> int:
         f"{twin.collisions} collisions",
         flush=True,
     )
+    if twin.faults is not None:
+        for entry in twin.faults.record():
+            print(f"fault: {entry['fault']}: {summary(entry)}", flush=True)
     return 0

@@ -16,6 +16,7 @@ from pathlib import Path
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
 from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
+from jackson.sim.faults import PARAMS, SIDED_KINDS, FaultError, FaultSpec
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
 
 SIM_DIR = Path(__file__).resolve().parent
@@ -227,6 +228,7 @@ class RobotSpec:
     lidar: LidarMount = field(default_factory=LidarMount)
     tyre: TyreSpec = field(default_factory=TyreSpec)
     variation: VariationSpec = field(default_factory=VariationSpec)
+    faults: tuple[FaultSpec, ...] = ()  # sensor and link faults (jackson.sim.faults)
 
     def __post_init__(self) -> None:
         if self.variation.battery_v_sigma * 3.0 >= self.motor.battery_v:
@@ -415,9 +417,46 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         lidar=lidar,
         tyre=tyre,
         variation=variation,
+        faults=_faults(r),
     )
     r.finish()
     return spec
+
+
+def _faults(r: Fields) -> tuple[FaultSpec, ...]:
+    """The ``faults:`` list: mappings ``{kind, at_s, duration_s?, side?, <params>}``."""
+    out = []
+    for k, item in enumerate(r.items("faults")):
+        name = f"faults[{k}]"
+        if not isinstance(item, Mapping):
+            expected = "expected {kind, at_s, duration_s?, side?, <parameters>}"
+            raise r.fail(name, f"{expected}, got {show(item)}")
+        f = Fields(r.where, item, f"{r.prefix}{name}.")
+        kind = item.get("kind")
+        if kind not in PARAMS:
+            raise f.fail("kind", f"expected one of {', '.join(PARAMS)}, got {show(kind)}")
+        f.used.add("kind")
+        if not f.has("at_s"):
+            raise f.fail("at_s", "missing (the onset on MCU time, in seconds)")
+        at_s = f.number("at_s", 0.0, 0)
+        duration = f.optional_number("duration_s", 0, lo_open=True)
+        side = None
+        if kind in SIDED_KINDS:
+            f.used.add("side")
+            side = item.get("side")
+        params = {key: f.number(key, p.default) for key, p in PARAMS[kind].items()}
+        unknown = sorted(str(key) for key in item if key not in f.used)
+        if unknown:
+            sided = ["side"] if kind in SIDED_KINDS else []
+            keys = ", ".join(["kind", "at_s", "duration_s", *sided])
+            keys += "".join(f", {key}" for key in PARAMS[kind])
+            raise f.fail(unknown[0], f"unknown field for {kind} (valid: {keys})")
+        try:
+            out.append(FaultSpec(str(kind), at_s, duration, side, params))
+        except FaultError as exc:  # "fault KIND: FIELD: problem"
+            field_name, _, problem = str(exc).split(": ", 1)[1].partition(": ")
+            raise f.fail(field_name, problem) from None
+    return tuple(out)
 
 
 def _v3(v: tuple[float, ...]) -> tuple[float, float, float]:

@@ -7,6 +7,13 @@ firmware; ``tests/sim/test_firmware_in_the_loop.py`` runs one scenario against b
 the frames. Where the firmware samples the IMU at 100 Hz and averages, the emulator takes the
 twin's per-period sample directly: the twin holds the registers constant within a period, so
 the firmware's mean is that same sample.
+
+The MPU-6050 driver (``firmware/core/mpu6050.cpp``) is followed as well: an IMU absent from
+boot, or one that stops answering (the sensors' ``imu_ok`` clears: the twin's ``imu_dead``
+fault), fails its polls at the firmware's 100 Hz schedule, each failure an I2C error, three in
+a row or any init failure making it wait 50 ms, 100 ms, ... 2 s before it tries again; one that
+answers again is back (IMU_OK) at its next attempt. As the compiled firmware reads its sensor
+feed, the ``imu_ok`` of a telemetry instant holds for the polls since the one before.
 """
 
 from __future__ import annotations
@@ -62,6 +69,7 @@ STATUS_PERIOD_US = 1_000_000
 IMU_PERIOD_US = 10_000  # 100 Hz MPU-6050 polling (faster with faster telemetry), firmware.hpp
 IMU_FIRST_BACKOFF_US = 50_000  # retry schedule of an absent MPU-6050, mpu6050.hpp
 IMU_MAX_BACKOFF_US = 2_000_000
+IMU_FAILURES_BEFORE_REINIT = 3  # failed reads in a row before the driver backs off
 MIN_RATE_HZ, MAX_RATE_HZ = TELEMETRY_RATE_HZ_RANGE
 MIN_FAILSAFE_MS, MAX_FAILSAFE_MS = FAILSAFE_MS_RANGE
 
@@ -187,11 +195,16 @@ class McuEmulator:
         self.motor_enable = False
         self.telemetry_frames = 0
         self.heartbeats = 0
-        self._imu_ok = imu_present
-        # The MPU-6050 driver's retries (firmware/core/mpu6050.cpp), which only an absent IMU
-        # exercises here: each attempt fails and counts an I2C error, then waits 50 ms, 100 ms,
-        # ... 2 s. Attempts happen at the firmware's IMU polls (every IMU_PERIOD_US from boot),
-        # evaluated lazily up to the MCU time of each tick and each received frame.
+        # The MPU-6050 driver (firmware/core/mpu6050.cpp): polls at the firmware's IMU schedule
+        # (every IMU_PERIOD_US from boot), evaluated lazily up to the MCU time of each tick and
+        # each received frame. While the chip answers and the driver is up, every poll reads a
+        # sample; otherwise each failed attempt counts an I2C error and the driver backs off
+        # 50 ms, 100 ms, ... 2 s between init attempts.
+        self._imu_answering = imu_present  # the chip answers on the bus (the sensors' imu_ok)
+        self._imu_initialised = imu_present
+        self._imu_ok = imu_present  # the newest poll read a sample (IMU_OK)
+        self._imu_sampled = imu_present  # a poll read a sample since the last telemetry frame
+        self._imu_failures = 0  # consecutive failed reads of an initialised driver
         self.i2c_errors = 0
         self.i2c_error_flag = False
         self._i2c_errors_seen = 0
@@ -200,7 +213,7 @@ class McuEmulator:
         self._imu_retry_us = 0
         self._imu_backoff_us = IMU_FIRST_BACKOFF_US
         if not imu_present:
-            self._imu_attempt(boot_us)  # the firmware learns presence at boot
+            self._imu_poll(boot_us)  # the firmware learns presence at boot
         self._last_imu: tuple[tuple[int, int, int], tuple[int, int, int], int] = (
             (0, 0, 0),
             (0, 0, 0),
@@ -217,24 +230,57 @@ class McuEmulator:
     def imu_period_us(self) -> int:
         return min(IMU_PERIOD_US, self.period_us)
 
-    def _imu_attempt(self, now: int) -> None:
-        """One poll of the absent MPU-6050: init fails, the error counts, backoff grows."""
-        if self._imu_waiting and not _reached(now, self._imu_retry_us):
+    def _imu_poll(self, t: int) -> None:
+        """One poll of the MPU-6050 driver at MCU time ``t`` (mpu6050.cpp ``poll``)."""
+        if self._imu_waiting and not _reached(t, self._imu_retry_us):
             return
+        self._imu_waiting = False
+        if not self._imu_initialised:
+            if not self._imu_answering:
+                self._imu_fail(t)
+                return
+            self._imu_initialised = True
+            self._imu_failures = 0
+        if not self._imu_answering:
+            self._imu_fail(t)
+            return
+        self._imu_ok = True
+        self._imu_sampled = True
+        self._imu_failures = 0
+        self._imu_backoff_us = IMU_FIRST_BACKOFF_US
+
+    def _imu_fail(self, t: int) -> None:
+        """A failed init or read (mpu6050.cpp ``fail``): an I2C error; an init failure or the
+        third failed read in a row starts the backoff."""
         self.i2c_errors += 1
-        self._imu_waiting = True
-        self._imu_retry_us = (now + self._imu_backoff_us) & 0xFFFFFFFF
-        half = IMU_MAX_BACKOFF_US // 2
-        b = self._imu_backoff_us
-        self._imu_backoff_us = IMU_MAX_BACKOFF_US if b >= half else b * 2
+        self._imu_ok = False
+        if self._imu_initialised:
+            self._imu_failures += 1
+        if not self._imu_initialised or self._imu_failures >= IMU_FAILURES_BEFORE_REINIT:
+            self._imu_initialised = False
+            self._imu_waiting = True
+            self._imu_retry_us = (t + self._imu_backoff_us) & 0xFFFFFFFF
+            half = IMU_MAX_BACKOFF_US // 2
+            b = self._imu_backoff_us
+            self._imu_backoff_us = IMU_MAX_BACKOFF_US if b >= half else b * 2
 
     def _imu_polls_until(self, now: int, *, inclusive: bool) -> None:
         """Run the IMU polls due before ``now`` (and at ``now`` if ``inclusive``)."""
-        if self.imu_present:
-            return  # a present IMU never fails here: nothing to count
+        nxt = self._imu_next_us
+        if not _reached(now, nxt) or (not inclusive and nxt == now):
+            return
+        period = self.imu_period_us
+        if self._imu_answering and self._imu_initialised and self._imu_ok:
+            # a healthy IMU: every poll reads a sample; only the schedule moves on
+            n = ((now - nxt) & 0xFFFFFFFF) // period + 1
+            if not inclusive and ((now - nxt) & 0xFFFFFFFF) % period == 0:
+                n -= 1
+            self._imu_next_us = (nxt + n * period) & 0xFFFFFFFF
+            self._imu_sampled = self._imu_sampled or n > 0
+            return
         while _reached(now, self._imu_next_us) and (inclusive or self._imu_next_us != now):
             t = self._imu_next_us
-            self._imu_attempt(t)
+            self._imu_poll(t)
             if self.i2c_errors != self._i2c_errors_seen:
                 self._i2c_errors_seen = self.i2c_errors
                 self.i2c_error_flag = True
@@ -275,6 +321,10 @@ class McuEmulator:
     def tick(self, now: int) -> None:
         """Everything scheduled at or before ``now`` (the firmware's tick)."""
         self.decoder.poll(now)
+        if self.session and _reached(now, self.next_telemetry_us):
+            # the chip's state for the polls since the last instant, as the compiled
+            # firmware's sensor feed gives it (the twin reads its sensors once per instant)
+            self._imu_answering = self.imu_present and self._sensors().imu_ok
         self._imu_polls_until(now, inclusive=True)
         self._update_motors(now)
         self._update_interlock(now)
@@ -341,12 +391,13 @@ class McuEmulator:
 
     def _send_telemetry(self, now: int) -> None:
         s = self._sensors()
-        imu_ok = self._imu_ok = self.imu_present and s.imu_ok
+        imu_ok = self._imu_ok
         accel, gyro, temp = s.accel, s.gyro, s.temp
-        if not imu_ok:
+        if not self._imu_sampled:  # no sample since the last frame: the last one again
             accel, gyro, temp = self._last_imu
         elif self.calibrated:
             accel, gyro = self._calibrate(accel, gyro)
+        self._imu_sampled = False
         self._last_imu = (accel, gyro, temp)
         flags = self._flags(now, imu_ok)
         enc_l = self.left.update(s.enc_left)
@@ -548,8 +599,11 @@ class McuEmulator:
             if not ok:
                 self._nack(f, NackError.BAD_VALUE)
                 return
+            if (msg.accel_fs, msg.gyro_fs) != (self.accel_fs, self.gyro_fs) or not self.imu_present:
+                self._imu_initialised = False  # the driver re-initialises at its next poll
+                self._imu_waiting = False
+            self._imu_sampled = False  # samples of the old range do not enter the next mean
             self.accel_fs, self.gyro_fs = msg.accel_fs, msg.gyro_fs
-            self._imu_waiting = False  # the driver re-initialises at its next poll
             self.direction_flags = msg.direction_flags
             self.failsafe_ms = msg.failsafe_ms
             self.left.set_inverted(bool(msg.direction_flags & 1))

@@ -41,7 +41,9 @@ Per physics step of ``dt`` (semi-implicit, stable at any friction):
    track); with rigid tyres it only loads the motors.
 
 Friction patches (a :class:`~jackson.sim.world.FrictionField`) multiply mu_s and mu_d under
-each wheel, and so its traction limits and its share of the scrub.
+each wheel, and so its traction limits and its share of the scrub; a ``wheel_slip`` fault
+(:mod:`jackson.sim.faults`) multiplies them further by its ``mu_scale`` under one wheel
+(:attr:`DiffDriveRobot.mu_scale`) while it lasts.
 
 The centre of mass is at the axle centre (``base_footprint``), the caster carries
 ``caster_load_fraction`` of the weight. Collisions with walls and obstacles are pymunk's.
@@ -85,7 +87,9 @@ class DiffDriveRobot:
 
     Attributes are named as in the module docstring; ``omega_l/omega_r`` are wheel speeds
     [rad/s], ``angle_l/angle_r`` integrated wheel angles [rad], ``tau_l/tau_r`` motor torques
-    at the wheel [N m], ``tau_c_*`` breakaway and ``tau_run_*`` running friction [N m].
+    at the wheel [N m], ``tau_c_*`` breakaway and ``tau_run_*`` running friction [N m];
+    ``mu_scale`` is None, or a factor per wheel (left, right) on the floor's friction under
+    it (a slippery patch, set by the twin's ``wheel_slip`` faults).
 
     Parameters
     ----------
@@ -172,6 +176,7 @@ class DiffDriveRobot:
         self.angle_l = self.angle_r = 0.0
         self.tau_l = self.tau_r = 0.0
         self.slipping = False
+        self.mu_scale: tuple[float, float] | None = None
         # body-frame specific force and yaw rate, for the IMU
         self.accel_x = self.accel_y = 0.0
 
@@ -273,6 +278,10 @@ class DiffDriveRobot:
             ]
             lim_s_l, lim_d_l = lim_s * k_l, lim_d * k_l
             lim_s_r, lim_d_r = lim_s * k_r, lim_d * k_r
+        if self.mu_scale is not None:  # a slippery patch under a wheel (a wheel_slip fault)
+            k_l, k_r = self.mu_scale
+            lim_s_l, lim_d_l = lim_s_l * k_l, lim_d_l * k_l
+            lim_s_r, lim_d_r = lim_s_r * k_r, lim_d_r * k_r
 
         # caster rolling resistance, smooth through zero; tyre scrub against the yaw rate
         f_c = -self.f_caster * math.tanh(vx / 0.005)

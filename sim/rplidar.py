@@ -24,6 +24,10 @@ its Boost mode.
 
 Writes never block the twin: a revolution that does not fit the pty's buffer (nobody reads)
 is dropped whole and counted, and the next one then carries its own S node again.
+
+A revolution the twin lost (a ``lidar_dropout`` fault, :mod:`jackson.sim.faults`) puts nothing
+on the line: its nodes and the next turn's S node never come, so the S node already sent
+(measured as the lost turn began) starts the next revolution the host sees, one period later.
 """
 
 from __future__ import annotations
@@ -71,7 +75,7 @@ TWIN_HEALTH = DeviceHealth(HealthStatus.GOOD, 0)
 KNOWN_COMMANDS = frozenset(int(c) for c in Command)
 TIME_TOLERANCE_S = 1e-9  # a revolution ending this close after t_s counts as ended at t_s
 
-RangesFn = Callable[[float], npt.ArrayLike]
+RangesFn = Callable[[float], npt.ArrayLike | None]
 
 
 class RplidarEmulator:
@@ -98,6 +102,8 @@ class RplidarEmulator:
         Requests received, and those of commands it does not know (ignored).
     revolutions_written, revolutions_dropped : int
         Revolutions sent, and those dropped because the pty was full.
+    revolutions_lost : int
+        Revolutions the twin lost (the ranges function gave None): nothing was sent.
     """
 
     def __init__(
@@ -134,6 +140,7 @@ class RplidarEmulator:
         self.ignored_requests = 0
         self.revolutions_written = 0
         self.revolutions_dropped = 0
+        self.revolutions_lost = 0
 
     def fileno(self) -> int:
         """The pty's master descriptor (for a selector)."""
@@ -207,12 +214,13 @@ class RplidarEmulator:
             Simulation time now [s].
         ranges_for_revolution : callable
             Called with a revolution's end time [s]; returns its ``beams`` ranges [m] in the
-            spec's beam order, ``inf`` (or NaN, or <= 0) for no return.
+            spec's beam order, ``inf`` (or NaN, or <= 0) for no return, or None for a
+            revolution lost (nothing is written).
 
         Returns
         -------
         int
-            Revolutions that ended (written or dropped).
+            Revolutions that ended (written, dropped or lost).
         """
         if not self.scanning:
             return 0
@@ -220,7 +228,11 @@ class RplidarEmulator:
         ended = 0
         while self._next_turn * period <= t_s + TIME_TOLERANCE_S:
             end_s = self._next_turn * period
-            self._write_turn(np.asarray(ranges_for_revolution(end_s), dtype=np.float64))
+            ranges = ranges_for_revolution(end_s)
+            if ranges is None:
+                self.revolutions_lost += 1
+            else:
+                self._write_turn(np.asarray(ranges, dtype=np.float64))
             self._next_turn += 1
             ended += 1
         return ended

@@ -25,6 +25,12 @@ Its revolutions are the twin's own scans (same noise, same dropout), written bef
 acts at each instant: a revolution that ended at or before a telemetry frame reaches the
 host ahead of that frame.
 
+The twin's link faults (``frame_loss``, ``corrupt_bytes``: :mod:`jackson.sim.faults`) act on
+the line between the emulated MCU and its pty: a telemetry frame the MCU sent is lost, or
+reaches the host with one bit flipped. In lockstep the runner does not wait for the heartbeat
+of such a frame (the host cannot acknowledge what it never decoded). The compiled firmware
+writes its own pty, so these faults need the emulator (:class:`FaultError` otherwise).
+
 With ``truth`` the runner streams the twin's ground truth to a file (:class:`TruthStream`,
 read back by :func:`read_truth`): one CSV row per advance of the clock, written and flushed
 before the MCU acts at that instant, so the row of every telemetry frame is in the file
@@ -48,6 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jackson.common.spin import spin_poll
+from jackson.sim.faults import LINK_KINDS, FaultError, format_fault
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.link import PtyLink
@@ -239,7 +246,15 @@ class TwinRunner:
         lidar_link: str | None = None,
         truth: str | Path | None = None,
     ) -> None:
+        faults = twin.faults
+        if firmware and faults is not None and faults.link:
+            names = ", ".join(format_fault(f) for f in faults.faults if f.kind in LINK_KINDS)
+            raise FaultError(
+                f"{names}: link faults act between the emulated MCU and its pty; the compiled "
+                "firmware writes its own pty (drop --firmware)"
+            )
         self.twin = twin
+        self._faults = faults if faults is not None and faults.link else None
         self.truth: TruthStream | None = None  # the ground-truth file, with ``truth``
         # INFO's boot_id (protocol/spec.md §8.6): random like the ESP32's unless given
         self.boot_id = boot_id if boot_id else (secrets.randbits(32) | 1)
@@ -329,6 +344,15 @@ class TwinRunner:
                 self.dropped.append(n)
                 self._lost = True
                 return True  # sent by the MCU, lost on the line
+            if self._faults is not None:
+                line = self._faults.telemetry(self.twin.t_s, frame)
+                if line is None:
+                    self.dropped.append(n)
+                    self._lost = True
+                    return True
+                if line is not frame:
+                    self._lost = True  # the host drops it: no heartbeat will acknowledge it
+                frame = line
         return self.link.write(frame)
 
     def request_outage(self, seconds: float) -> None:
@@ -412,15 +436,18 @@ class TwinRunner:
 
     # ------------------------------------------------------------------ the LiDAR
 
-    def _scan_for(self, end_s: float) -> NDArray[np.float32]:
+    def _scan_for(self, end_s: float) -> NDArray[np.float32] | None:
         """The twin's scan for the revolution ending at ``end_s``: the one it took at the
-        first physics step at or after that instant (the two share one schedule)."""
+        first physics step at or after that instant (the two share one schedule); None when a
+        ``lidar_dropout`` fault lost it (nothing goes on the line)."""
         dt = self.twin.dt
         for scan in reversed(self.twin.scans):
             if end_s - 1e-6 <= scan.t_s < end_s + dt - 1e-9:
                 return scan.ranges
             if scan.t_s < end_s - 1e-6:
                 break
+        if any(end_s - 1e-6 <= t < end_s + dt - 1e-9 for t in self.twin.lost_scans):
+            return None
         assert self.lidar is not None
         self.lidar_scans_missing += 1
         return np.full(self.lidar.spec.beams, np.inf, dtype=np.float32)

@@ -89,9 +89,25 @@ class ImuModel:
         self.gyro_bias_rad_s = (bx + k * pop(), by + k * pop(), bz + k * pop())
 
     def sample(
-        self, accel_body: tuple[float, float], yaw_rate: float
+        self, accel_body: tuple[float, float], yaw_rate: float, gyro_z_offset_rad_s: float = 0.0
     ) -> tuple[tuple[int, int, int], int, tuple[int, int, int]]:
-        """(accel LSB xyz, temperature raw, gyro LSB xyz) for one telemetry sample."""
+        """One telemetry sample.
+
+        Parameters
+        ----------
+        accel_body : tuple of float
+            True body-frame specific force x, y [m/s^2].
+        yaw_rate : float
+            True yaw rate [rad/s].
+        gyro_z_offset_rad_s : float
+            A fault's addition to the gyro's z rate (a spike, a bias step), before
+            quantisation [rad/s] (:mod:`jackson.sim.faults`).
+
+        Returns
+        -------
+        tuple
+            (accel LSB xyz, temperature raw, gyro LSB xyz).
+        """
         s = self.spec
         bias = self.gyro_bias_rad_s
         if len(self._noise) < 6:
@@ -100,6 +116,8 @@ class ImuModel:
         noise = (pop(), pop(), pop(), pop(), pop(), pop())
         a_true = (accel_body[0], accel_body[1], GRAVITY_M_S2 * s.gravity_scale)
         w_true = (0.0, 0.0, yaw_rate * s.yaw_scale)
+        if gyro_z_offset_rad_s:
+            w_true = (0.0, 0.0, w_true[2] + gyro_z_offset_rad_s)
         a_scale = ACCEL_LSB_PER_G[self.accel_fs] / GRAVITY_M_S2
         g_scale = GYRO_LSB_PER_DPS[self.gyro_fs] * 180.0 / math.pi
         accel = tuple(

@@ -10,13 +10,20 @@ A trial is one ``Twin``: at its start it draws the robot file's per-trial variat
 (``variation:``, :func:`draw_trial`) from its seed, on random streams of their own, so the
 sensor noise of a seed stays the same whether or not variation is on, each varied quantity
 keeps its draw when another is switched on, and one seed reproduces a trial bit for bit.
+
+Faults (:mod:`jackson.sim.faults`: the robot file's ``faults:`` and any given to the ``Twin``)
+act in the sensor values :meth:`Twin.sensors` returns, in the wheels' floor friction at the
+physics steps of a ``wheel_slip`` window, and in the scans; each on a stream of its own, so a
+twin without faults draws exactly what it drew before.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -25,6 +32,7 @@ import pymunk
 from numpy.typing import NDArray
 
 from jackson.sim.config import ConfigError, RobotSpec, Sides, WorldSpec
+from jackson.sim.faults import FaultInjector, FaultSpec
 from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 from jackson.sim.mcu import SensorSample
 from jackson.sim.robot import DiffDriveRobot, WheelDrive
@@ -160,7 +168,35 @@ class Scan:
 
 
 class Twin:
-    """Everything physical about one simulated robot in one world."""
+    """Everything physical about one simulated robot in one world.
+
+    Parameters
+    ----------
+    world : WorldSpec
+        The world file.
+    robot : RobotSpec
+        The robot file (its ``faults`` are injected).
+    seed : int
+        Seeds the sensor noise, the trial's draws and the faults' streams.
+    physics_hz : int
+        Physics steps per second.
+    lidar : bool or None
+        Simulate the LiDAR (None: as the robot file says).
+    record_truth : bool
+        Keep the ground truth of every physics step (:attr:`truth_log`).
+    scan_history : int or None
+        Scans kept (None: all).
+    faults : sequence of FaultSpec
+        Faults injected besides the robot file's.
+
+    Attributes
+    ----------
+    faults : FaultInjector or None
+        The faults at run time (None: no faults); ``faults.record()`` tells what they did.
+    scans_lost : int
+        Revolutions a ``lidar_dropout`` lost (not in :attr:`scans`; their instants are in
+        :attr:`lost_scans`).
+    """
 
     def _check_start(self) -> None:
         """Refuse a start pose where the robot's footprint overlaps a wall or a cylinder."""
@@ -188,6 +224,7 @@ class Twin:
         lidar: bool | None = None,
         record_truth: bool = True,
         scan_history: int | None = None,
+        faults: Sequence[FaultSpec] = (),
     ) -> None:
         self.world_spec = world
         self.robot_spec = robot
@@ -231,9 +268,19 @@ class Twin:
         self._truth_cache: list[Truth] = []
         self.record_truth = record_truth
         # the newest scans (all of them with scan_history None: about 115 MB per hour);
-        # scans_taken counts every scan, kept or not
+        # scans_taken counts every scan delivered, kept or not (a lost one is neither)
         self.scans: deque[Scan] = deque(maxlen=scan_history)
         self.scans_taken = 0
+        self.lost_scans: deque[float] = deque(maxlen=scan_history)  # when each was lost [s]
+        self.scans_lost = 0
+        specs = (*robot.faults, *faults)
+        self.faults = FaultInjector(specs, seed) if specs else None
+        self._slip_steps: deque[int] = deque()
+        self._next_slip_step = sys.maxsize  # the next physics step a slip window opens or closes
+        if self.faults is not None:
+            edges = self.faults.slip_boundaries_s()
+            self._slip_steps.extend(sorted({math.ceil(t / self.dt - 1e-6) for t in edges}))
+            self._next_slip_step = self._slip_steps[0] if self._slip_steps else sys.maxsize
         use_lidar = robot.lidar.enabled if lidar is None else lidar
         self._lidar = self._make_lidar() if use_lidar else None
         self._next_scan_s = 0.0
@@ -282,7 +329,10 @@ class Twin:
         ax = ay = az = 0.0
         left, right = self._drive
         budget = self._free_budget
+        next_slip = self._next_slip_step
         while steps < end:
+            if steps >= next_slip:
+                next_slip = self._slip_change(steps)
             if pending and pending[0][0] <= steps * dt:
                 while pending and pending[0][0] <= steps * dt:
                     _, left, right = pending.popleft()
@@ -334,6 +384,17 @@ class Twin:
         acc[1] += ay
         acc[2] += az
 
+    def _slip_change(self, steps: int) -> int:
+        """A wheel-slip window opens or closes at physics step ``steps``: set the wheels' floor
+        friction factors for the steps from it; return the next such step."""
+        slip = self._slip_steps
+        while slip and slip[0] <= steps:
+            slip.popleft()
+        assert self.faults is not None
+        self.robot.mu_scale = self.faults.mu_scale(steps * self.dt)
+        self._next_slip_step = slip[0] if slip else sys.maxsize
+        return self._next_slip_step
+
     def _check_triggers(self) -> None:
         r = self.robot
         fired = self.world.check_triggers(
@@ -378,9 +439,17 @@ class Twin:
         r = self.robot
         assert self._lidar is not None
         ranges = self._lidar.scan(r.x, r.y, r.yaw, self._obstacles)
+        self._next_scan_s += self.scan_period_s
+        if self.faults is not None:
+            spec = self._lidar.spec
+            faulty = self.faults.scan(self.t_s, ranges, spec.range_min_m, spec.range_max_m)
+            if faulty is None:
+                self.lost_scans.append(self.t_s)
+                self.scans_lost += 1
+                return
+            ranges = faulty
         self.scans.append(Scan(self.t_s, ranges))
         self.scans_taken += 1
-        self._next_scan_s += self.scan_period_s
 
     def truth(self) -> Truth:
         r = self.robot
@@ -409,8 +478,15 @@ class Twin:
         self._acc_sum[:] = [0.0, 0.0, 0.0]
         self._acc_from_step = self.steps
         self.imu.drift(count * self.dt)
-        a, temp, g = self.imu.sample(accel, yaw_rate)
-        return SensorSample(enc_l, enc_r, self.robot_spec.imu.present, a, temp, g)
+        faults = self.faults
+        if faults is None:
+            a, temp, g = self.imu.sample(accel, yaw_rate)
+            return SensorSample(enc_l, enc_r, self.robot_spec.imu.present, a, temp, g)
+        t = self.t_s
+        a, temp, g = self.imu.sample(accel, yaw_rate, faults.gyro_z_offset_rad_s(t))
+        return faults.sensors(
+            t, SensorSample(enc_l, enc_r, self.robot_spec.imu.present, a, temp, g)
+        )
 
     @property
     def collisions(self) -> int:
