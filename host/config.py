@@ -24,6 +24,7 @@ from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.actuation.tb6612 import BridgeChannels
 from jackson.host.actuation.wheel_pi import WheelPiConfig
 from jackson.host.ekf import EkfConfig, ProcessNoise
+from jackson.host.health import POLICIES, HealthConfig
 from jackson.host.i2c import I2cSpecError, check_bus_spec
 from jackson.host.odometry import OdometryCovariance, RobotGeometry
 from jackson.protocol.messages import (
@@ -105,6 +106,7 @@ class HostConfig:
     limits: LimiterConfig = field(default_factory=LimiterConfig)
     deadband: DeadbandConfig = field(default_factory=DeadbandConfig)
     wheel_pi: WheelPiConfig = field(default_factory=WheelPiConfig)
+    health: HealthConfig = field(default_factory=HealthConfig)
     actuator: Actuator = "pca9685"
     pca9685: Pca9685Settings = field(default_factory=Pca9685Settings)
     imu: ImuSettings = field(default_factory=ImuSettings)
@@ -159,6 +161,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         limits=_limits(top.section("limits")),
         deadband=_deadband(top.section("deadband")),
         wheel_pi=_wheel_pi(top.section("wheel_pi")),
+        health=_health(top.section("health")),
         actuator=_actuator(top),
         pca9685=_pca9685(top.section("pca9685")),
         imu=_imu(top.section("imu")),
@@ -291,6 +294,30 @@ def _wheel_pi(s: Fields) -> WheelPiConfig:
     )
     s.finish()
     return out
+
+
+def _health(s: Fields) -> HealthConfig:
+    d = HealthConfig()
+    values: dict[str, Any] = {}
+    for f in fields(HealthConfig):
+        default = getattr(d, f.name)
+        if isinstance(default, bool):
+            values[f.name] = s.boolean(f.name, default)
+        elif isinstance(default, int):
+            values[f.name] = s.integer(f.name, default, 1, 1000)
+        elif isinstance(default, str):
+            v = s.text(f.name, default)
+            if v not in POLICIES:
+                raise s.fail(f.name, f"expected one of {', '.join(POLICIES)}, got {show(v)}")
+            values[f.name] = v
+        else:
+            values[f.name] = s.number(f.name, default, 0.0)
+    s.finish()
+    try:
+        return HealthConfig(**values)
+    except ValueError as exc:  # "HealthConfig.<field> must be ..."
+        key, _, problem = str(exc).removeprefix("HealthConfig.").partition(" ")
+        raise s.fail(key, problem) from None
 
 
 def _actuator(s: Fields) -> Actuator:
@@ -481,6 +508,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             },
         },
         "wheel_pi": {f.name: getattr(cfg.wheel_pi, f.name) for f in fields(WheelPiConfig)},
+        "health": {f.name: getattr(cfg.health, f.name) for f in fields(HealthConfig)},
         "actuator": cfg.actuator,
         "pca9685": {
             "bus": pca.bus,

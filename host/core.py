@@ -35,6 +35,7 @@ from jackson.host.control import Mission, NavState
 from jackson.host.control.base import ScanMission
 from jackson.host.control.guard import MissionGuard
 from jackson.host.ekf import Ekf, EkfState, GyroBiasEstimator
+from jackson.host.health import HealthInput, HealthMonitor, Transition, Verdict
 from jackson.host.lidar.rplidar import Revolution, RevolutionAssembler
 from jackson.host.nav.types import Scan
 from jackson.host.odometry import OdometryState, WheelOdometry, tick_delta
@@ -55,6 +56,8 @@ from jackson.protocol import (
     decode_message,
 )
 from jackson.protocol.units import yaw_rate_rad_s
+
+ONE_WHEEL_VARIANCE_SCALE = 4.0  # R of v_x from one wheel and the gyro, relative to two wheels
 
 
 def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
@@ -157,6 +160,9 @@ class CoreListener:
     def on_result(self, core: HostCore, result: FrameResult) -> None:
         """After a telemetry frame was handled (odometry, EKF, command are current)."""
 
+    def on_health(self, transition: Transition) -> None:
+        """A sensor changed its health state (before the frame's :meth:`on_result`)."""
+
 
 class RunFolderListener(CoreListener):
     """Writes the core's inputs and outputs into a run folder (:class:`RunRecorder`)."""
@@ -199,6 +205,19 @@ class RunFolderListener(CoreListener):
     def on_result(self, core: HostCore, r: FrameResult) -> None:
         rec, odo, t = self.recorder, r.odometry, r.telemetry
         rec.row(rec.commands, (r.t_s, r.v, r.w, r.duties[0], r.duties[1], int(r.braked)))
+        hm = core.health
+        if hm is not None:
+            rec.row(
+                rec.health,
+                (
+                    r.t_s,
+                    hm.nis["yaw_rate"],
+                    hm.nis["window"],
+                    hm.ratio,
+                    *(state.value for state in hm.sensors.values()),
+                    int(core.verdict is not None and core.verdict.stationary),
+                ),
+            )
         rec.row(
             rec.odometry,
             (r.t_s, odo.x_m, odo.y_m, odo.yaw_rad, odo.v_m_s, odo.w_rad_s, t.enc_left, t.enc_right),
@@ -229,7 +248,11 @@ class HostCore:
         self.output = output
         self.send = send
         self.mission = mission
-        self.guard = MissionGuard(mission.name, mission_timeout_s) if mission is not None else None
+        self.guard = (
+            MissionGuard(mission.name, mission_timeout_s, sensor_rules=not cfg.health.enabled)
+            if mission is not None
+            else None
+        )
         self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
         self.mcu_resets = 0  # INFO with another boot_id: counts and clock re-anchored
         self.host_state = HostState.ACTIVE  # sent in every HEARTBEAT (SHUTDOWN drops the interlock)
@@ -241,6 +264,15 @@ class HostCore:
         self.odometry = WheelOdometry(cfg.robot)
         self.ekf = Ekf(cfg.ekf)
         self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
+        self.bias_ever_known = False  # a re-measurement later does not hold the mission
+        self.health = (
+            HealthMonitor(cfg.health, cfg.robot, cfg.ekf.r_wz) if cfg.health.enabled else None
+        )
+        self.verdict: Verdict | None = None
+        self.sensors_lost: str | None = None  # the health policy's reason to brake
+        self._prev_raw: tuple[int, int] | None = None
+        self._told = 0  # health transitions told
+        self._prev_t_s: float | None = None
         self.limiter = VelocityLimiter(cfg.limits)
         self.deadband = cfg.deadband
         zero = cfg.deadband.zero_threshold_rad_s  # the PI brakes where the deadband stage does
@@ -356,14 +388,7 @@ class HostCore:
             if ekf.initialized:
                 self._record_ekf(self._next_output_s)
             self._next_output_s += period
-        ekf.update_wheel(t_s, odo.v_m_s, 0.0)
-        if t.flags & TelemetryFlags.IMU_OK:
-            wz = yaw_rate_rad_s(t)
-            still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
-            self.gyro_bias.add(t_s, wz, still)
-            bias = self.gyro_bias.bias_rad_s
-            if bias is not None:
-                ekf.update_gyro(t_s, wz - bias)
+        self._fuse(t_s, t, odo)
         if self._revolutions:
             self._take_scans(t_s)
         # command and actuation
@@ -380,6 +405,80 @@ class HostCore:
         self.last_result = result
         for listener in self.listeners:
             listener.on_result(self, result)
+
+    def _fuse(self, t_s: float, t: Telemetry, odo: OdometryState) -> None:
+        """The EKF's measurements of this frame, as the health monitor allows (docs/health.md):
+        both wheels' speed and the gyro; or one wheel and the gyro, or the wheels' yaw rate in
+        place of the gyro; or, standing still, a zero-velocity update."""
+        ekf = self.ekf
+        wz: float | None = None
+        if t.flags & TelemetryFlags.IMU_OK:
+            raw_wz = yaw_rate_rad_s(t)
+            still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
+            self.gyro_bias.add(t_s, raw_wz, still)
+            bias = self.gyro_bias.bias_rad_s
+            if bias is not None:
+                self.bias_ever_known = True
+                wz = raw_wz - bias
+        hm = self.health
+        if hm is None:  # the paper's filter: every measurement
+            ekf.update_wheel(t_s, odo.v_m_s, 0.0)
+            if wz is not None:
+                ekf.update_gyro(t_s, wz)
+            return
+        raw = (t.enc_left, t.enc_right)
+        prev = self._prev_raw if self._prev_raw is not None else raw
+        ticks = (tick_delta(prev[0], raw[0]), tick_delta(prev[1], raw[1]))
+        dt_s = t_s - self._prev_t_s if self._prev_t_s is not None else 0.0
+        self._prev_raw, self._prev_t_s = raw, t_s
+        om = (odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s)
+        still_cmd = self.braked or self._wheel_cmd == (0.0, 0.0)
+        v = self.verdict = hm.update(
+            HealthInput(
+                t_s=t_s,
+                imu_ok=bool(t.flags & TelemetryFlags.IMU_OK),
+                imu_raw=(*t.accel, *t.gyro, t.temp),
+                wz_rad_s=wz,
+                wheel_rad_s=om,
+                ticks=ticks,
+                dt_s=dt_s,
+                wheel_cmd_rad_s=self._wheel_cmd,
+                commanded_still=still_cmd,
+            )
+        )
+        n_new = len(hm.transitions) - self._told
+        for tr in hm.transitions[len(hm.transitions) - n_new :]:
+            self.event(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
+            for listener in self.listeners:
+                listener.on_health(tr)
+        self._told = len(hm.transitions)
+        if hm.remeasure_bias:
+            self.gyro_bias.reset()  # measured again over the next standstill
+        if v.lost is not None and self.sensors_lost is None:
+            self.sensors_lost = v.lost
+            self.event(f"health: braking: {v.lost}")
+        ekf.stationary = v.stationary
+        if v.stationary:
+            ekf.update_zero_velocity(t_s, self.cfg.health.zupt_variance)
+            return
+        r = self.cfg.robot
+        if v.use_left and v.use_right:
+            ekf.update_wheel(t_s, odo.v_m_s, 0.0)
+        elif wz is not None and v.use_gyro and (v.use_left or v.use_right):
+            # one wheel and the gyro: v = r_i omega_i -+ wz B / 2
+            half = 0.5 * wz * r.wheel_separation_m
+            if v.use_left:
+                vx = r.wheel_radius_left_m * om[0] + half
+            else:
+                vx = r.wheel_radius_right_m * om[1] - half
+            ekf.update_wheel(t_s, vx, 0.0, variance_scale=ONE_WHEEL_VARIANCE_SCALE)
+        if wz is not None and v.use_gyro:
+            ekf.update_gyro(t_s, wz)
+        elif v.use_left and v.use_right and dt_s > 0.0:
+            w_e = (
+                r.wheel_radius_right_m * om[1] - r.wheel_radius_left_m * om[0]
+            ) / r.wheel_separation_m
+            ekf.update_yaw_rate(t_s, w_e, v.wheel_yaw_variance)
 
     def _take_scans(self, t_s: float) -> None:
         revolutions, self._revolutions = self._revolutions, []
@@ -428,7 +527,12 @@ class HostCore:
         if self.mission is not None:
             if self.abort_reason is not None:
                 return 0.0, 0.0, True
-            bias_known = self.gyro_bias.bias_rad_s is not None
+            if self.sensors_lost is not None:
+                self.abort(self.sensors_lost)
+                return 0.0, 0.0, True
+            # an IMU the health monitor excluded is not waited for: wheel-only yaw
+            imu_out = self.health is not None and not self.health.state("imu").usable
+            bias_known = self.bias_ever_known or imu_out
             if self.guard is not None and not self.mission.done:
                 reason = self.guard.check(
                     t_s,
@@ -444,7 +548,7 @@ class HostCore:
                 return 0.0, 0.0, True  # stand still until the gyro bias is known
             v, w = self.mission.command(self.nav_state())
             return v, w, self.mission.done
-        if self.watchdog.expired(t_s):
+        if self.watchdog.expired(t_s) or self.sensors_lost is not None:
             return 0.0, 0.0, True
         return self.external[0], self.external[1], False
 

@@ -24,6 +24,7 @@ from jackson.host.control import MISSIONS, Mission
 from jackson.host.control.base import ScanMission
 from jackson.host.core import CoreListener, DutySource, FrameResult, HostCore
 from jackson.host.ekf import EkfState
+from jackson.host.health import Transition
 from jackson.host.nav.types import Scan
 from jackson.host.recording import RunRecorder, run_in_progress
 from jackson.protocol import (
@@ -35,6 +36,24 @@ from jackson.protocol import (
     Telemetry,
     TelemetryFlags,
 )
+
+
+class _OperatorListener(CoreListener):
+    """Tells the operator when a sensor's health changes (printed, kept for health.json; the
+    core has already logged it in the run)."""
+
+    def __init__(self, daemon: Daemon) -> None:
+        self.daemon = daemon
+
+    def on_health(self, transition: Transition) -> None:
+        tr = transition
+        self.daemon._say(
+            f"health: {tr.sensor} {tr.old.value} -> {tr.new.value} at {tr.t_s:.2f} s: {tr.reason}"
+        )
+
+    def on_event(self, host_time_ns: int, text: str) -> None:
+        if text.startswith("health: braking"):
+            self.daemon._say(text)
 
 
 class _BridgeListener(CoreListener):
@@ -183,6 +202,7 @@ class Daemon:
             max_bytes = int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None
             self.bag = BagRecorder(run_folder / "bag", odometry=cfg.odometry, max_bytes=max_bytes)
             self.core.listeners.append(BagListener(self.bag))
+        self.core.listeners.append(_OperatorListener(self))
         self.bridge: Any = None
         if ros_args is not None:  # --ros: rclpy is imported only here
             from jackson.host.ros.bridge import RosBridge
@@ -396,6 +416,27 @@ class Daemon:
             return
         self.core.on_lidar(data, time.monotonic_ns())
 
+    def _sensor_health(self) -> dict[str, Any]:
+        """The health monitor's verdict for health.json: states now and every transition."""
+        hm = self.core.health
+        if hm is None:
+            return {"monitor": "off"}
+        return {
+            "states": {name: state.value for name, state in hm.sensors.items()},
+            "transitions": [
+                {
+                    "t_s": tr.t_s,
+                    "sensor": tr.sensor,
+                    "from": tr.old.value,
+                    "to": tr.new.value,
+                    "reason": tr.reason,
+                }
+                for tr in hm.transitions
+            ],
+            "counts": dict(hm.counts),
+            "wheel_gyro_ratio": hm.ratio,
+        }
+
     def _write_health(self) -> None:
         assert self.run_folder is not None
         h = self.health()
@@ -403,6 +444,7 @@ class Daemon:
             "link": dataclasses.asdict(h),
             "problems": h.problems(),
             "abort_reason": self.core.abort_reason,
+            "sensors": self._sensor_health(),
             "events": self.events,
             "commands": {
                 "acked": self.commands.counters.acked,

@@ -62,6 +62,8 @@ TIME_EPSILON_S = 1e-9  # [s] slack on time comparisons (0.2 s of 20 Hz frames is
 SENSOR_WHEEL = "wheel"
 SENSOR_GYRO = "gyro"
 SENSOR_YAW = "yaw"
+SENSOR_WHEEL_YAW = "wheel_yaw"
+SENSOR_ZUPT = "zupt"
 
 
 _IDENTITY = np.eye(STATE_SIZE)
@@ -345,8 +347,12 @@ class Ekf:
         self._q_per_s: Matrix = np.diag(
             np.asarray(self.config.process_noise.diagonal, dtype=np.float64)
         )
+        self._q_moving_diag = np.diagonal(self._q_per_s).copy()
+        self._q_still_diag = self._q_moving_diag.copy()
+        self._q_still_diag[[X, Y, YAW]] = 0.0
         self.rejected: dict[str, int] = {}
         self.innovations: dict[str, Innovation] = {}
+        self.stationary = False  # the robot stands still: no process noise on the pose
         self.reset()
 
     # ---- state -------------------------------------------------------------------------------
@@ -363,6 +369,7 @@ class Ekf:
         self._y: Vector = np.zeros(0)
         self._S: Matrix = np.zeros((0, 0))
         self._mahalanobis_sq = 0.0
+        self.stationary = False
         self.rejected = {SENSOR_WHEEL: 0, SENSOR_GYRO: 0, SENSOR_YAW: 0}
         self.innovations = {}
 
@@ -503,7 +510,7 @@ class Ekf:
         jac = transition_jacobian(x, dt_s)
         # only the diagonal of F P F^T + dt Q: row i of F P times row i of F
         jp = jac @ np.asarray(self._kf.P, dtype=np.float64)
-        p_diag = np.einsum("ij,ij->i", jp, jac) + dt_s * np.diagonal(self._q_per_s)
+        p_diag = np.einsum("ij,ij->i", jp, jac) + dt_s * self._q_diag()
         pose = jp[:3] @ jac[:3].T  # the pose block of F P F^T (Q is diagonal)
         return EkfState(
             t_s=t_s,
@@ -528,7 +535,7 @@ class Ekf:
         kf = self._kf
         x = self.x
         jac = transition_jacobian(x, dt_s)
-        q_step = dt_s * self._q_per_s
+        q_step = np.diag(dt_s * self._q_diag())
         kf.F = jac
         kf.Q = q_step
         kf.x = transition(x, dt_s).reshape(STATE_SIZE, 1)
@@ -536,6 +543,10 @@ class Ekf:
         kf.x_prior = kf.x.copy()
         kf.P_prior = kf.P.copy()
         self._t_s = t_s
+
+    def _q_diag(self) -> Vector:
+        """Q's diagonal per second: without the pose's while :attr:`stationary`."""
+        return self._q_still_diag if self.stationary else self._q_moving_diag
 
     def timed_out(self, t_s: float) -> bool:
         """True when no measurement arrived within sensor_timeout_s before t_s.
@@ -549,11 +560,14 @@ class Ekf:
         return silence_s >= self.config.sensor_timeout_s - TIME_EPSILON_S
 
     # ---- measurements ------------------------------------------------------------------------
-    def update_wheel(self, t_s: float, vx: float, vy: float = 0.0) -> bool:
+    def update_wheel(
+        self, t_s: float, vx: float, vy: float = 0.0, variance_scale: float = 1.0
+    ) -> bool:
         """Fuse the wheel odometry's body velocity: z = [vx, vy], R = diag(r_vx, r_vy).
 
         vy is the non-holonomic constraint (0 for a differential drive). Gated with
-        mahalanobis_wheel.
+        mahalanobis_wheel. ``variance_scale`` multiplies R's vx term (one wheel and the gyro
+        in place of two wheels).
 
         Returns
         -------
@@ -567,7 +581,7 @@ class Ekf:
                 t_s=t_s,
                 z=np.array([vx, vy], dtype=np.float64),
                 indices=[VX, VY],
-                variances=np.array([cfg.r_vx, cfg.r_vy], dtype=np.float64),
+                variances=np.array([cfg.r_vx * variance_scale, cfg.r_vy], dtype=np.float64),
                 threshold=cfg.mahalanobis_wheel,
                 angular=[False, False],
             )
@@ -588,6 +602,42 @@ class Ekf:
                 variances=np.array([cfg.r_wz], dtype=np.float64),
                 threshold=cfg.mahalanobis_imu,
                 angular=[False],
+            )
+        )
+
+    def update_yaw_rate(
+        self, t_s: float, wz: float, variance: float, sensor: str = SENSOR_WHEEL_YAW
+    ) -> bool:
+        """Fuse a yaw rate other than the gyro's (the wheels', when the IMU is excluded):
+        z = [vyaw], R = variance [(rad/s)^2]. Not gated."""
+        return self._process(
+            _Measurement(
+                sensor=sensor,
+                t_s=t_s,
+                z=np.array([wz], dtype=np.float64),
+                indices=[VYAW],
+                variances=np.array([variance], dtype=np.float64),
+                threshold=None,
+                angular=[False],
+            )
+        )
+
+    def update_zero_velocity(self, t_s: float, variance: float) -> bool:
+        """A zero-velocity update: z = [vx, vy, vyaw, ax] = 0 with R = variance I.
+
+        For a robot that stands still (with :attr:`stationary` set, so the prediction adds no
+        pose noise either): its velocity covariance collapses and its pose covariance stops
+        growing.
+        """
+        return self._process(
+            _Measurement(
+                sensor=SENSOR_ZUPT,
+                t_s=t_s,
+                z=np.zeros(4, dtype=np.float64),
+                indices=[VX, VY, VYAW, AX],
+                variances=np.full(4, variance, dtype=np.float64),
+                threshold=None,
+                angular=[False] * 4,
             )
         )
 

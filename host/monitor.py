@@ -3,6 +3,11 @@
 Works against the robot and the twin alike: it sends HELLO, then shows the device's identity,
 the frame rate, CRC errors and sequence gaps, encoder counts, the IMU in SI units and the
 health bits. It sends heartbeats (so the device's failsafe stays calm) and no motor commands.
+
+It also runs the daemon's sensor health monitor (:mod:`jackson.host.health`) on the frames:
+each sensor's state, the yaw-rate NIS and the last transition. The robot stands still (the
+monitor commands nothing), so the gyro's bias is checked at once; push the robot by hand and
+the wheels and the gyro are checked against each other.
 """
 
 from __future__ import annotations
@@ -15,7 +20,11 @@ from rich.console import Group
 from rich.live import Live
 from rich.table import Table
 
+from jackson.host.config import HostConfig
 from jackson.host.daemon import VERSION_SILENCE_S
+from jackson.host.ekf import GyroBiasEstimator
+from jackson.host.health import HealthInput, HealthMonitor
+from jackson.host.odometry import WheelOdometry, tick_delta
 from jackson.host.transport import LinkEvent, SerialTransport
 from jackson.protocol import (
     PROTOCOL_VERSION,
@@ -27,10 +36,11 @@ from jackson.protocol import (
     Status,
     Telemetry,
     TelemetryFlags,
+    TimestampUnwrapper,
     check_peer,
     decode_message,
 )
-from jackson.protocol.units import accel_m_s2, gyro_rad_s, temperature_c
+from jackson.protocol.units import accel_m_s2, gyro_rad_s, temperature_c, yaw_rate_rad_s
 
 
 def imu_si(t: Telemetry) -> tuple[tuple[float, ...], tuple[float, ...], float]:
@@ -43,6 +53,58 @@ def flag_names(flags: int) -> str:
     return " ".join(names) or "-"
 
 
+class SensorWatch:
+    """The health monitor on a robot that is not driven (module docstring)."""
+
+    def __init__(self, cfg: HostConfig | None = None) -> None:
+        cfg = cfg if cfg is not None else HostConfig()
+        self.health = HealthMonitor(cfg.health, cfg.robot, cfg.ekf.r_wz)
+        self.odometry = WheelOdometry(cfg.robot)
+        self.bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
+        self.unwrapper = TimestampUnwrapper()
+        self._prev: tuple[float, int, int] | None = None
+
+    def feed(self, t: Telemetry) -> None:
+        """One telemetry frame."""
+        t_s = self.unwrapper.unwrap(t.t_us) / 1e6
+        odo = self.odometry.update(t_s, t.enc_left, t.enc_right)
+        om = (odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s)
+        imu_ok = bool(t.flags & TelemetryFlags.IMU_OK)
+        wz = None
+        if imu_ok:
+            raw = yaw_rate_rad_s(t)
+            self.bias.add(t_s, raw, om == (0.0, 0.0))
+            if self.bias.bias_rad_s is not None:
+                wz = raw - self.bias.bias_rad_s
+        prev = self._prev if self._prev is not None else (t_s, t.enc_left, t.enc_right)
+        self._prev = (t_s, t.enc_left, t.enc_right)
+        self.health.update(
+            HealthInput(
+                t_s=t_s,
+                imu_ok=imu_ok,
+                imu_raw=(*t.accel, *t.gyro, t.temp),
+                wz_rad_s=wz,
+                wheel_rad_s=om,
+                ticks=(tick_delta(prev[1], t.enc_left), tick_delta(prev[2], t.enc_right)),
+                dt_s=t_s - prev[0],
+                wheel_cmd_rad_s=(0.0, 0.0),
+                commanded_still=True,
+            )
+        )
+        if self.health.remeasure_bias:
+            self.bias.reset()
+
+    def line(self) -> str:
+        """The states, the NIS and the last transition, for the live view."""
+        h = self.health
+        states = ", ".join(f"{name} {state.value}" for name, state in h.sensors.items())
+        text = f"{states}; yaw-rate NIS {h.nis['yaw_rate']:.1f}"
+        if h.transitions:
+            tr = h.transitions[-1]
+            text += f"; last: {tr.sensor} -> {tr.new.value} at {tr.t_s:.1f} s ({tr.reason})"
+        return text
+
+
 @dataclass
 class MonitorState:
     info: Info | None = None
@@ -52,6 +114,7 @@ class MonitorState:
     times: list[float] = field(default_factory=list)  # host receive times, last 2 s
     logs: list[str] = field(default_factory=list)
     link: str = "connecting"
+    sensors: SensorWatch = field(default_factory=SensorWatch)
 
     def rate_hz(self) -> float:
         span = self.times[-1] - self.times[0] if self.times else 0.0
@@ -85,6 +148,7 @@ def render(s: MonitorState, transport: SerialTransport) -> Group:
         head.add_row("accel", " ".join(f"{v:+7.3f}" for v in accel) + " m/s^2")
         head.add_row("gyro", " ".join(f"{v:+8.4f}" for v in gyro) + f" rad/s   {temp:.1f} C")
         head.add_row("health", flag_names(t.flags))
+        head.add_row("sensors", s.sensors.line())
     if s.status is not None:
         st = s.status
         head.add_row(
@@ -132,6 +196,7 @@ def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = No
                 if isinstance(msg, Telemetry):
                     s.frames += 1
                     s.last = msg
+                    s.sensors.feed(msg)
                     now = rx_ns / 1e9
                     s.times = [t for t in s.times if t > now - 2.0] + [now]
                     transport.send(Heartbeat(ack_seq=frame.seq, host_state=HostState.IDLE))

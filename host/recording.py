@@ -7,6 +7,8 @@ A run folder holds
   run back through the host offline;
 - ``odometry.csv`` (one row per telemetry frame) and ``ekf.csv`` (30 Hz of MCU time): the
   outputs, floats written with ``repr`` so a replay can be compared bit for bit;
+- ``health.csv`` (one row per telemetry frame): the sensor health monitor's yaw-rate NIS,
+  windowed test, learned wheel/gyro ratio, each sensor's state and the standstill flag;
 - ``meta.json``: mission, configuration file, start time, versions.
 
 ``log.jrec`` is a little-endian binary file: the 8-byte magic ``b"JREC0001"``, then records of
@@ -64,6 +66,16 @@ FLUSH_PERIOD_S = 1.0  # [s] wall time between flushes of the whole run folder
 FLUSH_FRAMES = 100  # ... or this many frames (lockstep runs many per second)
 BUFFER_BYTES = 4 << 20  # [B] per file: never filled between two flushes, so never auto-flushed
 COMMAND_COLUMNS = ("t_s", "v_cmd", "w_cmd", "duty_left", "duty_right", "braked")
+HEALTH_COLUMNS = (
+    "t_s",
+    "nis_yaw_rate",
+    "window_z2",
+    "wheel_gyro_ratio",
+    "imu",
+    "encoder_left",
+    "encoder_right",
+    "stationary",
+)
 
 
 class RecordingError(ValueError):
@@ -99,6 +111,7 @@ class RunRecorder:
         self.odometry = self._csv("odometry.csv", ODOMETRY_COLUMNS)
         self.ekf = self._csv("ekf.csv", EKF_COLUMNS)
         self.commands = self._csv("commands.csv", COMMAND_COLUMNS)
+        self.health = self._csv("health.csv", HEALTH_COLUMNS)
         self._flushed_s = time.monotonic()
         self._frames = 0
 

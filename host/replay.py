@@ -27,7 +27,7 @@ from jackson.host.recording import (
 )
 from jackson.protocol import Frame
 
-COMPARED = ("odometry.csv", "ekf.csv", "commands.csv")
+COMPARED = ("odometry.csv", "ekf.csv", "commands.csv", "health.csv")
 
 
 @dataclass

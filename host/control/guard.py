@@ -12,6 +12,10 @@ reason to abort; the host then brakes and exits non-zero with that reason. Rules
 - **IMU silent**: no frame with ``IMU_OK`` for ``imu_silence_s``;
 - **encoder silent**: a wheel commanded faster than ``driven_wheel_rad_s`` reported no tick for
   ``encoder_silence_s`` (a stalled wheel, a cut encoder wire).
+
+The last two apply only with the sensor health monitor off (``health.enabled: false``): with it
+on, :mod:`jackson.host.health` excludes a silent IMU or encoder and its policy decides whether
+the mission goes on in a degraded mode or stops.
 """
 
 from __future__ import annotations
@@ -35,8 +39,16 @@ class GuardConfig:
 class MissionGuard:
     """Names the first reason a mission must stop, or None while it may go on."""
 
-    def __init__(self, name: str, timeout_s: float | None = None, cfg: GuardConfig | None = None):
+    def __init__(
+        self,
+        name: str,
+        timeout_s: float | None = None,
+        cfg: GuardConfig | None = None,
+        *,
+        sensor_rules: bool = True,
+    ):
         self.cfg = cfg or GuardConfig()
+        self.sensor_rules = sensor_rules  # False: the health monitor judges IMU and encoders
         self.timeout_s = timeout_s or MISSION_TIMEOUT_S.get(name, DEFAULT_TIMEOUT_S)
         self.name = name
         self._start_s: float | None = None
@@ -71,6 +83,8 @@ class MissionGuard:
                     f"no gyro bias after {elapsed:.1f} s: the IMU gave no usable sample "
                     "(is the MPU-6050 connected?)"
                 )
+            return None
+        if not self.sensor_rules:
             return None
         if self._imu_ok_s is None or t_s - self._imu_ok_s > c.imu_silence_s:
             silent = t_s - (self._imu_ok_s if self._imu_ok_s is not None else self._start_s)

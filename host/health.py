@@ -1,0 +1,627 @@
+"""Sensor health: innovation monitoring, a health state per sensor, and the degraded-mode policy.
+
+The EKF fuses the wheels' forward speed and the gyro's yaw rate (Table 2); neither alone can
+tell when it is wrong. :class:`HealthMonitor` watches them against each other and against the
+command, per telemetry frame and on MCU time, and says which measurements the EKF may use.
+
+**Cross-check.** The wheels give a yaw rate of their own, w_e = (r_R omega_R - r_L omega_L) / B.
+The residual r = w_e - s w_g of the gyro's rate w_g (bias removed) has, on a healthy robot,
+the variance
+
+    sigma_r^2 = R_wz + sigma_q^2 + (kappa max(|w_e|, |w_g|))^2
+
+with R_wz the gyro's variance (the EKF's ``r_wz``), sigma_q^2 the encoders' quantisation (one
+count of each wheel over the frame, a triangular error of 1/6 count^2 per wheel) and kappa the
+relative disagreement of a healthy robot's wheels and gyro in turns (tyre scrub and creep:
+``scale_tolerance``). s is the wheel/gyro ratio learned slowly while turning (a robot whose
+wheels over-read its arcs by 7 % has s = 1.07), so kappa only has to cover how the ratio varies.
+
+**Tests.** Per frame, the normalised innovation squared NIS = r^2 / sigma_r^2 against the
+chi-square(1) quantile of ``gate_probability`` (99.99 %: 15.1): a failing sample is not fused
+(a spike). Over the last ``window_s`` the mean residual against its own standard deviation,
+sigma_mean^2 = sum(sigma_r,i^2) / N^2, at the normal quantile of ``window_probability``: a
+slow fault (a bias step, a slipping wheel) that no single sample shows. And, without any
+model: no ``IMU_OK`` for ``imu_silence_s`` (a dead IMU), raw registers frozen for ``stuck_s``
+(a stuck IMU: a live MPU-6050's noise changes its low bits every sample), and a wheel with no
+count for ``encoder_stuck_s`` while the other wheel and the gyro (or, without a gyro, the
+command) say it turns faster than ``driven_wheel_rad_s`` (a cut encoder wire).
+
+**Isolation.** A dead or stuck IMU, spikes (``spikes_to_exclude`` failing samples within
+``window_s``) and a persistent disagreement while the robot stands still are the gyro's. A
+persistent disagreement while driving is charged to the wheel that reads more than the gyro and
+the other wheel allow (its "excess" |omega_i| - |omega_i,expected| is the larger): a wheel that
+slips spins faster than the floor moves, and the gyro measures the yaw the robot really makes.
+A gyro bias step while driving looks the same over a short window; it is found at the next
+standstill (the gyro must then read zero), where the bias is measured again.
+
+**States** per sensor (``imu``, ``encoder_left``, ``encoder_right``), with hysteresis:
+``ok`` -> ``suspect`` (a failing sample: not fused) -> ``excluded`` (a failing test above: not
+fused until it passes again) -> ``recovered`` (``recover_s`` of passing samples after an
+exclusion: fused again) -> ``ok`` (``recovered_hold_s`` later). ``suspect`` returns to ``ok``
+after ``recover_s`` without a failure.
+
+**Policy** (``imu_lost``, ``encoder_lost``: ``continue`` or ``stop``): with the IMU excluded the
+EKF takes the yaw rate from the wheels with its variance sigma_r^2 (honestly larger); with one
+encoder excluded, the forward speed from the other wheel and the gyro,
+v = r_i omega_i -+ w_g B / 2; with the IMU and an encoder, or both encoders, lost the robot
+brakes (the mission is aborted). **Zero-velocity updates**: when the robot is commanded still
+and neither wheel has counted for ``zupt_after_s``, it stands still: the EKF fuses zero
+velocities and adds no process noise to the pose, so a parked robot's covariance stays bounded.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections import deque
+from dataclasses import dataclass
+
+from scipy.stats import chi2, norm
+
+from jackson.host.odometry import RobotGeometry
+
+POLICIES = ("continue", "stop")
+SENSORS = ("imu", "encoder_left", "encoder_right")
+
+
+class Health(enum.Enum):
+    """A sensor's health state (module docstring)."""
+
+    OK = "ok"
+    SUSPECT = "suspect"
+    EXCLUDED = "excluded"
+    RECOVERED = "recovered"
+
+    @property
+    def usable(self) -> bool:
+        """Whether the EKF may fuse this sensor (sample by sample, the gate still decides)."""
+        return self is not Health.EXCLUDED
+
+
+@dataclass(frozen=True)
+class HealthConfig:
+    """The ``health:`` section of the host configuration (module docstring for each test).
+
+    Attributes
+    ----------
+    enabled : bool
+        False: every measurement is fused as in the paper, no zero-velocity updates.
+    gate_probability : float
+        Per-sample chi-square(1) gate on the wheel/gyro residual.
+    window_s : float
+        Span of the windowed mean test and of the spike count [s].
+    window_probability : float
+        Two-sided confidence of the windowed mean test.
+    scale_tolerance : float
+        kappa: the relative disagreement of a healthy robot's wheel and gyro yaw rates.
+    ratio_time_constant_s : float
+        Time constant of the learned wheel/gyro ratio s, counted while turning [s]; 0 keeps s = 1.
+    spikes_to_exclude : int
+        Failing samples within ``window_s`` that exclude the IMU.
+    imu_silence_s, stuck_s, encoder_stuck_s : float
+        Silence and freeze detectors [s].
+    driven_wheel_rad_s : float
+        A wheel expected to turn faster than this must count [rad/s].
+    recover_s : float
+        Passing samples needed to leave ``suspect`` or ``excluded`` [s].
+    recovered_hold_s : float
+        ``recovered`` becomes ``ok`` after this [s].
+    zupt : bool
+        Zero-velocity updates when commanded still.
+    zupt_after_s : float
+        Standstill needed before the first zero-velocity update [s].
+    zupt_variance : float
+        R of each zero velocity [(m/s)^2, (rad/s)^2, (m/s^2)^2].
+    imu_lost, encoder_lost : str
+        "continue" (degraded mode) or "stop" (brake and abort the mission).
+    """
+
+    enabled: bool = True
+    gate_probability: float = 0.9999
+    window_s: float = 1.0
+    window_probability: float = 0.9999
+    scale_tolerance: float = 0.06
+    ratio_time_constant_s: float = 20.0
+    spikes_to_exclude: int = 3
+    imu_silence_s: float = 0.25
+    stuck_s: float = 0.5
+    encoder_stuck_s: float = 0.5
+    driven_wheel_rad_s: float = 2.0
+    recover_s: float = 2.0
+    recovered_hold_s: float = 10.0
+    zupt: bool = True
+    zupt_after_s: float = 0.25
+    zupt_variance: float = 1.0e-6
+    imu_lost: str = "continue"
+    encoder_lost: str = "continue"
+
+    def __post_init__(self) -> None:
+        for name in ("gate_probability", "window_probability"):
+            p = getattr(self, name)
+            if not 0.5 < p < 1.0:
+                raise ValueError(f"HealthConfig.{name} must be in (0.5, 1), got {p}")
+        for name in (
+            "window_s",
+            "imu_silence_s",
+            "stuck_s",
+            "encoder_stuck_s",
+            "recover_s",
+            "recovered_hold_s",
+            "zupt_variance",
+        ):
+            v = getattr(self, name)
+            if not 0.0 < v < math.inf:
+                raise ValueError(f"HealthConfig.{name} must be finite and > 0, got {v}")
+        for name in ("scale_tolerance", "ratio_time_constant_s", "zupt_after_s"):
+            v = getattr(self, name)
+            if not 0.0 <= v < math.inf:
+                raise ValueError(f"HealthConfig.{name} must be finite and >= 0, got {v}")
+        if self.spikes_to_exclude < 1:
+            raise ValueError(
+                f"HealthConfig.spikes_to_exclude must be >= 1, got {self.spikes_to_exclude}"
+            )
+        for name in ("imu_lost", "encoder_lost"):
+            if getattr(self, name) not in POLICIES:
+                raise ValueError(f"HealthConfig.{name} must be one of {POLICIES}")
+
+    @property
+    def gate_nis(self) -> float:
+        """The per-sample NIS threshold (chi-square(1) quantile)."""
+        return float(chi2.ppf(self.gate_probability, 1))
+
+    @property
+    def window_z(self) -> float:
+        """The windowed test's threshold in standard deviations (two-sided normal quantile)."""
+        return float(norm.ppf(0.5 + 0.5 * self.window_probability))
+
+
+@dataclass(frozen=True)
+class HealthInput:
+    """What one telemetry frame tells the monitor.
+
+    Attributes
+    ----------
+    t_s : float
+        MCU time [s].
+    imu_ok : bool
+        The frame's IMU_OK flag.
+    imu_raw : tuple of int
+        The raw accel, gyro and temperature registers (for the freeze test).
+    wz_rad_s : float or None
+        The gyro's yaw rate less its bias; None while the bias is unknown or the IMU is not ok.
+    wheel_rad_s : tuple of float
+        Wheel speeds (left, right) over the frame [rad/s].
+    ticks : tuple of int
+        Counts (left, right) over the frame.
+    dt_s : float
+        The frame's interval [s] (0 for the first).
+    wheel_cmd_rad_s : tuple of float
+        Wheel speeds commanded over the frame [rad/s].
+    commanded_still : bool
+        The motors are braked or commanded to zero.
+    """
+
+    t_s: float
+    imu_ok: bool
+    imu_raw: tuple[int, ...]
+    wz_rad_s: float | None
+    wheel_rad_s: tuple[float, float]
+    ticks: tuple[int, int]
+    dt_s: float
+    wheel_cmd_rad_s: tuple[float, float]
+    commanded_still: bool
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the EKF may use at this frame.
+
+    Attributes
+    ----------
+    use_gyro : bool
+        Fuse this gyro sample.
+    use_left, use_right : bool
+        The encoder may be used.
+    stationary : bool
+        Zero-velocity update (standing still).
+    wheel_yaw_variance : float
+        sigma_r^2 of this frame: the variance of the wheels' yaw rate when it replaces the gyro.
+    lost : str or None
+        Why the policy says stop (None: go on).
+    """
+
+    use_gyro: bool
+    use_left: bool
+    use_right: bool
+    stationary: bool
+    wheel_yaw_variance: float
+    lost: str | None
+
+
+@dataclass(frozen=True)
+class Transition:
+    """A sensor's change of state, for the log and the operator."""
+
+    t_s: float
+    sensor: str
+    old: Health
+    new: Health
+    reason: str
+
+
+class _SensorState:
+    """One sensor's state machine (module docstring)."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.state = Health.OK
+        self.since_s = 0.0  # when the current state began
+        self.clean_since_s: float | None = None  # first passing sample of the current clean run
+        self.reason = ""
+
+    def fail(self, t_s: float, exclude: bool, reason: str, out: list[Transition]) -> None:
+        self.clean_since_s = None
+        new = Health.EXCLUDED if exclude else Health.SUSPECT
+        if self.state is Health.EXCLUDED or self.state is new:
+            return
+        self._go(t_s, new, reason, out)
+
+    def pass_(self, t_s: float, cfg: HealthConfig, out: list[Transition]) -> None:
+        if self.clean_since_s is None:
+            self.clean_since_s = t_s
+        clean = t_s - self.clean_since_s
+        if self.state is Health.EXCLUDED and clean >= cfg.recover_s - 1e-9:
+            self._go(t_s, Health.RECOVERED, f"passed its tests for {clean:.1f} s", out)
+        elif self.state is Health.SUSPECT and clean >= cfg.recover_s - 1e-9:
+            self._go(t_s, Health.OK, f"passed its tests for {clean:.1f} s", out)
+        elif self.state is Health.RECOVERED and t_s - self.since_s >= cfg.recovered_hold_s - 1e-9:
+            self._go(t_s, Health.OK, f"{cfg.recovered_hold_s:.0f} s since it recovered", out)
+
+    def _go(self, t_s: float, new: Health, reason: str, out: list[Transition]) -> None:
+        out.append(Transition(t_s, self.name, self.state, new, reason))
+        self.state, self.since_s, self.reason = new, t_s, reason
+
+
+class HealthMonitor:
+    """The health of the IMU and the two encoders, per telemetry frame (module docstring).
+
+    Parameters
+    ----------
+    cfg : HealthConfig
+        Thresholds and policy.
+    robot : RobotGeometry
+        Wheel radii, separation and counts per revolution the host believes.
+    gyro_variance : float
+        R of the gyro's yaw rate [(rad/s)^2] (the EKF's ``r_wz``).
+
+    Attributes
+    ----------
+    sensors : dict of str to Health
+        Each sensor's state now.
+    transitions : list of Transition
+        Every change so far, in order.
+    nis : dict of str to float
+        The last NIS per test ("yaw_rate": per sample, "window": the windowed mean's squared
+        z score).
+    counts : dict of str to int
+        Failing samples, exclusions and zero-velocity updates so far.
+    """
+
+    def __init__(self, cfg: HealthConfig, robot: RobotGeometry, gyro_variance: float) -> None:
+        self.cfg = cfg
+        self.robot = robot
+        self.gyro_variance = gyro_variance
+        self._gate = cfg.gate_nis
+        self._z = cfg.window_z
+        self._s = {name: _SensorState(name) for name in SENSORS}
+        self.transitions: list[Transition] = []
+        self.nis = {"yaw_rate": 0.0, "window": 0.0}
+        self.counts = {"gated": 0, "excluded": 0, "zupt": 0}
+        self._imu_ok_s: float | None = None
+        self._raw: tuple[int, ...] | None = None
+        self._raw_since_s = 0.0
+        self._moved_s = [0.0, 0.0]
+        self._still_since_s: float | None = None
+        self._window: deque[tuple[float, float, float, float, float, float]] = deque()
+        self._still: deque[tuple[float, float]] = deque()
+        self.remeasure_bias = False  # the gyro read non-zero standing still: measure its bias
+        self._fails: deque[float] = deque()
+        self._run: list[tuple[float, float, float, float, float, float]] = []  # failing in a row
+        self._run_nis = 0.0
+        self._prev_we: float | None = None
+        self._ratio = 1.0
+        self._t0: float | None = None
+
+    @property
+    def sensors(self) -> dict[str, Health]:
+        return {name: s.state for name, s in self._s.items()}
+
+    def state(self, sensor: str) -> Health:
+        """The state of ``imu``, ``encoder_left`` or ``encoder_right``."""
+        return self._s[sensor].state
+
+    def reason(self, sensor: str) -> str:
+        """Why the sensor entered its current state ('' while it never left ``ok``)."""
+        return self._s[sensor].reason
+
+    @property
+    def ratio(self) -> float:
+        """The learned wheel/gyro yaw-rate ratio s."""
+        return self._ratio
+
+    def _quantisation_variance(self, dt_s: float) -> float:
+        r = self.robot
+        if dt_s <= 0.0:
+            return 0.0
+        per_count = [
+            r.wheel_radius_left_m * 2.0 * math.pi / r.ticks_per_rev_left,
+            r.wheel_radius_right_m * 2.0 * math.pi / r.ticks_per_rev_right,
+        ]
+        return sum((c / (r.wheel_separation_m * dt_s)) ** 2 / 6.0 for c in per_count)
+
+    def update(self, h: HealthInput) -> Verdict:
+        """Judge one frame; the new transitions are appended to :attr:`transitions`."""
+        cfg = self.cfg
+        out: list[Transition] = []
+        t = h.t_s
+        if self._t0 is None:
+            self._t0 = self._imu_ok_s = self._raw_since_s = t
+            self._moved_s = [t, t]
+        imu = self._s["imu"]
+        enc = (self._s["encoder_left"], self._s["encoder_right"])
+        om_l, om_r = h.wheel_rad_s
+        w_e = self._wheel_yaw_rate(om_l, om_r)
+        wz = h.wz_rad_s
+
+        # standstill: commanded still and no count for zupt_after_s
+        if h.commanded_still and h.ticks == (0, 0):
+            if self._still_since_s is None:
+                self._still_since_s = t
+        else:
+            self._still_since_s = None
+        still = self._still_since_s is not None and t - self._still_since_s >= cfg.zupt_after_s
+        stationary = cfg.zupt and still
+
+        # the IMU without a model: dead, frozen
+        imu_frozen = False
+        if h.imu_ok:
+            self._imu_ok_s = t
+            if h.imu_raw != self._raw:
+                self._raw, self._raw_since_s = h.imu_raw, t
+            imu_frozen = t - self._raw_since_s >= cfg.stuck_s - 1e-9
+            if imu_frozen:
+                imu.fail(
+                    t, True, f"registers frozen for {t - self._raw_since_s:.2f} s (stuck)", out
+                )
+        else:
+            self._raw, self._raw_since_s = None, t
+            assert self._imu_ok_s is not None
+            if t - self._imu_ok_s >= cfg.imu_silence_s - 1e-9:
+                imu.fail(t, True, f"no IMU_OK for {t - self._imu_ok_s:.2f} s (dead)", out)
+        gyro_live = h.imu_ok and not imu_frozen and wz is not None
+        prev_we, self._prev_we = self._prev_we, (w_e if h.dt_s > 0.0 else None)
+        trusted_wz = wz if gyro_live and imu.state.usable else None
+
+        # the encoders without the cross-check: a wheel that must turn but does not count
+        for i in range(2):
+            expected = self._expected_wheel(i, h, trusted_wz)
+            if h.ticks[i] != 0 or abs(expected) <= cfg.driven_wheel_rad_s:
+                self._moved_s[i] = t
+            elif t - self._moved_s[i] >= cfg.encoder_stuck_s - 1e-9:
+                why = (
+                    f"no count for {t - self._moved_s[i]:.2f} s while the wheel should turn at "
+                    f"{expected:+.1f} rad/s (stuck or cut)"
+                )
+                enc[i].fail(t, True, why, out)
+
+        var = self.gyro_variance + self._quantisation_variance(h.dt_s)
+        charged: set[str] = set()
+        skip = [False, False]  # a wheel's sample not to fuse at this frame
+        spike = False
+        # standing still, the gyro must read zero: its bias is checked (and measured again)
+        self.remeasure_bias = False
+        if gyro_live and still and wz is not None:
+            self._still.append((t, wz))
+            while self._still and self._still[0][0] <= t - cfg.window_s + 1e-9:
+                self._still.popleft()
+            n = len(self._still)
+            if n >= 5 and self._still[-1][0] - self._still[0][0] >= 0.45 * cfg.window_s:
+                mean = math.fsum(x[1] for x in self._still) / n
+                if mean * mean / (self.gyro_variance / n) >= self._z**2:
+                    imu.fail(t, True, f"reads {mean:+.4f} rad/s standing still (bias)", out)
+                    charged.add("imu")
+                    self.remeasure_bias = True
+                    self._still.clear()
+        else:
+            self._still.clear()
+
+        # the cross-check, when the gyro and both wheels are live
+        wheels_live = all(e.state.usable for e in enc) and h.dt_s > 0.0
+        if gyro_live and wheels_live and wz is not None and not still:
+            # the wheels' rate is the frame's mean, the gyro's a sample: under angular
+            # acceleration they differ by up to half the change over the frame (the wheels'
+            # change: a gyro spike must not widen its own gate)
+            lag = 0.5 * (w_e - prev_we) if prev_we is not None else 0.0
+            var_r = var + lag * lag + (cfg.scale_tolerance * max(abs(w_e), abs(wz))) ** 2
+            res = w_e - self._ratio * wz
+            nis = res * res / var_r
+            self.nis["yaw_rate"] = nis
+            spike = nis >= self._gate
+            while self._fails and self._fails[0] <= t - cfg.window_s + 1e-9:
+                self._fails.popleft()
+            silent = [
+                i
+                for i in range(2)
+                if h.ticks[i] == 0 and abs(self._expected_wheel(i, h, wz)) > cfg.driven_wheel_rad_s
+            ]
+            if spike and len(silent) == 1:  # a wheel that should turn and did not count
+                i = silent[0]
+                enc[i].fail(t, False, f"yaw-rate NIS {nis:.1f}: the wheel did not count", out)
+                charged.add(enc[i].name)
+                skip[i] = True
+                spike = False
+            elif spike:
+                self.counts["gated"] += 1
+                self._fails.append(t)
+                self._run.append((t, res, var_r, om_l, om_r, wz))
+                self._run_nis = nis
+                if len(self._run) >= cfg.spikes_to_exclude:
+                    # failing frame after frame: not spikes but a persistent disagreement
+                    mean = math.fsum(x[1] for x in self._run) / len(self._run)
+                    span = self._run[-1][0] - self._run[0][0] + h.dt_s
+                    charged |= self._charge(t, list(self._run), mean, span, out)
+                    self._run.clear()
+                    self._fails.clear()
+                else:
+                    charged.add("imu")  # not fused; judged when the run of failures ends
+            if not spike and self._run:  # a run shorter than a persistent one: spikes
+                exclude = len(self._fails) >= cfg.spikes_to_exclude
+                why = (
+                    f"{len(self._fails)} yaw-rate samples beyond the gate in "
+                    f"{cfg.window_s:.1f} s (spikes)"
+                    if exclude
+                    else f"yaw-rate NIS {self._run_nis:.1f} beyond the gate {self._gate:.1f} "
+                    "(a spike)"
+                )
+                imu.fail(self._run[-1][0], exclude, why, out)
+                charged.add("imu")
+                self._run.clear()
+            if not spike and not any(skip) and not charged:
+                self._window.append((t, res, var + lag * lag, om_l, om_r, wz))
+                while self._window and self._window[0][0] <= t - cfg.window_s + 1e-9:
+                    self._window.popleft()
+                charged |= self._window_test(t, out)
+                if not charged:
+                    self._learn_ratio(w_e, wz, h.dt_s)
+        elif not gyro_live or not wheels_live:
+            self._window.clear()
+
+        # passes: a sensor whose tests ran and passed this frame
+        # (an excluded IMU only where a test could check it: the wheels live, or standing still)
+        imu_passed = gyro_live and "imu" not in charged and not spike
+        if imu_passed and (imu.state is not Health.EXCLUDED or wheels_live or still):
+            imu.pass_(t, cfg, out)
+        for i, e in enumerate(enc):
+            if self._moved_s[i] != t or e.name in charged:
+                continue
+            if e.state is Health.EXCLUDED:
+                if h.ticks[i] != 0 and self._wheel_agrees(i, h, trusted_wz):
+                    e.pass_(t, cfg, out)
+            else:
+                e.pass_(t, cfg, out)
+
+        self.transitions += out
+        self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
+        if stationary:
+            self.counts["zupt"] += 1
+        return Verdict(
+            use_gyro=gyro_live and not spike and imu.state.usable,
+            use_left=enc[0].state.usable and not skip[0],
+            use_right=enc[1].state.usable and not skip[1],
+            stationary=bool(stationary),
+            wheel_yaw_variance=var + (cfg.scale_tolerance * abs(w_e)) ** 2,
+            lost=self._lost(),
+        )
+
+    def _wheel_yaw_rate(self, om_l: float, om_r: float) -> float:
+        r = self.robot
+        return (r.wheel_radius_right_m * om_r - r.wheel_radius_left_m * om_l) / r.wheel_separation_m
+
+    def _expected_wheel(self, i: int, h: HealthInput, wz: float | None) -> float:
+        """Wheel i's speed implied by the other wheel and the gyro, or by the command."""
+        r = self.robot
+        if wz is None:
+            return h.wheel_cmd_rad_s[i]
+        yaw = self._ratio * wz * r.wheel_separation_m
+        if i == 0:  # r_L om_L = r_R om_R - s wz B
+            return (r.wheel_radius_right_m * h.wheel_rad_s[1] - yaw) / r.wheel_radius_left_m
+        return (r.wheel_radius_left_m * h.wheel_rad_s[0] + yaw) / r.wheel_radius_right_m
+
+    def _wheel_agrees(self, i: int, h: HealthInput, wz: float | None) -> bool:
+        """An excluded wheel's speed agrees with the other wheel and the gyro again."""
+        if wz is None or h.dt_s <= 0.0:
+            return True
+        expected = self._expected_wheel(i, h, wz)
+        r = self.robot
+        sigma_yaw = math.sqrt(self.gyro_variance + self._quantisation_variance(h.dt_s))
+        tol = (
+            3.0
+            * sigma_yaw
+            * r.wheel_separation_m
+            / min(r.wheel_radius_left_m, r.wheel_radius_right_m)
+        )
+        return abs(h.wheel_rad_s[i] - expected) <= tol + self.cfg.scale_tolerance * abs(expected)
+
+    def _learn_ratio(self, w_e: float, wz: float, dt_s: float) -> None:
+        """s follows w_e / wz while turning (a low-pass over ``ratio_time_constant_s``)."""
+        tau = self.cfg.ratio_time_constant_s
+        if tau <= 0.0 or abs(wz) < 0.1:
+            return
+        ratio = w_e / wz
+        if not 0.8 < ratio < 1.25:  # a wheel skidding through a turn, not scrub
+            return
+        self._ratio += min(1.0, dt_s / tau) * (ratio - self._ratio)
+
+    def _window_test(self, t: float, out: list[Transition]) -> set[str]:
+        """The windowed mean of the residual; the sensor it charges, if it fails."""
+        cfg = self.cfg
+        n = len(self._window)
+        span = self._window[-1][0] - self._window[0][0] if n else 0.0
+        if n < 5 or span < 0.8 * cfg.window_s:
+            self.nis["window"] = 0.0
+            return set()
+        mean = math.fsum(w[1] for w in self._window) / n
+        # the random part averages down; the scale disagreement (scrub) does not
+        rate = math.fsum(max(abs(w[5]), abs(w[1] + self._ratio * w[5])) for w in self._window) / n
+        var_mean = math.fsum(w[2] for w in self._window) / (n * n)
+        var_mean += (cfg.scale_tolerance * rate) ** 2
+        z2 = mean * mean / var_mean
+        self.nis["window"] = z2
+        if z2 < self._z**2:
+            return set()
+        charged = self._charge(t, list(self._window), mean, span, out)
+        self._window.clear()
+        return charged
+
+    def _charge(
+        self,
+        t: float,
+        samples: list[tuple[float, float, float, float, float, float]],
+        mean: float,
+        span: float,
+        out: list[Transition],
+    ) -> set[str]:
+        """A persistent disagreement while driving: charged to the wheel that reads more than
+        the gyro and the other wheel allow (module docstring)."""
+        n = len(samples)
+        om_l = math.fsum(x[3] for x in samples) / n
+        om_r = math.fsum(x[4] for x in samples) / n
+        wz = math.fsum(x[5] for x in samples) / n
+        r = self.robot
+        yaw = self._ratio * wz * r.wheel_separation_m
+        excess_l = abs(om_l) - abs((r.wheel_radius_right_m * om_r - yaw) / r.wheel_radius_left_m)
+        excess_r = abs(om_r) - abs((r.wheel_radius_left_m * om_l + yaw) / r.wheel_radius_right_m)
+        side = 0 if excess_l >= excess_r else 1
+        name = ("encoder_left", "encoder_right")[side]
+        why = (
+            f"wheel and gyro yaw rates disagree by {mean:+.3f} rad/s over {span:.2f} s: the "
+            f"{('left', 'right')[side]} wheel reads {max(excess_l, excess_r):.2f} rad/s more "
+            "than the gyro and the other wheel allow (slipping)"
+        )
+        self._s[name].fail(t, True, why, out)
+        return {name}
+
+    def _lost(self) -> str | None:
+        cfg = self.cfg
+        imu_out = not self._s["imu"].state.usable
+        enc_out = [not self._s[n].state.usable for n in ("encoder_left", "encoder_right")]
+        if all(enc_out):
+            return "both encoders excluded: no odometry"
+        if imu_out and any(enc_out):
+            return "the IMU and an encoder excluded: no yaw rate and no forward speed"
+        if imu_out and cfg.imu_lost == "stop":
+            return f"the IMU excluded ({self._s['imu'].reason}) and health.imu_lost is stop"
+        if any(enc_out) and cfg.encoder_lost == "stop":
+            side = "left" if enc_out[0] else "right"
+            return f"the {side} encoder excluded and health.encoder_lost is stop"
+        return None

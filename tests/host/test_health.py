@@ -1,0 +1,254 @@
+"""The sensor health monitor on synthetic frames: gates, windowed tests, states and policy."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from jackson.host.config import HostConfig
+from jackson.host.ekf import Ekf
+from jackson.host.health import Health, HealthConfig, HealthInput, HealthMonitor, Verdict
+from jackson.host.odometry import RobotGeometry
+
+DT = 0.05
+ROBOT = RobotGeometry()
+R_WZ = HostConfig().ekf.r_wz
+GYRO_SIGMA = 0.005  # [rad/s] a quieter gyro than the EKF's R assumes, as the MPU-6050 is
+
+
+class Robot:
+    """A robot driving (v, w) with exact encoders (quantised) and a noisy gyro."""
+
+    def __init__(self, seed: int = 0) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.t = 0.0
+        self.phi = [0.0, 0.0]  # wheel angles [rad]
+        self.counts = [0, 0]
+        self.raw_noise = 0
+
+    def frame(
+        self,
+        v: float,
+        w: float,
+        *,
+        gyro_extra: float = 0.0,
+        imu_ok: bool = True,
+        frozen: bool = False,
+        stuck: tuple[bool, bool] = (False, False),
+        slip: tuple[float, float] = (1.0, 1.0),
+    ) -> HealthInput:
+        """One frame; ``slip`` scales each wheel's turn over the floor's (1.3: spins 30 % more)."""
+        self.t += DT
+        b = ROBOT.wheel_separation_m
+        om = [
+            (v - w * b / 2) / ROBOT.wheel_radius_left_m,
+            (v + w * b / 2) / ROBOT.wheel_radius_right_m,
+        ]
+        ticks = []
+        speeds = []
+        for i, tpr in enumerate((ROBOT.ticks_per_rev_left, ROBOT.ticks_per_rev_right)):
+            self.phi[i] += om[i] * slip[i] * DT
+            new = math.floor(self.phi[i] / (2 * math.pi) * tpr)
+            if stuck[i]:
+                new = self.counts[i]
+            ticks.append(new - self.counts[i])
+            self.counts[i] = new
+            speeds.append(ticks[-1] * 2 * math.pi / tpr / DT)
+        wz = w + self.rng.normal(0.0, GYRO_SIGMA) + gyro_extra
+        if not frozen:
+            self.raw_noise = int(self.rng.integers(-1000, 1000))
+        return HealthInput(
+            t_s=self.t,
+            imu_ok=imu_ok,
+            imu_raw=(self.raw_noise, 0, 16384, 0, 0, 0, 0),
+            wz_rad_s=wz if imu_ok else None,
+            wheel_rad_s=(speeds[0], speeds[1]),
+            ticks=(ticks[0], ticks[1]),
+            dt_s=DT,
+            wheel_cmd_rad_s=(om[0], om[1]),
+            commanded_still=v == 0.0 and w == 0.0,
+        )
+
+
+def drive(
+    mon: HealthMonitor, robot: Robot, seconds: float, v: float, w: float, **fault: object
+) -> list[Verdict]:
+    return [mon.update(robot.frame(v, w, **fault)) for _ in range(round(seconds / DT))]  # type: ignore[arg-type]
+
+
+def monitor(**cfg: object) -> HealthMonitor:
+    return HealthMonitor(replace(HealthConfig(), **cfg), ROBOT, R_WZ)  # type: ignore[arg-type]
+
+
+def course(seconds: float) -> Iterator[tuple[float, float]]:
+    """Straights, arcs both ways, pivots and stops, 20 s per lap."""
+    laps = [
+        (0.15, 0.0, 5.0),
+        (0.08, 0.15, 4.0),
+        (0.0, 0.6, 2.0),
+        (0.08, -0.15, 4.0),
+        (0.0, 0.0, 1.0),
+        (0.0, -0.6, 2.0),
+        (0.2, 0.0, 2.0),
+    ]
+    t = 0.0
+    while t < seconds:
+        for v, w, span in laps:
+            for _ in range(round(span / DT)):
+                yield v, w
+            t += span
+
+
+def test_a_healthy_robot_raises_no_alarm_in_an_hour_of_driving() -> None:
+    mon, robot = monitor(), Robot(1)
+    for v, w in course(3600.0):
+        verdict = mon.update(robot.frame(v, w))
+        assert verdict.lost is None
+    assert mon.transitions == [], mon.transitions[:3]
+    assert mon.counts["gated"] <= 2  # 1e-4 per sample of 72 000
+
+
+def test_a_spike_is_not_fused_and_three_in_a_window_exclude_the_imu_until_it_recovers() -> None:
+    mon, robot = monitor(), Robot(2)
+    drive(mon, robot, 5.0, 0.1, 0.2)
+    (one,) = drive(mon, robot, DT, 0.1, 0.2, gyro_extra=2.0)
+    assert not one.use_gyro  # not fused; a spike once the next sample passes
+    drive(mon, robot, DT, 0.1, 0.2)
+    assert mon.state("imu") is Health.SUSPECT
+    drive(mon, robot, 0.2, 0.1, 0.2)
+    drive(mon, robot, DT, 0.1, 0.2, gyro_extra=-2.0)
+    drive(mon, robot, 0.1, 0.1, 0.2)
+    (third,) = drive(mon, robot, DT, 0.1, 0.2, gyro_extra=2.0)
+    (after,) = drive(mon, robot, DT, 0.1, 0.2)
+    assert not third.use_gyro and not after.use_gyro and after.lost is None
+    assert mon.state("imu") is Health.EXCLUDED
+    verdicts = drive(mon, robot, 2.5, 0.1, 0.2)
+    assert mon.state("imu") is Health.RECOVERED and verdicts[-1].use_gyro
+    drive(mon, robot, 10.0, 0.1, 0.2)
+    assert mon.state("imu") is Health.OK
+    assert [t.new for t in mon.transitions] == [
+        Health.SUSPECT,
+        Health.EXCLUDED,
+        Health.RECOVERED,
+        Health.OK,
+    ]
+
+
+def test_a_dead_imu_is_excluded_and_the_policy_decides() -> None:
+    for policy, lost in (("continue", False), ("stop", True)):
+        mon, robot = monitor(imu_lost=policy), Robot(3)
+        drive(mon, robot, 3.0, 0.1, 0.0)
+        verdicts = drive(mon, robot, 0.3, 0.1, 0.0, imu_ok=False)
+        first = next(i for i, v in enumerate(verdicts) if mon.transitions)
+        assert mon.state("imu") is Health.EXCLUDED
+        assert (first + 1) * DT <= 0.25 + DT + 1e-9
+        assert (verdicts[-1].lost is not None) == lost
+        assert "dead" in mon.reason("imu")
+
+
+def test_frozen_registers_exclude_the_imu() -> None:
+    mon, robot = monitor(), Robot(4)
+    drive(mon, robot, 3.0, 0.0, 0.3)
+    drive(mon, robot, 0.6, 0.0, 0.3, frozen=True)
+    assert mon.state("imu") is Health.EXCLUDED and "stuck" in mon.reason("imu")
+
+
+@pytest.mark.parametrize("side", [0, 1])
+def test_a_cut_encoder_wire_excludes_that_encoder_only(side: int) -> None:
+    mon, robot = monitor(), Robot(5)
+    drive(mon, robot, 3.0, 0.15, 0.0)
+    stuck = (side == 0, side == 1)
+    verdicts = drive(mon, robot, 1.0, 0.15, 0.0, stuck=stuck)
+    names = ("encoder_left", "encoder_right")
+    assert mon.state(names[side]) is Health.EXCLUDED, mon.transitions
+    assert mon.state(names[1 - side]) is Health.OK and mon.state("imu") is Health.OK
+    assert verdicts[-1].lost is None and verdicts[-1].use_gyro
+    # with the IMU gone too, nothing is left to steer by: the policy brakes
+    drive(mon, robot, 0.3, 0.15, 0.0, stuck=stuck, imu_ok=False)
+    assert mon.update(robot.frame(0.15, 0.0, stuck=stuck, imu_ok=False)).lost is not None
+
+
+@pytest.mark.parametrize("side", [0, 1])
+def test_a_slipping_wheel_is_found_against_the_gyro_and_the_other_wheel(side: int) -> None:
+    mon, robot = monitor(), Robot(6)
+    drive(mon, robot, 3.0, 0.15, 0.0)
+    slip = (1.3, 1.0) if side == 0 else (1.0, 1.3)
+    drive(mon, robot, 1.5, 0.15, 0.0, slip=slip)
+    names = ("encoder_left", "encoder_right")
+    assert mon.state(names[side]) is Health.EXCLUDED, mon.transitions
+    assert mon.state(names[1 - side]) is Health.OK and mon.state("imu") is Health.OK
+    drive(mon, robot, 4.0, 0.15, 0.0)  # off the patch
+    assert mon.state(names[side]) is Health.RECOVERED
+
+
+def test_a_gyro_reading_non_zero_standing_still_is_a_bias_to_measure_again() -> None:
+    mon, robot = monitor(), Robot(7)
+    drive(mon, robot, 2.0, 0.1, 0.0)
+    verdicts = drive(mon, robot, 2.0, 0.0, 0.0, gyro_extra=0.05)
+    assert any(v.stationary for v in verdicts)
+    assert mon.state("imu") is Health.EXCLUDED and "bias" in mon.reason("imu")
+    assert any("bias" in t.reason for t in mon.transitions)
+
+
+def test_standing_still_needs_a_still_command_and_no_count() -> None:
+    mon, robot = monitor(), Robot(8)
+    verdicts = drive(mon, robot, 1.0, 0.0, 0.0)
+    first = next(i for i, v in enumerate(verdicts) if v.stationary)
+    assert first * DT == pytest.approx(0.25, abs=DT + 1e-9)
+    assert not any(v.stationary for v in drive(mon, robot, 1.0, 0.1, 0.0))
+    assert not any(v.stationary for v in drive(monitor(zupt=False), Robot(), 1.0, 0.0, 0.0))
+
+
+def test_zero_velocity_updates_keep_a_parked_robots_covariance_bounded() -> None:
+    """The paper's filter predicts a parked robot's pose ever more uncertain (0.05 m^2/s);
+    with zero-velocity updates its velocity settles at once and its pose variance stops."""
+
+    def park(zupt: Callable[[Ekf, float], None] | None) -> tuple[float, float, float]:
+        ekf = Ekf()
+        t = 0.0
+        for _ in range(100):  # driving at 0.2 m/s, then braking
+            t += DT
+            ekf.update_wheel(t, 0.2)
+            ekf.update_gyro(t, 0.0)
+        peak_vx = p_parked = 0.0
+        for k in range(round(120.0 / DT)):
+            t += DT
+            if k == 5:
+                p_parked = ekf.P[0, 0]
+            if zupt is not None and k >= 5:
+                zupt(ekf, t)
+            else:
+                ekf.update_wheel(t, 0.0)
+                ekf.update_gyro(t, 0.0)
+            if k * DT > 0.5:
+                peak_vx = max(peak_vx, abs(ekf.vx_m_s))
+        return p_parked, ekf.P[0, 0], peak_vx
+
+    def zupt(ekf: Ekf, t: float) -> None:
+        ekf.stationary = True
+        ekf.update_zero_velocity(t, 1e-6)
+
+    p0_paper, p_paper, vx_paper = park(None)
+    p0_zupt, p_zupt, vx_zupt = park(zupt)
+    assert p_paper - p0_paper > 5.0  # m^2 more after two minutes
+    assert p_zupt - p0_zupt < 1e-9 and vx_zupt < 1e-4
+    assert vx_paper > vx_zupt
+
+
+def test_the_monitor_shows_each_sensors_health_from_the_frames_alone() -> None:
+    from jackson.host.monitor import SensorWatch
+    from jackson.protocol import Telemetry, TelemetryFlags
+
+    watch = SensorWatch()
+    rng = np.random.default_rng(9)
+    for k in range(100):  # 5 s standing still, a live IMU, then 1 s without IMU_OK
+        flags = TelemetryFlags.IMU_OK if k < 80 else 0
+        noise = tuple(int(v) for v in rng.integers(-3, 4, size=3))
+        watch.feed(Telemetry(t_us=50_000 * k, flags=flags, accel=(0, 0, 16384), gyro=noise))
+        if k == 79:
+            assert "imu ok" in watch.line() and "encoder_left ok" in watch.line()
+    assert "imu excluded" in watch.line() and "dead" in watch.line()
