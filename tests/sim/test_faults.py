@@ -6,14 +6,18 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
+import select
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from numpy.typing import NDArray
 
 from jackson.calibration.trial import TrialSpec, run_trial
+from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.recording import KIND_RX, read_log
 from jackson.main import main
 from jackson.protocol import (
@@ -24,6 +28,7 @@ from jackson.protocol import (
     decode_message,
 )
 from jackson.protocol.messages import GYRO_LSB_PER_DPS
+from jackson.protocol.rplidar import Command, encode_request
 from jackson.sim.config import ROBOTS_DIR, ConfigError, RobotSpec, load_robot, load_world
 from jackson.sim.faults import (
     FAULT_KINDS,
@@ -33,8 +38,10 @@ from jackson.sim.faults import (
     format_fault,
     parse_fault,
 )
+from jackson.sim.lidar import LidarSpec
 from jackson.sim.mcu import SensorSample
 from jackson.sim.robot import WheelDrive
+from jackson.sim.rplidar import RplidarEmulator
 from jackson.sim.twin import Twin
 
 from .test_firmware_in_the_loop import scenario
@@ -336,6 +343,40 @@ def test_lidar_noise_and_dropout_act_on_the_scans() -> None:
     record = faulty.faults.record() if faulty.faults is not None else []
     assert record[1]["revolutions_lost"] == lost
     assert 1.0 <= record[0]["first_s"] < 1.0 + 0.135  # the first scan in the window
+
+
+def test_a_lost_revolution_puts_nothing_on_the_lidar_line() -> None:
+    spec = LidarSpec()
+    emulator = RplidarEmulator(spec)
+    fd = os.open(emulator.path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        os.write(fd, encode_request(Command.SCAN))
+        select.select([emulator.fileno()], [], [], 5.0)
+        assert emulator.serve(0.0) == 1
+        lost = {3, 4, 7}  # turns k end at k periods: these are lost, the others read 2 m
+
+        def ranges(end_s: float) -> NDArray[np.float64] | None:
+            k = round(end_s / spec.scan_period_s)
+            return None if k in lost else np.full(spec.beams, 2.0)
+
+        assembler = RevolutionAssembler()
+        revolutions = []
+        for k in range(1, 11):  # one turn at a time, read as the host does
+            assert emulator.advance(k * spec.scan_period_s, ranges) == 1
+            while True:
+                emulator.link.flush()
+                if not select.select([fd], [], [], 0.05)[0]:
+                    break
+                revolutions += assembler.feed(os.read(fd, 65536))
+        assert emulator.revolutions_lost == 3 and emulator.revolutions_written == 7
+        assert emulator.revolutions_dropped == 0
+        # the host sees the 7 turns sent, each whole (a lost turn's S node starts the next)
+        assert assembler.decoder.malformed_bytes == 0
+        assert len(revolutions) == 7
+        assert all(r.nodes == spec.beams and np.allclose(r.ranges_m, 2.0) for r in revolutions)
+    finally:
+        os.close(fd)
+        emulator.close()
 
 
 # -------------------------------------------------------------------- seeds and streams
