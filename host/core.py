@@ -55,7 +55,7 @@ from jackson.protocol import (
     check_peer,
     decode_message,
 )
-from jackson.protocol.units import yaw_rate_rad_s
+from jackson.protocol.units import accel_m_s2, yaw_rate_rad_s
 
 ONE_WHEEL_VARIANCE_SCALE = 4.0  # R of v_x from one wheel and the gyro, relative to two wheels
 
@@ -213,7 +213,8 @@ class RunFolderListener(CoreListener):
                     r.t_s,
                     hm.nis["yaw_rate"],
                     hm.nis["window"],
-                    hm.ratio,
+                    hm.model.scale,
+                    hm.model.per_metre,
                     *(state.value for state in hm.sensors.values()),
                     int(core.verdict is not None and core.verdict.stationary),
                 ),
@@ -444,6 +445,7 @@ class HostCore:
                 dt_s=dt_s,
                 wheel_cmd_rad_s=self._wheel_cmd,
                 commanded_still=still_cmd,
+                accel_y_m_s2=accel_m_s2(t)[1] if t.flags & TelemetryFlags.IMU_OK else None,
             )
         )
         n_new = len(hm.transitions) - self._told
@@ -475,10 +477,11 @@ class HostCore:
         if wz is not None and v.use_gyro:
             ekf.update_gyro(t_s, wz)
         elif v.use_left and v.use_right and dt_s > 0.0:
+            # the wheels' yaw rate through the model learned while the gyro was healthy
             w_e = (
                 r.wheel_radius_right_m * om[1] - r.wheel_radius_left_m * om[0]
             ) / r.wheel_separation_m
-            ekf.update_yaw_rate(t_s, w_e, v.wheel_yaw_variance)
+            ekf.update_yaw_rate(t_s, hm.model.true_rate(w_e, odo.v_m_s), v.wheel_yaw_variance)
 
     def _take_scans(self, t_s: float) -> None:
         revolutions, self._revolutions = self._revolutions, []

@@ -434,7 +434,8 @@ class Daemon:
                 for tr in hm.transitions
             ],
             "counts": dict(hm.counts),
-            "wheel_gyro_ratio": hm.ratio,
+            "wheel_yaw_scale": hm.model.scale,
+            "wheel_yaw_per_m": hm.model.per_metre,
         }
 
     def _write_health(self) -> None:

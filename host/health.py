@@ -5,34 +5,36 @@ tell when it is wrong. :class:`HealthMonitor` watches them against each other an
 command, per telemetry frame and on MCU time, and says which measurements the EKF may use.
 
 **Cross-check.** The wheels give a yaw rate of their own, w_e = (r_R omega_R - r_L omega_L) / B.
-The residual r = w_e - s w_g of the gyro's rate w_g (bias removed) has, on a healthy robot,
-the variance
+A healthy robot's is w_e = s w_g + c v (:class:`WheelYawModel`, learned while every sensor is
+ok: s the scrub of turns, c the yaw per metre of unequal wheels). The residual
+r = w_e - (s w_g + c v) has the variance
 
-    sigma_r^2 = R_wz + sigma_q^2 + (kappa max(|w_e|, |w_g|))^2
+    sigma_r^2 = R_wz + sigma_q^2 + (dw_e / 2)^2 + (kappa w_g)^2 + (kappa_v v)^2
 
 with R_wz the gyro's variance (the EKF's ``r_wz``), sigma_q^2 the encoders' quantisation (one
-count of each wheel over the frame, a triangular error of 1/6 count^2 per wheel) and kappa the
-relative disagreement of a healthy robot's wheels and gyro in turns (tyre scrub and creep:
-``scale_tolerance``). s is the wheel/gyro ratio learned slowly while turning (a robot whose
-wheels over-read its arcs by 7 % has s = 1.07), so kappa only has to cover how the ratio varies.
+count of each wheel over the frame, a triangular error of 1/6 count^2 per wheel), dw_e / 2 the
+lag of the wheels' frame mean behind the gyro's sample under angular acceleration, and kappa,
+kappa_v how much s and c vary on a healthy robot (``scale_tolerance``,
+``straight_tolerance_rad_m``).
 
 **Tests.** Per frame, the normalised innovation squared NIS = r^2 / sigma_r^2 against the
-chi-square(1) quantile of ``gate_probability`` (99.99 %: 15.1): a failing sample is not fused
-(a spike). Over the last ``window_s`` the mean residual against its own standard deviation,
-sigma_mean^2 = sum(sigma_r,i^2) / N^2, at the normal quantile of ``window_probability``: a
+chi-square(1) quantile of ``gate_probability``: a failing sample is not fused (a spike). Over
+the last ``window_s`` the mean residual against its standard deviation, the random part
+averaged down and the model's errors not, at the normal quantile of ``window_probability``: a
 slow fault (a bias step, a slipping wheel) that no single sample shows. And, without any
 model: no ``IMU_OK`` for ``imu_silence_s`` (a dead IMU), raw registers frozen for ``stuck_s``
-(a stuck IMU: a live MPU-6050's noise changes its low bits every sample), and a wheel with no
-count for ``encoder_stuck_s`` while the other wheel and the gyro (or, without a gyro, the
-command) say it turns faster than ``driven_wheel_rad_s`` (a cut encoder wire).
+(a stuck IMU: a live MPU-6050's noise changes its low bits every sample), a gyro that does not
+read zero standing still (a bias), and a wheel with no count for ``encoder_stuck_s`` while the
+other wheel and the gyro (or, without a gyro, the command) say it turns (a cut encoder wire).
 
-**Isolation.** A dead or stuck IMU, spikes (``spikes_to_exclude`` failing samples within
-``window_s``) and a persistent disagreement while the robot stands still are the gyro's. A
-persistent disagreement while driving is charged to the wheel that reads more than the gyro and
-the other wheel allow (its "excess" |omega_i| - |omega_i,expected| is the larger): a wheel that
-slips spins faster than the floor moves, and the gyro measures the yaw the robot really makes.
-A gyro bias step while driving looks the same over a short window; it is found at the next
-standstill (the gyro must then read zero), where the bias is measured again.
+**Isolation.** A dead or stuck IMU, isolated spikes and a disagreement standing still are the
+gyro's; a failing sample while one wheel did not count is that wheel's. A lasting disagreement
+while driving is a slipping wheel or a gyro bias step; the accelerometer's lateral force
+(a_y = v w follows the true yaw rate) is the witness: it sides with the gyro (the wheel that
+reads more than the gyro and the other wheel allow is excluded) or with the wheels (the gyro
+is); when it cannot tell them apart the disagreement is ambiguous: both are suspect, the
+wheels' yaw stands in for the gyro's, and one that outlasts ``ambiguity_s`` is the gyro's.
+docs/health.md has the details and the figures.
 
 **States** per sensor (``imu``, ``encoder_left``, ``encoder_right``), with hysteresis:
 ``ok`` -> ``suspect`` (a failing sample: not fused) -> ``excluded`` (a failing test above: not
@@ -61,6 +63,10 @@ from scipy.stats import chi2, norm
 from jackson.host.odometry import RobotGeometry
 
 POLICIES = ("continue", "stop")
+SILENT_TICKS = 3.0  # a wheel expected to make this many counts in a frame and making none
+RECOVER_Z_FRACTION = 0.5  # a sensor out of ok passes the windowed test only within half its band
+WITNESS_Z = 3.0  # the accelerometer must tell the two hypotheses apart by this many sigma
+UNLEARNED_SCALE_TOLERANCE = 0.15  # kappa before s is learned: scrub of up to 15 % in turns
 SENSORS = ("imu", "encoder_left", "encoder_right")
 
 
@@ -93,9 +99,12 @@ class HealthConfig:
     window_probability : float
         Two-sided confidence of the windowed mean test.
     scale_tolerance : float
-        kappa: the relative disagreement of a healthy robot's wheel and gyro yaw rates.
+        kappa: how much a healthy robot's wheel/gyro yaw scale varies (pivots against arcs).
+    straight_tolerance_rad_m : float
+        kappa_v: how much its yaw per metre driven varies [rad/m].
     ratio_time_constant_s : float
-        Time constant of the learned wheel/gyro ratio s, counted while turning [s]; 0 keeps s = 1.
+        Forgetting time of the learned wheel yaw model (:class:`WheelYawModel`) [s]; 0 keeps
+        the prior (s = 1, c = 0).
     spikes_to_exclude : int
         Failing samples within ``window_s`` that exclude the IMU.
     imu_silence_s, stuck_s, encoder_stuck_s : float
@@ -104,6 +113,9 @@ class HealthConfig:
         A wheel expected to turn faster than this must count [rad/s].
     recover_s : float
         Passing samples needed to leave ``suspect`` or ``excluded`` [s].
+    ambiguity_s : float
+        How long the yaw rate is held while the wheels and the gyro disagree and the
+        accelerometer cannot tell which is wrong; then the gyro is excluded [s].
     recovered_hold_s : float
         ``recovered`` becomes ``ok`` after this [s].
     zupt : bool
@@ -117,17 +129,19 @@ class HealthConfig:
     """
 
     enabled: bool = True
-    gate_probability: float = 0.9999
+    gate_probability: float = 0.999999
     window_s: float = 1.0
     window_probability: float = 0.9999
-    scale_tolerance: float = 0.06
-    ratio_time_constant_s: float = 20.0
+    scale_tolerance: float = 0.03
+    straight_tolerance_rad_m: float = 0.03
+    ratio_time_constant_s: float = 60.0
     spikes_to_exclude: int = 3
     imu_silence_s: float = 0.25
     stuck_s: float = 0.5
     encoder_stuck_s: float = 0.5
     driven_wheel_rad_s: float = 2.0
     recover_s: float = 2.0
+    ambiguity_s: float = 3.0
     recovered_hold_s: float = 10.0
     zupt: bool = True
     zupt_after_s: float = 0.25
@@ -146,13 +160,19 @@ class HealthConfig:
             "stuck_s",
             "encoder_stuck_s",
             "recover_s",
+            "ambiguity_s",
             "recovered_hold_s",
             "zupt_variance",
         ):
             v = getattr(self, name)
             if not 0.0 < v < math.inf:
                 raise ValueError(f"HealthConfig.{name} must be finite and > 0, got {v}")
-        for name in ("scale_tolerance", "ratio_time_constant_s", "zupt_after_s"):
+        for name in (
+            "scale_tolerance",
+            "straight_tolerance_rad_m",
+            "ratio_time_constant_s",
+            "zupt_after_s",
+        ):
             v = getattr(self, name)
             if not 0.0 <= v < math.inf:
                 raise ValueError(f"HealthConfig.{name} must be finite and >= 0, got {v}")
@@ -199,6 +219,9 @@ class HealthInput:
         Wheel speeds commanded over the frame [rad/s].
     commanded_still : bool
         The motors are braked or commanded to zero.
+    accel_y_m_s2 : float or None
+        The accelerometer's lateral specific force [m/s^2] (None without a live IMU): the
+        third witness when the wheels and the gyro disagree while driving.
     """
 
     t_s: float
@@ -210,6 +233,7 @@ class HealthInput:
     dt_s: float
     wheel_cmd_rad_s: tuple[float, float]
     commanded_still: bool
+    accel_y_m_s2: float | None = None
 
 
 @dataclass(frozen=True)
@@ -228,6 +252,9 @@ class Verdict:
         sigma_r^2 of this frame: the variance of the wheels' yaw rate when it replaces the gyro.
     lost : str or None
         Why the policy says stop (None: go on).
+    hold_yaw : bool
+        The wheels and the gyro disagree and neither can be blamed yet: the gyro is not fused
+        (the wheels' yaw rate is, as with the IMU excluded) until it is resolved.
     """
 
     use_gyro: bool
@@ -236,6 +263,7 @@ class Verdict:
     stationary: bool
     wheel_yaw_variance: float
     lost: str | None
+    hold_yaw: bool = False
 
 
 @dataclass(frozen=True)
@@ -247,6 +275,64 @@ class Transition:
     old: Health
     new: Health
     reason: str
+
+
+class WheelYawModel:
+    """What a healthy robot's wheels say of its yaw rate, learned while all sensors are ok:
+    w_e = s w_g + c v.
+
+    c is a yaw the wheels read per metre driven (unequal wheel radii or encoder scales: the
+    paper's raw odometry drifts by it), learned while driving straight (|w_g| < 0.05 rad/s,
+    v > 0.05 m/s) from (w_e - s w_g) / v; s is the scale of the wheels' yaw against the
+    gyro's (tyre scrub and creep in turns), learned while turning (|w_g| > 0.1 rad/s) from
+    (w_e - c v) / w_g. Each is the plain mean of its first 20 samples, then a low-pass over
+    ``tau_s`` of driving, and stays within [0.8, 1.25] and [-0.5, 0.5] rad/m. Learning them
+    apart keeps a gyro bias step out of both over the second the windowed test needs; a
+    robot that never drives straight keeps c = 0 and its s absorbs c v / w.
+    """
+
+    FIRST_SAMPLES = 20  # averaged plainly; then the low-pass
+    SCALE_RANGE = (0.8, 1.25)
+    PER_METRE_RANGE = (-0.5, 0.5)  # [rad/m]
+
+    def __init__(self, tau_s: float) -> None:
+        self.tau_s = tau_s
+        self.scale = 1.0
+        self.per_metre = 0.0
+        self._n = [0, 0]
+
+    @property
+    def scale_learned(self) -> bool:
+        """s has its first samples (before, it is the prior 1 +- 0.15)."""
+        return self.tau_s <= 0.0 or self._n[0] >= self.FIRST_SAMPLES
+
+    def predict(self, wz: float, v: float) -> float:
+        """The wheels' yaw rate a healthy robot shows at gyro rate wz and speed v."""
+        return self.scale * wz + self.per_metre * v
+
+    def true_rate(self, w_e: float, v: float) -> float:
+        """The yaw rate the wheels' w_e stands for: (w_e - c v) / s."""
+        return (w_e - self.per_metre * v) / self.scale
+
+    def learn(self, w_e: float, wz: float, v: float, dt_s: float) -> None:
+        """One healthy sample (a no-op with ``tau_s`` 0: s = 1, c = 0 stay)."""
+        if self.tau_s <= 0.0:
+            return
+        if abs(wz) < 0.05 and abs(v) > 0.05:
+            obs = (w_e - self.scale * wz) / v
+            self.per_metre = self._step(1, self.per_metre, obs, dt_s, self.PER_METRE_RANGE)
+        elif abs(wz) > 0.1:
+            obs = (w_e - self.per_metre * v) / wz
+            self.scale = self._step(0, self.scale, obs, dt_s, self.SCALE_RANGE)
+
+    def _step(
+        self, i: int, value: float, obs: float, dt_s: float, bounds: tuple[float, float]
+    ) -> float:
+        if not bounds[0] < obs < bounds[1]:  # a skid, not the robot's geometry
+            return value
+        self._n[i] += 1
+        gain = 1.0 / self._n[i] if self._n[i] <= self.FIRST_SAMPLES else min(1.0, dt_s / self.tau_s)
+        return value + gain * (obs - value)
 
 
 class _SensorState:
@@ -322,14 +408,24 @@ class HealthMonitor:
         self._raw_since_s = 0.0
         self._moved_s = [0.0, 0.0]
         self._still_since_s: float | None = None
-        self._window: deque[tuple[float, float, float, float, float, float]] = deque()
+        self._window: deque[tuple[float, float, float, float, float, float, float]] = deque()
         self._still: deque[tuple[float, float]] = deque()
         self.remeasure_bias = False  # the gyro read non-zero standing still: measure its bias
         self._fails: deque[float] = deque()
-        self._run: list[tuple[float, float, float, float, float, float]] = []  # failing in a row
+        self._run: list[
+            tuple[float, float, float, float, float, float, float]
+        ] = []  # failing in a row
         self._run_nis = 0.0
         self._prev_we: float | None = None
-        self._ratio = 1.0
+        # (t, a_y, v, w_g, w_e, ticks_l, ticks_r) of the last 3 windows, for the witness
+        self._hist: deque[tuple[float, float, float, float, float, int, int]] = deque()
+        self.model = WheelYawModel(cfg.ratio_time_constant_s)
+        self._ambiguous_since: float | None = None  # wheels and gyro disagree, nobody to blame
+        self._calm_since: float | None = None  # the disagreement has been gone since
+        self._ambiguous_size = 0.0  # [rad/s] the disagreement that began the ambiguity
+        self._window_mean = 0.0  # [rad/s] the last windowed mean residual
+        self._imu_disagreement = 0.0  # [rad/s] the disagreement that excluded the IMU
+        self._last_charge_mean = 0.0
         self._t0: float | None = None
 
     @property
@@ -346,8 +442,8 @@ class HealthMonitor:
 
     @property
     def ratio(self) -> float:
-        """The learned wheel/gyro yaw-rate ratio s."""
-        return self._ratio
+        """The learned wheel/gyro yaw-rate scale s."""
+        return self.model.scale
 
     def _quantisation_variance(self, dt_s: float) -> float:
         r = self.robot
@@ -405,7 +501,10 @@ class HealthMonitor:
         # the encoders without the cross-check: a wheel that must turn but does not count
         for i in range(2):
             expected = self._expected_wheel(i, h, trusted_wz)
-            if h.ticks[i] != 0 or abs(expected) <= cfg.driven_wheel_rad_s:
+            tpr = (self.robot.ticks_per_rev_left, self.robot.ticks_per_rev_right)[i]
+            expected_ticks = abs(expected) * h.dt_s * tpr / (2.0 * math.pi)
+            driven = abs(expected) > cfg.driven_wheel_rad_s or expected_ticks >= SILENT_TICKS
+            if h.ticks[i] != 0 or not driven:
                 self._moved_s[i] = t
             elif t - self._moved_s[i] >= cfg.encoder_stuck_s - 1e-9:
                 why = (
@@ -437,13 +536,28 @@ class HealthMonitor:
 
         # the cross-check, when the gyro and both wheels are live
         wheels_live = all(e.state.usable for e in enc) and h.dt_s > 0.0
+        if gyro_live and h.dt_s > 0.0 and wz is not None and h.accel_y_m_s2 is not None:
+            v = 0.5 * (
+                self.robot.wheel_radius_left_m * om_l + self.robot.wheel_radius_right_m * om_r
+            )
+            self._hist.append((t, h.accel_y_m_s2, v, wz, w_e, h.ticks[0], h.ticks[1]))
+            while self._hist and self._hist[0][0] <= t - 3.0 * cfg.window_s:
+                self._hist.popleft()
+        v_now = 0.5 * (
+            self.robot.wheel_radius_left_m * om_l + self.robot.wheel_radius_right_m * om_r
+        )
         if gyro_live and wheels_live and wz is not None and not still:
             # the wheels' rate is the frame's mean, the gyro's a sample: under angular
             # acceleration they differ by up to half the change over the frame (the wheels'
             # change: a gyro spike must not widen its own gate)
             lag = 0.5 * (w_e - prev_we) if prev_we is not None else 0.0
-            var_r = var + lag * lag + (cfg.scale_tolerance * max(abs(w_e), abs(wz))) ** 2
-            res = w_e - self._ratio * wz
+            var_r = (
+                var
+                + lag * lag
+                + (self._kappa() * abs(wz)) ** 2
+                + (cfg.straight_tolerance_rad_m * v_now) ** 2
+            )
+            res = w_e - self.model.predict(wz, v_now)
             nis = res * res / var_r
             self.nis["yaw_rate"] = nis
             spike = nis >= self._gate
@@ -452,7 +566,7 @@ class HealthMonitor:
             silent = [
                 i
                 for i in range(2)
-                if h.ticks[i] == 0 and abs(self._expected_wheel(i, h, wz)) > cfg.driven_wheel_rad_s
+                if h.ticks[i] == 0 and self._expected_ticks(i, h, wz) >= SILENT_TICKS
             ]
             if spike and len(silent) == 1:  # a wheel that should turn and did not count
                 i = silent[0]
@@ -463,7 +577,7 @@ class HealthMonitor:
             elif spike:
                 self.counts["gated"] += 1
                 self._fails.append(t)
-                self._run.append((t, res, var_r, om_l, om_r, wz))
+                self._run.append((t, res, var_r, om_l, om_r, wz, v_now))
                 self._run_nis = nis
                 if len(self._run) >= cfg.spikes_to_exclude:
                     # failing frame after frame: not spikes but a persistent disagreement
@@ -487,18 +601,28 @@ class HealthMonitor:
                 charged.add("imu")
                 self._run.clear()
             if not spike and not any(skip) and not charged:
-                self._window.append((t, res, var + lag * lag, om_l, om_r, wz))
+                self._window.append((t, res, var + lag * lag, om_l, om_r, wz, v_now))
                 while self._window and self._window[0][0] <= t - cfg.window_s + 1e-9:
                     self._window.popleft()
                 charged |= self._window_test(t, out)
-                if not charged:
-                    self._learn_ratio(w_e, wz, h.dt_s)
+                # learned only from a robot healthy for a while: a slow fault must not be
+                # learned as the robot's geometry between two alarms
+                quiet = not self.transitions or t - self.transitions[-1].t_s >= cfg.recovered_hold_s
+                healthy = quiet and all(x.state is Health.OK for x in self._s.values())
+                if not charged and healthy and self._ambiguous_since is None:
+                    self.model.learn(w_e, wz, v_now, h.dt_s)
         elif not gyro_live or not wheels_live:
             self._window.clear()
 
         # passes: a sensor whose tests ran and passed this frame
         # (an excluded IMU only where a test could check it: the wheels live, or standing still)
         imu_passed = gyro_live and "imu" not in charged and not spike
+        if imu.state is not Health.OK and self.nis["window"] >= (RECOVER_Z_FRACTION * self._z) ** 2:
+            imu_passed = False  # hysteresis: back in only well inside the band
+        if imu.state is not Health.EXCLUDED:
+            self._imu_disagreement = 0.0
+        elif abs(self._window_mean) >= 0.5 * self._imu_disagreement > 0.0:
+            imu_passed = False  # and only once the disagreement that excluded it has gone
         if imu_passed and (imu.state is not Health.EXCLUDED or wheels_live or still):
             imu.pass_(t, cfg, out)
         for i, e in enumerate(enc):
@@ -510,18 +634,33 @@ class HealthMonitor:
             else:
                 e.pass_(t, cfg, out)
 
+        hold = self._ambiguous_since is not None and imu.state is not Health.EXCLUDED
         self.transitions += out
         self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
         if stationary:
             self.counts["zupt"] += 1
         return Verdict(
-            use_gyro=gyro_live and not spike and imu.state.usable,
+            use_gyro=gyro_live and not spike and imu.state.usable and not hold,
             use_left=enc[0].state.usable and not skip[0],
             use_right=enc[1].state.usable and not skip[1],
             stationary=bool(stationary),
-            wheel_yaw_variance=var + (cfg.scale_tolerance * abs(w_e)) ** 2,
+            wheel_yaw_variance=var
+            + (cfg.scale_tolerance * abs(w_e)) ** 2
+            + (cfg.straight_tolerance_rad_m * v_now) ** 2,
             lost=self._lost(),
+            hold_yaw=hold,
         )
+
+    def _expected_ticks(self, i: int, h: HealthInput, wz: float) -> float:
+        """Counts wheel i should have made over the frame, by the other wheel and the gyro."""
+        tpr = (self.robot.ticks_per_rev_left, self.robot.ticks_per_rev_right)[i]
+        return abs(self._expected_wheel(i, h, wz)) * h.dt_s * tpr / (2.0 * math.pi)
+
+    def _kappa(self) -> float:
+        """The scale tolerance: the prior's until the robot's scale s has been learned."""
+        if self.model.scale_learned:
+            return self.cfg.scale_tolerance
+        return max(self.cfg.scale_tolerance, UNLEARNED_SCALE_TOLERANCE)
 
     def _wheel_yaw_rate(self, om_l: float, om_r: float) -> float:
         r = self.robot
@@ -532,8 +671,13 @@ class HealthMonitor:
         r = self.robot
         if wz is None:
             return h.wheel_cmd_rad_s[i]
-        yaw = self._ratio * wz * r.wheel_separation_m
-        if i == 0:  # r_L om_L = r_R om_R - s wz B
+        # the other wheel's speed stands for v (this wheel's own reading may be the fault)
+        other = (
+            r.wheel_radius_right_m * h.wheel_rad_s[1],
+            r.wheel_radius_left_m * h.wheel_rad_s[0],
+        )
+        yaw = self.model.predict(wz, other[i]) * r.wheel_separation_m
+        if i == 0:  # r_L om_L = r_R om_R - (s wz + c v) B
             return (r.wheel_radius_right_m * h.wheel_rad_s[1] - yaw) / r.wheel_radius_left_m
         return (r.wheel_radius_left_m * h.wheel_rad_s[0] + yaw) / r.wheel_radius_right_m
 
@@ -552,16 +696,6 @@ class HealthMonitor:
         )
         return abs(h.wheel_rad_s[i] - expected) <= tol + self.cfg.scale_tolerance * abs(expected)
 
-    def _learn_ratio(self, w_e: float, wz: float, dt_s: float) -> None:
-        """s follows w_e / wz while turning (a low-pass over ``ratio_time_constant_s``)."""
-        tau = self.cfg.ratio_time_constant_s
-        if tau <= 0.0 or abs(wz) < 0.1:
-            return
-        ratio = w_e / wz
-        if not 0.8 < ratio < 1.25:  # a wheel skidding through a turn, not scrub
-            return
-        self._ratio += min(1.0, dt_s / tau) * (ratio - self._ratio)
-
     def _window_test(self, t: float, out: list[Transition]) -> set[str]:
         """The windowed mean of the residual; the sensor it charges, if it fails."""
         cfg = self.cfg
@@ -569,15 +703,29 @@ class HealthMonitor:
         span = self._window[-1][0] - self._window[0][0] if n else 0.0
         if n < 5 or span < 0.8 * cfg.window_s:
             self.nis["window"] = 0.0
+            self._window_mean = 0.0 if n < 5 else self._window_mean
             return set()
         mean = math.fsum(w[1] for w in self._window) / n
         # the random part averages down; the scale disagreement (scrub) does not
-        rate = math.fsum(max(abs(w[5]), abs(w[1] + self._ratio * w[5])) for w in self._window) / n
+        rate = math.fsum(abs(w[5]) for w in self._window) / n
+        speed = math.fsum(abs(w[6]) for w in self._window) / n
         var_mean = math.fsum(w[2] for w in self._window) / (n * n)
-        var_mean += (cfg.scale_tolerance * rate) ** 2
+        var_mean += (self._kappa() * rate) ** 2 + (cfg.straight_tolerance_rad_m * speed) ** 2
         z2 = mean * mean / var_mean
         self.nis["window"] = z2
+        self._window_mean = mean
         if z2 < self._z**2:
+            calm = z2 < (RECOVER_Z_FRACTION * self._z) ** 2
+            # where the test is blunt (a fast turn) a calm window is not enough: the residual
+            # itself must have gone, to half the disagreement that began the ambiguity
+            calm = calm and abs(mean) < 0.5 * self._ambiguous_size
+            if self._ambiguous_since is not None and calm:
+                if self._calm_since is None:
+                    self._calm_since = t
+                if t - self._calm_since >= cfg.recover_s - 1e-9:
+                    self._ambiguous_since = None  # the disagreement ended: a passing slip
+            else:
+                self._calm_since = None
             return set()
         charged = self._charge(t, list(self._window), mean, span, out)
         self._window.clear()
@@ -586,30 +734,102 @@ class HealthMonitor:
     def _charge(
         self,
         t: float,
-        samples: list[tuple[float, float, float, float, float, float]],
+        samples: list[tuple[float, float, float, float, float, float, float]],
         mean: float,
         span: float,
         out: list[Transition],
     ) -> set[str]:
         """A persistent disagreement while driving: charged to the wheel that reads more than
         the gyro and the other wheel allow (module docstring)."""
+        self._last_charge_mean = mean
         n = len(samples)
         om_l = math.fsum(x[3] for x in samples) / n
         om_r = math.fsum(x[4] for x in samples) / n
         wz = math.fsum(x[5] for x in samples) / n
+        v = math.fsum(x[6] for x in samples) / n
         r = self.robot
-        yaw = self._ratio * wz * r.wheel_separation_m
+        head = f"wheel and gyro yaw rates disagree by {mean:+.3f} rad/s over {span:.2f} s"
+        # a wheel that made no count all along although the other and the gyro say it turned
+        t0 = samples[0][0] - 1e-9
+        frames = [x for x in self._hist if x[0] >= t0]
+        for i, wheel in enumerate(("left", "right")):
+            if frames and all(x[5 + i] == 0 for x in frames):
+                return self._exclude(
+                    ("encoder_left", "encoder_right")[i],
+                    t,
+                    f"{head}: the {wheel} wheel made no count (encoder stuck or cut)",
+                    out,
+                )
+        yaw = self.model.predict(wz, v) * r.wheel_separation_m
         excess_l = abs(om_l) - abs((r.wheel_radius_right_m * om_r - yaw) / r.wheel_radius_left_m)
         excess_r = abs(om_r) - abs((r.wheel_radius_left_m * om_l + yaw) / r.wheel_radius_right_m)
         side = 0 if excess_l >= excess_r else 1
-        name = ("encoder_left", "encoder_right")[side]
+        # the witness looks at everything since the disagreement began (more with each try)
+        verdict = self._witness(t0 if self._ambiguous_since is None else self._ambiguous_since)
+        if verdict != "undecided":
+            self._ambiguous_since = None
+        if verdict == "wheels right":
+            why = f"{head}; the accelerometer sides with the wheels (a gyro fault)"
+            return self._exclude("imu", t, why, out)
+        if verdict == "undecided":
+            if self._ambiguous_since is None:
+                self._ambiguous_since = samples[0][0]
+                self._ambiguous_size = abs(mean)
+            lasted = t - self._ambiguous_since
+            if lasted >= self.cfg.ambiguity_s - 1e-9:
+                why = (
+                    f"{head}, for {lasted:.1f} s: longer than a slipping wheel, so the gyro "
+                    "(a bias step; measured again at the next standstill)"
+                )
+                return self._exclude("imu", t, why, out)
+            why = (
+                f"{head}; the accelerometer cannot tell the gyro from the "
+                f"{('left', 'right')[side]} wheel: the wheels' yaw rate stands in"
+            )
+            name = ("encoder_left", "encoder_right")[side]
+            self._s["imu"].fail(t, False, why, out)
+            self._s[name].fail(t, False, why, out)
+            return {"imu", name}
         why = (
-            f"wheel and gyro yaw rates disagree by {mean:+.3f} rad/s over {span:.2f} s: the "
-            f"{('left', 'right')[side]} wheel reads {max(excess_l, excess_r):.2f} rad/s more "
-            "than the gyro and the other wheel allow (slipping)"
+            f"{head}; the accelerometer sides with the gyro: the {('left', 'right')[side]} "
+            f"wheel reads {max(excess_l, excess_r):.2f} rad/s more than the gyro and the other "
+            "wheel allow (slipping)"
         )
+        return self._exclude(("encoder_left", "encoder_right")[side], t, why, out)
+
+    def _exclude(self, name: str, t: float, why: str, out: list[Transition]) -> set[str]:
+        if name == "imu":
+            self._imu_disagreement = abs(self._last_charge_mean)
         self._s[name].fail(t, True, why, out)
         return {name}
+
+    def _witness(self, t0: float) -> str:
+        """Which of the gyro and the wheels the accelerometer's lateral force agrees with, from
+        the change since before the disagreement began: a_y = v w changes with the true yaw
+        rate. "gyro right", "wheels right" or "undecided"."""
+        before = [x for x in self._hist if t0 - self.cfg.window_s <= x[0] < t0]
+        during = [x for x in self._hist if x[0] >= t0]
+        if len(before) < 5 or len(during) < 3:
+            return "undecided"
+
+        def mean(rows: list[tuple[float, float, float, float, float, int, int]], k: int) -> float:
+            return math.fsum(x[k] for x in rows) / len(rows)
+
+        v = mean(during, 2)
+        d_a = mean(during, 1) - mean(before, 1)
+        d_g = v * (mean(during, 3) - mean(before, 3))
+        model = self.model
+        d_e = v * (
+            model.true_rate(mean(during, 4), mean(during, 2))
+            - model.true_rate(mean(before, 4), mean(before, 2))
+        )
+        a_before = [x[1] - x[2] * x[3] for x in before]  # lateral force less v w: its noise
+        m = math.fsum(a_before) / len(a_before)
+        var = math.fsum((a - m) ** 2 for a in a_before) / (len(a_before) - 1)
+        sigma = math.sqrt(var / len(before) + var / len(during))
+        if abs(d_g - d_e) < WITNESS_Z * sigma:
+            return "undecided"
+        return "gyro right" if abs(d_a - d_g) < abs(d_a - d_e) else "wheels right"
 
     def _lost(self) -> str | None:
         cfg = self.cfg

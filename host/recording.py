@@ -8,7 +8,8 @@ A run folder holds
 - ``odometry.csv`` (one row per telemetry frame) and ``ekf.csv`` (30 Hz of MCU time): the
   outputs, floats written with ``repr`` so a replay can be compared bit for bit;
 - ``health.csv`` (one row per telemetry frame): the sensor health monitor's yaw-rate NIS,
-  windowed test, learned wheel/gyro ratio, each sensor's state and the standstill flag;
+  windowed test, learned wheel yaw model (scale, yaw per metre), each sensor's state and the
+  standstill flag;
 - ``meta.json``: mission, configuration file, start time, versions.
 
 ``log.jrec`` is a little-endian binary file: the 8-byte magic ``b"JREC0001"``, then records of
@@ -70,7 +71,8 @@ HEALTH_COLUMNS = (
     "t_s",
     "nis_yaw_rate",
     "window_z2",
-    "wheel_gyro_ratio",
+    "wheel_yaw_scale",
+    "wheel_yaw_per_m",
     "imu",
     "encoder_left",
     "encoder_right",

@@ -18,6 +18,7 @@ DT = 0.05
 ROBOT = RobotGeometry()
 R_WZ = HostConfig().ekf.r_wz
 GYRO_SIGMA = 0.005  # [rad/s] a quieter gyro than the EKF's R assumes, as the MPU-6050 is
+ACCEL_SIGMA = 0.018  # [m/s^2] the twin's MPU-6050
 
 
 class Robot:
@@ -71,6 +72,7 @@ class Robot:
             dt_s=DT,
             wheel_cmd_rad_s=(om[0], om[1]),
             commanded_still=v == 0.0 and w == 0.0,
+            accel_y_m_s2=v * w + self.rng.normal(0.0, ACCEL_SIGMA) if imu_ok else None,
         )
 
 
@@ -177,12 +179,14 @@ def test_a_slipping_wheel_is_found_against_the_gyro_and_the_other_wheel(side: in
     mon, robot = monitor(), Robot(6)
     drive(mon, robot, 3.0, 0.15, 0.0)
     slip = (1.3, 1.0) if side == 0 else (1.0, 1.3)
-    drive(mon, robot, 1.5, 0.15, 0.0, slip=slip)
+    verdicts = drive(mon, robot, 2.0, 0.15, 0.0, slip=slip)
     names = ("encoder_left", "encoder_right")
     assert mon.state(names[side]) is Health.EXCLUDED, mon.transitions
-    assert mon.state(names[1 - side]) is Health.OK and mon.state("imu") is Health.OK
+    assert "accelerometer sides with the gyro" in mon.reason(names[side])
+    assert verdicts[-1].use_gyro  # held only while the witness made up its mind
+    assert mon.state(names[1 - side]) is Health.OK and mon.state("imu").usable
     drive(mon, robot, 4.0, 0.15, 0.0)  # off the patch
-    assert mon.state(names[side]) is Health.RECOVERED
+    assert mon.state(names[side]) is Health.RECOVERED and mon.state("imu") is Health.OK
 
 
 def test_a_gyro_reading_non_zero_standing_still_is_a_bias_to_measure_again() -> None:
@@ -252,3 +256,20 @@ def test_the_monitor_shows_each_sensors_health_from_the_frames_alone() -> None:
         if k == 79:
             assert "imu ok" in watch.line() and "encoder_left ok" in watch.line()
     assert "imu excluded" in watch.line() and "dead" in watch.line()
+
+
+def test_a_gyro_bias_step_while_driving_is_held_as_ambiguous_then_charged_to_the_gyro() -> None:
+    """Over a short window a bias step and a slipping wheel look alike and the accelerometer
+    cannot tell them apart at 0.1 m/s: the wheels' yaw stands in, and a disagreement that
+    outlasts ``ambiguity_s`` is the gyro's; it stays out while the disagreement lasts."""
+    mon, robot = monitor(), Robot(10)
+    drive(mon, robot, 5.0, 0.1, 0.15)
+    verdicts = drive(mon, robot, 6.0, 0.1, 0.15, gyro_extra=0.05)
+    first = next(i for i, v in enumerate(verdicts) if not v.use_gyro)
+    assert first * DT < 1.5  # the windowed test: about a window
+    assert mon.state("imu") is Health.EXCLUDED and "longer than a slipping wheel" in mon.reason(
+        "imu"
+    )
+    assert mon.state("encoder_left").usable and mon.state("encoder_right").usable
+    assert not any(v.use_gyro for v in verdicts[first:])
+    assert all(v.lost is None for v in verdicts)
