@@ -16,7 +16,14 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from jackson import __version__
-from jackson.common.args import OneLineParser, nonneg_int, one_line, output_folder, positive_int
+from jackson.common.args import (
+    OneLineParser,
+    nonneg_float,
+    nonneg_int,
+    one_line,
+    output_folder,
+    positive_int,
+)
 from jackson.common.fields import ConfigError
 from jackson.host.cli import HostCliError
 
@@ -294,6 +301,15 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 
     from jackson.calibration.campaign import run_campaign
 
+    if args.mission == "faults":
+        return _cmd_campaign_faults(args)
+    for option, value in (
+        ("--short", args.short),
+        ("--clean-hours", args.clean_hours),
+        ("--case", args.case),
+    ):
+        if value:
+            raise CliError(f"{option} is for jackson campaign faults")
     if args.mission in STAGE3:
         return _cmd_campaign_stage3(args)
     if args.map is not None:
@@ -319,6 +335,45 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     print((out / "summary.md").read_text())
     print(f"report: {out}/summary.md ({done}/{len(results)} trials completed)")
     return 0 if done == len(results) else 1
+
+
+def _cmd_campaign_faults(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from jackson.calibration.fault_campaign import CASES, run_fault_campaign
+
+    if args.map is not None:
+        raise CliError("--map is for the Stage 3 campaigns (maze, ofat, robustness)")
+    if args.world is not None:
+        raise CliError(
+            "--world: the fault campaign drives the figure-eight on open_floor and the square "
+            "on square_room"
+        )
+    _check_twin_files(args.robot, "open_floor")
+    config = _host_config(args.config)
+    trials = args.trials if args.trials is not None else (3 if args.short else 10)
+    hours = args.clean_hours if args.clean_hours is not None else (0.1 if args.short else 1.0)
+    cases = [c for c in CASES if not args.case or c.name in args.case]
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = _out(args.out or Path("reports") / f"{stamp}-faults-x{trials}")
+    tty = sys.stdout.isatty()
+    summary = run_fault_campaign(
+        out,
+        trials=trials,
+        clean_hours=hours,
+        cases=cases,
+        robot=args.robot,
+        seed=args.seed,
+        workers=args.workers,
+        config=config,
+        progress=tty,
+        log=None if tty else lambda line: print(line, flush=True),
+    )
+    print((out / "summary.md").read_text())
+    print(f"report: {out}/summary.md, {out}/faults.png")
+    for name, reasons in summary["missed"].items():
+        print(f"missed: {name}: {'; '.join(reasons)}")
+    return 0 if summary["all_met"] else 1
 
 
 def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
@@ -387,7 +442,7 @@ def build_parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=helptext)
         missions = ["square", "figure8", "maze"] + (
-            ["ofat", "robustness"] if name == "campaign" else []
+            ["ofat", "robustness", "faults"] if name == "campaign" else []
         )
         p.add_argument("mission", choices=missions)
         p.add_argument(
@@ -418,6 +473,26 @@ def build_parser() -> argparse.ArgumentParser:
                 help="trials (per variant for ofat and robustness; default 10, ofat/robustness 15)",
             )
             p.add_argument("--workers", type=positive_int, default=2, help="worker processes (2)")
+            from jackson.calibration.fault_campaign import CASE_NAMES
+
+            p.add_argument(
+                "--short",
+                action="store_true",
+                help="faults: 3 trials per case and 0.1 h of clean runs (unless given)",
+            )
+            p.add_argument(
+                "--clean-hours",
+                type=nonneg_float,
+                metavar="H",
+                help="faults: hours of driving without faults for the false alarms (default 1)",
+            )
+            p.add_argument(
+                "--case",
+                action="append",
+                choices=CASE_NAMES,
+                metavar="NAME",
+                help=f"faults: only this case (repeatable; {', '.join(CASE_NAMES)})",
+            )
         p.add_argument(
             "--robot", default="jackson_physical", help="twin robot file (default jackson_physical)"
         )
