@@ -273,6 +273,8 @@ class HostCore:
         self.sensors_lost: str | None = None  # the health policy's reason to brake
         self._prev_raw: tuple[int, int] | None = None
         self._told = 0  # health transitions told
+        self._last_seq: int | None = None  # SEQ of the last frame from the MCU
+        self._lost = 0  # frames missing by SEQ since the last telemetry frame
         self._prev_t_s: float | None = None
         self.limiter = VelocityLimiter(cfg.limits)
         self.deadband = cfg.deadband
@@ -328,6 +330,9 @@ class HostCore:
         for listener in self.listeners:
             listener.on_frame(frame, host_time_ns)
         self._rx_ns = host_time_ns
+        if self._last_seq is not None:
+            self._lost += (frame.seq - self._last_seq - 1) & 0xFF
+        self._last_seq = frame.seq
         msg = decode_message(frame)
         if isinstance(msg, Info):
             check_peer(msg)  # raises ProtocolMismatchError naming both versions
@@ -335,6 +340,7 @@ class HostCore:
                 # an MCU reset: its counts and clock restart; the next frame is a new origin
                 self.mcu_resets += 1
                 self._reanchor = True
+                self._lost = 0  # a new boot counts its frames from its own first
                 self.event(f"mcu reset: boot_id {self.info.boot_id:#010x} -> {msg.boot_id:#010x}")
             self.info = msg
             self._configure_device()
@@ -434,6 +440,8 @@ class HostCore:
         self._prev_raw, self._prev_t_s = raw, t_s
         om = (odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s)
         still_cmd = self.braked or self._wheel_cmd == (0.0, 0.0)
+        hm.link(t_s, self._lost)
+        self._lost = 0
         v = self.verdict = hm.update(
             HealthInput(
                 t_s=t_s,

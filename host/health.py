@@ -67,7 +67,7 @@ SILENT_TICKS = 3.0  # a wheel expected to make this many counts in a frame and m
 RECOVER_Z_FRACTION = 0.5  # a sensor out of ok passes the windowed test only within half its band
 WITNESS_Z = 3.0  # the accelerometer must tell the two hypotheses apart by this many sigma
 UNLEARNED_SCALE_TOLERANCE = 0.15  # kappa before s is learned: scrub of up to 15 % in turns
-SENSORS = ("imu", "encoder_left", "encoder_right")
+SENSORS = ("imu", "encoder_left", "encoder_right", "link")
 
 
 class Health(enum.Enum):
@@ -124,6 +124,12 @@ class HealthConfig:
         Standstill needed before the first zero-velocity update [s].
     zupt_variance : float
         R of each zero velocity [(m/s)^2, (rad/s)^2, (m/s^2)^2].
+    link_window_s : float
+        Span over which the link's frame loss is counted [s].
+    link_loss_fraction : float
+        The link is ``suspect`` when more than this fraction of the frames in the window were
+        lost (by the frames' sequence numbers: lost on the line or dropped as corrupt), and
+        ``ok`` again once the fraction is below half of it for ``recover_s``.
     imu_lost, encoder_lost : str
         "continue" (degraded mode) or "stop" (brake and abort the mission).
     """
@@ -146,6 +152,8 @@ class HealthConfig:
     zupt: bool = True
     zupt_after_s: float = 0.25
     zupt_variance: float = 1.0e-6
+    link_window_s: float = 5.0
+    link_loss_fraction: float = 0.01
     imu_lost: str = "continue"
     encoder_lost: str = "continue"
 
@@ -163,6 +171,7 @@ class HealthConfig:
             "ambiguity_s",
             "recovered_hold_s",
             "zupt_variance",
+            "link_window_s",
         ):
             v = getattr(self, name)
             if not 0.0 < v < math.inf:
@@ -176,6 +185,10 @@ class HealthConfig:
             v = getattr(self, name)
             if not 0.0 <= v < math.inf:
                 raise ValueError(f"HealthConfig.{name} must be finite and >= 0, got {v}")
+        if not 0.0 < self.link_loss_fraction < 1.0:
+            raise ValueError(
+                f"HealthConfig.link_loss_fraction must be in (0, 1), got {self.link_loss_fraction}"
+            )
         if self.spikes_to_exclude < 1:
             raise ValueError(
                 f"HealthConfig.spikes_to_exclude must be >= 1, got {self.spikes_to_exclude}"
@@ -410,6 +423,7 @@ class HealthMonitor:
         self._still_since_s: float | None = None
         self._window: deque[tuple[float, float, float, float, float, float, float]] = deque()
         self._still: deque[tuple[float, float]] = deque()
+        self._link: deque[tuple[float, int]] = deque()
         self.remeasure_bias = False  # the gyro read non-zero standing still: measure its bias
         self._fails: deque[float] = deque()
         self._run: list[
@@ -655,6 +669,22 @@ class HealthMonitor:
         """Counts wheel i should have made over the frame, by the other wheel and the gyro."""
         tpr = (self.robot.ticks_per_rev_left, self.robot.ticks_per_rev_right)[i]
         return abs(self._expected_wheel(i, h, wz)) * h.dt_s * tpr / (2.0 * math.pi)
+
+    def link(self, t_s: float, lost: int) -> None:
+        """One telemetry frame received, ``lost`` frames missing before it (by SEQ)."""
+        cfg, st = self.cfg, self._s["link"]
+        self._link.append((t_s, lost))
+        while self._link and self._link[0][0] <= t_s - cfg.link_window_s + 1e-9:
+            self._link.popleft()
+        missing = sum(n for _, n in self._link)
+        total = len(self._link) + missing
+        out: list[Transition] = []
+        if missing >= 2 and missing > cfg.link_loss_fraction * total:
+            why = f"{missing} of {total} frames lost in {cfg.link_window_s:.0f} s"
+            st.fail(t_s, False, why, out)
+        elif missing <= 0.5 * cfg.link_loss_fraction * total:
+            st.pass_(t_s, cfg, out)
+        self.transitions += out
 
     def _kappa(self) -> float:
         """The scale tolerance: the prior's until the robot's scale s has been learned."""

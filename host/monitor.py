@@ -63,10 +63,17 @@ class SensorWatch:
         self.bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
         self.unwrapper = TimestampUnwrapper()
         self._prev: tuple[float, int, int] | None = None
+        self._seq: int | None = None
 
-    def feed(self, t: Telemetry) -> None:
-        """One telemetry frame."""
+    def feed(self, t: Telemetry, seq: int | None = None) -> None:
+        """One telemetry frame (and its SEQ, for the link's frame loss)."""
         t_s = self.unwrapper.unwrap(t.t_us) / 1e6
+        lost = 0
+        if seq is not None:
+            if self._seq is not None:
+                lost = (seq - self._seq - 1) & 0xFF
+            self._seq = seq
+        self.health.link(t_s, lost)
         odo = self.odometry.update(t_s, t.enc_left, t.enc_right)
         om = (odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s)
         imu_ok = bool(t.flags & TelemetryFlags.IMU_OK)
@@ -196,7 +203,7 @@ def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = No
                 if isinstance(msg, Telemetry):
                     s.frames += 1
                     s.last = msg
-                    s.sensors.feed(msg)
+                    s.sensors.feed(msg, frame.seq)
                     now = rx_ns / 1e9
                     s.times = [t for t in s.times if t > now - 2.0] + [now]
                     transport.send(Heartbeat(ack_seq=frame.seq, host_state=HostState.IDLE))

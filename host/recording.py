@@ -76,6 +76,7 @@ HEALTH_COLUMNS = (
     "imu",
     "encoder_left",
     "encoder_right",
+    "link",
     "stationary",
 )
 
