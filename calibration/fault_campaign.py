@@ -146,6 +146,10 @@ class RunRecord:
         The first instant the fault acted (``first_s``), None without a fault or if it never did.
     transitions : tuple of Transition
         Every health-state transition of the run (none without the monitor).
+    spikes : int
+        Gyro spikes the fault injected (``imu_spike``; 0 for the other kinds).
+    gated : int
+        Samples the monitor's per-sample gate refused (``health.json`` counts).
     """
 
     case: str
@@ -163,6 +167,8 @@ class RunRecord:
     sim_s: float
     onset_s: float | None
     transitions: tuple[Transition, ...] = ()
+    spikes: int = 0
+    gated: int = 0
 
     @property
     def ended(self) -> bool:
@@ -247,6 +253,9 @@ class CaseSummary:
     pre_onset_alarms : int
         Transitions to ``suspect`` or ``excluded`` before the onset in the monitored runs
         (false alarms while the robot was healthy).
+    spikes, gated : int
+        Gyro spikes injected and samples gated, summed over the monitored runs (a spike case
+        catches every spike when they are equal).
     missed : list of str
         Why the case missed its target (empty: it met it).
     runs_to_look_at : list of dict
@@ -272,6 +281,8 @@ class CaseSummary:
     exclusion_rate: float
     others_excluded: dict[str, int]
     pre_onset_alarms: int
+    spikes: int
+    gated: int
     with_monitor: Outcome
     without_monitor: Outcome
     met_target: bool
@@ -510,6 +521,8 @@ def load_run(
         sim_s=float(metrics.get("sim_s", 0.0)),
         onset_s=None if onset is None else float(onset),
         transitions=transitions_of(health),
+        spikes=int(faults[0].get("spikes", 0)) if faults else 0,
+        gated=int(((health.get("sensors") or {}).get("counts") or {}).get("gated", 0)),
     )
 
 
@@ -624,6 +637,8 @@ def summarise_case(
         exclusion_rate=sum(d.excluded for d in found) / n if n else 0.0,
         others_excluded=dict(sorted(Counter(s for d in found for s in d.others_excluded).items())),
         pre_onset_alarms=early,
+        spikes=sum(r.spikes for r in with_monitor),
+        gated=sum(r.gated for r in with_monitor),
         with_monitor=on,
         without_monitor=off,
         met_target=not missed,
@@ -1044,10 +1059,25 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             f"{on['completed']} / {on['aborted']} / {on['not_ended']} | "
             f"{off['completed']} / {off['aborted']} / {off['not_ended']} | {verdict} |"
         )
-    looks = [(c["name"], x) for c in summary["cases"] for x in c["runs_to_look_at"]]
+    for c in summary["cases"]:
+        if c["spikes"]:
+            lines.append(
+                f"\n{c['name']}: {c['gated']} samples gated for {c['spikes']} spikes injected "
+                f"over {c['trials']} runs."
+            )
+    early = sum(c["pre_onset_alarms"] for c in summary["cases"])
+    lines.append(f"\nTransitions before the onset in the monitored runs: {early}.")
+    looks: dict[tuple[str, str, str], list[str]] = {}
+    for c in summary["cases"]:
+        for x in c["runs_to_look_at"]:
+            where, _, run = x["run"].rpartition("/")
+            looks.setdefault((c["name"], where, x["what"]), []).append(run)
     if looks:
         lines += ["", "Runs to look at:", ""]
-        lines += [f"- {name}: `{x['run']}`: {x['what']}" for name, x in looks]
+        lines += [
+            f"- {name}: {what}: `{where}/` {', '.join(runs)}"
+            for (name, where, what), runs in looks.items()
+        ]
     lines += [
         "",
         "## Closure of the completed runs [cm], mean ± SD (runs)",
@@ -1122,11 +1152,15 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     ax1.bar(x - 0.18, det, 0.36, color="C0", label="detected")
     ax1.bar(x + 0.18, iso, 0.36, color="C0", alpha=0.45, label="isolated (first sensor out)")
     ax1.axhline(100 * DETECTION_TARGET, color="k", ls="--", lw=0.8)
-    ax1.set_ylim(0, 128)
-    ax1.set_yticks(range(0, 101, 20))
+    for xi, v in zip(x, iso, strict=True):
+        if v == 0:
+            ax1.text(xi + 0.18, 1, "0", fontsize=7, ha="center", va="bottom")
+    ax1.set_ylim(0, 105)
     ax1.set_ylabel("runs [%]")
     ax1.set_xticks(x, names, fontsize=7)
-    ax1.set_title("Detection with the health monitor (dashed: target); time to detect", fontsize=9)
+    ax1.set_title(
+        "Detection with the health monitor (dashed: target); time to detect", fontsize=9, pad=24
+    )
     ax_t = ax1.twinx()
     med = np.array([c["time_to_detect_median_s"] or np.nan for c in cases], dtype=float)
     top = np.array([c["time_to_detect_max_s"] or np.nan for c in cases], dtype=float)
@@ -1144,11 +1178,11 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     if positive and max(positive) / min(positive) > 30:
         ax_t.set_yscale("log")
     else:
-        ax_t.set_ylim(0, (max(positive) * 1.3) if positive else 1.0)
+        ax_t.set_ylim(0, (max(positive) * 1.1) if positive else 1.0)
     ax_t.set_ylabel("time to detect [s]", color="C3")
     h1, l1 = ax1.get_legend_handles_labels()
     h2, l2 = ax_t.get_legend_handles_labels()
-    ax1.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper center", ncol=3)
+    ax1.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3)
 
     width = 0.2
     series = (
@@ -1185,8 +1219,8 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
         ax2.set_yscale("log")
     ax2.set_ylabel("closure of completed runs [cm]")
     ax2.set_xticks(x, names, fontsize=7)
-    ax2.set_title("Closure with and without the monitor (error bars: one SD)", fontsize=9)
-    ax2.legend(fontsize=7, ncol=2)
+    ax2.set_title("Closure with and without the monitor (error bars: one SD)", fontsize=9, pad=24)
+    ax2.legend(fontsize=7, ncol=4, loc="lower center", bbox_to_anchor=(0.5, 1.0))
     ax2.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     fig.savefig(path)

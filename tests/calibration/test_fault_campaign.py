@@ -44,7 +44,7 @@ def _run_folder(
     monitor: bool = True,
 ) -> Path:
     folder.mkdir(parents=True)
-    faults = [] if first_s is None else [{"fault": "imu_dead@30", "at_s": 30.0, "first_s": first_s}]
+    faults = [] if first_s is None else [{"fault": "imu_spike@30", "first_s": first_s, "spikes": 2}]
     metrics = {
         "mission": "figure8",
         "trial": 0,
@@ -58,7 +58,7 @@ def _run_folder(
     }
     sensors: dict[str, Any] = {"monitor": "off"}
     if monitor:
-        sensors = {"states": {}, "transitions": transitions, "counts": {}}
+        sensors = {"states": {}, "transitions": transitions, "counts": {"gated": len(transitions)}}
     health = {"abort_reason": abort_reason, "sensors": sensors}
     (folder / "metrics.json").write_text(json.dumps(metrics))
     (folder / "health.json").write_text(json.dumps(health))
@@ -76,6 +76,7 @@ def test_a_transition_of_the_blamed_sensor_after_onset_is_a_detection(tmp_path: 
     )
     r = load_run(folder, case="imu_dead", monitor=True, root=tmp_path)
     assert r.folder == "R01" and r.onset_s == 30.05 and r.ended
+    assert (r.spikes, r.gated) == (2, 2)
     d = detect(r.transitions, "imu", r.onset_s)
     assert d.detected and d.isolated and d.excluded and d.first_sensor == "imu"
     assert d.time_to_detect_s == pytest.approx(0.20)
