@@ -197,6 +197,8 @@ class Detection:
         Other sensors excluded at or after the onset (blamed wrongly, or besides).
     first_excluded : str or None
         The first sensor excluded at or after the onset (None: none was).
+    time_to_exclude_s : float or None
+        The expected sensor's first exclusion after the onset, minus the onset [s].
     """
 
     detected: bool
@@ -206,6 +208,7 @@ class Detection:
     excluded: bool
     others_excluded: tuple[str, ...] = ()
     first_excluded: str | None = None
+    time_to_exclude_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -277,6 +280,8 @@ class CaseSummary:
     time_to_detect_s: list[float]
     time_to_detect_median_s: float | None
     time_to_detect_max_s: float | None
+    time_to_exclude_median_s: float | None
+    time_to_exclude_max_s: float | None
     excluded: int
     exclusion_rate: float
     others_excluded: dict[str, int]
@@ -406,6 +411,7 @@ def detect(transitions: Sequence[Transition], sensor: str, onset_s: float | None
         excluded=any(t.new == "excluded" for t in mine),
         others_excluded=tuple(sorted(others)),
         first_excluded=out[0] if out else None,
+        time_to_exclude_s=next((t.t_s - onset_s for t in mine if t.new == "excluded"), None),
     )
 
 
@@ -584,6 +590,7 @@ def summarise_case(
     n = len(with_monitor)
     found = [detect(r.transitions, case.sensor, r.onset_s) for r in with_monitor]
     ttd = [d.time_to_detect_s for d in found if d.time_to_detect_s is not None]
+    tte = [d.time_to_exclude_s for d in found if d.time_to_exclude_s is not None]
     first = Counter(d.first_sensor or "none" for d in found)
     early = sum(
         1
@@ -633,6 +640,8 @@ def summarise_case(
         time_to_detect_s=ttd,
         time_to_detect_median_s=statistics.median(ttd) if ttd else None,
         time_to_detect_max_s=max(ttd) if ttd else None,
+        time_to_exclude_median_s=statistics.median(tte) if tte else None,
+        time_to_exclude_max_s=max(tte) if tte else None,
         excluded=sum(d.excluded for d in found),
         exclusion_rate=sum(d.excluded for d in found) / n if n else 0.0,
         others_excluded=dict(sorted(Counter(s for d in found for s in d.others_excluded).items())),
@@ -1039,10 +1048,10 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
         "## Detection (runs with the monitor)",
         "",
         "| case | mission | fault | blame | detected | isolated (first out otherwise) | "
-        "time to detect median / max [s] | excluded | first excluded | others excluded | "
-        "monitor: completed / aborted / not ended | no monitor: completed / aborted / not ended "
-        "| target |",
-        "|---|---|---|---|---:|---|---:|---:|---:|---|---:|---:|---|",
+        "time to detect median / max [s] | excluded | time to exclude median / max [s] | "
+        "first excluded | others excluded | monitor: completed / aborted / not ended | "
+        "no monitor: completed / aborted / not ended | target |",
+        "|---|---|---|---|---:|---|---:|---:|---:|---:|---|---:|---:|---|",
     ]
     for c in summary["cases"]:
         n = c["trials"]
@@ -1055,7 +1064,9 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             f"| {c['name']} | {c['mission']} | `{c['fault']}` | {c['sensor']} | "
             f"{c['detected']}/{n} | {c['isolated']}/{n}{f' ({other})' if other else ''} | "
             f"{_seconds(c['time_to_detect_median_s'])} / {_seconds(c['time_to_detect_max_s'])} | "
-            f"{c['excluded']}/{n} | {c['isolated_by_exclusion']}/{n} | {wrong or '-'} | "
+            f"{c['excluded']}/{n} | {_seconds(c['time_to_exclude_median_s'])} / "
+            f"{_seconds(c['time_to_exclude_max_s'])} | "
+            f"{c['isolated_by_exclusion']}/{n} | {wrong or '-'} | "
             f"{on['completed']} / {on['aborted']} / {on['not_ended']} | "
             f"{off['completed']} / {off['aborted']} / {off['not_ended']} | {verdict} |"
         )
@@ -1093,6 +1104,7 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             f"{_pm(on['ekf_closure_cm'])} | {_pm(off['ekf_closure_cm'])} |"
         )
     fa = summary["false_alarms"]
+    columns = [*SENSORS, *(s for s in fa["by_sensor"] if s not in SENSORS)]
     lines += [
         "",
         "## False alarms (clean runs, monitor on)",
@@ -1100,12 +1112,13 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
         f"{fa['runs']} runs ({fa['completed']} completed, {fa['not_ended']} did not end): "
         f"{fa['hours_driven']:.3f} h driven, {fa['hours_monitored']:.3f} h monitored.",
         "",
-        "| transitions to | count (per hour driven, one-sided upper bound) | imu | encoder_left | "
-        "encoder_right |",
-        "|---|---|---:|---:|---:|",
+        "| transitions to | count (per hour driven, one-sided upper bound) | "
+        + " | ".join(columns)
+        + " |",
+        "|---|---|" + "---:|" * len(columns),
     ]
     for state in ("excluded", "suspect"):
-        per = " | ".join(str(fa["by_sensor"].get(s, {}).get(state, 0)) for s in SENSORS)
+        per = " | ".join(str(fa["by_sensor"].get(s, {}).get(state, 0)) for s in columns)
         lines.append(f"| {state} | {_per_h(fa[state])} | {per} |")
     if fa["alarms"]:
         lines += ["", "Alarms on clean runs:", ""]

@@ -93,6 +93,7 @@ def test_the_wrong_sensor_first_is_not_isolated_and_is_named() -> None:
     assert d.detected and d.excluded and not d.isolated
     assert d.first_sensor == "imu" and d.time_to_detect_s == pytest.approx(0.5)
     assert d.first_excluded == "encoder_right" and d.others_excluded == ()
+    assert d.time_to_exclude_s == pytest.approx(1.25)
 
 
 def test_two_sensors_out_at_one_instant_are_not_isolated() -> None:
@@ -136,6 +137,7 @@ def test_case_summary_counts_detection_time_and_endings(tmp_path: Path) -> None:
     assert s.isolated_by_exclusion == 1  # on2 was only suspected, on3 excluded the wrong one
     assert s.time_to_detect_median_s == pytest.approx(0.4)
     assert s.time_to_detect_max_s == pytest.approx(0.6)
+    assert s.time_to_exclude_median_s == s.time_to_exclude_max_s == pytest.approx(0.2)
     assert (s.with_monitor.completed, s.with_monitor.not_ended) == (3, 1)
     assert (s.without_monitor.completed, s.without_monitor.aborted) == (1, 1)
     assert s.without_monitor.gt_closure_cm.mean == 30.0
