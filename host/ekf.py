@@ -181,9 +181,8 @@ class EkfConfig:
         Prior SD of the gyro's and the wheels' relative scale errors; above 0 each becomes a
         constant state k of the filter (the gyro measures vyaw (1 - k_g), the wheels vx
         (1 - k_v)), so the covariance carries what a scale error does to the pose: the yaw's
-        variance grows with the square of the angle turned, not with time. They are *consider*
-        states: no measurement moves them (nothing observes a scale), only their covariance
-        is carried. 0: the paper's 7-state filter.
+        variance grows with the square of the angle turned, not with time. 0: the paper's
+        7-state filter.
     """
 
     frequency_hz: float = 30.0
@@ -773,9 +772,6 @@ class Ekf:
                 self.rejected[m.sensor] = self.rejected.get(m.sensor, 0) + 1
                 return False
 
-        if self._scales:
-            self._consider_update(z, h_matrix, hx, r_matrix, residual, m)
-            return True
         self._kf.update(
             z.reshape(-1, 1),
             HJacobian=lambda _x: h_matrix,
@@ -789,36 +785,6 @@ class Ekf:
             self._record(m.sensor, m.t_s, y_u, np.asarray(self._kf.S, dtype=np.float64), d2, True)
         self._kf.x[YAW, 0] = wrap_angle(float(self._kf.x[YAW, 0]))
         return True
-
-    def _consider_update(
-        self,
-        z: Vector,
-        h_matrix: Matrix,
-        hx: Callable[[Matrix], Matrix],
-        r_matrix: Matrix,
-        residual: Callable[[Matrix, Matrix], Matrix],
-        m: _Measurement,
-    ) -> None:
-        """The update with the scale states as *consider* states (Schmidt-Kalman): their rows
-        of the gain are zero, so no measurement moves them (nothing here observes a scale: a
-        gyro innovation in a turn's acceleration would otherwise be read as a scale error),
-        while the Joseph form keeps P right for that gain, their variance and their
-        correlation with the pose included."""
-        kf = self._kf
-        x = np.asarray(kf.x, dtype=np.float64)
-        p = np.asarray(kf.P, dtype=np.float64)
-        y = residual(z.reshape(-1, 1), hx(x))
-        s_matrix = h_matrix @ p @ h_matrix.T + r_matrix
-        s_inv = np.linalg.inv(s_matrix)
-        gain = p @ h_matrix.T @ s_inv
-        gain[STATE_SIZE:, :] = 0.0
-        kf.x = x + gain @ y
-        i_kh = np.eye(self.n) - gain @ h_matrix
-        kf.P = i_kh @ p @ i_kh.T + gain @ r_matrix @ gain.T
-        kf.x[YAW, 0] = wrap_angle(float(kf.x[YAW, 0]))
-        if m.threshold is None:
-            y_u = y.reshape(-1)
-            self._record(m.sensor, m.t_s, y_u, s_matrix, float(y_u @ s_inv @ y_u), True)
 
     def _initialize_from(
         self, m: _Measurement, z: Vector, indices: list[int], r_matrix: Matrix
