@@ -228,8 +228,6 @@ def _ekf(s: Fields) -> EkfConfig:
         mahalanobis_wheel=wheel,
         mahalanobis_imu=imu,
         gyro_bias_window_s=s.number("gyro_bias_window_s", d.gyro_bias_window_s, 0.0),
-        gyro_scale_sigma=s.number("gyro_scale_sigma", d.gyro_scale_sigma, 0.0, 0.49),
-        wheel_scale_sigma=s.number("wheel_scale_sigma", d.wheel_scale_sigma, 0.0, 0.49),
     )
     s.finish()
     return out
@@ -497,8 +495,6 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "r_wz": ekf.r_wz,
             "mahalanobis_threshold": {"wheel": ekf.mahalanobis_wheel, "imu": ekf.mahalanobis_imu},
             "gyro_bias_window_s": ekf.gyro_bias_window_s,
-            "gyro_scale_sigma": ekf.gyro_scale_sigma,
-            "wheel_scale_sigma": ekf.wheel_scale_sigma,
         },
         "limits": {f.name: getattr(cfg.limits, f.name) for f in fields(LimiterConfig)},
         "deadband": {

@@ -83,12 +83,11 @@ def transition(x: Vector, dt_s: float) -> Vector:
 
 
 def transition_jacobian(x: Vector, dt_s: float) -> Matrix:
-    """F = df/dx at the state before the step (derived in the module docstring); the identity
-    for the constant scale states beyond the seventh."""
+    """F = df/dx at the state before the step (derived in the module docstring)."""
     yaw = x[YAW]
     c, s = math.cos(yaw), math.sin(yaw)
     half_dt2 = 0.5 * dt_s * dt_s
-    jac = _IDENTITY.copy() if len(x) == STATE_SIZE else np.eye(len(x))
+    jac = _IDENTITY.copy()
     jac[X, YAW] = -(x[VX] * s + x[VY] * c) * dt_s - x[AX] * s * half_dt2
     jac[X, VX] = c * dt_s
     jac[X, VY] = -s * dt_s
@@ -177,12 +176,6 @@ class EkfConfig:
     gyro_bias_window_s : float
         Start-up standstill over which the daemon estimates the gyro z bias
         (:class:`GyroBiasEstimator`) [s]; 0 switches the estimate off.
-    gyro_scale_sigma, wheel_scale_sigma : float
-        Prior SD of the gyro's and the wheels' relative scale errors; above 0 each becomes a
-        constant state k of the filter (the gyro measures vyaw (1 - k_g), the wheels vx
-        (1 - k_v)), so the covariance carries what a scale error does to the pose: the yaw's
-        variance grows with the square of the angle turned, not with time. 0: the paper's
-        7-state filter.
     """
 
     frequency_hz: float = 30.0
@@ -195,14 +188,8 @@ class EkfConfig:
     mahalanobis_wheel: float | None = None
     mahalanobis_imu: float | None = None
     gyro_bias_window_s: float = 2.0
-    gyro_scale_sigma: float = 0.0
-    wheel_scale_sigma: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("gyro_scale_sigma", "wheel_scale_sigma"):
-            value = getattr(self, name)
-            if not 0.0 <= value < 0.5:
-                raise ValueError(f"EkfConfig.{name} must be in [0, 0.5), got {value}")
         for name in ("frequency_hz", "sensor_timeout_s", "initial_covariance", "r_vx", "r_vy"):
             value = getattr(self, name)
             if not 0.0 < value < math.inf:
@@ -328,7 +315,6 @@ class _Measurement:
     variances: Vector
     threshold: float | None
     angular: list[bool]  # per row: wrap the innovation
-    scaled: list[int | None] = field(default_factory=list)  # per row: its scale state, if any
 
 
 class Ekf:
@@ -357,20 +343,9 @@ class Ekf:
 
     def __init__(self, config: EkfConfig | None = None) -> None:
         self.config = config if config is not None else EkfConfig()
-        cfg = self.config
-        # the optional scale states after the seven of Table 2
-        self._scales = [sd for sd in (cfg.gyro_scale_sigma, cfg.wheel_scale_sigma) if sd > 0.0]
-        self.n = STATE_SIZE + len(self._scales)
-        self._kg = STATE_SIZE if cfg.gyro_scale_sigma > 0.0 else None
-        self._kv = STATE_SIZE + (self._kg is not None) if cfg.wheel_scale_sigma > 0.0 else None
-        self._kf = ExtendedKalmanFilter(dim_x=self.n, dim_z=1)
+        self._kf = ExtendedKalmanFilter(dim_x=STATE_SIZE, dim_z=1)
         self._q_per_s: Matrix = np.diag(
-            np.concatenate(
-                (
-                    np.asarray(cfg.process_noise.diagonal, dtype=np.float64),
-                    np.zeros(len(self._scales)),
-                )
-            )
+            np.asarray(self.config.process_noise.diagonal, dtype=np.float64)
         )
         self._q_moving_diag = np.diagonal(self._q_per_s).copy()
         self._q_still_diag = self._q_moving_diag.copy()
@@ -384,11 +359,10 @@ class Ekf:
     def reset(self) -> None:
         """Back to the uninitialised filter: x = 0, P = initial_covariance I, no time."""
         kf = self._kf
-        n = self.n
-        kf.x = np.zeros((n, 1))
-        kf.P = np.diag(self._initial_diagonal())
-        kf.F = np.eye(n)
-        kf.Q = np.zeros((n, n))
+        kf.x = np.zeros((STATE_SIZE, 1))
+        kf.P = np.eye(STATE_SIZE) * self.config.initial_covariance
+        kf.F = np.eye(STATE_SIZE)
+        kf.Q = np.zeros((STATE_SIZE, STATE_SIZE))
         self._t_s: float | None = None
         self._last_measurement_t_s: float | None = None
         self._initialized = False
@@ -398,15 +372,6 @@ class Ekf:
         self.stationary = False
         self.rejected = {SENSOR_WHEEL: 0, SENSOR_GYRO: 0, SENSOR_YAW: 0}
         self.innovations = {}
-
-    def _initial_diagonal(self) -> Vector:
-        """P0's diagonal: initial_covariance for the seven, the prior for each scale state."""
-        return np.concatenate(
-            (
-                np.full(STATE_SIZE, self.config.initial_covariance),
-                np.square(np.asarray(self._scales, dtype=np.float64)),
-            )
-        )
 
     def set_state(
         self, t_s: float, x: Sequence[float], covariance_diagonal: Sequence[float] | None = None
@@ -422,15 +387,13 @@ class Ekf:
         covariance_diagonal : sequence of 7 float, optional
             diag(P); default initial_covariance for every state. Off-diagonal terms are zero.
         """
-        state = np.zeros(self.n)
-        state[:STATE_SIZE] = np.asarray(x, dtype=np.float64).reshape(STATE_SIZE)
+        state = np.asarray(x, dtype=np.float64).reshape(STATE_SIZE)
         state[YAW] = wrap_angle(float(state[YAW]))
-        p_diag = self._initial_diagonal()
-        if covariance_diagonal is not None:
-            p_diag[:STATE_SIZE] = np.asarray(covariance_diagonal, dtype=np.float64).reshape(
-                STATE_SIZE
-            )
-        self._kf.x = state.reshape(self.n, 1)
+        if covariance_diagonal is None:
+            p_diag = np.full(STATE_SIZE, self.config.initial_covariance)
+        else:
+            p_diag = np.asarray(covariance_diagonal, dtype=np.float64).reshape(STATE_SIZE)
+        self._kf.x = state.reshape(STATE_SIZE, 1)
         self._kf.P = np.diag(p_diag)
         self._t_s = t_s
         self._last_measurement_t_s = t_s
@@ -453,8 +416,8 @@ class Ekf:
 
     @property
     def x(self) -> Vector:
-        """A copy of the state vector (7,), or (n,) with the scale states."""
-        return np.asarray(self._kf.x, dtype=np.float64).reshape(self.n).copy()
+        """A copy of the state vector (7,)."""
+        return np.asarray(self._kf.x, dtype=np.float64).reshape(STATE_SIZE).copy()
 
     @property
     def P(self) -> Matrix:  # noqa: N802 - named as in the maths
@@ -526,8 +489,8 @@ class Ekf:
         """A frozen snapshot of the estimate."""
         return EkfState(
             t_s=self._t_s,
-            x=tuple(self.x[:STATE_SIZE].tolist()),
-            covariance_diagonal=tuple(np.diagonal(self._kf.P)[:STATE_SIZE].tolist()),
+            x=tuple(self.x.tolist()),
+            covariance_diagonal=tuple(np.diagonal(self._kf.P).tolist()),
             initialized=self._initialized,
             pose_cross=_pose_cross(np.asarray(self._kf.P, dtype=np.float64)),
         )
@@ -551,8 +514,8 @@ class Ekf:
         pose = jp[:3] @ jac[:3].T  # the pose block of F P F^T (Q is diagonal)
         return EkfState(
             t_s=t_s,
-            x=tuple(transition(x, dt_s)[:STATE_SIZE].tolist()),
-            covariance_diagonal=tuple(p_diag[:STATE_SIZE].tolist()),
+            x=tuple(transition(x, dt_s).tolist()),
+            covariance_diagonal=tuple(p_diag.tolist()),
             initialized=True,
             pose_cross=_pose_cross(pose),
         )
@@ -575,7 +538,7 @@ class Ekf:
         q_step = np.diag(dt_s * self._q_diag())
         kf.F = jac
         kf.Q = q_step
-        kf.x = transition(x, dt_s).reshape(self.n, 1)
+        kf.x = transition(x, dt_s).reshape(STATE_SIZE, 1)
         kf.P = jac @ kf.P @ jac.T + q_step
         kf.x_prior = kf.x.copy()
         kf.P_prior = kf.P.copy()
@@ -621,7 +584,6 @@ class Ekf:
                 variances=np.array([cfg.r_vx * variance_scale, cfg.r_vy], dtype=np.float64),
                 threshold=cfg.mahalanobis_wheel,
                 angular=[False, False],
-                scaled=[self._kv, None],
             )
         )
 
@@ -640,7 +602,6 @@ class Ekf:
                 variances=np.array([cfg.r_wz], dtype=np.float64),
                 threshold=cfg.mahalanobis_imu,
                 angular=[False],
-                scaled=[self._kg],
             )
         )
 
@@ -748,22 +709,10 @@ class Ekf:
             return True
 
         self.predict_to(m.t_s)
-        h_matrix, residual = _observation(tuple(indices), tuple(angular), self.n)
-        scaled = [m.scaled[i] for i in keep] if m.scaled else []
-        hx = _linear_hx(h_matrix)
-        if any(k is not None for k in scaled):
-            # z = x_i (1 - k): H's row gets (1 - k) at i and -x_i at k, at the prior state
-            x_now = np.asarray(self._kf.x, dtype=np.float64).reshape(-1)
-            h_matrix = np.array(h_matrix)
-            for row, (i, k) in enumerate(zip(indices, scaled, strict=True)):
-                if k is not None:
-                    h_matrix[row, i] = 1.0 - x_now[k]
-                    h_matrix[row, k] = -x_now[i]
-            hx = _scaled_hx(list(zip(indices, scaled, strict=True)))
-
+        h_matrix, residual = _observation(tuple(indices), tuple(angular))
         if m.threshold is not None:  # gating: the innovation is judged before the update
             x_col = np.asarray(self._kf.x, dtype=np.float64)
-            y = residual(z.reshape(-1, 1), hx(x_col)).reshape(-1)
+            y = residual(z.reshape(-1, 1), h_matrix @ x_col).reshape(-1)
             s_matrix = h_matrix @ self._kf.P @ h_matrix.T + r_matrix
             d2 = float(y @ np.linalg.solve(s_matrix, y))
             accepted = d2 < m.threshold * m.threshold
@@ -775,7 +724,7 @@ class Ekf:
         self._kf.update(
             z.reshape(-1, 1),
             HJacobian=lambda _x: h_matrix,
-            Hx=hx,
+            Hx=lambda state: h_matrix @ state,
             R=r_matrix,
             residual=residual,
         )
@@ -823,31 +772,15 @@ def _pose_cross(p: Matrix) -> tuple[float, float, float]:
 
 @functools.lru_cache(maxsize=64)
 def _observation(
-    indices: tuple[int, ...], angular: tuple[bool, ...], n: int = STATE_SIZE
+    indices: tuple[int, ...], angular: tuple[bool, ...]
 ) -> tuple[Matrix, Callable[[Matrix, Matrix], Matrix]]:
     """H selecting the measured state components, and the residual for them (one per sensor
     layout, built once: the daemon measures the same components every frame)."""
-    h_matrix = np.zeros((len(indices), n))
+    h_matrix = np.zeros((len(indices), STATE_SIZE))
     for row, col in enumerate(indices):
         h_matrix[row, col] = 1.0
     h_matrix.flags.writeable = False  # shared between calls
     return h_matrix, _residual_function(list(angular))
-
-
-def _linear_hx(h_matrix: Matrix) -> Callable[[Matrix], Matrix]:
-    """h(x) = H x."""
-    return lambda state: h_matrix @ state
-
-
-def _scaled_hx(rows: list[tuple[int, int | None]]) -> Callable[[Matrix], Matrix]:
-    """h(x) per row: x_i, or x_i (1 - x_k) for a row with the scale state k."""
-
-    def hx(state: Matrix) -> Matrix:
-        col = np.asarray(state, dtype=np.float64).reshape(-1)
-        values = [col[i] * (1.0 - col[k]) if k is not None else col[i] for i, k in rows]
-        return np.asarray(values, dtype=np.float64).reshape(-1, 1)
-
-    return hx
 
 
 def _residual_function(angular: list[bool]) -> Callable[[Matrix, Matrix], Matrix]:
