@@ -4,7 +4,9 @@ Each trial runs in a worker process (the twin in lockstep over a pty and the rea
 :mod:`jackson.calibration.trial`) with its own run folder and seed ``seed + i``, so a campaign
 is deterministic for a seed whatever the number of workers. The report folder holds per-run
 metrics (``runs.csv``, ``runs.json``), ``summary.md`` with the paper's physical and Isaac Sim
-figures beside ours, and plots (``trajectories.png``, ``closure.png``).
+figures beside ours, the consistency of the EKF's covariance against the twin's ground truth
+(:mod:`jackson.calibration.consistency`), and plots (``trajectories.png``, ``closure.png``,
+``nees.png``).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
+from jackson.calibration.consistency import run_consistency
 from jackson.calibration.report import write_report
 from jackson.calibration.trial import TrialSpec, run_trial
 
@@ -49,7 +52,7 @@ def run_campaign(
         ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool,
     ):
         task = bar.add_task(f"{mission} x{trials}", total=trials)
-        futures = [pool.submit(run_trial, s) for s in specs]
+        futures = [pool.submit(run_scored_trial, s) for s in specs]
         for fut in as_completed(futures):
             results.append(fut.result())
             bar.advance(task)
@@ -70,6 +73,31 @@ def run_campaign(
         },
     )
     return results
+
+
+def run_scored_trial(spec: TrialSpec) -> dict[str, Any]:
+    """One trial (:func:`jackson.calibration.trial.run_trial`) with the NEES figures added.
+
+    The covariance's consistency (:meth:`jackson.calibration.consistency.RunConsistency.metrics`:
+    ``nees_in_band_fraction``, ``nees_above_fraction``, ``nees_mean``,
+    ``end_position_2sigma_cm``, ``end_error_covered``, ...) joins the trial's metrics, in the
+    returned dict and in the run folder's ``metrics.json``.
+
+    Parameters
+    ----------
+    spec : TrialSpec
+        The trial.
+
+    Returns
+    -------
+    dict
+        The trial's metrics with the consistency figures.
+    """
+    result = run_trial(spec)
+    if "nees_mean" not in result:  # the trial's own metrics may carry them already
+        result.update(run_consistency(spec.out).metrics())
+        (spec.out / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
+    return result
 
 
 def write_runs(out: Path, results: list[dict[str, Any]]) -> None:

@@ -1,4 +1,8 @@
-"""Tables and plots of a campaign, laid out like the paper's (Tables 5-8, Figures 5-11)."""
+"""Tables and plots of a campaign, laid out like the paper's (Tables 5-8, Figures 5-11).
+
+Beside the paper's figures, the consistency of the EKF's covariance (NEES against the twin's
+ground truth, :mod:`jackson.calibration.consistency`): rows of the table and ``nees.png``.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +13,13 @@ from typing import Any
 import numpy as np
 
 from jackson.calibration import metrics as m
+from jackson.calibration.consistency import (
+    CampaignConsistency,
+    ConsistencyError,
+    campaign_consistency,
+    plot_consistency,
+    run_consistency,
+)
 from jackson.calibration.trial import read_csv
 
 # The paper's figures (REFERENCE.md, "Results to compare against"): (physical, Isaac twin).
@@ -40,6 +51,15 @@ LABELS = {
     "ekf_closure_cm": "EKF closure (cm)",
     "odom_closure_cm": "Raw wheel-odometry closure (cm)",
     "optimism_gap_cm": "Estimator optimism gap, GT - EKF (cm)",
+    "nees_in_band_fraction": "NEES of [x, y, yaw] inside the 95 % band (share of time)",
+    "nees_above_fraction": "NEES above the band: optimistic (share of time)",
+    "nees_below_fraction": "NEES below the band: pessimistic (share of time)",
+    "nees_mean": "Mean NEES (3 when the covariance is right)",
+    "nees_xy_mean": "Mean NEES of the position alone (2 when right)",
+    "nees_yaw_mean": "Mean NEES of the heading alone (1 when right)",
+    "end_error_cm": "EKF end-point error vs ground truth (cm)",
+    "end_position_2sigma_cm": "Covariance 2-sigma of the end position (cm)",
+    "end_error_covered": "End-point error within that 2-sigma (share of runs)",
     "ekf_final_heading_deg": "EKF final heading error (deg)",
     "gt_final_heading_deg": "Ground-truth final heading error (deg)",
     "odom_final_heading_deg": "Raw-odometry final heading error (deg)",
@@ -53,6 +73,12 @@ LABELS = {
     "duration_s": "Duration from time zero (s)",
     "real_time_factor": "Real-time factor of the trial",
 }
+# figures that span decades: three significant digits instead of two decimals
+SIGNIFICANT = frozenset({"nees_mean", "nees_xy_mean", "nees_yaw_mean", "end_position_2sigma_cm"})
+
+
+def _number(key: str, value: float) -> str:
+    return f"{value:.3g}" if key in SIGNIFICANT else f"{value:.2f}"
 
 
 def summary_rows(
@@ -65,8 +91,11 @@ def summary_rows(
         if not values:
             continue
         s = m.mean_sd_ci(values)
-        ours = f"{s.mean:.2f} ± {s.sd:.2f}" if len(values) > 1 else f"{s.mean:.2f}"
-        ci = f"[{s.ci_low:.2f}, {s.ci_high:.2f}]" if len(values) > 1 else "—"
+        if len(values) > 1:
+            ours = f"{_number(key, s.mean)} ± {_number(key, s.sd)}"
+            ci = f"[{_number(key, s.ci_low)}, {_number(key, s.ci_high)}]"
+        else:
+            ours, ci = _number(key, s.mean), "—"
         phys, isaac = PAPER.get(mission, {}).get(key, ("—", "—"))
         rows.append((label, ours, ci, phys, isaac))
     return rows
@@ -78,6 +107,15 @@ def write_report(
     """summary.md, summary.json and the plots of a campaign folder."""
     out.mkdir(parents=True, exist_ok=True)
     rows = summary_rows(mission, results)
+    runs = [out / "runs" / f"R{i + 1:02d}" for i in range(len(results))]
+    consistency: CampaignConsistency | None = None
+    try:
+        consistency = campaign_consistency([run_consistency(run) for run in runs])
+    except ConsistencyError as exc:
+        consistency_lines = [f"Not computed: {exc}."]
+    else:
+        consistency_lines = consistency_section(consistency)
+        plot_consistency(out / "nees.png", consistency, title=mission)
     done = sum(1 for r in results if r.get("completed"))
     title = {"square": "Stage 1, 1 m square", "figure8": "Stage 2, figure-eight"}[mission]
     lines = [
@@ -96,6 +134,10 @@ def write_report(
         "",
         "![per-run closure](closure.png)",
         "",
+        "## Consistency of the EKF's covariance",
+        "",
+        *consistency_lines,
+        "",
     ]
     (out / "summary.md").write_text("\n".join(lines))
     (out / "summary.json").write_text(
@@ -112,14 +154,54 @@ def write_report(
                     )
                     for r in rows
                 ],
+                "consistency": consistency.summary() if consistency is not None else None,
             },
             indent=2,
         )
         + "\n"
     )
-    runs = [out / "runs" / f"R{i + 1:02d}" for i in range(len(results))]
     plot_trajectories(out / "trajectories.png", mission, runs)
     plot_closure(out, results)
+
+
+def consistency_section(c: CampaignConsistency) -> list[str]:
+    """The summary's lines on the covariance's consistency: pooled figures and ``nees.png``.
+
+    Parameters
+    ----------
+    c : CampaignConsistency
+        The campaign's runs pooled.
+
+    Returns
+    -------
+    list of str
+        Markdown lines.
+    """
+    lo, hi = c.runs[0].band
+    a_lo, a_hi = c.average_band
+    n = len(c.runs)
+    summary = c.summary()
+    skipped = summary["rows_skipped"]
+    return [
+        f"NEES e^T P^-1 e of the pose [x, y, yaw] against ground truth at every EKF output "
+        f"(30 Hz), all {summary['rows']} rows of the {n} runs pooled; the two-sided 95 % "
+        f"chi-square band with 3 degrees of freedom is [{lo:.3f}, {hi:.3f}] "
+        "(docs/estimation.md).",
+        "",
+        "| figure | value |",
+        "|---|---|",
+        f"| inside the band | {c.in_band_fraction:.1%} |",
+        f"| above (optimistic) | {c.above_fraction:.1%} |",
+        f"| below (pessimistic) | {c.below_fraction:.1%} |",
+        f"| mean NEES (3 when right) | {c.nees_mean:.3g} |",
+        f"| the {n}-run average NEES inside its band [{a_lo:.3f}, {a_hi:.3f}] "
+        f"| {c.average_in_band_fraction:.1%} of the time |",
+        f"| end-point error within the end position's 2-sigma | {c.covered}/{n} runs |",
+        f"| rows left out: uninitialised, without truth, singular P | {skipped['uninitialised']}, "
+        f"{skipped['without_truth']}, {skipped['singular']} |",
+        "",
+        "![NEES over time and the end point per run](nees.png)",
+    ]
 
 
 def plot_trajectories(png: Path, mission: str, runs: list[Path]) -> None:

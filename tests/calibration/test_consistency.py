@@ -1,0 +1,214 @@
+"""NEES of the EKF's pose covariance against ground truth, on synthetic run folders."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from jackson.calibration import metrics as m
+from jackson.calibration.consistency import (
+    ConsistencyError,
+    campaign_consistency,
+    plot_consistency,
+    run_consistency,
+)
+from jackson.host.recording import EKF_COLUMNS
+
+FloatArray = npt.NDArray[np.float64]
+ROWS = 3000  # 100 s at 30 Hz
+
+
+def _covariances(t_s: FloatArray) -> FloatArray:
+    """Pose covariances that grow and rotate over the run, correlated between components."""
+    sd = np.column_stack((0.01 + 0.001 * t_s, 0.02 + 0.0005 * t_s, 0.005 + 0.0003 * t_s))
+    rho_xy, rho_xyaw, rho_yyaw = 0.5 * np.sin(0.1 * t_s), 0.3, -0.2
+    corr = np.empty((t_s.size, 3, 3))
+    corr[:] = np.eye(3)
+    corr[:, 0, 1] = corr[:, 1, 0] = rho_xy
+    corr[:, 0, 2] = corr[:, 2, 0] = rho_xyaw
+    corr[:, 1, 2] = corr[:, 2, 1] = rho_yyaw
+    return np.asarray(corr * sd[:, :, None] * sd[:, None, :], dtype=np.float64)
+
+
+def _truth(t_s: FloatArray) -> FloatArray:
+    """A 1 m circle driven at 0.1 rad/s from (0, 0, 0): the heading passes +-pi."""
+    yaw = 0.1 * t_s
+    return np.column_stack((np.sin(yaw), 1.0 - np.cos(yaw), yaw))
+
+
+def _write_run(
+    folder: Path,
+    t_s: FloatArray,
+    pose: FloatArray,
+    covariance: FloatArray,
+    truth: FloatArray,
+    blank_rows: int = 0,
+) -> Path:
+    """ekf.csv (headings wrapped, the first ``blank_rows`` without values) and
+    ground_truth.csv as the recorder and the twin write them."""
+    folder.mkdir(parents=True, exist_ok=True)
+    with (folder / "ekf.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(EKF_COLUMNS)
+        for k in range(t_s.size):
+            p = covariance[k]
+            values = [
+                pose[k, 0],
+                pose[k, 1],
+                float(m.wrap_angle(pose[k, 2])),
+                *([0.0] * 4),
+                *(p[0, 0], p[1, 1], p[2, 2], p[0, 1], p[0, 2], p[1, 2]),
+            ]
+            w.writerow([repr(float(t_s[k]))] + ([""] * 13 if k < blank_rows else values))
+    with (folder / "ground_truth.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(("t_s", "x_m", "y_m", "yaw_rad", "vx_m_s", "vy_m_s", "wz_rad_s"))
+        for k in range(t_s.size):
+            yaw = float(m.wrap_angle(truth[k, 2]))
+            w.writerow((repr(float(t_s[k])), truth[k, 0], truth[k, 1], yaw, 0.0, 0.0, 0.0))
+    return folder
+
+
+def _synthetic(tmp_path: Path, scale: float = 1.0, seed: int = 1) -> Path:
+    """A run whose errors are drawn from the covariance; ekf.csv states scale x that."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(ROWS) / 30.0
+    cov = _covariances(t)
+    err = np.einsum("kij,kj->ki", np.linalg.cholesky(cov), rng.standard_normal((ROWS, 3)))
+    err[0] = 0.0  # the filter starts where the robot stands
+    truth = _truth(t)
+    return _write_run(tmp_path / f"run-{scale}", t, truth + err, cov * scale, truth)
+
+
+def test_nees_band_is_the_two_sided_chi_square_interval() -> None:
+    assert m.nees_band(3) == pytest.approx((0.2158, 9.3484), abs=1e-4)
+    assert m.nees_band(3, runs=10) == pytest.approx((1.6791, 4.6979), abs=1e-4)
+    assert m.nees_band(1, confidence=0.5) == pytest.approx((0.1015, 1.3233), abs=1e-4)
+
+
+def test_errors_drawn_from_the_covariance_stay_in_band_95_percent_of_the_time(
+    tmp_path: Path,
+) -> None:
+    r = run_consistency(_synthetic(tmp_path))
+    assert r.rows == ROWS
+    assert 0.93 < r.in_band_fraction < 0.97
+    assert r.above_fraction == pytest.approx(0.025, abs=0.012)
+    assert r.below_fraction == pytest.approx(0.025, abs=0.012)
+    assert r.nees_mean == pytest.approx(3.0, abs=0.2)
+    assert float(np.nanmean(r.nees_xy)) == pytest.approx(2.0, abs=0.15)
+    assert float(np.nanmean(r.nees_yaw)) == pytest.approx(1.0, abs=0.1)
+
+
+def test_an_optimistic_covariance_is_flagged_above_the_band(tmp_path: Path) -> None:
+    r = run_consistency(_synthetic(tmp_path, scale=0.01))  # P / 100
+    assert r.above_fraction > 0.95
+    assert r.in_band_fraction < 0.05
+    assert r.nees_mean == pytest.approx(300.0, rel=0.1)
+    metrics = r.metrics()
+    assert metrics["nees_above_fraction"] == r.above_fraction
+    assert metrics["nees_in_band_fraction"] < 0.05
+
+
+def test_a_pessimistic_covariance_is_flagged_below_the_band(tmp_path: Path) -> None:
+    r = run_consistency(_synthetic(tmp_path, scale=100.0))  # P x 100
+    assert r.below_fraction > 0.95
+    assert r.above_fraction == 0.0
+    assert r.nees_mean == pytest.approx(0.03, rel=0.1)
+
+
+def test_the_heading_error_is_wrapped_across_pi(tmp_path: Path) -> None:
+    # truth turns from 3.0 to 3.3 rad (wrapped in the file to -2.98); the EKF reads 0.01 rad more
+    t = np.arange(300) / 30.0
+    truth = np.column_stack((np.zeros(300), np.zeros(300), 3.0 + 0.03 * t))
+    est = truth.copy()
+    est[1:, 2] += 0.01
+    cov = np.broadcast_to(np.diag([1e-4, 1e-4, 1e-4]), (300, 3, 3)).copy()
+    r = run_consistency(_write_run(tmp_path / "wrap", t, est, cov, truth))
+    assert np.allclose(r.errors[1:, 2], 0.01, atol=1e-9)
+    assert np.allclose(r.nees[1:], 1.0, atol=1e-6)  # 0.01^2 / 1e-4
+    assert r.in_band_fraction == pytest.approx(299 / 300)
+
+
+def test_singular_and_uninitialised_rows_are_left_out_and_counted(tmp_path: Path) -> None:
+    t = np.arange(200) / 30.0
+    truth = _truth(t)
+    cov = _covariances(t)
+    cov[50:60] = 0.0  # no covariance at all
+    cov[80, 2, :] = cov[80, :, 2] = 0.0  # heading variance zero: rank 2
+    est = truth + 0.5 * np.sqrt(np.diagonal(cov, axis1=1, axis2=2))
+    r = run_consistency(_write_run(tmp_path / "sing", t, est, cov, truth, blank_rows=5))
+    assert r.rows_uninitialised == 5
+    assert r.rows_singular == 11
+    assert r.rows_without_truth == 0
+    assert r.rows == 200 - 5 - 11
+    assert np.isnan(r.nees[45:55]).all() and np.isnan(r.nees[75])
+    assert r.in_band_fraction + r.above_fraction + r.below_fraction == pytest.approx(1.0)
+    metrics = r.metrics()
+    assert (metrics["nees_rows_singular"], metrics["nees_rows_uninitialised"]) == (11, 5)
+
+
+def test_the_end_point_2_sigma_is_the_position_ellipse_semi_major_axis(tmp_path: Path) -> None:
+    t = np.arange(60) / 30.0
+    truth = _truth(t)
+    cov = np.broadcast_to(np.diag([0.03**2, 0.01**2, 1e-4]), (60, 3, 3)).copy()
+    est = truth.copy()
+    est[-1, 0] += 0.05  # 5 cm off, inside 2 x 3 cm
+    r = run_consistency(_write_run(tmp_path / "end", t, est, cov, truth))
+    assert r.end_position_2sigma_m == pytest.approx(0.06)
+    assert r.end_error_m == pytest.approx(0.05)
+    assert r.end_error_covered
+    est[-1, 0] += 0.02  # 7 cm: beyond
+    r = run_consistency(_write_run(tmp_path / "end2", t, est, cov, truth))
+    assert not r.end_error_covered
+    assert r.metrics()["end_position_2sigma_cm"] == pytest.approx(6.0)
+    assert r.gt_closure_m == pytest.approx(m.closure_error(truth[:, :2]))
+    assert r.optimism_gap_m == pytest.approx(r.gt_closure_m - r.ekf_closure_m)
+
+
+def test_truth_in_another_frame_is_carried_into_the_odom_frame(tmp_path: Path) -> None:
+    t = np.arange(300) / 30.0
+    odom = _truth(t)
+    c, s = math.cos(1.0), math.sin(1.0)  # the world: odom rotated by 1 rad, moved by (2, -3)
+    world = np.column_stack(
+        (2.0 + c * odom[:, 0] - s * odom[:, 1], -3.0 + s * odom[:, 0] + c * odom[:, 1]),
+    )
+    world = np.column_stack((world, odom[:, 2] + 1.0))
+    cov = _covariances(t)
+    r = run_consistency(_write_run(tmp_path / "frame", t, odom, cov, world))
+    assert np.abs(r.errors).max() < 1e-9
+
+
+def test_a_run_without_the_pose_covariance_is_refused(tmp_path: Path) -> None:
+    folder = _synthetic(tmp_path)
+    lines = (folder / "ekf.csv").read_text().splitlines()
+    (folder / "ekf.csv").write_text(
+        "\n".join(",".join(line.split(",")[:11]) for line in lines) + "\n"
+    )
+    with pytest.raises(ConsistencyError, match="p_xy, p_xyaw, p_yyaw"):
+        run_consistency(folder)
+    with pytest.raises(ConsistencyError, match="cannot read"):
+        run_consistency(tmp_path / "nowhere")
+
+
+def test_the_campaign_pools_its_runs_and_draws_the_figure(tmp_path: Path) -> None:
+    good = run_consistency(_synthetic(tmp_path, seed=2))
+    bad = run_consistency(_synthetic(tmp_path, scale=0.01, seed=3))
+    c = campaign_consistency([good, bad])
+    assert c.in_band_fraction == pytest.approx(
+        0.5 * (good.in_band_fraction + bad.in_band_fraction), abs=1e-9
+    )
+    assert c.above_fraction > 0.45
+    assert c.average_band == pytest.approx(m.nees_band(3, runs=2))
+    assert c.t_s.size == ROWS
+    assert c.average_nees == pytest.approx(0.5 * (good.nees + bad.nees))
+    assert c.summary()["rows"] == 2 * ROWS
+    png = tmp_path / "nees.png"
+    plot_consistency(png, c, title="synthetic")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    width, height = int.from_bytes(png.read_bytes()[16:20]), int.from_bytes(png.read_bytes()[20:24])
+    assert (width, height) == (1200, 1275)  # 8 x 8.5 in at 150 dpi
