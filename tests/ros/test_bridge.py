@@ -104,7 +104,7 @@ def test_cmd_vel_drives_and_silence_brakes_within_0_6_s(
     )
     try:
         out = subprocess.run(
-            [sys.executable, str(CLIENT), "--v", "0.15", "--drive-s", "1.0", "--after-s", "1.5"]
+            [sys.executable, str(CLIENT), "--v", "0.15", "--drive-s", "2.0", "--after-s", "1.5"]
             + (["--stamped"] if stamped else []),
             capture_output=True,
             text=True,
