@@ -518,6 +518,10 @@ class HealthMonitor:
             tpr = (self.robot.ticks_per_rev_left, self.robot.ticks_per_rev_right)[i]
             expected_ticks = abs(expected) * h.dt_s * tpr / (2.0 * math.pi)
             driven = abs(expected) > cfg.driven_wheel_rad_s or expected_ticks >= SILENT_TICKS
+            if trusted_wz is None and h.ticks[1 - i] == 0:
+                # judged by the command alone, two silent wheels are a drive that does not
+                # move (the interlock, a stall, the motor supply), not two cut encoders
+                driven = False
             if h.ticks[i] != 0 or not driven:
                 self._moved_s[i] = t
             elif t - self._moved_s[i] >= cfg.encoder_stuck_s - 1e-9:

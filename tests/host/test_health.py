@@ -273,3 +273,14 @@ def test_a_gyro_bias_step_while_driving_is_held_as_ambiguous_then_charged_to_the
     assert mon.state("encoder_left").usable and mon.state("encoder_right").usable
     assert not any(v.use_gyro for v in verdicts[first:])
     assert all(v.lost is None for v in verdicts)
+
+
+def test_two_silent_wheels_judged_by_the_command_alone_are_not_two_cut_encoders() -> None:
+    """Before the gyro's bias is known the command is the only witness: a robot whose motors do
+    not move yet (the interlock, a stall) must not lose both encoders and brake for good."""
+    mon, robot = monitor(), Robot(11)
+    for _ in range(round(2.0 / DT)):
+        h = robot.frame(0.0, 0.0)
+        h = replace(h, wz_rad_s=None, wheel_cmd_rad_s=(4.5, 4.5), commanded_still=False)
+        assert mon.update(h).lost is None
+    assert mon.state("encoder_left") is Health.OK and mon.state("encoder_right") is Health.OK
