@@ -7,6 +7,7 @@ ground truth, :mod:`jackson.calibration.consistency`): rows of the table and ``n
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -78,7 +79,11 @@ SIGNIFICANT = frozenset({"nees_mean", "nees_xy_mean", "nees_yaw_mean", "end_posi
 
 
 def _number(key: str, value: float) -> str:
-    return f"{value:.3g}" if key in SIGNIFICANT else f"{value:.2f}"
+    if key not in SIGNIFICANT:
+        return f"{value:.2f}"
+    if not math.isfinite(value) or value == 0.0:
+        return f"{value:.0f}"
+    return f"{value:.{max(0, 2 - math.floor(math.log10(abs(value))))}f}"  # 3 significant digits
 
 
 def summary_rows(
