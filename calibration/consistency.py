@@ -172,6 +172,26 @@ def _nanmean(values: FloatArray) -> float:
     return float(np.mean(finite)) if finite.size else math.nan
 
 
+def significant(value: float, digits: int = 3) -> str:
+    """``value`` with ``digits`` significant digits, trailing zeros kept: 3.00, 0.000944, 545.
+
+    Parameters
+    ----------
+    value : float
+        The number (a NEES spans decades).
+    digits : int
+        Significant digits, >= 1.
+
+    Returns
+    -------
+    str
+        Fixed-point text; "0", "nan" or "inf" as they are.
+    """
+    if not math.isfinite(value) or value == 0.0:
+        return f"{value:.0f}"
+    return f"{value:.{max(0, digits - 1 - math.floor(math.log10(abs(value))))}f}"
+
+
 def read_columns(path: Path, columns: Sequence[str]) -> FloatArray:
     """The named columns of a CSV file with a header, as an (N, len(columns)) float array.
 
@@ -511,7 +531,7 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
     ax.set_title(
         (f"{title}: " if title else "")
         + f"{campaign.in_band_fraction:.1%} in band, {campaign.above_fraction:.1%} above, "
-        f"{campaign.below_fraction:.1%} below, mean {campaign.nees_mean:.3g}",
+        f"{campaign.below_fraction:.1%} below, mean {significant(campaign.nees_mean)}",
         fontsize=10,
     )
     ax.legend(fontsize=7, loc="best")

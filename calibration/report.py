@@ -7,7 +7,6 @@ ground truth, :mod:`jackson.calibration.consistency`): rows of the table and ``n
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +19,7 @@ from jackson.calibration.consistency import (
     campaign_consistency,
     plot_consistency,
     run_consistency,
+    significant,
 )
 from jackson.calibration.trial import read_csv
 
@@ -79,11 +79,7 @@ SIGNIFICANT = frozenset({"nees_mean", "nees_xy_mean", "nees_yaw_mean", "end_posi
 
 
 def _number(key: str, value: float) -> str:
-    if key not in SIGNIFICANT:
-        return f"{value:.2f}"
-    if not math.isfinite(value) or value == 0.0:
-        return f"{value:.0f}"
-    return f"{value:.{max(0, 2 - math.floor(math.log10(abs(value))))}f}"  # 3 significant digits
+    return significant(value) if key in SIGNIFICANT else f"{value:.2f}"
 
 
 def summary_rows(
@@ -198,7 +194,7 @@ def consistency_section(c: CampaignConsistency) -> list[str]:
         f"| inside the band | {c.in_band_fraction:.1%} |",
         f"| above (optimistic) | {c.above_fraction:.1%} |",
         f"| below (pessimistic) | {c.below_fraction:.1%} |",
-        f"| mean NEES (3 when right) | {c.nees_mean:.3g} |",
+        f"| mean NEES (3 when right) | {significant(c.nees_mean)} |",
         f"| the {n}-run average NEES inside its band [{a_lo:.3f}, {a_hi:.3f}] "
         f"| {c.average_in_band_fraction:.1%} of the time |",
         f"| end-point error within the end position's 2-sigma | {c.covered}/{n} runs |",

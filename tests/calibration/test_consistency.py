@@ -16,6 +16,7 @@ from jackson.calibration.consistency import (
     campaign_consistency,
     plot_consistency,
     run_consistency,
+    significant,
 )
 from jackson.host.recording import EKF_COLUMNS
 
@@ -212,3 +213,14 @@ def test_the_campaign_pools_its_runs_and_draws_the_figure(tmp_path: Path) -> Non
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     width, height = int.from_bytes(png.read_bytes()[16:20]), int.from_bytes(png.read_bytes()[20:24])
     assert (width, height) == (1200, 1275)  # 8 x 8.5 in at 150 dpi
+
+
+def test_figures_that_span_decades_keep_three_significant_digits() -> None:
+    assert [significant(v) for v in (3.0, 0.000944, 545.2, 11.83, 2.615)] == [
+        "3.00",
+        "0.000944",
+        "545",
+        "11.8",
+        "2.62",
+    ]
+    assert [significant(v) for v in (0.0, math.nan)] == ["0", "nan"]
