@@ -266,9 +266,7 @@ class HostCore:
         self.ekf = Ekf(cfg.ekf)
         self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
         self.bias_ever_known = False  # a re-measurement later does not hold the mission
-        self.health = (
-            HealthMonitor(cfg.health, cfg.robot, cfg.ekf.r_wz) if cfg.health.enabled else None
-        )
+        self.health = HealthMonitor(cfg.health, cfg.robot) if cfg.health.enabled else None
         self.verdict: Verdict | None = None
         self.sensors_lost: str | None = None  # the health policy's reason to brake
         self._prev_raw: tuple[int, int] | None = None
@@ -442,6 +440,7 @@ class HostCore:
         still_cmd = self.braked or self._wheel_cmd == (0.0, 0.0)
         hm.link(t_s, self._lost)
         self._lost = 0
+        accel = accel_m_s2(t) if t.flags & TelemetryFlags.IMU_OK else None
         v = self.verdict = hm.update(
             HealthInput(
                 t_s=t_s,
@@ -453,7 +452,8 @@ class HostCore:
                 dt_s=dt_s,
                 wheel_cmd_rad_s=self._wheel_cmd,
                 commanded_still=still_cmd,
-                accel_y_m_s2=accel_m_s2(t)[1] if t.flags & TelemetryFlags.IMU_OK else None,
+                accel_y_m_s2=accel[1] if accel is not None else None,
+                accel_x_m_s2=accel[0] if accel is not None else None,
             )
         )
         n_new = len(hm.transitions) - self._told

@@ -58,6 +58,7 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+import numpy as np
 from scipy.stats import chi2, norm
 
 from jackson.host.odometry import RobotGeometry
@@ -65,6 +66,9 @@ from jackson.host.odometry import RobotGeometry
 POLICIES = ("continue", "stop")
 SILENT_TICKS = 3.0  # a wheel expected to make this many counts in a frame and making none
 RECOVER_Z_FRACTION = 0.5  # a sensor out of ok passes the windowed test only within half its band
+SPEED_WITNESS_LEAD_S = 0.5  # [s] the speed witness's reference, before the disagreement was seen
+SPEED_WITNESS_FRAMES = 5  # frames averaged for the speed witness's two levels
+SPEED_WITNESS_BIAS_S = 1.5  # [s] over which the forward accelerometer's bias is measured
 WITNESS_Z = 3.0  # the accelerometer must tell the two hypotheses apart by this many sigma
 UNLEARNED_SCALE_TOLERANCE = 0.15  # kappa before s is learned: scrub of up to 15 % in turns
 SENSORS = ("imu", "encoder_left", "encoder_right", "link")
@@ -92,6 +96,9 @@ class HealthConfig:
     ----------
     enabled : bool
         False: every measurement is fused as in the paper, no zero-velocity updates.
+    gyro_noise_rad_s : float
+        The gyro's yaw-rate noise, one sigma per frame [rad/s], that the gates are drawn
+        around (the EKF's ``r_wz`` is a tuning of the filter and may be set much smaller).
     gate_probability : float
         Per-sample chi-square(1) gate on the wheel/gyro residual.
     window_s : float
@@ -135,6 +142,7 @@ class HealthConfig:
     """
 
     enabled: bool = True
+    gyro_noise_rad_s: float = 0.02
     gate_probability: float = 0.999999
     window_s: float = 1.0
     window_probability: float = 0.9999
@@ -163,6 +171,7 @@ class HealthConfig:
             if not 0.5 < p < 1.0:
                 raise ValueError(f"HealthConfig.{name} must be in (0.5, 1), got {p}")
         for name in (
+            "gyro_noise_rad_s",
             "window_s",
             "imu_silence_s",
             "stuck_s",
@@ -235,6 +244,9 @@ class HealthInput:
     accel_y_m_s2 : float or None
         The accelerometer's lateral specific force [m/s^2] (None without a live IMU): the
         third witness when the wheels and the gyro disagree while driving.
+    accel_x_m_s2 : float or None
+        The accelerometer's forward specific force [m/s^2] (None without a live IMU): a slipping
+        wheel makes the wheels' forward speed run away from the robot's, a gyro fault does not.
     """
 
     t_s: float
@@ -247,6 +259,7 @@ class HealthInput:
     wheel_cmd_rad_s: tuple[float, float]
     commanded_still: bool
     accel_y_m_s2: float | None = None
+    accel_x_m_s2: float | None = None
 
 
 @dataclass(frozen=True)
@@ -390,8 +403,6 @@ class HealthMonitor:
         Thresholds and policy.
     robot : RobotGeometry
         Wheel radii, separation and counts per revolution the host believes.
-    gyro_variance : float
-        R of the gyro's yaw rate [(rad/s)^2] (the EKF's ``r_wz``).
 
     Attributes
     ----------
@@ -406,10 +417,10 @@ class HealthMonitor:
         Failing samples, exclusions and zero-velocity updates so far.
     """
 
-    def __init__(self, cfg: HealthConfig, robot: RobotGeometry, gyro_variance: float) -> None:
+    def __init__(self, cfg: HealthConfig, robot: RobotGeometry) -> None:
         self.cfg = cfg
         self.robot = robot
-        self.gyro_variance = gyro_variance
+        self.gyro_variance = cfg.gyro_noise_rad_s**2
         self._gate = cfg.gate_nis
         self._z = cfg.window_z
         self._s = {name: _SensorState(name) for name in SENSORS}
@@ -425,14 +436,15 @@ class HealthMonitor:
         self._still: deque[tuple[float, float]] = deque()
         self._link: deque[tuple[float, int]] = deque()
         self.remeasure_bias = False  # the gyro read non-zero standing still: measure its bias
-        self._fails: deque[float] = deque()
+        # failing samples of the last window: (t, res, var, om_l, om_r, wz, v)
+        self._fails: deque[tuple[float, float, float, float, float, float, float]] = deque()
         self._run: list[
             tuple[float, float, float, float, float, float, float]
         ] = []  # failing in a row
         self._run_nis = 0.0
         self._prev_we: float | None = None
         # (t, a_y, v, w_g, w_e, ticks_l, ticks_r) of the last 3 windows, for the witness
-        self._hist: deque[tuple[float, float, float, float, float, int, int]] = deque()
+        self._hist: deque[tuple[float, float, float, float, float, int, int, float]] = deque()
         self.model = WheelYawModel(cfg.ratio_time_constant_s)
         self._ambiguous_since: float | None = None  # wheels and gyro disagree, nobody to blame
         self._calm_since: float | None = None  # the disagreement has been gone since
@@ -554,12 +566,21 @@ class HealthMonitor:
 
         # the cross-check, when the gyro and both wheels are live
         wheels_live = all(e.state.usable for e in enc) and h.dt_s > 0.0
-        if gyro_live and h.dt_s > 0.0 and wz is not None and h.accel_y_m_s2 is not None:
+        if (
+            gyro_live
+            and h.dt_s > 0.0
+            and wz is not None
+            and h.accel_y_m_s2 is not None
+            and h.accel_x_m_s2 is not None
+        ):
             v = 0.5 * (
                 self.robot.wheel_radius_left_m * om_l + self.robot.wheel_radius_right_m * om_r
             )
-            self._hist.append((t, h.accel_y_m_s2, v, wz, w_e, h.ticks[0], h.ticks[1]))
-            while self._hist and self._hist[0][0] <= t - 3.0 * cfg.window_s:
+            self._hist.append(
+                (t, h.accel_y_m_s2, v, wz, w_e, h.ticks[0], h.ticks[1], h.accel_x_m_s2)
+            )
+            keep = 3.0 * cfg.window_s + cfg.ambiguity_s  # the witnesses' reach back
+            while self._hist and self._hist[0][0] <= t - keep:
                 self._hist.popleft()
         v_now = 0.5 * (
             self.robot.wheel_radius_left_m * om_l + self.robot.wheel_radius_right_m * om_r
@@ -579,7 +600,7 @@ class HealthMonitor:
             nis = res * res / var_r
             self.nis["yaw_rate"] = nis
             spike = nis >= self._gate
-            while self._fails and self._fails[0] <= t - cfg.window_s + 1e-9:
+            while self._fails and self._fails[0][0] <= t - cfg.window_s + 1e-9:
                 self._fails.popleft()
             silent = [
                 i
@@ -594,7 +615,7 @@ class HealthMonitor:
                 spike = False
             elif spike:
                 self.counts["gated"] += 1
-                self._fails.append(t)
+                self._fails.append((t, res, var_r, om_l, om_r, wz, v_now))
                 self._run.append((t, res, var_r, om_l, om_r, wz, v_now))
                 self._run_nis = nis
                 if len(self._run) >= cfg.spikes_to_exclude:
@@ -606,6 +627,20 @@ class HealthMonitor:
                     self._fails.clear()
                 else:
                     charged.add("imu")  # not fused; judged when the run of failures ends
+            fails = list(self._fails)
+            if (
+                not spike
+                and self._run
+                and len(fails) >= cfg.spikes_to_exclude
+                and (all(x[1] > 0.0 for x in fails) or all(x[1] < 0.0 for x in fails))
+            ):
+                # failing often, and always the same way: a disagreement that the frames'
+                # quantisation lets through now and then (a slow slip), not spikes
+                mean = math.fsum(x[1] for x in fails) / len(fails)
+                span = fails[-1][0] - fails[0][0] + h.dt_s
+                charged |= self._charge(t, fails, mean, span, out)
+                self._run.clear()
+                self._fails.clear()
             if not spike and self._run:  # a run shorter than a persistent one: spikes
                 exclude = len(self._fails) >= cfg.spikes_to_exclude
                 why = (
@@ -798,12 +833,19 @@ class HealthMonitor:
         excess_l = abs(om_l) - abs((r.wheel_radius_right_m * om_r - yaw) / r.wheel_radius_left_m)
         excess_r = abs(om_r) - abs((r.wheel_radius_left_m * om_l + yaw) / r.wheel_radius_right_m)
         side = 0 if excess_l >= excess_r else 1
-        # the witness looks at everything since the disagreement began (more with each try)
-        verdict = self._witness(t0 if self._ambiguous_since is None else self._ambiguous_since)
+        # the witnesses look at everything since the disagreement began (more with each try)
+        since = t0 if self._ambiguous_since is None else self._ambiguous_since
+        verdict = self._witness(since)
+        axis = "lateral force"
+        if verdict == "undecided":
+            verdict, slip_side = self._speed_witness(since)
+            axis = "forward speed"
+            if slip_side is not None:
+                side = slip_side
         if verdict != "undecided":
             self._ambiguous_since = None
         if verdict == "wheels right":
-            why = f"{head}; the accelerometer sides with the wheels (a gyro fault)"
+            why = f"{head}; the accelerometer's {axis} sides with the wheels (a gyro fault)"
             return self._exclude("imu", t, why, out)
         if verdict == "undecided":
             if self._ambiguous_since is None:
@@ -825,7 +867,8 @@ class HealthMonitor:
             self._s[name].fail(t, False, why, out)
             return {"imu", name}
         why = (
-            f"{head}; the accelerometer sides with the gyro: the {('left', 'right')[side]} "
+            f"{head}; the accelerometer's {axis} sides with the gyro: the "
+            f"{('left', 'right')[side]} "
             f"wheel reads {max(excess_l, excess_r):.2f} rad/s more than the gyro and the other "
             "wheel allow (slipping)"
         )
@@ -846,7 +889,9 @@ class HealthMonitor:
         if len(before) < 5 or len(during) < 3:
             return "undecided"
 
-        def mean(rows: list[tuple[float, float, float, float, float, int, int]], k: int) -> float:
+        def mean(
+            rows: list[tuple[float, float, float, float, float, int, int, float]], k: int
+        ) -> float:
             return math.fsum(x[k] for x in rows) / len(rows)
 
         v = mean(during, 2)
@@ -864,6 +909,100 @@ class HealthMonitor:
         if abs(d_g - d_e) < WITNESS_Z * sigma:
             return "undecided"
         return "gyro right" if abs(d_a - d_g) < abs(d_a - d_e) else "wheels right"
+
+    def _speed_witness(self, t0: float) -> tuple[str, int | None]:
+        """The forward accelerometer between a slipping wheel and a gyro fault.
+
+        Parameters
+        ----------
+        t0 : float
+            When the disagreement began [s].
+
+        Returns
+        -------
+        verdict : str
+            "gyro right", "wheels right" or "undecided".
+        side : int or None
+            The slipping wheel (0 left, 1 right) when the verdict is "gyro right".
+        """
+        gap = self.speed_gap(t0)
+        if gap is None:
+            return "undecided", None
+        g, x_slip, sigma_g = gap
+        if abs(x_slip) < WITNESS_Z * sigma_g:
+            return "undecided", None
+        # nearest of the three: 0 (gyro), +x (right wheel), -x (left wheel)
+        d = [abs(g), abs(g - x_slip), abs(g + x_slip)]
+        best = int(np.argmin(d))
+        if best == 0:
+            return "wheels right", None
+        return "gyro right", 1 if best == 1 else 0
+
+    def speed_gap(self, t0: float) -> tuple[float, float, float] | None:
+        """How far the wheels' forward speed ran from the accelerometer's since a disagreement.
+
+        A wheel that slips by Δ [m/s] raises the wheels' yaw rate by ±Δ/B and their forward
+        speed by Δ/2; a gyro fault leaves the wheels' speed true. The wheels' speed less the
+        accelerometer's integral drifts with the accelerometer's bias, measured over
+        ``SPEED_WITNESS_BIAS_S`` before the reference ``t0 - SPEED_WITNESS_LEAD_S``; the gap's
+        change since the reference, less that drift, is compared with 0 (the gyro at fault) and
+        ±(w_e - w_g)·B/2 (the right or the left wheel).
+
+        Parameters
+        ----------
+        t0 : float
+            When the disagreement began [s].
+
+        Returns
+        -------
+        tuple of float or None
+            The gap's change g [m/s], the slip x [m/s] the gyro implies (its sign: + for the
+            right wheel) and g's standard deviation; None without enough frames.
+        """
+        # the disagreement is noticed a few frames after it began: the speeds are compared
+        # from SPEED_WITNESS_LEAD_S before, the accelerometer's bias measured before that
+        t_ref = t0 - SPEED_WITNESS_LEAD_S
+        rows = [x for x in self._hist if t_ref - SPEED_WITNESS_BIAS_S <= x[0]]
+        n_before = sum(1 for x in rows if x[0] < t_ref)
+        n_during = len(rows) - n_before
+        if n_before < 10 or n_during < 3 or rows[-1][0] < t0:
+            return None
+        t = np.array([x[0] for x in rows])
+        a_x = np.array([x[7] for x in rows])
+        v_e = np.array([x[2] for x in rows])
+        # the gap's increments: the wheels' speed change less the accelerometer's (trapezoid)
+        d = np.diff(v_e) - 0.5 * (a_x[1:] + a_x[:-1]) * np.diff(t)
+        # the noise: the accelerometer's (white; from its successive differences, which the
+        # robot's slow accelerations hardly touch) integrated, and the wheels' speed, whose
+        # counts telescope: a level over k frames is off by the quantisation of its distance
+        dt = float(np.mean(np.diff(t)))
+        ab = a_x[:n_before]
+        var_a = float(np.mean(np.diff(ab) ** 2)) / 2.0 * dt * dt  # per increment
+        r = self.robot
+        count = [
+            2.0 * math.pi * r.wheel_radius_left_m / r.ticks_per_rev_left / dt,
+            2.0 * math.pi * r.wheel_radius_right_m / r.ticks_per_rev_right / dt,
+        ]
+        var_frame = (count[0] ** 2 + count[1] ** 2) / 24.0  # one frame's speed, both wheels
+        k = min(SPEED_WITNESS_FRAMES, n_during, n_before - 1)
+        # the gap's level over the last k frames against its level over the k frames before
+        # t_ref, less the bias's drift between them (from the levels at the ends of the bias
+        # window: [m/s^2] the accelerometer's bias, and scale errors)
+        gap = np.concatenate(([0.0], np.cumsum(d)))
+        before_at = slice(n_before - k, n_before)
+        t_b = float(np.mean(t[before_at]) - np.mean(t[:k]))
+        drift = float(np.mean(gap[before_at]) - np.mean(gap[:k])) / t_b
+        span = float(np.mean(t[-k:]) - np.mean(t[before_at]))
+        g = float(np.mean(gap[-k:]) - np.mean(gap[before_at])) - drift * span
+        steps = max(n_during, 1)  # increments between the two levels' frames, about
+        var_drift = (2.0 * var_frame / (k * k) + (n_before - k) * var_a) / (t_b * t_b)
+        sigma_g = math.sqrt(2.0 * var_frame / (k * k) + steps * var_a + span * span * var_drift)
+        # the slip the gyro implies: the change of the wheels' yaw-rate excess since t_ref
+        excess = [x[4] - self.model.predict(x[3], x[2]) for x in rows]
+        now = math.fsum(excess[-k:]) / k
+        ref = math.fsum(excess[n_before - k : n_before]) / k
+        x_slip = (now - ref) * 0.5 * self.robot.wheel_separation_m
+        return g, x_slip, sigma_g
 
     def _lost(self) -> str | None:
         cfg = self.cfg

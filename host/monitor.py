@@ -58,7 +58,7 @@ class SensorWatch:
 
     def __init__(self, cfg: HostConfig | None = None) -> None:
         cfg = cfg if cfg is not None else HostConfig()
-        self.health = HealthMonitor(cfg.health, cfg.robot, cfg.ekf.r_wz)
+        self.health = HealthMonitor(cfg.health, cfg.robot)
         self.odometry = WheelOdometry(cfg.robot)
         self.bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
         self.unwrapper = TimestampUnwrapper()

@@ -9,14 +9,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from jackson.host.config import HostConfig
 from jackson.host.ekf import Ekf
 from jackson.host.health import Health, HealthConfig, HealthInput, HealthMonitor, Verdict
 from jackson.host.odometry import RobotGeometry
 
 DT = 0.05
 ROBOT = RobotGeometry()
-R_WZ = HostConfig().ekf.r_wz
 GYRO_SIGMA = 0.005  # [rad/s] a quieter gyro than the EKF's R assumes, as the MPU-6050 is
 ACCEL_SIGMA = 0.018  # [m/s^2] the twin's MPU-6050
 
@@ -30,6 +28,7 @@ class Robot:
         self.phi = [0.0, 0.0]  # wheel angles [rad]
         self.counts = [0, 0]
         self.raw_noise = 0
+        self.v = 0.0  # the true forward speed at the last frame [m/s]
 
     def frame(
         self,
@@ -60,6 +59,8 @@ class Robot:
             self.counts[i] = new
             speeds.append(ticks[-1] * 2 * math.pi / tpr / DT)
         wz = w + self.rng.normal(0.0, GYRO_SIGMA) + gyro_extra
+        a_x = (v - self.v) / DT + self.rng.normal(0.0, ACCEL_SIGMA)  # the true speed's change
+        self.v = v
         if not frozen:
             self.raw_noise = int(self.rng.integers(-1000, 1000))
         return HealthInput(
@@ -73,6 +74,7 @@ class Robot:
             wheel_cmd_rad_s=(om[0], om[1]),
             commanded_still=v == 0.0 and w == 0.0,
             accel_y_m_s2=v * w + self.rng.normal(0.0, ACCEL_SIGMA) if imu_ok else None,
+            accel_x_m_s2=a_x if imu_ok else None,
         )
 
 
@@ -83,7 +85,7 @@ def drive(
 
 
 def monitor(**cfg: object) -> HealthMonitor:
-    return HealthMonitor(replace(HealthConfig(), **cfg), ROBOT, R_WZ)  # type: ignore[arg-type]
+    return HealthMonitor(replace(HealthConfig(), **cfg), ROBOT)  # type: ignore[arg-type]
 
 
 def course(seconds: float) -> Iterator[tuple[float, float]]:
@@ -182,11 +184,47 @@ def test_a_slipping_wheel_is_found_against_the_gyro_and_the_other_wheel(side: in
     verdicts = drive(mon, robot, 2.0, 0.15, 0.0, slip=slip)
     names = ("encoder_left", "encoder_right")
     assert mon.state(names[side]) is Health.EXCLUDED, mon.transitions
-    assert "accelerometer sides with the gyro" in mon.reason(names[side])
+    assert "sides with the gyro" in mon.reason(names[side])
     assert verdicts[-1].use_gyro  # held only while the witness made up its mind
     assert mon.state(names[1 - side]) is Health.OK and mon.state("imu").usable
     drive(mon, robot, 4.0, 0.15, 0.0)  # off the patch
     assert mon.state(names[side]) is Health.RECOVERED and mon.state("imu") is Health.OK
+
+
+@pytest.mark.parametrize("side", [0, 1])
+def test_a_slow_slip_is_told_from_a_gyro_fault_by_the_forward_speed(side: int) -> None:
+    """At 0.05 m/s the lateral force hardly tells a slipping wheel from a gyro that jumped;
+    the wheels' forward speed running away from the accelerometer's does."""
+    mon, robot = monitor(), Robot(16 + side)
+    drive(mon, robot, 3.0, 0.05, 0.0)
+    slip = (2.5, 1.0) if side == 0 else (1.0, 2.5)
+    drive(mon, robot, 1.0, 0.05, 0.0, slip=slip)
+    names = ("encoder_left", "encoder_right")
+    assert mon.state(names[side]) is Health.EXCLUDED, mon.transitions
+    assert "sides with the gyro" in mon.reason(names[side])
+    assert mon.state("imu").usable
+    # the speed witness alone: the gap is the slip's (its sign names the wheel), not zero
+    gap = mon.speed_gap(3.1)
+    assert gap is not None
+    g, x, sigma = gap
+    assert abs(x) > 3.0 * sigma and (x > 0) == (side == 1)  # + : the right wheel
+    slip_gap = x if side == 1 else -x
+    assert abs(g - slip_gap) < 0.5 * abs(x) < abs(g)
+
+
+def test_a_slow_gyro_jump_is_not_blamed_on_a_wheel() -> None:
+    """The same disagreement from the gyro's side: the wheels' speed agrees with the
+    accelerometer's, so no wheel is excluded but the gyro is."""
+    mon, robot = monitor(), Robot(18)
+    drive(mon, robot, 3.0, 0.05, 0.0)
+    drive(mon, robot, 1.5, 0.05, 0.0, gyro_extra=-0.4)
+    assert mon.state("encoder_left").usable and mon.state("encoder_right").usable
+    assert mon.state("imu") is Health.EXCLUDED, mon.transitions
+    assert "sides with the wheels" in mon.reason("imu")
+    gap = mon.speed_gap(3.1)
+    assert gap is not None
+    g, x, sigma = gap
+    assert abs(x) > 3.0 * sigma and abs(g) < min(abs(g - x), abs(g + x))
 
 
 def test_a_gyro_reading_non_zero_standing_still_is_a_bias_to_measure_again() -> None:
