@@ -69,6 +69,7 @@ RECOVER_Z_FRACTION = 0.5  # a sensor out of ok passes the windowed test only wit
 SPEED_WITNESS_LEAD_S = 0.5  # [s] the speed witness's reference, before the disagreement was seen
 SPEED_WITNESS_FRAMES = 5  # frames averaged for the speed witness's two levels
 SPEED_WITNESS_BIAS_S = 1.5  # [s] over which the forward accelerometer's bias is measured
+SPIKE_AFTERMATH = 0.25  # a spike ends with a residual below half the gate's (NIS a quarter)
 WITNESS_Z = 3.0  # the accelerometer must tell the two hypotheses apart by this many sigma
 UNLEARNED_SCALE_TOLERANCE = 0.15  # kappa before s is learned: scrub of up to 15 % in turns
 SENSORS = ("imu", "encoder_left", "encoder_right", "link")
@@ -641,6 +642,11 @@ class HealthMonitor:
                 charged |= self._charge(t, fails, mean, span, out)
                 self._run.clear()
                 self._fails.clear()
+            if not spike and self._run and nis >= SPIKE_AFTERMATH * self._gate:
+                # the residual is still large after the failing samples: not a spike but the
+                # onset of a disagreement that only just passes now (the failing samples stay
+                # in the window's count, and were not fused)
+                self._run.clear()
             if not spike and self._run:  # a run shorter than a persistent one: spikes
                 exclude = len(self._fails) >= cfg.spikes_to_exclude
                 why = (
