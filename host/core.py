@@ -217,6 +217,7 @@ class RunFolderListener(CoreListener):
                     hm.model.per_metre,
                     *(state.value for state in hm.sensors.values()),
                     int(core.verdict is not None and core.verdict.stationary),
+                    hm.lidar_roughness_m,
                 ),
             )
         rec.row(
@@ -456,12 +457,7 @@ class HostCore:
                 accel_x_m_s2=accel[0] if accel is not None else None,
             )
         )
-        n_new = len(hm.transitions) - self._told
-        for tr in hm.transitions[len(hm.transitions) - n_new :]:
-            self.event(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
-            for listener in self.listeners:
-                listener.on_health(tr)
-        self._told = len(hm.transitions)
+        self._report_health(hm)
         if hm.remeasure_bias:
             self.gyro_bias.reset()  # measured again over the next standstill
         if v.lost is not None and self.sensors_lost is None:
@@ -491,16 +487,34 @@ class HostCore:
             ) / r.wheel_separation_m
             ekf.update_yaw_rate(t_s, hm.model.true_rate(w_e, odo.v_m_s), v.wheel_yaw_variance)
 
+    def _report_health(self, hm: HealthMonitor) -> None:
+        """Tell the operator and the listeners of the monitor's new transitions."""
+        for tr in hm.transitions[self._told :]:
+            self.event(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
+            for listener in self.listeners:
+                listener.on_health(tr)
+        self._told = len(hm.transitions)
+
     def _take_scans(self, t_s: float) -> None:
         revolutions, self._revolutions = self._revolutions, []
+        hm = self.health
+        navigating = isinstance(self.mission, ScanMission)
+        if hm is not None:
+            hm.lidar_needed = navigating and self.mission is not None and not self.mission.done
         for rev in revolutions:
             scan = Scan(t_s, rev.angles_rad, rev.ranges_m)
             self.scans += 1
             self.last_scan = scan
-            if isinstance(self.mission, ScanMission):
+            # a scan too noisy to trust, or from an excluded LiDAR, is published (the
+            # listeners) but not navigated by
+            use = hm.scan(t_s, rev.ranges_m) if hm is not None else True
+            if navigating and use:
+                assert isinstance(self.mission, ScanMission)
                 self.mission.on_scan(scan, self.nav_state())
             for listener in self.listeners:
                 listener.on_scan(self, scan)
+        if hm is not None:
+            self._report_health(hm)
 
     def _record_ekf(self, t_s: float) -> None:
         """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""

@@ -434,6 +434,11 @@ class Daemon:
                 for tr in hm.transitions
             ],
             "counts": dict(hm.counts),
+            "lidar": {
+                **hm.lidar_counts,
+                "roughness_m": hm.lidar_roughness_m,
+                "missing_fraction": hm.lidar_missing,
+            },
             "wheel_yaw_scale": hm.model.scale,
             "wheel_yaw_per_m": hm.model.per_metre,
         }

@@ -11,11 +11,11 @@ r = w_e - (s w_g + c v) has the variance
 
     sigma_r^2 = R_wz + sigma_q^2 + (dw_e / 2)^2 + (kappa w_g)^2 + (kappa_v v)^2
 
-with R_wz the gyro's variance (the EKF's ``r_wz``), sigma_q^2 the encoders' quantisation (one
-count of each wheel over the frame, a triangular error of 1/6 count^2 per wheel), dw_e / 2 the
-lag of the wheels' frame mean behind the gyro's sample under angular acceleration, and kappa,
-kappa_v how much s and c vary on a healthy robot (``scale_tolerance``,
-``straight_tolerance_rad_m``).
+with R_wz the gyro's variance (``gyro_noise_rad_s``^2, not the EKF's tuning), sigma_q^2 the
+encoders' quantisation (one count of each wheel over the frame, a triangular error of 1/6
+count^2 per wheel), dw_e / 2 the lag of the wheels' frame mean behind the gyro's sample under
+angular acceleration, and kappa, kappa_v how much s and c vary on a healthy robot
+(``scale_tolerance``, ``straight_tolerance_rad_m``).
 
 **Tests.** Per frame, the normalised innovation squared NIS = r^2 / sigma_r^2 against the
 chi-square(1) quantile of ``gate_probability``: a failing sample is not fused (a spike). Over
@@ -32,11 +32,18 @@ gyro's; a failing sample while one wheel did not count is that wheel's. A lastin
 while driving is a slipping wheel or a gyro bias step; the accelerometer's lateral force
 (a_y = v w follows the true yaw rate) is the witness: it sides with the gyro (the wheel that
 reads more than the gyro and the other wheel allow is excluded) or with the wheels (the gyro
-is); when it cannot tell them apart the disagreement is ambiguous: both are suspect, the
+is). When it cannot decide, the forward speed can (:meth:`HealthMonitor.speed_gap`: a slipping
+wheel raises the wheels' speed by half its slip, which the accelerometer's integral does not
+follow). When neither can tell them apart the disagreement is ambiguous: both are suspect, the
 wheels' yaw stands in for the gyro's, and one that outlasts ``ambiguity_s`` is the gyro's.
 docs/health.md has the details and the figures.
 
-**States** per sensor (``imu``, ``encoder_left``, ``encoder_right``), with hysteresis:
+**The LiDAR** (:meth:`HealthMonitor.scan`, per revolution): its range noise from the second
+differences of neighbouring returns (robust to edges: the median), against ``lidar_noise_m``;
+revolutions missing by the scans' spacing; silence. A scan too rough to trust is not used.
+
+**States** per sensor (``imu``, ``encoder_left``, ``encoder_right``, ``lidar``), with
+hysteresis:
 ``ok`` -> ``suspect`` (a failing sample: not fused) -> ``excluded`` (a failing test above: not
 fused until it passes again) -> ``recovered`` (``recover_s`` of passing samples after an
 exclusion: fused again) -> ``ok`` (``recovered_hold_s`` later). ``suspect`` returns to ``ok``
@@ -46,9 +53,11 @@ after ``recover_s`` without a failure.
 EKF takes the yaw rate from the wheels with its variance sigma_r^2 (honestly larger); with one
 encoder excluded, the forward speed from the other wheel and the gyro,
 v = r_i omega_i -+ w_g B / 2; with the IMU and an encoder, or both encoders, lost the robot
-brakes (the mission is aborted). **Zero-velocity updates**: when the robot is commanded still
-and neither wheel has counted for ``zupt_after_s``, it stands still: the EKF fuses zero
-velocities and adds no process noise to the pose, so a parked robot's covariance stays bounded.
+brakes (the mission is aborted); so does a navigation mission with the LiDAR excluded
+(``lidar_lost``), which has nothing left to see obstacles with. **Zero-velocity updates**: when
+the robot is commanded still and neither wheel has counted for ``zupt_after_s``, it stands
+still: the EKF fuses zero velocities and adds no process noise to the pose, so a parked robot's
+covariance stays bounded.
 """
 
 from __future__ import annotations
@@ -59,6 +68,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 from scipy.stats import chi2, norm
 
 from jackson.host.odometry import RobotGeometry
@@ -69,10 +79,12 @@ RECOVER_Z_FRACTION = 0.5  # a sensor out of ok passes the windowed test only wit
 SPEED_WITNESS_LEAD_S = 0.5  # [s] the speed witness's reference, before the disagreement was seen
 SPEED_WITNESS_FRAMES = 5  # frames averaged for the speed witness's two levels
 SPEED_WITNESS_BIAS_S = 1.5  # [s] over which the forward accelerometer's bias is measured
+LIDAR_LEARN_SCANS = 20  # the revolution period is learned over the first scans
+LIDAR_MIN_TRIPLETS = 30  # neighbouring returns needed to judge a scan's noise
 SPIKE_AFTERMATH = 0.25  # a spike ends with a residual below half the gate's (NIS a quarter)
 WITNESS_Z = 3.0  # the accelerometer must tell the two hypotheses apart by this many sigma
 UNLEARNED_SCALE_TOLERANCE = 0.15  # kappa before s is learned: scrub of up to 15 % in turns
-SENSORS = ("imu", "encoder_left", "encoder_right", "link")
+SENSORS = ("imu", "encoder_left", "encoder_right", "link", "lidar")
 
 
 class Health(enum.Enum):
@@ -140,6 +152,24 @@ class HealthConfig:
         ``ok`` again once the fraction is below half of it for ``recover_s``.
     imu_lost, encoder_lost : str
         "continue" (degraded mode) or "stop" (brake and abort the mission).
+    lidar_noise_m : float
+        The LiDAR's own range noise, one sigma [m] (the A1M8's 0.01 m).
+    lidar_rough_factor : float
+        A scan whose estimated range noise exceeds this many ``lidar_noise_m`` is rough: the
+        LiDAR is ``suspect`` (its scans still used).
+    lidar_useless_m : float
+        A scan noisier than this [m] is not used; ``lidar_rough_scans`` of them in a row
+        exclude the LiDAR.
+    lidar_rough_scans : int
+        Useless scans in a row that exclude the LiDAR.
+    lidar_silence_s : float
+        No scan for this long, once scans came, excludes the LiDAR (dead or unplugged) [s].
+    lidar_window_s, lidar_loss_fraction : float
+        More than this fraction of the revolutions missing over the window makes the LiDAR
+        ``suspect`` [s, -].
+    lidar_lost : str
+        "stop" (brake and abort a navigation mission when the LiDAR is excluded) or "continue"
+        (navigate on the last costmap: blind to anything new).
     """
 
     enabled: bool = True
@@ -165,6 +195,14 @@ class HealthConfig:
     link_loss_fraction: float = 0.01
     imu_lost: str = "continue"
     encoder_lost: str = "continue"
+    lidar_noise_m: float = 0.01
+    lidar_rough_factor: float = 3.0
+    lidar_useless_m: float = 0.10
+    lidar_rough_scans: int = 3
+    lidar_silence_s: float = 1.0
+    lidar_window_s: float = 5.0
+    lidar_loss_fraction: float = 0.1
+    lidar_lost: str = "stop"
 
     def __post_init__(self) -> None:
         for name in ("gate_probability", "window_probability"):
@@ -182,6 +220,11 @@ class HealthConfig:
             "recovered_hold_s",
             "zupt_variance",
             "link_window_s",
+            "lidar_noise_m",
+            "lidar_rough_factor",
+            "lidar_useless_m",
+            "lidar_silence_s",
+            "lidar_window_s",
         ):
             v = getattr(self, name)
             if not 0.0 < v < math.inf:
@@ -195,6 +238,15 @@ class HealthConfig:
             v = getattr(self, name)
             if not 0.0 <= v < math.inf:
                 raise ValueError(f"HealthConfig.{name} must be finite and >= 0, got {v}")
+        if not 0.0 < self.lidar_loss_fraction < 1.0:
+            raise ValueError(
+                "HealthConfig.lidar_loss_fraction must be in (0, 1), got "
+                f"{self.lidar_loss_fraction}"
+            )
+        if self.lidar_rough_scans < 1:
+            raise ValueError(
+                f"HealthConfig.lidar_rough_scans must be >= 1, got {self.lidar_rough_scans}"
+            )
         if not 0.0 < self.link_loss_fraction < 1.0:
             raise ValueError(
                 f"HealthConfig.link_loss_fraction must be in (0, 1), got {self.link_loss_fraction}"
@@ -203,7 +255,7 @@ class HealthConfig:
             raise ValueError(
                 f"HealthConfig.spikes_to_exclude must be >= 1, got {self.spikes_to_exclude}"
             )
-        for name in ("imu_lost", "encoder_lost"):
+        for name in ("imu_lost", "encoder_lost", "lidar_lost"):
             if getattr(self, name) not in POLICIES:
                 raise ValueError(f"HealthConfig.{name} must be one of {POLICIES}")
 
@@ -454,6 +506,17 @@ class HealthMonitor:
         self._imu_disagreement = 0.0  # [rad/s] the disagreement that excluded the IMU
         self._last_charge_mean = 0.0
         self._t0: float | None = None
+        # the LiDAR
+        self.lidar_needed = False  # a mission navigates by the scans (set by the core)
+        self.lidar_roughness_m = 0.0  # [m] the last scan's estimated range noise
+        self.lidar_missing = 0.0  # fraction of revolutions missing over the last window
+        self.lidar_counts = {"scans": 0, "unused": 0}
+        self._lidar_last_s: float | None = None
+        self._lidar_first_s: float | None = None
+        self._lidar_window_from = 0.0  # the spacing's window is full from here + window
+        self._lidar_period_s: float | None = None  # learned over the first scans
+        self._lidar_times: deque[float] = deque()
+        self._lidar_useless = 0  # useless scans in a row
 
     @property
     def sensors(self) -> dict[str, Health]:
@@ -693,6 +756,7 @@ class HealthMonitor:
             else:
                 e.pass_(t, cfg, out)
 
+        self._lidar_silence(t, out)
         hold = self._ambiguous_since is not None and imu.state is not Health.EXCLUDED
         self.transitions += out
         self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
@@ -709,6 +773,104 @@ class HealthMonitor:
             lost=self._lost(),
             hold_yaw=hold,
         )
+
+    def scan(self, t_s: float, ranges_m: npt.NDArray[np.float64]) -> bool:
+        """Judge one LiDAR revolution; whether the scan may be used (mapping, localisation,
+        the costmaps). New transitions are appended to :attr:`transitions`.
+
+        Parameters
+        ----------
+        t_s : float
+            The scan's MCU time [s].
+        ranges_m : ndarray of float
+            Its ranges in the order measured [m]; ``inf`` (or 0) where there was no return.
+
+        Returns
+        -------
+        bool
+            False for a scan too noisy to trust, and while the LiDAR is excluded.
+        """
+        cfg, st = self.cfg, self._s["lidar"]
+        out: list[Transition] = []
+        self.lidar_counts["scans"] += 1
+        # spacing: revolutions the window should hold against those that came
+        if self._lidar_first_s is None:
+            self._lidar_first_s = self._lidar_window_from = t_s
+        last = self._lidar_last_s
+        if last is not None and t_s - last >= cfg.lidar_silence_s - 1e-9:
+            # back after a silence (judged by itself): the spacing is counted afresh
+            self._lidar_times.clear()
+            self._lidar_window_from = t_s
+        n = self.lidar_counts["scans"]
+        if self._lidar_period_s is None and n > LIDAR_LEARN_SCANS:
+            self._lidar_period_s = (t_s - self._lidar_first_s) / (n - 1)
+        self._lidar_last_s = t_s
+        self._lidar_times.append(t_s)
+        while self._lidar_times and self._lidar_times[0] <= t_s - cfg.lidar_window_s + 1e-9:
+            self._lidar_times.popleft()
+        period = self._lidar_period_s
+        spacing_ok = True
+        full = t_s - self._lidar_window_from >= cfg.lidar_window_s - 1e-9
+        if period is not None and period > 0.0 and full:
+            expected = cfg.lidar_window_s / period
+            self.lidar_missing = max(0.0, 1.0 - len(self._lidar_times) / expected)
+            if self.lidar_missing > cfg.lidar_loss_fraction:
+                got = len(self._lidar_times)
+                why = (
+                    f"{got} revolutions in {cfg.lidar_window_s:.0f} s where {expected:.0f} were "
+                    f"due ({self.lidar_missing:.0%} lost)"
+                )
+                st.fail(t_s, False, why, out)
+                spacing_ok = False
+            elif self.lidar_missing > 0.5 * cfg.lidar_loss_fraction:
+                spacing_ok = False  # hysteresis: back only well inside
+        # roughness: the second differences of neighbouring returns; a smooth surface's are
+        # nil at this spacing, white noise's have 6 sigma^2; edges are outliers (the median)
+        r = np.asarray(ranges_m, dtype=float)
+        ok = np.isfinite(r) & (r > 0.0)
+        r = np.where(ok, r, 0.0)
+        both = ok[:-2] & ok[1:-1] & ok[2:]
+        use = True
+        smooth = True
+        if int(np.count_nonzero(both)) >= LIDAR_MIN_TRIPLETS:
+            d2 = (r[:-2] - 2.0 * r[1:-1] + r[2:])[both]
+            sigma = float(1.4826 * np.median(np.abs(d2)) / math.sqrt(6.0))
+            self.lidar_roughness_m = sigma
+            if sigma > cfg.lidar_useless_m:
+                self._lidar_useless += 1
+                why = f"range noise {sigma * 100:.1f} cm: beyond {cfg.lidar_useless_m * 100:.0f} cm"
+                exclude = self._lidar_useless >= cfg.lidar_rough_scans
+                st.fail(t_s, exclude, why + (" scan after scan" if exclude else ""), out)
+                use = smooth = False
+            else:
+                self._lidar_useless = 0
+                if sigma > cfg.lidar_rough_factor * cfg.lidar_noise_m:
+                    why = (
+                        f"range noise {sigma * 100:.1f} cm: beyond {cfg.lidar_rough_factor:g} x "
+                        f"{cfg.lidar_noise_m * 100:.0f} cm"
+                    )
+                    st.fail(t_s, False, why, out)
+                    smooth = False
+                elif sigma > 0.5 * cfg.lidar_rough_factor * cfg.lidar_noise_m + 0.5 * (
+                    cfg.lidar_noise_m
+                ):
+                    smooth = False  # hysteresis
+        if smooth and spacing_ok:
+            st.pass_(t_s, cfg, out)
+        if st.state is Health.EXCLUDED:
+            use = False
+        if not use:
+            self.lidar_counts["unused"] += 1
+        self.transitions += out
+        self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
+        return use
+
+    def _lidar_silence(self, t_s: float, out: list[Transition]) -> None:
+        """A LiDAR that scanned and stopped: dead, unplugged, or its motor stalled."""
+        last = self._lidar_last_s
+        if last is not None and t_s - last >= self.cfg.lidar_silence_s - 1e-9:
+            why = f"no scan for {t_s - last:.2f} s (dead, unplugged or its motor stopped)"
+            self._s["lidar"].fail(t_s, True, why, out)
 
     def _expected_ticks(self, i: int, h: HealthInput, wz: float) -> float:
         """Counts wheel i should have made over the frame, by the other wheel and the gyro."""
@@ -1014,6 +1176,9 @@ class HealthMonitor:
         cfg = self.cfg
         imu_out = not self._s["imu"].state.usable
         enc_out = [not self._s[n].state.usable for n in ("encoder_left", "encoder_right")]
+        lidar = self._s["lidar"]
+        if self.lidar_needed and lidar.state is Health.EXCLUDED and cfg.lidar_lost == "stop":
+            return f"the LiDAR excluded ({lidar.reason}): no obstacle detection"
         if all(enc_out):
             return "both encoders excluded: no odometry"
         if imu_out and any(enc_out):

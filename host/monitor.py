@@ -104,7 +104,11 @@ class SensorWatch:
     def line(self) -> str:
         """The states, the NIS and the last transition, for the live view."""
         h = self.health
-        states = ", ".join(f"{name} {state.value}" for name, state in h.sensors.items())
+        states = ", ".join(
+            f"{name} {state.value}"
+            for name, state in h.sensors.items()
+            if name != "lidar" or h.lidar_counts["scans"]  # a LiDAR it never saw
+        )
         text = f"{states}; yaw-rate NIS {h.nis['yaw_rate']:.1f}"
         if h.transitions:
             tr = h.transitions[-1]

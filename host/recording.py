@@ -8,8 +8,8 @@ A run folder holds
 - ``odometry.csv`` (one row per telemetry frame) and ``ekf.csv`` (30 Hz of MCU time): the
   outputs, floats written with ``repr`` so a replay can be compared bit for bit;
 - ``health.csv`` (one row per telemetry frame): the sensor health monitor's yaw-rate NIS,
-  windowed test, learned wheel yaw model (scale, yaw per metre), each sensor's state and the
-  standstill flag;
+  windowed test, learned wheel yaw model (scale, yaw per metre), each sensor's state, the
+  standstill flag and the last LiDAR scan's estimated range noise;
 - ``meta.json``: mission, configuration file, start time, versions.
 
 ``log.jrec`` is a little-endian binary file: the 8-byte magic ``b"JREC0001"``, then records of
@@ -77,7 +77,9 @@ HEALTH_COLUMNS = (
     "encoder_left",
     "encoder_right",
     "link",
+    "lidar",
     "stationary",
+    "lidar_roughness_m",
 )
 
 

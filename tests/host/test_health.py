@@ -322,3 +322,83 @@ def test_two_silent_wheels_judged_by_the_command_alone_are_not_two_cut_encoders(
         h = replace(h, wz_rad_s=None, wheel_cmd_rad_s=(4.5, 4.5), commanded_still=False)
         assert mon.update(h).lost is None
     assert mon.state("encoder_left") is Health.OK and mon.state("encoder_right") is Health.OK
+
+
+# ---------------------------------------------------------------------------- the LiDAR
+
+LIDAR_PERIOD = 1.0 / 7.43  # [s] the twin's A1M8
+BEAMS = 1080
+
+
+def room_scan(rng: np.random.Generator, sigma: float, x: float = 0.7, y: float = 0.4) -> np.ndarray:
+    """Ranges from (x, y) in a 4 m x 3 m room centred on the origin, with N(0, sigma^2) noise,
+    in the order a revolution measures them."""
+    a = np.linspace(0.0, 2.0 * np.pi, BEAMS, endpoint=False)
+    c, s = np.cos(a), np.sin(a)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (2.0 - x) / c, np.where(c < 0, (-2.0 - x) / c, np.inf))
+        ty = np.where(s > 0, (1.5 - y) / s, np.where(s < 0, (-1.5 - y) / s, np.inf))
+    r = np.minimum(tx, ty) + rng.normal(0.0, sigma, BEAMS)
+    r[rng.random(BEAMS) < 0.05] = np.inf  # no return now and then
+    return r
+
+
+def scans(
+    mon: HealthMonitor,
+    rng: np.random.Generator,
+    t0: float,
+    seconds: float,
+    sigma: float = 0.01,
+    lost: float = 0.0,
+) -> tuple[float, list[bool]]:
+    """Revolutions every LIDAR_PERIOD for ``seconds``, stamped on 20 Hz frames as the core
+    does, a fraction ``lost`` of them missing; (the time reached, each scan's use)."""
+    used = []
+    t = t0
+    for _ in range(round(seconds / LIDAR_PERIOD)):
+        t += LIDAR_PERIOD
+        if rng.random() < lost:
+            continue
+        used.append(mon.scan(math.ceil(t / DT) * DT, room_scan(rng, sigma)))
+    return t, used
+
+
+def test_a_healthy_lidar_raises_no_alarm_and_its_noise_is_measured() -> None:
+    mon, rng = monitor(), np.random.default_rng(30)
+    _, used = scans(mon, rng, 0.0, 120.0)
+    assert all(used) and mon.transitions == []
+    assert mon.lidar_roughness_m == pytest.approx(0.01, rel=0.15)
+    assert mon.lidar_missing < 0.05
+
+
+def test_a_noisy_lidar_is_suspect_and_a_useless_one_excluded_and_stops_navigation() -> None:
+    mon, rng = monitor(), np.random.default_rng(31)
+    t, _ = scans(mon, rng, 0.0, 5.0)
+    t, used = scans(mon, rng, t, 1.0, sigma=0.05)
+    assert mon.state("lidar") is Health.SUSPECT and all(used)  # rough but usable
+    assert mon.lidar_roughness_m == pytest.approx(0.05, rel=0.15)
+    t, used = scans(mon, rng, t, 1.0, sigma=0.2)
+    assert not any(used) and mon.state("lidar") is Health.EXCLUDED, mon.transitions
+    robot = Robot(31)
+    assert mon.update(robot.frame(0.1, 0.0)).lost is None  # nothing navigates by it
+    mon.lidar_needed = True
+    lost = mon.update(robot.frame(0.1, 0.0)).lost
+    assert lost is not None and "LiDAR" in lost
+    t, used = scans(mon, rng, t, 3.0)  # the noise goes: back in after recover_s
+    assert mon.state("lidar") is Health.RECOVERED and used[-1] and not used[0]
+
+
+def test_lost_revolutions_make_the_lidar_suspect_and_silence_excludes_it() -> None:
+    mon, rng = monitor(), np.random.default_rng(32)
+    t, _ = scans(mon, rng, 0.0, 10.0)
+    t, _ = scans(mon, rng, t, 6.0, lost=0.3)
+    assert mon.state("lidar") is Health.SUSPECT and "lost" in mon.reason("lidar")
+    assert 0.15 < mon.lidar_missing < 0.45
+    t, _ = scans(mon, rng, t, 12.0)
+    assert mon.state("lidar") is Health.OK
+    robot = Robot(32)
+    robot.t = t
+    drive(mon, robot, 1.2, 0.1, 0.0)  # frames but no scan
+    assert mon.state("lidar") is Health.EXCLUDED and "no scan" in mon.reason("lidar")
+    t, used = scans(mon, rng, robot.t, 3.0)
+    assert mon.state("lidar") is Health.RECOVERED and used[-1]
