@@ -1,12 +1,16 @@
 """``jackson campaign faults``: the sensor health monitor against the twin's sensor faults.
 
 Each case (:data:`CASES`) injects one sensor fault (:mod:`jackson.sim.faults`) at
-:data:`ONSET_S` of MCU time into a figure-eight (or a square) on the twin, and names the sensor
-the health monitor (:mod:`jackson.host.health`) should blame. Every trial of a case runs twice
-on the same seed: with the monitor (the host configuration as it is) and without it (the same
-configuration with ``health.enabled: false``: the paper's filter). Clean runs of both missions,
-without any fault and with the monitor, measure its false alarms. Trials run in worker processes
-as :mod:`jackson.calibration.campaign` runs them; each keeps its run folder.
+:data:`ONSET_S` of MCU time into a figure-eight (or a square) on the twin, or a LiDAR fault at
+:data:`MAZE_ONSET_S` into the maze's navigation trial (:mod:`jackson.calibration.stage3`: the
+default ``jackson run maze``, amcl on a map made once by a mapping run before the trials), and
+names the sensor the health monitor (:mod:`jackson.host.health`) should blame. Every trial of a
+case runs twice on the same seed: with the monitor (the host configuration as it is) and without
+it (the same configuration with ``health.enabled: false``: the paper's filter). Clean runs of
+both missions, without any fault and with the monitor, measure its false alarms; with maze cases,
+as many clean maze runs as there are trials join them (the only runs where the LiDAR is judged).
+Trials run in worker processes as :mod:`jackson.calibration.campaign` runs them; each keeps its
+run folder.
 
 What is measured, from each run folder's ``health.json`` (``sensors.transitions``) and
 ``metrics.json`` (the fault's record: ``first_s``, the first reading it acted on, is the onset):
@@ -17,9 +21,12 @@ What is measured, from each run folder's ``health.json`` (``sensors.transitions`
   expected one (otherwise that sensor is named);
 - **exclusion**: a transition of the expected sensor to ``excluded`` at or after the onset;
 - **ended**: every run ends, completed or aborted with a reason (a mission that never ends is
-  stopped by the trial's wall-clock limit and counts as not ended);
+  stopped by the trial's wall-clock limit and counts as not ended); a navigation that gives up
+  (the navigator's reason) ended too, and counts with the aborted runs;
 - **closure**: ground-truth and EKF closure of the completed runs, mean and SD, with and without
-  the monitor;
+  the monitor (square and figure-eight);
+- **navigation** (maze): goal reached, aborted (with the reasons) or not ended, contacts with the
+  world and d_min to the dropped cylinder (Eq. 21), with and without the monitor;
 - **false alarms**: transitions to ``excluded`` (and, apart, to ``suspect``) on the clean runs
   per hour driven, with the exact one-sided Poisson upper bound (:func:`poisson_upper`).
 
@@ -44,19 +51,28 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 if TYPE_CHECKING:  # the twin and the host load when a campaign runs, not for jackson --help
+    from jackson.calibration.stage3 import NavTrialSpec
     from jackson.calibration.trial import TrialSpec
     from jackson.sim.faults import FaultSpec
 
-ONSET_S = 30.0  # [s] MCU time of every case's fault onset
+ONSET_S = 30.0  # [s] MCU time of the square's and the figure-eight's fault onsets
+# [s] the maze cases' onset: the maze's navigation drives from 2.05 s to 9.5-10.3 s of MCU time
+# (seeds 0-2; the cylinder drops at 2.9 s), so the fault meets the last 5.5-6.3 s of the drive
+MAZE_ONSET_S = 4.0
 DETECTION_TARGET = 0.95  # a case's detection rate must reach this
 CONFIDENCE = 0.95  # one-sided confidence of the false-alarm upper bounds
 UNHEALTHY = ("suspect", "excluded")  # states a detection moves a sensor into
 SENSORS = ("imu", "encoder_left", "encoder_right")
-WORLDS = {"figure8": "open_floor", "square": "square_room"}
+LIDAR = "lidar"  # the monitor's LiDAR: judged on the maze only (the other missions run without)
+WORLDS = {"figure8": "open_floor", "square": "square_room", "maze": "maze"}
 # [s] a little under a clean run's driving time, so that a plan of clean runs reaches its hours
 PLANNED_DRIVE_S = {"square": 45.0, "figure8": 90.0}
 MONITOR_YAML = "host-monitor.yaml"
 NO_MONITOR_YAML = "host-no-monitor.yaml"
+
+
+class FaultCampaignError(RuntimeError):
+    """The campaign cannot run its trials: the maze's mapping run did not finish."""
 
 
 @dataclass(frozen=True)
@@ -68,12 +84,12 @@ class FaultCase:
     name : str
         Its name on the command line (``--case``) and in the report.
     mission : str
-        ``figure8`` or ``square``.
+        ``figure8``, ``square`` or ``maze`` (the navigation trial).
     fault : str
         The fault as ``KIND@AT_S[+DURATION_S][:key=value,...]`` (:func:`parse_fault`).
     sensor : str
         The health monitor's sensor that should be blamed (``imu``, ``encoder_left``,
-        ``encoder_right``).
+        ``encoder_right``, ``lidar``).
     """
 
     name: str
@@ -99,6 +115,9 @@ CASES = (
     FaultCase("wheel_slip_right", "figure8", SLIP, "encoder_right"),
     FaultCase("square_imu_bias_step", "square", "imu_bias_step@30", "imu"),
     FaultCase("square_wheel_slip_right", "square", SLIP, "encoder_right"),
+    FaultCase("lidar_noise", "maze", "lidar_noise@4:sigma_m=0.05", LIDAR),
+    FaultCase("lidar_dropout", "maze", "lidar_dropout@4:probability=0.3", LIDAR),
+    FaultCase("lidar_dead", "maze", "lidar_dropout@4:probability=1", LIDAR),
 )
 """Every case, in the report's order."""
 CASE_NAMES = tuple(c.name for c in CASES)
@@ -123,7 +142,7 @@ class RunRecord:
     case : str
         The case's name, or ``clean``.
     mission : str
-        ``figure8`` or ``square``.
+        ``figure8``, ``square`` or ``maze``.
     monitor : bool
         Whether the health monitor ran.
     trial, seed : int
@@ -131,7 +150,7 @@ class RunRecord:
     folder : str
         The run folder, relative to the report folder.
     completed : bool
-        The mission finished.
+        The mission finished (the maze: the goal reached).
     abort_reason : str or None
         Why the mission was aborted (``health.json``), None if it was not.
     error : str or None
@@ -150,6 +169,15 @@ class RunRecord:
         Gyro spikes the fault injected (``imu_spike``; 0 for the other kinds).
     gated : int
         Samples the monitor's per-sample gate refused (``health.json`` counts).
+    failure : str or None
+        Why a navigation gave up without an abort (the navigator's reason), None otherwise.
+    collisions : int
+        Contacts of the robot with the world (the twin's count).
+    d_min_m : float or None
+        The maze: d_min (Eq. 21) from the dropped cylinder to the robot's envelope [m], None
+        elsewhere or when no cylinder dropped.
+    scans : int or None
+        The maze: LiDAR revolutions the host decoded, None elsewhere.
     """
 
     case: str
@@ -169,11 +197,20 @@ class RunRecord:
     transitions: tuple[Transition, ...] = ()
     spikes: int = 0
     gated: int = 0
+    failure: str | None = None
+    collisions: int = 0
+    d_min_m: float | None = None
+    scans: int | None = None
+
+    @property
+    def end_reason(self) -> str | None:
+        """Why the mission ended without completing: the abort's reason, or the navigation's."""
+        return self.abort_reason if self.abort_reason is not None else self.failure
 
     @property
     def ended(self) -> bool:
         """Completed, or aborted with a reason: the run did not go on without end."""
-        return self.completed or self.abort_reason is not None
+        return self.completed or self.end_reason is not None
 
 
 @dataclass(frozen=True)
@@ -241,6 +278,44 @@ class Outcome:
 
 
 @dataclass(frozen=True)
+class NavOutcome:
+    """How the maze runs of one case ended, and how close they came to the world.
+
+    Attributes
+    ----------
+    runs, reached, aborted, not_ended : int
+        Counts of runs: the goal reached, aborted (by the daemon or a navigation that gave up),
+        neither (or failed to run).
+    reasons : dict
+        Why the aborted runs ended: ``{reason: runs}``.
+    collisions : int
+        Contacts with the world, summed over the runs.
+    runs_with_contact : int
+        Runs with at least one contact.
+    d_min_cm : Stat
+        d_min (Eq. 21) from the dropped cylinder over every run it dropped in [cm].
+    d_min_lowest_cm : float or None
+        The smallest of them [cm].
+    scans : Stat
+        LiDAR revolutions the host decoded per run.
+    driving_s : Stat
+        Driving time per run, from the first command to move to the goal or the run's end [s].
+    """
+
+    runs: int
+    reached: int
+    aborted: int
+    not_ended: int
+    reasons: dict[str, int]
+    collisions: int
+    runs_with_contact: int
+    d_min_cm: Stat
+    d_min_lowest_cm: float | None
+    scans: Stat
+    driving_s: Stat
+
+
+@dataclass(frozen=True)
 class CaseSummary:
     """The figures of one case (:func:`summarise_case`); rates are fractions of its trials.
 
@@ -264,6 +339,8 @@ class CaseSummary:
     runs_to_look_at : list of dict
         Runs (``run``: folder) where the fault was not detected, not isolated, another sensor
         was excluded, or that did not end, and ``what`` happened.
+    navigation_with_monitor, navigation_without_monitor : NavOutcome or None
+        A maze case's navigation outcomes (None for the other missions).
     """
 
     name: str
@@ -293,6 +370,8 @@ class CaseSummary:
     met_target: bool
     missed: list[str] = field(default_factory=list)
     runs_to_look_at: list[dict[str, str]] = field(default_factory=list)
+    navigation_with_monitor: NavOutcome | None = None
+    navigation_without_monitor: NavOutcome | None = None
 
 
 @dataclass(frozen=True)
@@ -333,9 +412,12 @@ class FalseAlarms:
         Transitions to ``excluded`` and to ``suspect`` (any sensor, any time of the run) per
         hour driven.
     by_sensor : dict
-        Those transitions per sensor: ``{sensor: {"excluded": n, "suspect": n}}``.
+        Those transitions per sensor: ``{sensor: {"excluded": n, "suspect": n}}`` (``lidar``
+        with clean maze runs among them).
     alarms : list of dict
         Each transition: run folder, time, sensor, states, reason.
+    by_mission : dict
+        Runs and hours driven per mission: ``{mission: {"runs": n, "hours_driven": h}}``.
     """
 
     runs: int
@@ -347,6 +429,7 @@ class FalseAlarms:
     suspect: Rate
     by_sensor: dict[str, dict[str, int]]
     alarms: list[dict[str, Any]]
+    by_mission: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- analysis
@@ -511,15 +594,18 @@ def load_run(
     if "faults" not in metrics and meta.get("faults"):  # no metrics (a run cut short): on time
         onset = meta["faults"][0].get("at_s")
     rel = folder.relative_to(root) if root is not None else folder
+    abort_reason = health.get("abort_reason")
+    failure = metrics.get("failure")  # a navigation's: the abort's reason, or the navigator's
+    navigation = meta.get("mission") == "navigate"
     return RunRecord(
         case=case,
-        mission=str(metrics.get("mission", "")),
+        mission=str(metrics.get("mission", "maze" if navigation else "")),
         monitor=monitor,
         trial=int(metrics.get("trial", -1)),
         seed=int(metrics.get("seed", -1)),
         folder=rel.as_posix(),
         completed=bool(metrics.get("completed", False)) and error is None,
-        abort_reason=health.get("abort_reason"),
+        abort_reason=abort_reason,
         error=error,
         gt_closure_cm=_number(metrics.get("gt_closure_cm")),
         ekf_closure_cm=_number(metrics.get("ekf_closure_cm")),
@@ -529,6 +615,10 @@ def load_run(
         transitions=transitions_of(health),
         spikes=int(faults[0].get("spikes", 0)) if faults else 0,
         gated=int(((health.get("sensors") or {}).get("counts") or {}).get("gated", 0)),
+        failure=None if failure is None or failure == abort_reason else str(failure),
+        collisions=int(metrics.get("collisions", 0)),
+        d_min_m=_number(metrics.get("d_min_m")),
+        scans=int(metrics["scans"]) if "scans" in metrics else None,
     )
 
 
@@ -563,10 +653,40 @@ def outcome(records: Sequence[RunRecord]) -> Outcome:
     return Outcome(
         runs=len(records),
         completed=len(done),
-        aborted=sum(1 for r in records if not r.completed and r.abort_reason is not None),
+        aborted=sum(1 for r in records if not r.completed and r.end_reason is not None),
         not_ended=sum(1 for r in records if not r.ended),
         gt_closure_cm=stat([r.gt_closure_cm for r in done if r.gt_closure_cm is not None]),
         ekf_closure_cm=stat([r.ekf_closure_cm for r in done if r.ekf_closure_cm is not None]),
+    )
+
+
+def nav_outcome(records: Sequence[RunRecord]) -> NavOutcome:
+    """How the maze runs ``records`` ended, their contacts and their clearance.
+
+    Parameters
+    ----------
+    records : sequence of RunRecord
+        The runs.
+
+    Returns
+    -------
+    NavOutcome
+        Counts, the reasons of the aborted runs, contacts, d_min and scans.
+    """
+    reasons = Counter(r.end_reason for r in records if not r.completed and r.end_reason is not None)
+    d_min = [100.0 * r.d_min_m for r in records if r.d_min_m is not None]
+    return NavOutcome(
+        runs=len(records),
+        reached=sum(r.completed for r in records),
+        aborted=sum(reasons.values()),
+        not_ended=sum(not r.ended for r in records),
+        reasons=dict(reasons.most_common()),
+        collisions=sum(r.collisions for r in records),
+        runs_with_contact=sum(r.collisions > 0 for r in records),
+        d_min_cm=stat(d_min),
+        d_min_lowest_cm=min(d_min) if d_min else None,
+        scans=stat([float(r.scans) for r in records if r.scans is not None]),
+        driving_s=stat([r.duration_s for r in records]),
     )
 
 
@@ -653,6 +773,8 @@ def summarise_case(
         met_target=not missed,
         missed=missed,
         runs_to_look_at=look,
+        navigation_with_monitor=nav_outcome(with_monitor) if case.mission == "maze" else None,
+        navigation_without_monitor=nav_outcome(without_monitor) if case.mission == "maze" else None,
     )
 
 
@@ -672,7 +794,9 @@ def summarise_clean(records: Sequence[RunRecord], confidence: float = CONFIDENCE
         Hours, transitions per hour driven to ``excluded`` and to ``suspect``, per sensor.
     """
     hours = sum(r.duration_s for r in records) / 3600.0
-    by_sensor = {s: {"excluded": 0, "suspect": 0} for s in SENSORS}
+    missions = dict.fromkeys(r.mission for r in records)
+    judged = (*SENSORS, LIDAR) if "maze" in missions else SENSORS
+    by_sensor = {s: {"excluded": 0, "suspect": 0} for s in judged}
     alarms = []
     for r in records:
         for t in r.transitions:
@@ -691,6 +815,13 @@ def summarise_clean(records: Sequence[RunRecord], confidence: float = CONFIDENCE
         suspect=false_alarm_rate(suspect, hours, confidence),
         by_sensor=by_sensor,
         alarms=alarms,
+        by_mission={
+            m: {
+                "runs": sum(r.mission == m for r in records),
+                "hours_driven": sum(r.duration_s for r in records if r.mission == m) / 3600.0,
+            }
+            for m in missions
+        },
     )
 
 
@@ -722,16 +853,25 @@ def clean_plan(hours: float) -> list[str]:
 
 @dataclass(frozen=True)
 class Job:
-    """One trial to run in a worker: which case (or ``clean``), with the monitor or not."""
+    """One trial to run in a worker: which case (or ``clean``), with the monitor or not; a
+    square or figure-eight trial, or the maze's navigation trial."""
 
     case: str
     monitor: bool
-    spec: TrialSpec
+    spec: TrialSpec | NavTrialSpec
     root: Path
+
+    @property
+    def mission(self) -> str:
+        """``square``, ``figure8`` or ``maze``."""
+        from jackson.calibration.trial import TrialSpec
+
+        return self.spec.mission if isinstance(self.spec, TrialSpec) else "maze"
 
 
 def run_job(job: Job) -> RunRecord:
-    """Run one trial (:func:`jackson.calibration.trial.run_trial`) and read its folder back.
+    """Run one trial (:func:`jackson.calibration.trial.run_trial`, the maze's
+    :func:`jackson.calibration.stage3.run_nav_trial`) and read its folder back.
 
     What the daemon tells the operator goes to the run folder's ``daemon.log``. A trial that
     raises is recorded with its error, so one broken run does not end the campaign (a run the
@@ -748,18 +888,22 @@ def run_job(job: Job) -> RunRecord:
     RunRecord
         What the run did.
     """
-    from jackson.calibration.trial import run_trial
+    from jackson.calibration.stage3 import run_nav_trial
+    from jackson.calibration.trial import TrialSpec, run_trial
 
     error = None
     job.spec.out.mkdir(parents=True, exist_ok=True)
     with (job.spec.out / "daemon.log").open("w") as told, contextlib.redirect_stdout(told):
         try:
-            run_trial(job.spec)
+            if isinstance(job.spec, TrialSpec):
+                run_trial(job.spec)
+            else:
+                run_nav_trial(job.spec)
         except Exception as exc:  # recorded: the report names the run
             error = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
     record = load_run(job.spec.out, case=job.case, monitor=job.monitor, root=job.root, error=error)
     s = job.spec
-    return dataclasses.replace(record, mission=s.mission, trial=s.index, seed=s.seed)
+    return dataclasses.replace(record, mission=job.mission, trial=s.index, seed=s.seed)
 
 
 def write_host_configs(out: Path, config: Path | None) -> tuple[Path, Path]:
@@ -799,35 +943,72 @@ def plan_jobs(
     robot: str,
     seed: int,
     configs: tuple[Path, Path],
+    map_yaml: Path | None = None,
 ) -> list[Job]:
     """Every trial of a campaign: per case ``trials`` seeds with and without the monitor, then
-    the clean runs (:func:`clean_plan`); trial ``i`` of a mission has seed ``seed + i``, so
-    a case's runs and the clean runs of its mission are the same twins but for the fault."""
+    the clean runs (:func:`clean_plan`; with maze cases and ``clean_hours`` > 0, ``trials``
+    clean maze runs besides); trial ``i`` of a mission has seed ``seed + i``, so a case's runs
+    and the clean runs of its mission are the same twins but for the fault.
+
+    Parameters
+    ----------
+    out : Path
+        The report folder; the runs go under ``runs/``.
+    cases : sequence of FaultCase
+        The cases.
+    trials : int
+        Seeds per case.
+    clean_hours : float
+        Driving time of the square and figure-eight clean runs [h] (0: no clean runs).
+    robot : str
+        The twin's robot file.
+    seed : int
+        Seed of trial 0.
+    configs : tuple of Path
+        The host YAMLs with and without the monitor (:func:`write_host_configs`).
+    map_yaml : Path, optional
+        The maze's map the navigation trials localise on (needed with maze cases).
+
+    Returns
+    -------
+    list of Job
+        The cases' runs in :data:`CASES` order, then the clean runs.
+
+    Raises
+    ------
+    ValueError
+        Maze cases without ``map_yaml``.
+    """
+    from jackson.calibration.stage3 import NavTrialSpec
     from jackson.calibration.trial import TrialSpec
+
+    maze = any(c.mission == "maze" for c in cases)
+    if maze and map_yaml is None:
+        raise ValueError("the maze cases need a map (map_yaml)")
+
+    def trial(
+        mission: str, i: int, folder: Path, cfg: Path, faults: tuple[FaultSpec, ...]
+    ) -> TrialSpec | NavTrialSpec:
+        if mission == "maze":
+            return NavTrialSpec(
+                i, seed + i, robot, WORLDS[mission], folder, map_yaml, config=cfg, faults=faults
+            )
+        return TrialSpec(mission, i, seed + i, robot, WORLDS[mission], folder, cfg, faults)
 
     jobs = []
     for case in cases:
         for monitor, cfg, sub in ((True, configs[0], "monitor"), (False, configs[1], "no-monitor")):
             for i in range(trials):
                 folder = out / "runs" / case.name / sub / f"R{i + 1:02d}"
-                spec = TrialSpec(
-                    case.mission,
-                    i,
-                    seed + i,
-                    robot,
-                    WORLDS[case.mission],
-                    folder,
-                    cfg,
-                    (case.spec,),
-                )
+                spec = trial(case.mission, i, folder, cfg, (case.spec,))
                 jobs.append(Job(case.name, monitor, spec, out))
     count: Counter[str] = Counter()
-    for mission in clean_plan(clean_hours):
+    plan = clean_plan(clean_hours) + (["maze"] * trials if maze and clean_hours > 0 else [])
+    for mission in plan:
         i = count[mission]
         count[mission] += 1
         folder = out / "runs" / "clean" / mission / f"R{i + 1:02d}"
-        spec = TrialSpec(mission, i, seed + i, robot, WORLDS[mission], folder, configs[0])
-        jobs.append(Job("clean", True, spec, out))
+        jobs.append(Job("clean", True, trial(mission, i, folder, configs[0], ()), out))
     return jobs
 
 
@@ -835,10 +1016,13 @@ def describe(record: RunRecord, cases: Mapping[str, FaultCase]) -> str:
     """One line for a finished trial (the progress log when stdout is not a terminal)."""
     how = "monitor" if record.monitor else "no monitor"
     head = f"{record.case} {record.mission} seed {record.seed} ({how}): "
-    if record.completed:
+    if record.completed and record.mission == "maze":
+        clearance = "" if record.d_min_m is None else f", d_min {100 * record.d_min_m:.1f} cm"
+        end = f"goal reached, {record.collisions} contact(s){clearance}"
+    elif record.completed:
         end = f"completed, GT closure {record.gt_closure_cm or math.nan:.1f} cm"
-    elif record.abort_reason is not None:
-        end = f"aborted ({record.abort_reason})"
+    elif record.end_reason is not None:
+        end = f"aborted ({record.end_reason})"
     elif record.error is not None:
         end = f"failed: {record.error}"
     else:
@@ -870,6 +1054,7 @@ def run_fault_campaign(
     seed: int = 0,
     workers: int = 2,
     config: Path | None = None,
+    map_yaml: Path | None = None,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
@@ -879,9 +1064,11 @@ def run_fault_campaign(
     ----------
     out : Path
         The report folder: ``summary.md``, ``summary.json``, ``runs.json``, ``faults.png``, the
-        two host YAMLs and ``runs/<case>/<monitor|no-monitor>/Rnn``, ``runs/clean/<mission>/Rnn``.
+        two host YAMLs and ``runs/<case>/<monitor|no-monitor>/Rnn``, ``runs/clean/<mission>/Rnn``;
+        with maze cases and no ``map_yaml``, the mapping run in ``map/``.
     trials : int
-        Seeds per case (each run with and without the monitor).
+        Seeds per case (each run with and without the monitor); with maze cases, as many clean
+        maze runs.
     clean_hours : float
         Driving time of the clean runs [h] (0: none).
     cases : sequence of FaultCase
@@ -894,6 +1081,9 @@ def run_fault_campaign(
         Worker processes.
     config : Path or None
         The host YAML (None: the default configuration).
+    map_yaml : Path or None
+        The maze cases' map (None: a mapping run with ``config`` and ``seed`` makes it first,
+        as ``jackson run maze`` does).
     progress : bool
         Show a progress bar.
     log : callable, optional
@@ -903,12 +1093,29 @@ def run_fault_campaign(
     -------
     dict
         The contents of ``summary.json``.
+
+    Raises
+    ------
+    FaultCampaignError
+        The mapping run did not finish (no trial has run).
     """
     from rich.progress import Progress
 
     out.mkdir(parents=True, exist_ok=True)
     configs = write_host_configs(out, config)
-    jobs = plan_jobs(out, cases, trials, clean_hours, robot=robot, seed=seed, configs=configs)
+    maze = any(c.mission == "maze" for c in cases)
+    if maze and map_yaml is None:
+        map_yaml = map_maze(out / "map", robot, seed, configs[0])
+    jobs = plan_jobs(
+        out,
+        cases,
+        trials,
+        clean_hours,
+        robot=robot,
+        seed=seed,
+        configs=configs,
+        map_yaml=map_yaml,
+    )
     by_name = {c.name: c for c in cases}
     records: list[RunRecord] = []
     wall0 = time.perf_counter()
@@ -934,6 +1141,7 @@ def run_fault_campaign(
         "seed": seed,
         "workers": workers,
         "onset_s": ONSET_S,
+        **({"maze_onset_s": MAZE_ONSET_S, "map": str(map_yaml)} if maze else {}),
         "detection_target": DETECTION_TARGET,
         "confidence": CONFIDENCE,
         "runs": len(records),
@@ -942,6 +1150,41 @@ def run_fault_campaign(
     summary = summarise(cases, records, meta)
     write_report(out, summary, records)
     return summary
+
+
+def map_maze(folder: Path, robot: str, seed: int, config: Path) -> Path:
+    """The maze's map for the navigation trials: a mapping run of the static maze
+    (:func:`jackson.calibration.stage3.mapping_spec`), its daemon's lines in ``daemon.log``.
+
+    Parameters
+    ----------
+    folder : Path
+        The mapping run's folder.
+    robot : str
+        The twin's robot file.
+    seed : int
+        The mapping run's seed.
+    config : Path
+        The host YAML.
+
+    Returns
+    -------
+    Path
+        ``built_map.yaml`` in ``folder``.
+
+    Raises
+    ------
+    FaultCampaignError
+        The survey did not finish.
+    """
+    from jackson.calibration.stage3 import mapping_spec, run_nav_trial
+
+    folder.mkdir(parents=True, exist_ok=True)
+    with (folder / "daemon.log").open("w") as told, contextlib.redirect_stdout(told):
+        result = run_nav_trial(mapping_spec(robot, WORLDS["maze"], seed, folder, config))
+    if not result["completed"]:
+        raise FaultCampaignError(f"the maze's mapping run stopped: {result['failure']}")
+    return folder / "built_map.yaml"
 
 
 def summarise(
@@ -1038,11 +1281,19 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
         ``summary.md``.
     """
     meta = summary["meta"]
+    maze = [c for c in summary["cases"] if c["mission"] == "maze"]
+    onsets = f"faults at {meta['onset_s']:g} s of MCU time"
+    if maze:
+        onsets = (
+            f"faults at {meta['onset_s']:g} s of MCU time on the square and the figure-eight, "
+            f"LiDAR faults at {meta['maze_onset_s']:g} s into the maze's navigation trial "
+            f"(map `{meta['map']}`)"
+        )
     lines = [
         "# Fault campaign",
         "",
         f"{meta['trials']} seeds per case from seed {meta['seed']} on `{meta['robot']}`, each "
-        f"with and without the health monitor; faults at {meta['onset_s']:g} s of MCU time; "
+        f"with and without the health monitor; {onsets}; "
         f"{meta['runs']} runs in {meta['wall_s'] / 60:.1f} min on {meta['workers']} workers.",
         "",
         "## Detection (runs with the monitor)",
@@ -1089,20 +1340,24 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             f"- {name}: {what}: `{where}/` {', '.join(runs)}"
             for (name, where, what), runs in looks.items()
         ]
-    lines += [
-        "",
-        "## Closure of the completed runs [cm], mean ± SD (runs)",
-        "",
-        "| case | ground truth, monitor | ground truth, no monitor | EKF, monitor | "
-        "EKF, no monitor |",
-        "|---|---:|---:|---:|---:|",
-    ]
-    for c in summary["cases"]:
+    loops = [c for c in summary["cases"] if c["mission"] != "maze"]  # the maze: no loop
+    if loops:
+        lines += [
+            "",
+            "## Closure of the completed runs [cm], mean ± SD (runs)",
+            "",
+            "| case | ground truth, monitor | ground truth, no monitor | EKF, monitor | "
+            "EKF, no monitor |",
+            "|---|---:|---:|---:|---:|",
+        ]
+    for c in loops:
         on, off = c["with_monitor"], c["without_monitor"]
         lines.append(
             f"| {c['name']} | {_pm(on['gt_closure_cm'])} | {_pm(off['gt_closure_cm'])} | "
             f"{_pm(on['ekf_closure_cm'])} | {_pm(off['ekf_closure_cm'])} |"
         )
+    if maze:
+        lines += _navigation_markdown(maze)
     fa = summary["false_alarms"]
     columns = [*SENSORS, *(s for s in fa["by_sensor"] if s not in SENSORS)]
     lines += [
@@ -1110,7 +1365,9 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
         "## False alarms (clean runs, monitor on)",
         "",
         f"{fa['runs']} runs ({fa['completed']} completed, {fa['not_ended']} did not end): "
-        f"{fa['hours_driven']:.3f} h driven, {fa['hours_monitored']:.3f} h monitored.",
+        f"{fa['hours_driven']:.3f} h driven, {fa['hours_monitored']:.3f} h monitored"
+        + _clean_missions(fa.get("by_mission") or {})
+        + ".",
         "",
         "| transitions to | count (per hour driven, one-sided upper bound) | "
         + " | ".join(columns)
@@ -1138,9 +1395,58 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _clean_missions(by_mission: Mapping[str, Mapping[str, float]]) -> str:
+    """The clean runs per mission, when the maze's are among them (the LiDAR judged there)."""
+    if "maze" not in by_mission:
+        return ""
+    parts = [
+        f"{m} {v['runs']:g} run{'' if v['runs'] == 1 else 's'}, {v['hours_driven']:.3f} h"
+        for m, v in by_mission.items()
+    ]
+    return f" ({'; '.join(parts)}; the LiDAR is judged on the maze only)"
+
+
+def _navigation_markdown(cases: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The maze cases' table: how the navigations ended, contacts, d_min, driving time, scans."""
+    lines = [
+        "",
+        "## Navigation of the maze cases (goal reached / aborted / not ended)",
+        "",
+        "d_min (Eq. 21): the dropped cylinder to the robot's envelope, mean ± SD (runs), lowest.",
+        "",
+        "| case | monitor: reached / aborted / not ended | no monitor: reached / aborted / "
+        "not ended | contacts (runs) monitor / no monitor | d_min [cm] monitor | "
+        "d_min [cm] no monitor | driving [s] monitor / no monitor | "
+        "scans per run, monitor / no monitor |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    reasons = []
+    for c in cases:
+        on, off = c["navigation_with_monitor"], c["navigation_without_monitor"]
+        cells = []
+        for o in (on, off):
+            low = o["d_min_lowest_cm"]
+            cells.append(f"{_pm(o['d_min_cm'], 1)}{'' if low is None else f', {low:.1f}'}")
+        lines.append(
+            f"| {c['name']} | {on['reached']} / {on['aborted']} / {on['not_ended']} | "
+            f"{off['reached']} / {off['aborted']} / {off['not_ended']} | "
+            f"{on['collisions']} ({on['runs_with_contact']}) / "
+            f"{off['collisions']} ({off['runs_with_contact']}) | {cells[0]} | {cells[1]} | "
+            f"{_pm(on['driving_s'], 1)} / {_pm(off['driving_s'], 1)} | "
+            f"{_pm(on['scans'], 0)} / {_pm(off['scans'], 0)} |"
+        )
+        for label, o in (("monitor", on), ("no monitor", off)):
+            name = c["name"]
+            reasons += [f"- {name}, {label}: {n} aborted: {why}" for why, n in o["reasons"].items()]
+    if reasons:
+        lines += ["", "Why the aborted runs ended:", "", *reasons]
+    return lines
+
+
 def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
-    """``faults.png``: per case, detection rate and time to detect (top), closure with and
-    without the monitor (bottom, error bars one SD).
+    """``faults.png``: per case, detection rate and time to detect (top); closure with and
+    without the monitor for the square and the figure-eight, d_min and goals reached with and
+    without it for the maze (below, error bars one SD).
 
     Parameters
     ----------
@@ -1155,13 +1461,23 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    cases = summary["cases"]
-    names = [c["name"].replace("_", " ").replace("square ", "square:\n") for c in cases]
-    x = np.arange(len(cases))
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(max(7.0, 1.2 * len(cases) + 2), 7.5), dpi=150)
+    every = summary["cases"]
 
-    det = [100 * c["detection_rate"] for c in cases]
-    iso = [100 * c["isolation_rate"] for c in cases]
+    def label(c: Mapping[str, Any]) -> str:
+        return str(c["name"]).replace("_", " ").replace("square ", "square:\n")
+
+    names = [label(c) for c in every]
+    x = np.arange(len(every))
+    cases = [c for c in every if c["mission"] != "maze"]
+    maze = [c for c in every if c["mission"] == "maze"]
+    rows = 1 + bool(cases) + bool(maze)
+    fig, axes = plt.subplots(
+        rows, 1, figsize=(max(7.0, 1.2 * len(every) + 2), 3.75 * rows), dpi=150, squeeze=False
+    )
+    ax1 = axes[0, 0]
+
+    det = [100 * c["detection_rate"] for c in every]
+    iso = [100 * c["isolation_rate"] for c in every]
     ax1.bar(x - 0.18, det, 0.36, color="C0", label="detected")
     ax1.bar(x + 0.18, iso, 0.36, color="C0", alpha=0.45, label="isolated (first sensor out)")
     ax1.axhline(100 * DETECTION_TARGET, color="k", ls="--", lw=0.8)
@@ -1175,8 +1491,8 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
         "Detection with the health monitor (dashed: target); time to detect", fontsize=9, pad=24
     )
     ax_t = ax1.twinx()
-    med = np.array([c["time_to_detect_median_s"] or np.nan for c in cases], dtype=float)
-    top = np.array([c["time_to_detect_max_s"] or np.nan for c in cases], dtype=float)
+    med = np.array([c["time_to_detect_median_s"] or np.nan for c in every], dtype=float)
+    top = np.array([c["time_to_detect_max_s"] or np.nan for c in every], dtype=float)
     ax_t.errorbar(
         x,
         med,
@@ -1196,7 +1512,20 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     h1, l1 = ax1.get_legend_handles_labels()
     h2, l2 = ax_t.get_legend_handles_labels()
     ax1.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3)
+    if cases:
+        _plot_closure(axes[1, 0], cases, [label(c) for c in cases])
+    if maze:
+        _plot_navigation(axes[-1, 0], maze, [label(c) for c in maze])
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
 
+
+def _plot_closure(ax2: Any, cases: Sequence[Mapping[str, Any]], names: Sequence[str]) -> None:
+    """Closure of the completed runs with and without the monitor (error bars one SD)."""
+    import numpy as np
+
+    x = np.arange(len(cases))
     width = 0.2
     series = (
         ("with_monitor", "gt_closure_cm", "ground truth, monitor", "C0", 1.0),
@@ -1235,6 +1564,44 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     ax2.set_title("Closure with and without the monitor (error bars: one SD)", fontsize=9, pad=24)
     ax2.legend(fontsize=7, ncol=4, loc="lower center", bbox_to_anchor=(0.5, 1.0))
     ax2.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+
+
+def _plot_navigation(ax: Any, cases: Sequence[Mapping[str, Any]], names: Sequence[str]) -> None:
+    """The maze cases: d_min to the dropped cylinder with and without the monitor (error bars
+    one SD), each bar labelled with the goals reached."""
+    import numpy as np
+
+    x = np.arange(len(cases))
+    for k, (side, text, color) in enumerate(
+        (
+            ("navigation_with_monitor", "monitor", "C0"),
+            ("navigation_without_monitor", "no monitor", "C1"),
+        )
+    ):
+        xs = x + (k - 0.5) * 0.36
+        d = [c[side]["d_min_cm"] for c in cases]
+        mean = np.array([s["mean"] if s["mean"] is not None else np.nan for s in d], dtype=float)
+        sd = np.array([s["sd"] or 0.0 for s in d], dtype=float)
+        ax.bar(xs, mean, 0.36, yerr=sd, color=color, capsize=3, label=f"d_min, {text}")
+        for xi, c in zip(xs, cases, strict=True):
+            o = c[side]
+            ax.text(
+                xi,
+                0.02,
+                f"goal {o['reached']}/{o['runs']}\naborted {o['aborted']}",
+                fontsize=6,
+                ha="center",
+                va="bottom",
+                color="white" if o["d_min_cm"]["n"] else "k",
+                transform=ax.get_xaxis_transform(),
+            )
+    ax.set_ylabel("d_min to the dropped cylinder [cm]")
+    ax.set_xticks(x, names, fontsize=7)
+    ax.set_title(
+        "Maze: clearance (Eq. 21) and goals reached with and without the monitor "
+        "(error bars: one SD)",
+        fontsize=9,
+        pad=24,
+    )
+    ax.legend(fontsize=7, ncol=2, loc="lower center", bbox_to_anchor=(0.5, 1.0))
+    ax.grid(axis="y", alpha=0.3)

@@ -14,6 +14,10 @@ made beforehand (``amcl``) or mapping while driving (``slam``), A* + DWB navigat
   the oriented envelope from the insertion on), path length, t_nav, recoveries, plus the
   localisation error against ground truth.
 
+Either run takes faults (:attr:`NavTrialSpec.faults`, :mod:`jackson.sim.faults`) as a square's
+or a figure-eight's trial does: the twin injects them besides the robot file's, meta.json lists
+their schedule and metrics.json what each injected.
+
 A :class:`Variant` perturbs the twin, never the host (the host keeps its nominal beliefs, as
 the paper's OFAT and robustness campaigns perturb the simulated robot): wheel radius, wheel
 separation, drive torque (our analogue of the paper's PhysX drive damping D: the motor's
@@ -51,6 +55,7 @@ from jackson.host.daemon import Daemon
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
 from jackson.sim.config import RobotSpec, Sides, WorldSpec, load_robot, load_world
+from jackson.sim.faults import FaultSpec, schedule
 
 STAGE3_START = Pose2D(-0.6909, -0.0364, 0.0)  # REFERENCE: Stage 3
 STAGE3_GOAL = Pose2D(1.2091, -0.0364, 0.0)
@@ -165,6 +170,10 @@ class NavTrialSpec:
         Host configuration (default: the paper's robot).
     static_only : bool
         Leave out the world's triggered obstacles (a mapping run).
+    faults : tuple of FaultSpec
+        Faults injected besides the robot file's (:mod:`jackson.sim.faults`), as
+        :class:`jackson.calibration.trial.TrialSpec`'s: meta.json lists their schedule and
+        metrics.json what each injected (``faults``).
     """
 
     index: int
@@ -177,6 +186,7 @@ class NavTrialSpec:
     variant: Variant = field(default_factory=Variant)
     config: Path | None = None
     static_only: bool = False
+    faults: tuple[FaultSpec, ...] = ()
 
 
 def world_extent(world: WorldSpec, margin_m: float = 0.5) -> tuple[float, float, float, float]:
@@ -199,7 +209,8 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     if spec.static_only:
         world = dataclasses.replace(world, triggers=())
     robot = spec.variant.robot(load_robot(spec.robot))
-    twin = Twin(world, robot, lidar=True, seed=spec.seed)
+    twin = Twin(world, robot, lidar=True, seed=spec.seed, faults=spec.faults)
+    faults = twin.faults.faults if twin.faults is not None else ()
     localisation: Localisation = "slam" if spec.map_yaml is None else "amcl"
     grid = OccupancyGrid.load(spec.map_yaml) if spec.map_yaml is not None else None
     nav = NavigateConfig(
@@ -224,6 +235,7 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
             "robot": spec.robot,
             "world": spec.world,
             "variant": dataclasses.asdict(spec.variant),
+            "faults": schedule(faults),
         }
         daemon = Daemon(
             cfg,
@@ -250,6 +262,7 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
         wall_s=wall,
         sim_s=twin.t_s,
         real_time_factor=twin.t_s / wall if wall > 0 else math.inf,
+        faults=twin.faults.record() if twin.faults is not None else [],
     )
     built = mission.built_map()
     if built is not None:
@@ -310,6 +323,7 @@ def nav_metrics(
         "completed": bool(success),
         "failure": mission.failure or abort_reason,
         "t_nav_s": (t1 - t0) if success else math.nan,
+        "duration_s": float(t1 - t0),
         "path_length_m": path_m,
         "d_min_m": d_min,
         "t_insert_s": t_ins,

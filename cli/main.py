@@ -198,6 +198,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
         plot_stage3,
         run_nav_trial,
     )
+    from jackson.sim.faults import summary
 
     world = args.world or "maze"
     _check_twin_files(args.robot, world)
@@ -219,7 +220,10 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
             print(f"jackson run maze: the mapping run stopped: {m['failure']}")
             return 1
         map_yaml = out / "map" / "built_map.yaml"
-    spec = NavTrialSpec(0, args.seed, args.robot, world, out / "nav", map_yaml, config=config)
+    faults = tuple(args.fault)  # on the navigation run, not on the mapping run before it
+    spec = NavTrialSpec(
+        0, args.seed, args.robot, world, out / "nav", map_yaml, config=config, faults=faults
+    )
     if goals is not None:
         spec = dataclasses.replace(spec, goals=goals)
     r = run_nav_trial(spec)
@@ -227,7 +231,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     plot_stage3(out / "maze.png", out, [r])
     table = Table(title=f"maze on the twin ({args.robot}, {world}, seed {args.seed})")
     table.add_column("figure")
-    table.add_column("value", justify="right")
+    table.add_column("value", justify="right", overflow="fold")
     table.add_column("paper (physical / Isaac)", justify="right")
     for label, value, paper in (
         ("goal reached", "yes" if r["completed"] else f"no: {r['failure']}", "10/10"),
@@ -243,6 +247,8 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
         ("localisation error mean / max", f"{r['localisation_error_mean_cm']:.1f} / "
          f"{r['localisation_error_max_cm']:.1f} cm", ""),
         ("real-time factor", f"x{r['real_time_factor']:.1f}", "x0.7"),
+        ("scans", str(r["scans"]), ""),
+        *(("fault", f"{f['fault']}: {summary(f)}", "") for f in r["faults"]),
     ):  # fmt: skip
         table.add_row(label, value, paper)
     Console().print(table)
@@ -260,8 +266,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from jackson.calibration.trial import TrialSpec, run_trial
     from jackson.sim.faults import summary
 
-    if args.fault and args.mission != "square" and args.mission != "figure8":
-        raise CliError("--fault is for square and figure8")
     if args.mission == "maze":
         return _cmd_run_maze(args)
     if args.mission in STAGE3:
@@ -313,7 +317,10 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     if args.mission in STAGE3:
         return _cmd_campaign_stage3(args)
     if args.map is not None:
-        raise CliError("--map is for the Stage 3 campaigns (maze, ofat, robustness)")
+        raise CliError(
+            "--map is for the Stage 3 campaigns (maze, ofat, robustness) and the fault "
+            "campaign's maze cases"
+        )
     _check_twin_files(
         args.robot, args.world or ("square_room" if args.mission == "square" else "open_floor")
     )
@@ -340,35 +347,47 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 def _cmd_campaign_faults(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.fault_campaign import CASES, run_fault_campaign
+    from jackson.calibration.fault_campaign import (
+        CASES,
+        WORLDS,
+        FaultCampaignError,
+        run_fault_campaign,
+    )
 
-    if args.map is not None:
-        raise CliError("--map is for the Stage 3 campaigns (maze, ofat, robustness)")
     if args.world is not None:
         raise CliError(
-            "--world: the fault campaign drives the figure-eight on open_floor and the square "
-            "on square_room"
+            "--world: the fault campaign drives the figure-eight on open_floor, the square on "
+            "square_room and the navigation trial on maze"
         )
-    _check_twin_files(args.robot, "open_floor")
+    cases = [c for c in CASES if not args.case or c.name in args.case]
+    missions = {c.mission for c in cases}
+    if args.map is not None and "maze" not in missions:
+        raise CliError("--map is for the maze cases (lidar_noise, lidar_dropout, lidar_dead)")
+    for mission in sorted(missions | {"figure8"}):
+        _check_twin_files(args.robot, WORLDS[mission])
     config = _host_config(args.config)
+    map_yaml = _map_file(args.map)
     trials = args.trials if args.trials is not None else (3 if args.short else 10)
     hours = args.clean_hours if args.clean_hours is not None else (0.1 if args.short else 1.0)
-    cases = [c for c in CASES if not args.case or c.name in args.case]
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("reports") / f"{stamp}-faults-x{trials}")
     tty = sys.stdout.isatty()
-    summary = run_fault_campaign(
-        out,
-        trials=trials,
-        clean_hours=hours,
-        cases=cases,
-        robot=args.robot,
-        seed=args.seed,
-        workers=args.workers,
-        config=config,
-        progress=tty,
-        log=None if tty else lambda line: print(line, flush=True),
-    )
+    try:
+        summary = run_fault_campaign(
+            out,
+            trials=trials,
+            clean_hours=hours,
+            cases=cases,
+            robot=args.robot,
+            seed=args.seed,
+            workers=args.workers,
+            config=config,
+            map_yaml=map_yaml,
+            progress=tty,
+            log=None if tty else lambda line: print(line, flush=True),
+        )
+    except FaultCampaignError as exc:
+        raise CliError(f"{exc} (its run folder: {out / 'map'})") from exc
     print((out / "summary.md").read_text())
     print(f"report: {out}/summary.md, {out}/faults.png")
     for name, reasons in summary["missed"].items():
@@ -446,7 +465,10 @@ def build_parser() -> argparse.ArgumentParser:
         )
         p.add_argument("mission", choices=missions)
         p.add_argument(
-            "--map", type=Path, help="maze: a map (map_server YAML) instead of mapping first"
+            "--map",
+            type=Path,
+            help="maze (and the fault campaign's maze cases): a map (map_server YAML) instead "
+            "of mapping first",
         )
         if name == "run":
             from jackson.sim.cli import FAULT_HELP, fault_arg
@@ -457,7 +479,7 @@ def build_parser() -> argparse.ArgumentParser:
                 action="append",
                 default=[],
                 metavar="SPEC",
-                help=f"square and figure8: {FAULT_HELP}",
+                help=f"{FAULT_HELP}; maze: on the navigation run, not on the mapping run",
             )
             p.add_argument(
                 "--goal",
@@ -470,7 +492,8 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument(
                 "--trials",
                 type=positive_int,
-                help="trials (per variant for ofat and robustness; default 10, ofat/robustness 15)",
+                help="trials (per variant for ofat and robustness, per case for faults; default "
+                "10, ofat/robustness 15)",
             )
             p.add_argument("--workers", type=positive_int, default=2, help="worker processes (2)")
             from jackson.calibration.fault_campaign import CASE_NAMES
