@@ -74,3 +74,15 @@ if [ "$(cat "$VENV/.files-key" 2>/dev/null)" != "$files_key" ]; then
   "${pip[@]}" --no-deps --no-build-isolation -e . --config-settings editable_mode=strict
   echo "$files_key" > "$VENV/.files-key"
 fi
+
+# tf2_msgs (/tf, /tf_static) has no wheel: generated from tools/ros_interfaces with the `ros`
+# extra's rosidl tool chain and compiled here; rebuilt when the wheels or its sources change.
+# A sourced ROS 2 has its own (sudo apt-get install ros-$ROS_DISTRO-tf2-msgs).
+if [ "$extras" = dev,ros ]; then
+  tf2_key=$( (echo "$deps_key"; cat tools/build_tf2_msgs.py; find tools/ros_interfaces/tf2_msgs -type f | sort | xargs cat) | sha256sum | cut -c1-16)
+  if [ "$(cat "$VENV/.tf2-msgs-key" 2>/dev/null)" != "$tf2_key" ]; then
+    say "building tf2_msgs from its interface definitions (about half a minute)"
+    err=$("$VENV/bin/python" tools/build_tf2_msgs.py 2>&1 >/dev/null) || die "$err"
+    echo "$tf2_key" > "$VENV/.tf2-msgs-key"
+  fi
+fi
