@@ -353,14 +353,12 @@ def _write(args: argparse.Namespace, updates: Updates) -> None:
         print("(not written: add --write CONFIG to update the host YAML)")
         return
     result = update_config(args.write, updates)
+    if result.backup is None:
+        print(f"{result.path} already holds these values: not written")
+        return
     print(f"wrote {result.path} (backup {result.backup}):")
     for line in result.changes:
         print(f"  {line}")
-    if not result.in_place:
-        print(
-            "  note: the file's layout could not be edited line by line; it was rewritten "
-            "(comments are in the backup)"
-        )
     if result.diff:
         print(result.diff, end="" if result.diff.endswith("\n") else "\n")
 

@@ -1,4 +1,5 @@
-"""The calibration maths on hand-computed cases, the YAML writer, run folders, CLI errors."""
+"""The calibration maths on hand-computed cases, run folders, CLI errors and --write (the YAML
+writer itself: test_yaml_update.py)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,6 @@ import pytest
 
 from jackson.calibration import procedures as proc
 from jackson.calibration import runs
-from jackson.calibration.yaml_update import YamlUpdateError, format_value, update_config
 from jackson.host.config import DEFAULT_CONFIG, load_config
 from jackson.host.odometry import RobotGeometry
 from jackson.host.recording import RunRecorder
@@ -339,70 +339,6 @@ def test_a_reference_needs_its_columns(tmp_path: Path) -> None:
         runs.load_reference(path)
 
 
-# ------------------------------------------------------------------------- the YAML writer
-
-
-def test_format_value_writes_yaml_floats() -> None:
-    assert format_value(617.2) == "617.2"
-    assert format_value(1e-05) == "1.0e-05"  # YAML 1.1 needs the dot to read a float
-    assert format_value([1.0, 0.0, 2.5e-05]) == "[1.0, 0.0, 2.5e-05]"
-
-
-def test_writing_keeps_comments_and_a_backup(tmp_path: Path) -> None:
-    path = tmp_path / "jackson.yaml"
-    shutil.copy(DEFAULT_CONFIG, path)
-    before = path.read_text()
-    result = update_config(
-        path,
-        {
-            "robot.ticks_per_rev.left": 617.2,
-            "robot.ticks_per_rev.right": 625.9,
-            "robot.wheel_separation_m": 0.20498,
-            "deadband.right.reverse": 0.1505,
-            "imu.calibration.rotation": [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            "imu.calibration.gyro_bias_rad_s": [0.0, 0.0, 0.00995],
-            "imu.calibration.accel_scale": 1.0552,
-        },
-    )
-    assert result.in_place and result.backup.read_text() == before
-    assert result.backup.name.startswith("jackson.yaml.bak-")
-    cfg = load_config(path)
-    assert (cfg.robot.ticks_per_rev_left, cfg.robot.ticks_per_rev_right) == (617.2, 625.9)
-    assert cfg.robot.wheel_separation_m == 0.20498 and cfg.deadband.reverse_right == 0.1505
-    assert cfg.imu.calibration is not None and cfg.imu.calibration.accel_scale == 1.0552
-    text = path.read_text()
-    assert "  ticks_per_rev: {left: 617.2, right: 625.9}  # [ticks/rev] C_e,run" in text
-    assert "    reverse: 0.1505            # [duty 0-1] right wheel reverse" in text
-    old_comments = [ln for ln in before.splitlines() if ln.lstrip().startswith("#")]
-    assert all(ln in text.splitlines() for ln in old_comments)
-    assert "robot.wheel_separation_m: 0.198 -> 0.20498" in result.changes
-    assert "+  wheel_separation_m: 0.20498" in result.diff
-
-
-def test_an_existing_flow_mapping_and_block_are_edited_in_place(tmp_path: Path) -> None:
-    path = tmp_path / "c.yaml"
-    path.write_text(
-        "robot:\n  ticks_per_rev: {left: 617, right: 621}   # history\n"
-        "imu:\n  calibration:\n    rotation: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
-        "    gyro_bias_rad_s: [0, 0, 0]   # [rad/s]\n    accel_scale: 1.0\n"
-    )
-    update_config(path, {"robot.ticks_per_rev.right": 626.0, "imu.calibration.accel_scale": 1.05})
-    # the comment keeps its column
-    assert (
-        path.read_text().splitlines()[1] == "  ticks_per_rev: {left: 617, right: 626.0} # history"
-    )
-    assert "    accel_scale: 1.05" in path.read_text()
-
-
-def test_an_invalid_value_leaves_the_file_untouched(tmp_path: Path) -> None:
-    path = tmp_path / "jackson.yaml"
-    shutil.copy(DEFAULT_CONFIG, path)
-    with pytest.raises(YamlUpdateError, match=r"deadband\.left\.forward"):
-        update_config(path, {"deadband.left.forward": 0.95})
-    assert path.read_text() == DEFAULT_CONFIG.read_text()
-    assert not list(tmp_path.glob("*.bak-*")) and len(list(tmp_path.iterdir())) == 1
-
-
 # ------------------------------------------------------------------------- the CLI's errors
 
 
@@ -465,3 +401,49 @@ def test_recording_or_recorded_runs_must_be_named(capsys: pytest.CaptureFixture[
 def test_a_missing_serial_port_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     assert calibrate("imu", "--port", "/dev/nonexistent-jackson", "--i2c", "unix:/nonexistent") == 2
     assert "jackson calibrate imu: " in one_error_line(capsys)
+
+
+# ------------------------------------------------------------------------- --write
+
+
+def test_write_prints_the_changes_and_the_diff_and_keeps_a_backup(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = make_run(tmp_path / "r", [(0, 0), (3000, 3010)])
+    config = tmp_path / "jackson.yaml"
+    shutil.copy(DEFAULT_CONFIG, config)
+    argv = ("encoders", "--runs", str(run), "--distance", "1", "--write", str(config))
+    assert calibrate(*argv) == 0
+    out = capsys.readouterr().out
+    (backup,) = tmp_path.glob("jackson.yaml.bak-*")
+    assert f"wrote {config} (backup {backup}):" in out
+    assert "  robot.ticks_per_rev_left: 621 -> 622" in out
+    assert f"--- {config} (before)\n+++ {config}\n" in out
+    assert "-  ticks_per_rev: 621           # [ticks/rev]" in out
+    assert "+  ticks_per_rev: {left: 622.0, right: 624.1} # [ticks/rev]" in out
+    assert backup.read_text() == DEFAULT_CONFIG.read_text()
+    assert load_config(config).robot.ticks_per_rev_right == 624.1
+    text = config.read_text()
+    assert calibrate(*argv) == 0  # the same result again: nothing to write
+    assert f"{config} already holds these values: not written" in capsys.readouterr().out
+    assert config.read_text() == text and len(list(tmp_path.glob("jackson.yaml.bak-*"))) == 1
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("robot: [wheel_radius_m\n", "not valid YAML"),
+        ("robot: 0.033\n", "robot: expected a mapping"),
+    ],
+)
+def test_write_into_a_file_that_is_not_a_host_yaml_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, message: str
+) -> None:
+    run = make_run(tmp_path / "r", [(0, 0), (3000, 3010)])
+    config = tmp_path / "c.yaml"
+    config.write_text(text)
+    argv = ("encoders", "--runs", str(run), "--distance", "1", "--config", str(DEFAULT_CONFIG))
+    assert calibrate(*argv, "--write", str(config)) == 2
+    line = one_error_line(capsys)
+    assert line.startswith("jackson calibrate encoders: config c.yaml: ") and message in line
+    assert config.read_text() == text and not list(tmp_path.glob("c.yaml.bak-*"))

@@ -193,7 +193,7 @@ def test_update_config_writes_four_gains_keeping_the_comments(tmp_path: Path) ->
         "deadband.gain.right.reverse": 0.9987,
     }
     result = update_config(path, updates)
-    assert result.in_place
+    assert result.backup is not None and result.backup.read_text() == DEFAULT_CONFIG.read_text()
     db = load_config(path).deadband
     assert (db.gain_left, db.gain_reverse_left) == (0.9196, 0.9201)
     assert (db.gain_right, db.gain_reverse_right) == (1.0, 0.9987)
@@ -217,15 +217,14 @@ def test_setting_one_direction_keeps_the_other(tmp_path: Path) -> None:
     assert "right: {forward: 1.0, reverse: 0.95}" in path.read_text()
 
 
-def test_a_layout_the_line_editor_cannot_place_is_rewritten_with_the_gains(
-    tmp_path: Path,
-) -> None:
+def test_gains_in_a_flow_mapping_are_written_in_flow_style(tmp_path: Path) -> None:
     path = tmp_path / "flow.yaml"
     path.write_text("deadband: {gain: {left: 0.9, right: 1.1}, max_wheel_rad_s: 9.0}\n")
-    result = update_config(
-        path, {"deadband.gain.left.reverse": 0.8, "deadband.gain.right.forward": 1.05}
+    update_config(path, {"deadband.gain.left.reverse": 0.8, "deadband.gain.right.forward": 1.05})
+    assert path.read_text() == (
+        "deadband: {gain: {left: {forward: 0.9, reverse: 0.8}, right: {forward: 1.05, "
+        "reverse: 1.1}}, max_wheel_rad_s: 9.0}\n"
     )
-    assert not result.in_place
     db = load_config(path).deadband
     assert (db.gain_left, db.gain_reverse_left) == (0.9, 0.8)
     assert (db.gain_right, db.gain_reverse_right) == (1.05, 1.1)
