@@ -7,13 +7,17 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from jackson.calibration.campaign import run_campaign
 
 JACKSON = str(Path(sys.executable).parent / "jackson")
 
 
-def test_square_campaign_writes_the_report(tmp_path: Path) -> None:
-    results = run_campaign("square", 2, tmp_path / "sq", workers=2, seed=5, progress=False)
+def test_square_campaign_writes_the_report(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    results = run_campaign("square", 2, tmp_path / "sq", workers=2, seed=5, progress=True)
     assert [r["completed"] for r in results] == [True, True]
     for r in results:
         assert r["gt_closure_cm"] < 10.0
@@ -25,13 +29,30 @@ def test_square_campaign_writes_the_report(tmp_path: Path) -> None:
         "summary.md",
         "summary.json",
         "trajectories.png",
+        "trajectories.pdf",
         "closure.png",
+        "closure.pdf",
+        "nees.png",
+        "nees.pdf",
         "runs/R01/ground_truth.csv",
         "runs/R02/ekf.csv",
     ):
         assert (tmp_path / "sq" / name).exists(), name
     summary = (tmp_path / "sq" / "summary.md").read_text()
     assert "EKF closure (cm)" in summary and "1.18 ± 0.96" in summary  # the paper beside ours
+    ekf = json.loads((tmp_path / "sq" / "summary.json").read_text())["metrics"]["ekf_closure_cm"]
+    assert ekf["n"] == 2 and ekf["unit"] == "cm" and ekf["ci_method"] == "lognormal-cox"
+    assert 0.0 < ekf["ci_low"] <= ekf["mean"] <= ekf["ci_high"]
+    assert ekf["paper"]["physical"] == {"mean": 1.18, "sd": 0.96, "note": None}
+    # stderr is no terminal here: one line per finished trial, in the order they finished
+    lines = [line for line in capfd.readouterr().err.splitlines() if line.startswith("[")]
+    assert [line[:6] for line in lines] == ["[1/2] ", "[2/2] "]
+    for r in results:
+        line = (
+            f"square seed {r['seed']} (R{r['trial'] + 1:02d}): completed, "
+            f"GT closure {r['gt_closure_cm']:.1f} cm"
+        )
+        assert any(line in text for text in lines), line
 
 
 def test_campaign_is_deterministic_for_a_seed(tmp_path: Path) -> None:
@@ -41,8 +62,11 @@ def test_campaign_is_deterministic_for_a_seed(tmp_path: Path) -> None:
     assert [[r[k] for k in keys] for r in a] == [[r[k] for k in keys] for r in b]
     for r in a:
         assert 0.9 < r["gt_loop_diameter_ccw_m"] < 1.2 and 0.9 < r["gt_loop_diameter_cw_m"] < 1.2
-    rows = json.loads((tmp_path / "a" / "summary.json").read_text())["rows"]
-    assert any(row["metric"].startswith("CCW loop diameter") for row in rows)
+    metrics = json.loads((tmp_path / "a" / "summary.json").read_text())["metrics"]
+    ccw = metrics["gt_loop_diameter_ccw_m"]
+    assert ccw["label"] == "CCW loop diameter, ground truth" and ccw["unit"] == "m"
+    assert ccw["mean"] == sum(r["gt_loop_diameter_ccw_m"] for r in a) / 2
+    assert ccw["paper"]["physical"] == {"mean": 1.0795, "sd": 0.0167, "note": "floor"}
 
 
 def test_jackson_run_prints_the_table_and_writes_the_plot(tmp_path: Path) -> None:
@@ -55,3 +79,4 @@ def test_jackson_run_prints_the_table_and_writes_the_plot(tmp_path: Path) -> Non
     assert out.returncode == 0, out.stderr
     assert "ground-truth closure" in out.stdout and "real-time factor" in out.stdout
     assert (tmp_path / "run" / "trajectory.png").stat().st_size > 10_000
+    assert (tmp_path / "run" / "trajectory.pdf").read_bytes()[:5] == b"%PDF-"
