@@ -30,8 +30,8 @@ def _isolated_ros_env() -> None:
 
 
 def filtered_latencies(seconds: float) -> list[float]:
-    from jackson.host.daemon import _BridgeListener
     from jackson.host.ros.bridge import RosBridge, ros_available
+    from jackson.host.ros.messages import MessageBuilder, RosOutput
     from jackson.host.ros.qos import odometry_qos
     from jackson.host_bench import telemetry_stream
 
@@ -46,8 +46,10 @@ def filtered_latencies(seconds: float) -> list[float]:
 
     frames = telemetry_stream(seconds)
     core = HostCore(HostConfig(), NullOutput(), lambda m: None)
-    bridge = RosBridge(core)
-    core.listeners.append(_BridgeListener(bridge))
+    # MCU-time stamps (use_sim_time), so a message is matched to the frame that produced it
+    bridge = RosBridge(core, parameter_overrides={"use_sim_time": True})
+    builder = MessageBuilder(bridge.settings, core.cfg.odometry, bridge.clock)
+    core.listeners.append(RosOutput(builder, [bridge], telemetry=False))
     ctx = Context()
     rclpy.init(context=ctx)
     node = rclpy.create_node("jackson_bench_listener", context=ctx)

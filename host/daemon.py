@@ -22,10 +22,8 @@ from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS, Mission
 from jackson.host.control.base import ScanMission
-from jackson.host.core import CoreListener, DutySource, FrameResult, HostCore
-from jackson.host.ekf import EkfState
+from jackson.host.core import CoreListener, DutySource, HostCore
 from jackson.host.health import Transition
-from jackson.host.nav.types import Scan
 from jackson.host.recording import RunRecorder, run_in_progress
 from jackson.protocol import (
     PROTOCOL_VERSION,
@@ -54,23 +52,6 @@ class _OperatorListener(CoreListener):
     def on_event(self, host_time_ns: int, text: str) -> None:
         if text.startswith("health: braking"):
             self.daemon._say(text)
-
-
-class _BridgeListener(CoreListener):
-    """Hands what the core computes to the ROS bridge."""
-
-    def __init__(self, bridge: Any) -> None:
-        self.bridge = bridge
-
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
-        self.bridge.on_telemetry(core, result.telemetry)
-        self.bridge.on_navigation(result.t_s)
-
-    def on_scan(self, core: HostCore, scan: Scan) -> None:
-        self.bridge.on_scan(scan.t_s, scan.angles_rad, scan.ranges_m)
-
-    def on_filtered(self, t_s: float, state: EkfState) -> None:
-        self.bridge.on_filtered(t_s, state)
 
 
 class DaemonError(RuntimeError):
@@ -190,9 +171,21 @@ class Daemon:
         self.events: list[str] = []  # what the operator was told, in order
         self._repairer: threading.Thread | None = None
         self.bag: Any = None
+        self.bridge: Any = None
+        self.ros: Any = None  # the RosOutput feeding the bag and the bridge
+        from jackson.host.ros.messages import MessageBuilder, RosOutput, RosSettings
+
+        if ros_args is not None:  # --ros: rclpy is imported only here
+            from jackson.host.ros.bridge import RosBridge
+
+            self.bridge = RosBridge(self.core, args=ros_args)
+            if self.bridge.missing:
+                self._say(
+                    "ROS: not published (message package missing): "
+                    + ", ".join(sorted(set(self.bridge.missing)))
+                )
         if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
             from jackson.host.ros.bag import BagRecorder
-            from jackson.host.ros.bag_listener import BagListener
 
             # earlier runs' unfinished bags are repaired beside the running daemon: READY and
             # the watchdog's pings must not wait for a long repair
@@ -200,15 +193,29 @@ class Daemon:
                 target=self._repair_earlier_runs, args=(run_folder,), name="bag-repair", daemon=True
             )
             max_bytes = int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None
-            self.bag = BagRecorder(run_folder / "bag", odometry=cfg.odometry, max_bytes=max_bytes)
-            self.core.listeners.append(BagListener(self.bag))
+            # the bag records what the node publishes: its names, offsets and clock
+            self.bag = BagRecorder(
+                run_folder / "bag",
+                self.bridge.settings if self.bridge is not None else RosSettings.for_config(cfg),
+                odometry=cfg.odometry,
+                clock=self.bridge.clock if self.bridge is not None else None,
+                max_bytes=max_bytes,
+            )
+        sinks = [x for x in (self.bag, self.bridge) if x is not None]
+        if sinks:
+            builder = (
+                self.bag.builder
+                if self.bag is not None
+                else MessageBuilder(self.bridge.settings, cfg.odometry, self.bridge.clock)
+            )
+            self.ros = RosOutput(
+                builder,
+                sinks,
+                telemetry=self.bag is not None,
+                received=self.bridge.received if self.bridge is not None else None,
+            )
+            self.core.listeners.append(self.ros)
         self.core.listeners.append(_OperatorListener(self))
-        self.bridge: Any = None
-        if ros_args is not None:  # --ros: rclpy is imported only here
-            from jackson.host.ros.bridge import RosBridge
-
-            self.bridge = RosBridge(self.core, args=ros_args)
-            self.core.listeners.append(_BridgeListener(self.bridge))
         self.stop = threading.Event()
         self.link_downs = 0
 
@@ -371,10 +378,10 @@ class Daemon:
                 if core.abort_reason is not None:
                     self.tell(f"mission aborted: {core.abort_reason}")
                     break
-                if self.bridge is not None and core.last_telemetry is not None:
+                if self.ros is not None and core.last_telemetry is not None:
                     from jackson.host.ros.bridge import diagnostic_values
 
-                    self.bridge.diagnostics(
+                    self.ros.diagnostics(
                         diagnostic_values(core, core.last_telemetry, link=self.health())
                     )
                 if core.mission is not None and core.mission.done and core.braked:

@@ -64,7 +64,7 @@ def test_nothing_imports_rclpy_without_ros() -> None:
     """The daemon, its bag recorder and the command line load without rclpy (only --ros may)."""
     code = (
         "import sys, jackson.main as m; m.build_parser(); "
-        "import jackson.host.daemon, jackson.host.ros.bag, jackson.host.ros.bag_listener, "
+        "import jackson.host.daemon, jackson.host.ros.bag, jackson.host.ros.messages, "
         "jackson.host.ros.bridge, jackson.sim.ros, jackson.sim.runner; "
         "print(sorted(k for k in sys.modules if k.split('.')[0] in ('rclpy', 'rosidl_runtime_py')))"
     )

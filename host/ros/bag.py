@@ -54,12 +54,11 @@ from __future__ import annotations
 import math
 import os
 import struct
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 from typing import Any, BinaryIO, Literal
 
-import numpy as np
 import yaml
 from mcap.exceptions import InvalidMagic, McapError
 from mcap.reader import SeekingReader
@@ -87,83 +86,25 @@ from rosbags.typesys.store import Typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
 from jackson.host.odometry import OdometryCovariance
-from jackson.host.ros.names import FrameIds, TopicNames
+from jackson.host.ros.messages import (
+    NS_PER_S,
+    TOPIC_TYPES,
+    MessageBuilder,
+    RosSettings,
+    StampClock,
+    planar_covariance,
+)
 
-# ROS 2 Jazzy message classes (typed dataclasses shipped with rosbags)
 DiagnosticArray = jazzy.diagnostic_msgs__msg__DiagnosticArray
-DiagnosticStatus = jazzy.diagnostic_msgs__msg__DiagnosticStatus
-Header = jazzy.std_msgs__msg__Header
-Imu = jazzy.sensor_msgs__msg__Imu
-JointState = jazzy.sensor_msgs__msg__JointState
-KeyValue = jazzy.diagnostic_msgs__msg__KeyValue
-MultiArrayLayout = jazzy.std_msgs__msg__MultiArrayLayout
-Odometry = jazzy.nav_msgs__msg__Odometry
-Point = jazzy.geometry_msgs__msg__Point
-Pose = jazzy.geometry_msgs__msg__Pose
-PoseWithCovariance = jazzy.geometry_msgs__msg__PoseWithCovariance
-Quaternion = jazzy.geometry_msgs__msg__Quaternion
-TFMessage = jazzy.tf2_msgs__msg__TFMessage
-Time = jazzy.builtin_interfaces__msg__Time
-Transform = jazzy.geometry_msgs__msg__Transform
-TransformStamped = jazzy.geometry_msgs__msg__TransformStamped
-Twist = jazzy.geometry_msgs__msg__Twist
-TwistWithCovariance = jazzy.geometry_msgs__msg__TwistWithCovariance
-UInt8MultiArray = jazzy.std_msgs__msg__UInt8MultiArray
-Vector3 = jazzy.geometry_msgs__msg__Vector3
 
 BAG_VERSION: Literal[9] = 9  # rosbag2 metadata version of ROS 2 Jazzy
-GYRO_SIGMA_RAD_S = 3.999e-4  # [rad/s] MPU-6050 gyro noise (Allan deviation, calibration)
-ACCEL_SIGMA_M_S2 = 1.7976e-2  # [m/s^2] MPU-6050 accelerometer noise
 DEFAULT_FLUSH_INTERVAL_S = 1.0  # [s] of message time between chunk flushes
-NS_PER_S = 1_000_000_000
 
 _LEVEL_TEXT = ("OK", "WARN", "ERROR", "STALE")
 
 
 class BagError(RuntimeError):
     """A bag cannot be created, written or repaired (the message names the folder)."""
-
-
-@dataclass(frozen=True)
-class StaticTransform:
-    """A fixed transform published once on /tf_static.
-
-    Attributes
-    ----------
-    parent : str
-        Parent frame id.
-    child : str
-        Child frame id.
-    xyz_m : tuple of float
-        Translation of the child in the parent frame [m].
-    rpy_rad : tuple of float
-        Roll, pitch and yaw of the child in the parent frame [rad].
-    """
-
-    parent: str
-    child: str
-    xyz_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-
-def default_static_transforms(frames: FrameIds) -> tuple[StaticTransform, ...]:
-    """Identity mounting transforms: base_footprint -> base_link -> {imu_link, laser}.
-
-    Parameters
-    ----------
-    frames : FrameIds
-        The frame names.
-
-    Returns
-    -------
-    tuple of StaticTransform
-        The three transforms, parent first.
-    """
-    return (
-        StaticTransform(frames.base_footprint, frames.base_link),
-        StaticTransform(frames.base_link, frames.imu_link),
-        StaticTransform(frames.base_link, frames.laser),
-    )
 
 
 @dataclass(frozen=True)
@@ -174,21 +115,21 @@ class _TopicSpec:
     depth: int
 
 
-def _topic_specs(topics: TopicNames) -> dict[str, _TopicSpec]:
-    """Type and offered QoS (Appendix C) of each topic, in the order they are registered."""
+def _topic_specs(settings: RosSettings) -> dict[str, tuple[str, _TopicSpec]]:
+    """Name, type and offered QoS (Appendix C) of each topic by its key, in registration order
+    (every topic the live node publishes or receives, and the raw frames)."""
     rel, be = QosReliability.RELIABLE, QosReliability.BEST_EFFORT
     vol, latched = QosDurability.VOLATILE, QosDurability.TRANSIENT_LOCAL
-    odom, tf = "nav_msgs/msg/Odometry", "tf2_msgs/msg/TFMessage"
-    return {
-        topics.wheel_odom: _TopicSpec(odom, rel, vol, 10),
-        topics.imu: _TopicSpec("sensor_msgs/msg/Imu", be, vol, 5),
-        topics.filtered: _TopicSpec(odom, rel, vol, 10),
-        topics.joint_states: _TopicSpec("sensor_msgs/msg/JointState", rel, vol, 10),
-        topics.diagnostics: _TopicSpec("diagnostic_msgs/msg/DiagnosticArray", rel, vol, 10),
-        topics.tf: _TopicSpec(tf, rel, vol, 100),
-        topics.tf_static: _TopicSpec(tf, rel, latched, 1),
-        topics.telemetry: _TopicSpec("std_msgs/msg/UInt8MultiArray", rel, vol, 10),
-    }
+    kinds = {"reliable": (rel, vol), "sensor": (be, vol), "latched": (rel, latched)}
+    kinds["map"] = kinds["latched"]
+    out = {}
+    for key, (_, kind, depth) in TOPIC_TYPES.items():
+        reliability, durability = kinds[kind]
+        out[key] = (
+            settings.topic(key),
+            _TopicSpec(settings.topic_type(key), reliability, durability, depth),
+        )
+    return out
 
 
 def _qos(spec: _TopicSpec) -> Qos:
@@ -229,56 +170,6 @@ def stamp_ns(t_s: float) -> int:
     return round(t_s * NS_PER_S)
 
 
-def _time(ns: int) -> Time:
-    sec, nanosec = divmod(ns, NS_PER_S)
-    return Time(sec=sec, nanosec=nanosec)
-
-
-def yaw_quaternion(yaw_rad: float) -> Quaternion:
-    """The rotation by ``yaw_rad`` about z as a unit quaternion.
-
-    Parameters
-    ----------
-    yaw_rad : float
-        Heading [rad], CCW positive.
-
-    Returns
-    -------
-    Quaternion
-        ``(x, y, z, w) = (0, 0, sin(yaw / 2), cos(yaw / 2))``.
-    """
-    half = 0.5 * yaw_rad
-    return Quaternion(x=0.0, y=0.0, z=math.sin(half), w=math.cos(half))
-
-
-def _rpy_quaternion(roll: float, pitch: float, yaw: float) -> Quaternion:
-    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
-    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
-    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
-    return Quaternion(
-        x=sr * cp * cy - cr * sp * sy,
-        y=cr * sp * cy + sr * cp * sy,
-        z=cr * cp * sy - sr * sp * cy,
-        w=cr * cp * cy + sr * sp * sy,
-    )
-
-
-def _planar_covariance(x: float, y: float, yaw: float) -> np.ndarray[Any, np.dtype[np.float64]]:
-    """A row-major 6 x 6 covariance over (x, y, z, roll, pitch, yaw) with a planar diagonal.
-
-    z, roll and pitch are not estimated (the robot is planar) and stay 0.
-    """
-    cov = np.zeros(36, dtype=np.float64)
-    cov[0], cov[7], cov[35] = x, y, yaw
-    return cov
-
-
-def _diag3(value: float) -> np.ndarray[Any, np.dtype[np.float64]]:
-    cov = np.zeros(9, dtype=np.float64)
-    cov[0] = cov[4] = cov[8] = value
-    return cov
-
-
 @dataclass
 class _State:
     last_ns: dict[str, int] = field(default_factory=dict)
@@ -292,21 +183,21 @@ class _State:
 class BagRecorder:
     """Writes a run's ROS 2 topics into a rosbag2 folder with MCAP storage.
 
-    The methods take plain values (no dependency on the daemon), one message each; /tf_static
-    is written once, stamped with the first message's time. See the module docstring for the
-    time base and the crash safety. Usable as a context manager (``close()`` on exit).
+    Messages come built (:class:`~jackson.host.ros.messages.MessageBuilder`, the live node's
+    builder): :meth:`write` files one under its topic's key. The plain-value methods
+    (:meth:`wheel_odom`, :meth:`imu`...) build through the same builder, for tools and tests
+    without a core. /tf_static is written once, with the first message, unless it came
+    already. See the module docstring for the time base and the crash safety. Usable as a
+    context manager (``close()`` on exit).
     """
 
     def __init__(
         self,
         path: Path,
-        frame_ids: FrameIds | None = None,
+        settings: RosSettings | None = None,
         *,
-        topics: TopicNames | None = None,
         odometry: OdometryCovariance | None = None,
-        static_transforms: Sequence[StaticTransform] | None = None,
-        gyro_sigma_rad_s: float = GYRO_SIGMA_RAD_S,
-        accel_sigma_m_s2: float = ACCEL_SIGMA_M_S2,
+        clock: StampClock | None = None,
         flush_interval_s: float | None = DEFAULT_FLUSH_INTERVAL_S,
         hardware_id: str = "jackson",
         max_bytes: int | None = None,
@@ -317,27 +208,20 @@ class BagRecorder:
         ----------
         path : Path
             The rosbag2 folder to create (it must not exist; its parent may not either).
-        frame_ids : FrameIds or None
-            Frame and joint names (defaults: :class:`FrameIds`).
-        topics : TopicNames or None
-            Topic names (defaults: :class:`TopicNames`).
+        settings : RosSettings or None
+            Topic and frame names, mounting offsets, covariances: the live node's parameters
+            (default: :class:`RosSettings`).
         odometry : OdometryCovariance or None
             The /wheel/odom covariances (the config's ``odometry`` section; defaults:
             ``OdometryCovariance()``).
-        static_transforms : sequence of StaticTransform or None
-            The /tf_static transforms (default: identity mounting,
-            :func:`default_static_transforms`).
-        gyro_sigma_rad_s : float
-            Gyro noise sigma [rad/s]; its square fills the diagonal of
-            ``angular_velocity_covariance``.
-        accel_sigma_m_s2 : float
-            Accelerometer noise sigma [m/s^2]; its square fills the diagonal
-            of ``linear_acceleration_covariance``.
+        clock : StampClock or None
+            MCU time to ROS time (default: MCU time itself, the bag's time base without a
+            live node).
         flush_interval_s : float or None
             Message time [s] between writes of the open chunk to disk (None:
             only at close).
         hardware_id : str
-            ``hardware_id`` of the /diagnostics status.
+            ``hardware_id`` of the /diagnostics statuses.
         max_bytes : int or None
             Start the next file once the open one exceeds this size [bytes]
             (checked at each chunk flush): ``<name>_0.mcap``, ``<name>_1.mcap``... in
@@ -349,25 +233,21 @@ class BagRecorder:
             The folder exists already or cannot be created.
         """
         self.path = Path(path)
-        self.frames = frame_ids or FrameIds()
-        self.topics = topics or TopicNames()
-        odo = odometry or OdometryCovariance()
-        self.hardware_id = hardware_id
+        self.settings = settings or RosSettings()
+        self.builder = MessageBuilder(
+            self.settings,
+            odometry or OdometryCovariance(),
+            clock or StampClock(sim_time=True),
+            hardware_id,
+        )
         self.flush_interval_ns = (
             None if flush_interval_s is None else stamp_ns(max(flush_interval_s, 0.0))
         )
-        self._static = tuple(
-            default_static_transforms(self.frames)
-            if static_transforms is None
-            else static_transforms
-        )
-        self._odom_pose_cov = _planar_covariance(odo.pose_xy, odo.pose_xy, odo.pose_yaw)
-        self._odom_twist_cov = _planar_covariance(odo.twist_vx, odo.twist_vy, odo.twist_wz)
-        self._gyro_cov = _diag3(gyro_sigma_rad_s**2)
-        self._accel_cov = _diag3(accel_sigma_m_s2**2)
         self._store = get_typestore(Stores.ROS2_JAZZY)
         self._state = _State()
-        self._topics = _bag_topics(_topic_specs(self.topics), self._store)
+        specs = _topic_specs(self.settings)
+        self._names = {key: name for key, (name, _) in specs.items()}
+        self._topics = _bag_topics({name: spec for name, spec in specs.values()}, self._store)
         self.max_bytes = max_bytes
         self.files: list[Path] = []  # every MCAP file written, in order
         self._file: BinaryIO | None = None
@@ -437,6 +317,24 @@ class BagRecorder:
 
     # ---- messages -------------------------------------------------------------------------
 
+    def write(self, key: str, t_s: float, msg: Any) -> None:
+        """File a built message under the topic with key ``key`` at MCU time ``t_s``.
+
+        Parameters
+        ----------
+        key : str
+            The topic's key (:data:`~jackson.host.ros.messages.TOPIC_TYPES`).
+        t_s : float
+            MCU time of the message [s] (its stamp is the builder's).
+        msg : object
+            The message (a ``rosbags`` Jazzy dataclass).
+        """
+        if key == "tf_static":
+            if self._state.static_written:
+                return
+            self._state.static_written = True
+        self._write(key, t_s, msg)
+
     def wheel_odom(self, t_s: float, x: float, y: float, yaw: float, v: float, w: float) -> None:
         """Wheel odometry on /wheel/odom (Eq. 2, 3, 9), odom -> base_footprint.
 
@@ -444,10 +342,8 @@ class BagRecorder:
         ----------
         t_s : float
             MCU time of the frame [s].
-        x : float
-            Position x [m].
-        y : float
-            Position y [m].
+        x, y : float
+            Position [m].
         yaw : float
             Heading [rad].
         v : float
@@ -455,20 +351,14 @@ class BagRecorder:
         w : float
             Yaw rate [rad/s].
         """
+        b = self.builder
         self._write(
-            self.topics.wheel_odom,
+            "wheel_odom",
             t_s,
-            lambda h: self._odometry(
-                h, x, y, yaw, v, 0.0, w, self._odom_pose_cov, self._odom_twist_cov
-            ),
+            b.odometry(t_s, x, y, yaw, (v, 0.0, w), b.odom_pose_cov, b.odom_twist_cov),
         )
 
-    def imu(
-        self,
-        t_s: float,
-        accel_xyz: Sequence[float],
-        gyro_xyz: Sequence[float],
-    ) -> None:
+    def imu(self, t_s: float, accel_xyz: Sequence[float], gyro_xyz: Sequence[float]) -> None:
         """An IMU sample on /imu/data in imu_link, without orientation.
 
         Parameters
@@ -482,21 +372,7 @@ class BagRecorder:
         """
         ax, ay, az = (float(a) for a in accel_xyz)
         gx, gy, gz = (float(g) for g in gyro_xyz)
-
-        def build(header: Header) -> Imu:
-            orientation_cov = np.zeros(9, dtype=np.float64)
-            orientation_cov[0] = -1.0  # REP 145: no orientation estimate
-            return Imu(
-                header=header,
-                orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
-                orientation_covariance=orientation_cov,
-                angular_velocity=Vector3(x=gx, y=gy, z=gz),
-                angular_velocity_covariance=self._gyro_cov.copy(),
-                linear_acceleration=Vector3(x=ax, y=ay, z=az),
-                linear_acceleration_covariance=self._accel_cov.copy(),
-            )
-
-        self._write(self.topics.imu, t_s, build, frame_id=self.frames.imu_link)
+        self._write("imu", t_s, self.builder.imu_si(t_s, (gx, gy, gz), (ax, ay, az)))
 
     def filtered(
         self,
@@ -515,16 +391,12 @@ class BagRecorder:
         ----------
         t_s : float
             MCU time the estimate refers to [s].
-        x : float
-            Position x [m].
-        y : float
-            Position y [m].
+        x, y : float
+            Position [m].
         yaw : float
             Heading [rad].
-        vx : float
-            Body velocity x [m/s].
-        vy : float
-            Body velocity y [m/s].
+        vx, vy : float
+            Body velocity [m/s].
         vyaw : float
             Yaw rate [rad/s].
         p_diag : sequence of float or None
@@ -537,65 +409,36 @@ class BagRecorder:
         ValueError
             ``p_diag`` has fewer than 3 values, or 4 or 5.
         """
-        pose_cov = _planar_covariance(0.0, 0.0, 0.0)
-        twist_cov = _planar_covariance(0.0, 0.0, 0.0)
+        p = [0.0] * 6
         if p_diag is not None:
             p = [float(v) for v in p_diag]
             if len(p) < 3 or 3 < len(p) < 6:
                 raise ValueError(f"p_diag needs 3 or at least 6 values, got {len(p)}")
-            pose_cov = _planar_covariance(p[0], p[1], p[2])
-            if len(p) >= 6:
-                twist_cov = _planar_covariance(p[3], p[4], p[5])
+            p = [*p, 0.0, 0.0, 0.0][:6]
+        b = self.builder
+        pose_cov = planar_covariance(p[0], p[1], 0.0, 0.0, 0.0, p[2])
+        twist_cov = planar_covariance(p[3], p[4], 0.0, 0.0, 0.0, p[5])
         self._write(
-            self.topics.filtered,
-            t_s,
-            lambda h: self._odometry(h, x, y, yaw, vx, vy, vyaw, pose_cov, twist_cov),
+            "filtered", t_s, b.odometry(t_s, x, y, yaw, (vx, vy, vyaw), pose_cov, twist_cov)
         )
-
-        def transform(header: Header) -> TFMessage:
-            return TFMessage(
-                transforms=[
-                    TransformStamped(
-                        header=header,
-                        child_frame_id=self.frames.base_footprint,
-                        transform=Transform(
-                            translation=Vector3(x=x, y=y, z=0.0), rotation=yaw_quaternion(yaw)
-                        ),
-                    )
-                ]
-            )
-
-        self._write(self.topics.tf, t_s, transform)
+        self._write("tf", t_s, b.odom_tf(t_s, x, y, yaw))
 
     def joint_states(
         self, t_s: float, angle_l: float, angle_r: float, vel_l: float, vel_r: float
     ) -> None:
-        """Wheel rotations on /joint_states (left_wheel_joint, right_wheel_joint).
+        """Wheel rotations on /joint_states (the settings' joint names).
 
         Parameters
         ----------
         t_s : float
             MCU time of the frame [s].
-        angle_l : float
-            Left wheel angle [rad].
-        angle_r : float
-            Right wheel angle [rad].
-        vel_l : float
-            Left wheel speed [rad/s].
-        vel_r : float
-            Right wheel speed [rad/s].
+        angle_l, angle_r : float
+            Wheel angles [rad].
+        vel_l, vel_r : float
+            Wheel speeds [rad/s].
         """
         self._write(
-            self.topics.joint_states,
-            t_s,
-            lambda h: JointState(
-                header=h,
-                name=[self.frames.left_wheel_joint, self.frames.right_wheel_joint],
-                position=np.array([angle_l, angle_r], dtype=np.float64),
-                velocity=np.array([vel_l, vel_r], dtype=np.float64),
-                effort=np.zeros(0, dtype=np.float64),
-            ),
-            frame_id="",
+            "joint_states", t_s, self.builder.wheels(t_s, (angle_l, angle_r), (vel_l, vel_r))
         )
 
     def diagnostics(
@@ -607,15 +450,14 @@ class BagRecorder:
         name: str = "jackson: host",
         message: str | None = None,
     ) -> None:
-        """One status on /diagnostics (the daemon's 1 Hz summary).
+        """One status on /diagnostics.
 
         Parameters
         ----------
         t_s : float
             MCU time [s].
         values : mapping of str to str
-            Key-value pairs, e.g. link state, IMU health, CRC errors, rejected
-            measurements, watchdog state.
+            Key-value pairs.
         level : int
             ``DiagnosticStatus`` level: 0 OK, 1 WARN, 2 ERROR, 3 STALE.
         name : str
@@ -630,20 +472,9 @@ class BagRecorder:
         """
         if level not in range(len(_LEVEL_TEXT)):
             raise ValueError(f"diagnostic level must be 0 to 3, got {level}")
-        pairs = [KeyValue(key=str(k), value=str(v)) for k, v in values.items()]
-        status = DiagnosticStatus(
-            level=level,
-            name=name,
-            message=_LEVEL_TEXT[level] if message is None else message,
-            hardware_id=self.hardware_id,
-            values=pairs,
-        )
-        self._write(
-            self.topics.diagnostics,
-            t_s,
-            lambda h: DiagnosticArray(header=h, status=[status]),
-            frame_id="",
-        )
+        b = self.builder
+        status = b.status(name, level, _LEVEL_TEXT[level] if message is None else message, **values)
+        self._write("diagnostics", t_s, DiagnosticArray(header=b.header(t_s, ""), status=[status]))
 
     def raw_frame(self, t_s: float, data: bytes) -> None:
         """A received frame's bytes on /jackson/telemetry as ``std_msgs/msg/UInt8MultiArray``.
@@ -655,14 +486,7 @@ class BagRecorder:
         data : bytes
             The frame, as received.
         """
-        payload = np.frombuffer(bytes(data), dtype=np.uint8).copy()
-        self._write(
-            self.topics.telemetry,
-            t_s,
-            lambda _h: UInt8MultiArray(
-                layout=MultiArrayLayout(dim=[], data_offset=0), data=payload
-            ),
-        )
+        self._write("telemetry", t_s, self.builder.raw_frame(data))
 
     # ---- lifecycle ------------------------------------------------------------------------
 
@@ -702,8 +526,9 @@ class BagRecorder:
         st.closed = True
         st.close_requested = False
         try:
-            if not st.static_written:
-                self._write_static(max(st.last_ns.values(), default=0))
+            if not st.static_written and self.settings.publish_tf:
+                last = max(st.last_ns.values(), default=0)
+                self._write_static(last / NS_PER_S, last)
             self._finish_file()
             _write_metadata(self.path, self._topics, self._done)
         except Exception as exc:
@@ -722,54 +547,17 @@ class BagRecorder:
 
     # ---- internals ------------------------------------------------------------------------
 
-    def _odometry(
-        self,
-        header: Header,
-        x: float,
-        y: float,
-        yaw: float,
-        vx: float,
-        vy: float,
-        vyaw: float,
-        pose_cov: np.ndarray[Any, np.dtype[np.float64]],
-        twist_cov: np.ndarray[Any, np.dtype[np.float64]],
-    ) -> Odometry:
-        return Odometry(
-            header=header,
-            child_frame_id=self.frames.base_footprint,
-            pose=PoseWithCovariance(
-                pose=Pose(position=Point(x=x, y=y, z=0.0), orientation=yaw_quaternion(yaw)),
-                covariance=pose_cov,
-            ),
-            twist=TwistWithCovariance(
-                twist=Twist(
-                    linear=Vector3(x=vx, y=vy, z=0.0), angular=Vector3(x=0.0, y=0.0, z=vyaw)
-                ),
-                covariance=twist_cov,
-            ),
-        )
-
-    def _write(
-        self,
-        topic: str,
-        t_s: float,
-        build: Callable[[Header], Any],
-        *,
-        frame_id: str | None = None,
-    ) -> None:
-        """Serialise ``build(header)`` and file it under ``topic`` at ``t_s``."""
+    def _write(self, key: str, t_s: float, msg: Any) -> None:
+        """Serialise ``msg`` and file it under the topic with key ``key`` at ``t_s``."""
         st = self._state
+        ns = stamp_ns(t_s)  # refuses a negative or infinite time before anything is written
         if not self._claim():
             return
         try:
-            ns = stamp_ns(t_s)
-            if not st.static_written:
-                self._write_static(ns)
-            header = Header(
-                stamp=_time(ns), frame_id=self.frames.odom if frame_id is None else frame_id
-            )
-            msg = build(header)
-            self._put(topic, ns, msg)
+            ns = self.builder.clock.ns(t_s)
+            if not st.static_written and key != "tf_static" and self.settings.publish_tf:
+                self._write_static(t_s, ns)
+            self._put(self._names[key], ns, msg)
             if self.flush_interval_ns is not None:
                 if st.flushed_ns is None:
                     st.flushed_ns = ns
@@ -817,23 +605,9 @@ class BagRecorder:
         span = self._span_ns
         self._span_ns = (ns, ns) if span is None else (min(span[0], ns), max(span[1], ns))
 
-    def _write_static(self, ns: int) -> None:
+    def _write_static(self, t_s: float, ns: int) -> None:
         self._state.static_written = True
-        stamp = _time(ns)
-        msg = TFMessage(
-            transforms=[
-                TransformStamped(
-                    header=Header(stamp=stamp, frame_id=s.parent),
-                    child_frame_id=s.child,
-                    transform=Transform(
-                        translation=Vector3(x=s.xyz_m[0], y=s.xyz_m[1], z=s.xyz_m[2]),
-                        rotation=_rpy_quaternion(*s.rpy_rad),
-                    ),
-                )
-                for s in self._static
-            ]
-        )
-        self._put(self.topics.tf_static, ns, msg)
+        self._put(self._names["tf_static"], ns, self.builder.static_tf(t_s))
 
     def _flush_chunk(self) -> None:
         try:

@@ -380,6 +380,8 @@ def test_robot_defaults_drive_the_daemon_with_sllidar_on_the_system_clock() -> N
         "imu_offset_m:=[0.0, 0.0, 0.0]",
         "-p",
         "laser_offset_m:=[0.0, 0.0, 0.0]",
+        "-p",
+        "publish_wheel_tf:=false",  # robot_state_publisher's
     ]
     params = bringup.sllidar_parameters(opts)
     assert params["frame_id"] == bringup.SLLIDAR_FRAME

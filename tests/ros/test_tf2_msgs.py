@@ -242,8 +242,15 @@ def test_daemon_publishes_odom_tf_and_the_static_mounting_tree(
         twin.stop()
     assert daemon.returncode == 0, err
 
-    assert frames(ear.tf) == {(FRAMES.odom, FRAMES.base_footprint)}
-    stamps = [t.header.stamp for m in ear.tf for t in m.transforms]
+    # odom -> base_footprint from the EKF, and the wheels turning on base_link
+    assert frames(ear.tf) == {
+        (FRAMES.odom, FRAMES.base_footprint),
+        (FRAMES.base_link, "left_wheel_link"),
+        (FRAMES.base_link, "right_wheel_link"),
+    }
+    stamps = [
+        t.header.stamp for m in ear.tf for t in m.transforms if t.header.frame_id == FRAMES.odom
+    ]
     ns = [s.sec * 1_000_000_000 + s.nanosec for s in stamps]
     assert ns == sorted(ns) and ns[-1] > ns[0], ns  # the bridge's stamps never go back
     for m in ear.tf + ear.tf_static:

@@ -429,6 +429,8 @@ def daemon_command(opts: Options, mounts: Mounts, ports: TwinPorts | None = None
         ("laser_offset_m", mounts.laser_m),
     ):
         cmd += ["-p", f"{name}:={_ros_list(value)}"]
+    # robot_state_publisher turns /joint_states into the wheels' transforms
+    cmd += ["-p", "publish_wheel_tf:=false"]
     return cmd
 
 
