@@ -576,5 +576,6 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
         fontsize=10,
     )
     bx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3)
-    fig.savefig(png, dpi=150)
-    plt.close(fig)
+    from jackson.calibration.report import save_figure  # report imports this module
+
+    save_figure(fig, png)

@@ -1517,8 +1517,9 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     if maze:
         _plot_navigation(axes[-1, 0], maze, [label(c) for c in maze])
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    from jackson.calibration.report import save_figure
+
+    save_figure(fig, path)
 
 
 def _plot_closure(ax2: Any, cases: Sequence[Mapping[str, Any]], names: Sequence[str]) -> None:

@@ -439,8 +439,9 @@ def plot_brakes(rows: list[FaultRow], path: Path) -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    from jackson.calibration.report import save_figure
+
+    save_figure(fig, path)
 
 
 def _brake_delay(after: list[tuple[float, bool, float, float]], t_f: float) -> float | None:

@@ -489,11 +489,7 @@ def plot_nees(png: Path, campaign: CampaignConsistency, title: str = "") -> None
     title : str
         Title of the top panel.
     """
-    import matplotlib
-
-    plot_consistency(png, campaign, title=title)
-    with matplotlib.rc_context({"pdf.fonttype": 42}):
-        plot_consistency(vector_path(png), campaign, title=title)
+    plot_consistency(png, campaign, title=title)  # draws once, saves both (save_figure)
 
 
 @dataclass(frozen=True)

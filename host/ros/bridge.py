@@ -222,6 +222,7 @@ class RosBridge:
                 parameter_overrides=overrides,
             )
             self.settings = self.params = self._declare_parameters(core)
+            self._declare_live_parameters(core)
             sim_time = bool(self.node.get_parameter("use_sim_time").value)
             self.clock = StampClock(sim_time=sim_time)
             self._create_interfaces()
@@ -248,6 +249,55 @@ class RosBridge:
             value = self.node.declare_parameter(name, initial).value
             values[name] = tuple(float(c) for c in value) if isinstance(default, tuple) else value
         return RosSettings(**values)
+
+    def _declare_live_parameters(self, core: CoreLike) -> None:
+        """The host settings a ROS user tunes at run time (``ros2 param set``): the command
+        limits (``limits.*``, the host YAML's ``limits:``) and the command watchdog
+        (``watchdog_s``). The node's own parameters (names, frames, offsets) are read once:
+        changing them is refused with the reason."""
+        cfg = core.cfg
+        for f in dataclasses.fields(cfg.limits):
+            self.node.declare_parameter(f"limits.{f.name}", float(getattr(cfg.limits, f.name)))
+        self.node.declare_parameter("watchdog_s", float(cfg.watchdog_s))
+        self.node.add_on_set_parameters_callback(self._on_set_parameters)
+
+    def _on_set_parameters(self, params: list[Any]) -> Any:
+        """Validate and apply run-time parameter changes (the executor's thread: each takes
+        effect at the next telemetry frame, by swapping one reference)."""
+        from rcl_interfaces.msg import SetParametersResult
+
+        core: Any = self.core
+        limits = None
+        watchdog_s = None
+        for p in params:
+            name, value = p.name, p.value
+            if name.startswith("limits."):
+                field_name = name.removeprefix("limits.")
+                try:
+                    base = limits if limits is not None else core.limiter.config
+                    limits = dataclasses.replace(base, **{field_name: float(value)})
+                except (TypeError, ValueError) as exc:
+                    return SetParametersResult(successful=False, reason=f"{name}: {exc}")
+            elif name == "watchdog_s":
+                from jackson.host.config import WATCHDOG_RANGE_S
+
+                low, high = WATCHDOG_RANGE_S
+                if not (isinstance(value, (int, float)) and low <= float(value) <= high):
+                    return SetParametersResult(
+                        successful=False,
+                        reason=f"watchdog_s must be within {low:g}-{high:g} s, got {value}",
+                    )
+                watchdog_s = float(value)
+            elif name in RosSettings.__dataclass_fields__:
+                return SetParametersResult(
+                    successful=False,
+                    reason=f"{name} is read when the node starts: restart the daemon to change it",
+                )
+        if limits is not None:
+            core.limiter.config = limits
+        if watchdog_s is not None:
+            core.watchdog.timeout_s = watchdog_s
+        return SetParametersResult(successful=True)
 
     def _create_interfaces(self) -> None:
         p, node = self.settings, self.node

@@ -212,7 +212,8 @@ def test_the_campaign_pools_its_runs_and_draws_the_figure(tmp_path: Path) -> Non
     plot_consistency(png, c, title="synthetic")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     width, height = int.from_bytes(png.read_bytes()[16:20]), int.from_bytes(png.read_bytes()[20:24])
-    assert (width, height) == (1200, 1275)  # 8 x 8.5 in at 150 dpi
+    assert (width, height) == (1600, 1700)  # 8 x 8.5 in at 200 dpi (report.FIGURE_DPI)
+    assert png.with_suffix(".pdf").read_bytes()[:5] == b"%PDF-"  # and its vector twin
 
 
 def test_figures_that_span_decades_keep_three_significant_digits() -> None:

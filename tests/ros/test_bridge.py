@@ -142,3 +142,33 @@ def test_cmd_vel_drives_and_silence_brakes_within_0_6_s(
     assert WATCHDOG_S - 1e-6 <= t_brake - t_last <= WATCHDOG_S + FRAME_S + 1e-6, t_brake - t_last
     assert report["stop_latency_s"] is not None, report
     assert report["stop_latency_s"] < WATCHDOG_S + 0.9, report
+
+
+def test_limits_and_watchdog_change_at_run_time_and_names_do_not(ros_env: dict[str, str]) -> None:
+    """``ros2 param set`` on the node: the command limits and the watchdog apply to the core
+    at once; a bad value and a name read at start are refused with the reason."""
+    from rclpy.parameter import Parameter
+
+    from jackson.host.actuation.output import NullOutput
+    from jackson.host.config import HostConfig
+    from jackson.host.core import HostCore
+    from jackson.host.ros.bridge import RosBridge
+
+    core = HostCore(HostConfig(), NullOutput(), lambda m: None)
+    bridge = RosBridge(core, node_name="jackson_params_test")
+    try:
+        node = bridge.node
+        assert node.get_parameter("limits.max_v_m_s").value == core.cfg.limits.max_v_m_s
+        (ok,) = node.set_parameters([Parameter("limits.max_v_m_s", value=0.2)])
+        assert ok.successful and core.limiter.config.max_v_m_s == 0.2
+        assert core.limiter.limit(1.0, 0.0, 0.0) == (0.0, 0.0)  # the ramp starts at rest
+        (ok,) = node.set_parameters([Parameter("watchdog_s", value=1.0)])
+        assert ok.successful and core.watchdog.timeout_s == 1.0
+        (bad,) = node.set_parameters([Parameter("limits.max_accel_m_s2", value=-1.0)])
+        assert not bad.successful and "max_accel_m_s2" in bad.reason
+        assert core.limiter.config.max_accel_m_s2 == core.cfg.limits.max_accel_m_s2
+        (fixed,) = node.set_parameters([Parameter("base_frame", value="base")])
+        assert not fixed.successful and "restart" in fixed.reason
+        assert node.get_parameter("base_frame").value == "base_footprint"
+    finally:
+        bridge.stop()
