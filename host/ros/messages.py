@@ -642,6 +642,22 @@ class MessageBuilder:
                 braked=v.braked,
             ),
         ]
+        clock = self.clock
+        if not clock.sim_time and clock.offset_s is not None and clock.jitter_s:
+            jitter = np.asarray(clock.jitter_s) * 1e3
+            p50, p99 = (float(x) for x in np.percentile(jitter, [50, 99]))
+            statuses.append(
+                self.status(
+                    "jackson: clock",
+                    LEVEL_OK,
+                    f"MCU time + {clock.offset_s:.6f} s; receive jitter p50 {p50:.2f} ms, "
+                    f"p99 {p99:.2f} ms",
+                    offset_s=f"{clock.offset_s:.6f}",
+                    jitter_p50_ms=f"{p50:.3f}",
+                    jitter_p99_ms=f"{p99:.3f}",
+                    jitter_max_ms=f"{float(jitter.max()):.3f}",
+                )
+            )
         if v.sensors:
             worst = max(
                 (
