@@ -51,6 +51,7 @@ and count. /tf_static is in the first file only.
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 import struct
@@ -678,15 +679,37 @@ def _qos_text(qos: Sequence[Qos]) -> str:
     return str(yaml.safe_dump(dump_qos_v9(list(qos)), default_flow_style=False)).strip()
 
 
+_TYPE_INFO: dict[str, tuple[str, str]] = {}  # msgtype -> (msgdef, RIHS01 hash), Jazzy's
+
+
+def _type_info(msgtype: str, store: Typestore) -> tuple[str, str]:
+    """The message definition and type hash of ``msgtype`` (computed once per process: a bag
+    registers every topic when it opens, and each takes milliseconds)."""
+    info = _TYPE_INFO.get(msgtype)
+    if info is None:
+        msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
+        info = _TYPE_INFO[msgtype] = (msgdef, store.hash_rihs01(msgtype))
+    return info
+
+
+_QOS_PROFILES: dict[str, list[Any]] = {}  # a topic's QoS text -> its metadata.yaml entries
+
+
+def _qos_profiles(text: str) -> list[Any]:
+    """``offered_qos_profiles`` of ``metadata.yaml`` from a topic's QoS text (parsed once per
+    text: ruamel takes milliseconds per topic, and every close writes them all)."""
+    if not text:
+        return []
+    if text not in _QOS_PROFILES:
+        _QOS_PROFILES[text] = dump_qos_v9(parse_qos(text))
+    return copy.deepcopy(_QOS_PROFILES[text])
+
+
 def _bag_topics(specs: Mapping[str, _TopicSpec], store: Typestore) -> list[BagTopic]:
     out = []
     for name, spec in specs.items():
-        msgdef, _ = store.generate_msgdef(spec.msgtype, ros_version=2)
-        out.append(
-            BagTopic(
-                name, spec.msgtype, _qos_text([_qos(spec)]), store.hash_rihs01(spec.msgtype), msgdef
-            )
-        )
+        msgdef, type_hash = _type_info(spec.msgtype, store)
+        out.append(BagTopic(name, spec.msgtype, _qos_text([_qos(spec)]), type_hash, msgdef))
     return out
 
 
@@ -719,7 +742,7 @@ def _write_metadata(folder: Path, topics: Sequence[BagTopic], files: Sequence[Ba
                     "name": t.name,
                     "type": t.msgtype,
                     "serialization_format": "cdr",
-                    "offered_qos_profiles": dump_qos_v9(parse_qos(t.qos)) if t.qos else [],
+                    "offered_qos_profiles": _qos_profiles(t.qos),
                     "type_description_hash": t.type_hash,
                 },
                 "message_count": sum(f.counts.get(t.name, 0) for f in files),
@@ -742,7 +765,9 @@ def _write_metadata(folder: Path, topics: Sequence[BagTopic], files: Sequence[Ba
     }
     tmp = folder / "metadata.yaml.tmp"
     with tmp.open("w", encoding="utf8") as f:
-        yaml.safe_dump({"rosbag2_bagfile_information": info}, f, sort_keys=False)
+        # libyaml's emitter where PyYAML has it: the pure-Python one takes ~80 ms per close
+        dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+        yaml.dump({"rosbag2_bagfile_information": info}, f, Dumper=dumper, sort_keys=False)
         f.flush()
         os.fsync(f.fileno())
     _fsync_replace(tmp, folder / "metadata.yaml")
