@@ -1,7 +1,11 @@
 """Wall time of the paper's campaigns on the twin (run by ``jackson bench``).
 
 Square x10 plus figure-eight x10, each trial the real host against the twin in lockstep, on 2
-worker processes; target under 60 s together.
+worker processes. Right after them, in the same run, the twin alone (:mod:`jackson.sim.bench`'s
+figure-eight, no LiDAR) simulates as many seconds as all trials together. Figure: the
+campaigns' wall time over the twin alone's; the target, 40x, is what the former absolute targets
+imply (60 s for the campaigns' 1400-odd simulated seconds against the twin alone's 1000x real
+time).
 """
 
 from __future__ import annotations
@@ -11,22 +15,47 @@ import time
 from pathlib import Path
 
 from jackson.calibration.campaign import run_campaign
-from jackson.common.bench import BenchResult
+from jackson.common.bench import BenchResult, reference_loop_us
+
+CAMPAIGN_OVER_TWIN_TARGET = 40.0
 
 
 def run(quick: bool = False) -> list[BenchResult]:
+    """The campaigns' figure for ``jackson bench``.
+
+    Parameters
+    ----------
+    quick : bool
+        Four trials of each mission instead of ten.
+
+    Returns
+    -------
+    list[BenchResult]
+        The campaigns' wall time over the twin alone's for the same simulated time.
+    """
+    from jackson.sim.bench import real_time_factor
+
     trials = 4 if quick else 10
+    loop_us = reference_loop_us()
     with tempfile.TemporaryDirectory(prefix="jackson-bench-") as tmp:
         t0 = time.perf_counter()
-        run_campaign("square", trials, Path(tmp) / "square", workers=2, progress=False)
-        run_campaign("figure8", trials, Path(tmp) / "figure8", workers=2, progress=False)
+        square = run_campaign("square", trials, Path(tmp) / "square", workers=2, progress=False)
+        eight = run_campaign("figure8", trials, Path(tmp) / "figure8", workers=2, progress=False)
         wall = time.perf_counter() - t0
+    sim_s = sum(float(m["duration_s"]) for m in [*square, *eight])
+    twin_s = sim_s / real_time_factor(False, sim_s)
+    loop_us = min(loop_us, reference_loop_us())
     return [
         BenchResult(
-            f"campaign.square_x{trials}_plus_figure8_x{trials}_2_workers",
+            f"campaign.square_x{trials}_plus_figure8_x{trials}_over_twin",
+            wall / twin_s,
+            "x the twin alone's time",
+            CAMPAIGN_OVER_TWIN_TARGET,
+            "lower",
+            f"the twin alone simulating the trials' {sim_s:.0f} s in this process",
             wall,
             "s",
-            60.0 if not quick else 24.0,
-            "lower",
+            twin_s,
+            loop_us,
         )
     ]

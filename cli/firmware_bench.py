@@ -1,12 +1,15 @@
 """Benchmarks of the firmware core (run by ``jackson bench``).
 
-Builds the native core without sanitizers (``-O2``, in build/bench-native), then measures:
+Builds the native core without sanitizers (``-O2``, in build/bench-native), then measures, best
+of 3 runs with the machine's reference loop timed between them:
 
-- CPU time of the core per 20 Hz telemetry period on this machine (50 loop ticks of 1 ms,
-  5 IMU samples, 1 telemetry frame, a heartbeat and a motor command received). Target: 500 us,
-  1 % of the 50 ms period. On the 240 MHz ESP32-S3 expect several times this figure.
+- CPU time of the core per 50 ms telemetry period (50 loop ticks of 1 ms, 5 IMU samples, 1
+  telemetry frame, a heartbeat and a motor command received), mean and p99, against the 5 ms
+  budget of one period at 200 Hz. A 200 Hz period holds 5 ticks and the same frame, heartbeat
+  and command, so this is an upper bound of its share. Target: 10 % (500 us here; on the
+  240 MHz ESP32-S3 expect several times this figure).
 - Size of the core's object code (text + data of the static library, x86-64 here), a proxy
-  for the flash it needs. Target: 64 KiB, a small share of the 16 MB flash.
+  for the flash it needs, against a 64 KiB budget, a small share of the 16 MB flash.
 """
 
 from __future__ import annotations
@@ -17,10 +20,14 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from jackson.common.bench import BenchResult
+from jackson.common.bench import BenchResult, reference_loop_us
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD = ROOT / "build" / "bench-native"
+PERIOD_200HZ_US = 5000.0
+SHARE_TARGET = 0.1
+SIZE_BUDGET_KIB = 64.0
+RUNS = 3
 
 
 def _build() -> None:
@@ -55,17 +62,70 @@ def _object_size(lib: Path) -> int:
 
 
 def run(quick: bool = False) -> list[BenchResult]:
+    """The firmware's figures for ``jackson bench``.
+
+    Parameters
+    ----------
+    quick : bool
+        Unused: the native bench takes about a second.
+
+    Returns
+    -------
+    list[BenchResult]
+        The core's mean and p99 time per period against the 5 ms budget, its size against
+        64 KiB.
+    """
     _build()
-    out = subprocess.run(
-        [str(BUILD / "firmware" / "bench_firmware_core")],
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    r = json.loads(out.stdout)
+    runs: list[dict[str, float]] = []
+    loop_us = float("inf")
+    for _ in range(RUNS):
+        out = subprocess.run(
+            [str(BUILD / "firmware" / "bench_firmware_core")],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        runs.append(json.loads(out.stdout))
+        loop_us = min(loop_us, reference_loop_us(3))
+    r = min(runs, key=lambda x: x["mean_us"])
     lib = BUILD / "firmware" / "libjackson_fw_core.a"
+    size_kib = _object_size(lib) / 1024
+    budget = "the 5 ms period at 200 Hz (the 50 ms period's whole work: an upper bound)"
     return [
-        BenchResult("firmware.core_us_per_period_mean", r["mean_us"], "us", 500, "lower"),
-        BenchResult("firmware.core_us_per_period_p99", r["p99_us"], "us", 500, "lower"),
-        BenchResult("firmware.core_object_size", _object_size(lib) / 1024, "KiB", 64, "lower"),
+        BenchResult(
+            "firmware.core_mean_share_of_200Hz_period",
+            r["mean_us"] / PERIOD_200HZ_US,
+            "of 5 ms",
+            SHARE_TARGET,
+            "lower",
+            budget,
+            r["mean_us"],
+            "us",
+            None,
+            loop_us,
+        ),
+        BenchResult(
+            "firmware.core_p99_share_of_200Hz_period",
+            r["p99_us"] / PERIOD_200HZ_US,
+            "of 5 ms",
+            SHARE_TARGET,
+            "lower",
+            budget,
+            r["p99_us"],
+            "us",
+            None,
+            loop_us,
+        ),
+        BenchResult(
+            "firmware.core_object_size_share_of_budget",
+            size_kib / SIZE_BUDGET_KIB,
+            "of 64 KiB",
+            1.0,
+            "lower",
+            "a 64 KiB flash budget (text + data, x86-64)",
+            size_kib,
+            "KiB",
+            None,
+            loop_us,
+        ),
     ]

@@ -52,8 +52,20 @@ def test_bench_writes_json_records(tmp_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     records = json.loads(out_file.read_text())
     names = {r["name"] for r in records}
-    assert "protocol.py.decode_MBps" in names
+    assert "protocol.decode_vs_pymavlink" in names
     for r in records:
-        assert set(r) == {"name", "value", "unit", "target", "better"}
+        assert set(r) == {
+            "name",
+            "value",
+            "unit",
+            "target",
+            "better",
+            "reference",
+            "absolute",
+            "absolute_unit",
+            "reference_absolute",
+            "machine_loop_us",
+        }
         assert r["better"] in ("higher", "lower")
-        assert r["value"] > 0
+        assert r["value"] > 0 and r["absolute"] > 0 and r["machine_loop_us"] > 0
+    assert "targets met:" in out.stdout and "sum(range(10000))" in out.stdout

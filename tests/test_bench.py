@@ -1,0 +1,145 @@
+"""The benchmarks' ratio plumbing: side-by-side timing, the record, the table and the peers.
+
+No timing is asserted here; each test checks that a ratio is built from two things measured
+in the same run, and that the peers do the same work as ours.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jackson.benchmark import SUITES, print_table, run_suite, write_json
+from jackson.common.bench import BenchResult, interleaved_best, reference_loop_us
+from jackson.protocol import FrameDecoder, decode_message
+from jackson.protocol.bench import _mavlink, mavlink_stream, telemetry_stream
+from jackson.sim.bench import bare_pymunk, drive_figure_eight, twin_vs_pymunk
+from jackson.sim.bench_lidar import pymunk_room, square_room
+from jackson.sim.config import load_robot, load_world
+from jackson.sim.lidar import A1M8_BEAMS, cast
+from jackson.sim.twin import Twin
+
+
+def test_met_is_judged_on_the_ratio_side_of_the_target() -> None:
+    higher = BenchResult("a", 1.2, "x", 1.0, "higher", "peer", 5.0, "MB/s", 4.0)
+    lower = BenchResult("b", 2.5, "x", 2.0, "lower")
+    assert higher.met and not lower.met
+    assert lower.absolute is None and lower.machine_loop_us is None
+
+
+def test_interleaved_best_alternates_and_keeps_each_best() -> None:
+    calls: list[str] = []
+    times = {"a": iter([0.3, 0.1, 0.2]), "b": iter([0.05, 0.07, 0.06])}
+
+    def timed(name: str) -> float:
+        calls.append(name)
+        return next(times[name])
+
+    best, loop_us = interleaved_best(
+        {"a": lambda: timed("a"), "b": lambda: timed("b")}, 3, self_timed=True
+    )
+    assert calls == ["a", "b", "a", "b", "a", "b"]
+    assert best == {"a": 0.1, "b": 0.05}
+    assert 0.0 < loop_us < 1e6
+
+
+def test_a_self_timed_candidate_must_return_its_time() -> None:
+    with pytest.raises(TypeError, match="returns its time"):
+        interleaved_best({"a": lambda: None}, 1, self_timed=True)
+
+
+def test_run_suite_records_the_machine_loop_beside_each_figure(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    suite = types.ModuleType("fake_bench_suite")
+
+    def run(quick: bool) -> list[BenchResult]:
+        return [
+            BenchResult("fake.own_loop", 2.0, "x", 1.0, "higher", machine_loop_us=123.0),
+            BenchResult("fake.no_loop", 0.5, "x", 1.0, "lower"),
+        ]
+
+    suite.run = run  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "fake_bench_suite", suite)
+    monkeypatch.setitem(SUITES, "fake", "fake_bench_suite")
+    own, filled = run_suite("fake", quick=True)
+    assert own.machine_loop_us == 123.0
+    assert filled.machine_loop_us is not None and filled.machine_loop_us > 0.0
+    assert reference_loop_us(1) > 0.0
+
+
+def test_json_and_table_carry_ratio_target_and_absolute(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    results = [
+        BenchResult("x.vs_peer", 3.0, "x peer's speed", 1.0, "higher", "peer", 9.0, "MB/s", 3.0),
+        BenchResult("x.share", 0.5, "of 5 ms", 0.2, "lower", "period", 2500.0, "us", None, 99.0),
+    ]
+    path = tmp_path / "sub" / "bench.json"
+    write_json(results, path)
+    records = json.loads(path.read_text())
+    assert records[0]["value"] == 3.0 and records[0]["reference_absolute"] == 3.0
+    assert records[1]["absolute"] == 2500.0 and records[1]["machine_loop_us"] == 99.0
+    print_table(results)
+    out = capsys.readouterr().out
+    assert "x.vs_peer" in out and ">= 1" in out and "<= 0.2" in out
+    assert "NO" in out and "yes" in out
+    assert "targets met: 1/2" in out
+
+
+def test_pymavlink_decodes_a_peer_stream_of_the_same_frames_and_sizes() -> None:
+    n = 50
+    ours, theirs = telemetry_stream(n, 0.0), mavlink_stream(n, 0.0)
+    assert len(ours) == len(theirs) == 38 * n
+    frames = FrameDecoder().feed(ours)
+    assert len([decode_message(f) for f in frames]) == n
+    mav = _mavlink().MAVLink(None)
+    msgs = mav.parse_buffer(theirs)
+    assert len(msgs) == n
+    assert all(m.get_type() == "RAW_IMU" for m in msgs)
+    assert msgs[1].time_usec == 50_000  # the telemetry's MCU time carried across
+
+
+def test_both_corrupted_streams_lose_bytes_at_the_same_places() -> None:
+    ours, theirs = telemetry_stream(200, 0.01), mavlink_stream(200, 0.01)
+    clean_ours, clean_theirs = telemetry_stream(200, 0.0), mavlink_stream(200, 0.0)
+    diff_ours = [i for i in range(len(ours)) if ours[i] != clean_ours[i]]
+    diff_theirs = [i for i in range(len(theirs)) if theirs[i] != clean_theirs[i]]
+    assert 0 < len(diff_ours) <= 0.01 * len(ours)
+    # the same places drawn; a random value equal to the original byte hides one (1 in 256)
+    assert len(set(diff_ours) ^ set(diff_theirs)) <= 0.05 * len(diff_ours) + 2
+
+
+def test_bare_pymunk_replays_the_twins_motion() -> None:
+    twin = Twin(load_world("square_room"), load_robot("jackson"), lidar=False, seed=1)
+    wall, velocities = drive_figure_eight(twin, 1.0)
+    assert wall > 0.0 and len(velocities) == 20
+    assert any(v != (0.0, 0.0, 0.0) for v in velocities)
+    assert bare_pymunk(velocities, lidar=True) > 0.0
+
+
+def test_twin_ratio_is_the_twins_time_over_pymunks() -> None:
+    r = twin_vs_pymunk(False, 0.5, 1)
+    assert r.better == "lower" and r.target == 2.0
+    assert r.absolute is not None and r.reference_absolute is not None
+    # both absolutes are real-time factors: the time ratio is their inverse ratio
+    assert r.value == pytest.approx(r.reference_absolute / r.absolute)
+
+
+def test_pymunk_rays_see_the_room_as_the_lidar_model_does() -> None:
+    obstacles = square_room(40, 4)
+    space = pymunk_room(obstacles)
+    angles = np.linspace(-math.pi, math.pi, A1M8_BEAMS, endpoint=False)[::20]
+    exact = cast((0.1, -0.2), angles, obstacles, 12.0)
+    every = __import__("pymunk").ShapeFilter()
+    for a, r in zip(angles.tolist(), exact.tolist(), strict=True):
+        end = (0.1 + 12.0 * math.cos(a), -0.2 + 12.0 * math.sin(a))
+        hit = space.segment_query_first((0.1, -0.2), end, 0.0, every)
+        assert hit is not None
+        assert hit.alpha * 12.0 == pytest.approx(r, abs=1e-6)
