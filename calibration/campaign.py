@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import csv
 import json
-import multiprocessing as mp
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from types import TracebackType
 from typing import Any, TextIO
 
+from jackson.calibration.cluster import map_trials
 from jackson.calibration.consistency import run_consistency
 from jackson.calibration.report import write_report
 from jackson.calibration.trial import TrialSpec, run_trial
@@ -128,6 +127,7 @@ def run_campaign(
     workers: int = 2,
     config: Path | None = None,
     progress: bool = True,
+    cluster: str | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``trials`` trials of ``mission`` and write the report folder ``out``.
 
@@ -151,6 +151,10 @@ def run_campaign(
         Host configuration YAML (None: the packaged defaults).
     progress : bool
         Progress on stderr (:class:`TrialProgress`).
+    cluster : str or None
+        None: the local pool; ``local``, ``auto`` or ``ray://HOST:PORT``: a Ray cluster
+        (:func:`jackson.calibration.cluster.map_trials`; ``out`` and ``config`` are made
+        absolute, every node must see them).
 
     Returns
     -------
@@ -158,21 +162,21 @@ def run_campaign(
         Per-trial metrics in trial order.
     """
     world = world or ("square_room" if mission == "square" else "open_floor")
+    if cluster is not None:
+        out, config = out.absolute(), config.absolute() if config is not None else None
+        out.mkdir(parents=True, exist_ok=True)
     specs = [
         TrialSpec(mission, i, seed + i, robot, world, out / "runs" / f"R{i + 1:02d}", config)
         for i in range(trials)
     ]
     results: list[dict[str, Any]] = []
     wall0 = time.perf_counter()
-    ctx = mp.get_context("forkserver")
-    with (
-        TrialProgress(f"{mission} x{trials}", trials, enabled=progress) as bar,
-        ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool,
-    ):
-        futures = [pool.submit(run_scored_trial, s) for s in specs]
-        for fut in as_completed(futures):
-            results.append(fut.result())
-            bar.advance(trial_line(results[-1]))
+    with TrialProgress(f"{mission} x{trials}", trials, enabled=progress) as bar:
+        for _, result in map_trials(
+            run_scored_trial, specs, workers=workers, cluster=cluster, folder=out
+        ):
+            results.append(result)
+            bar.advance(trial_line(result))
     results.sort(key=lambda r: int(r["trial"]))
     wall = time.perf_counter() - wall0
     write_runs(out, results)

@@ -40,12 +40,10 @@ import contextlib
 import dataclasses
 import json
 import math
-import multiprocessing as mp
 import statistics
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -1057,6 +1055,7 @@ def run_fault_campaign(
     map_yaml: Path | None = None,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
+    cluster: str | None = None,
 ) -> dict[str, Any]:
     """Run the fault campaign and write its report folder.
 
@@ -1088,6 +1087,9 @@ def run_fault_campaign(
         Show a progress bar.
     log : callable, optional
         Called with a line per finished trial.
+    cluster : str or None
+        None: the local pool; ``local``, ``auto`` or ``ray://HOST:PORT``: a Ray cluster
+        (:func:`jackson.calibration.cluster.map_trials`; the paths are then made absolute).
 
     Returns
     -------
@@ -1101,6 +1103,12 @@ def run_fault_campaign(
     """
     from rich.progress import Progress
 
+    from jackson.calibration.cluster import map_trials
+
+    if cluster is not None:
+        out = out.absolute()
+        config = config.absolute() if config is not None else None
+        map_yaml = map_yaml.absolute() if map_yaml is not None else None
     out.mkdir(parents=True, exist_ok=True)
     configs = write_host_configs(out, config)
     maze = any(c.mission == "maze" for c in cases)
@@ -1119,15 +1127,10 @@ def run_fault_campaign(
     by_name = {c.name: c for c in cases}
     records: list[RunRecord] = []
     wall0 = time.perf_counter()
-    ctx = mp.get_context("forkserver")
-    with (
-        Progress(disable=not progress, transient=True) as bar,
-        ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool,
-    ):
+    with Progress(disable=not progress, transient=True) as bar:
         task = bar.add_task(f"fault campaign: {len(jobs)} runs", total=len(jobs))
-        futures = [pool.submit(run_job, j) for j in jobs]
-        for k, fut in enumerate(as_completed(futures), 1):
-            record = fut.result()
+        finished = map_trials(run_job, jobs, workers=workers, cluster=cluster, folder=out)
+        for k, (_, record) in enumerate(finished, 1):
             records.append(record)
             bar.advance(task)
             if log is not None:

@@ -403,16 +403,22 @@ def run_stage3_campaign(
     config: Path | None = None,
     map_yaml: Path | None = None,
     progress: bool = True,
+    cluster: str | None = None,
 ) -> list[dict[str, Any]]:
-    """Every variant of campaign ``name`` ``trials`` times, in worker processes; the map is
-    built once first (unless given); writes ``runs.csv``, ``runs.json``, ``summary.md`` and
+    """Every variant of campaign ``name`` ``trials`` times, in worker processes (or on a Ray
+    ``cluster``: ``local``, ``auto``, ``ray://HOST:PORT``, see
+    :func:`jackson.calibration.cluster.map_trials`; the paths are then made absolute); the map
+    is built once first (unless given); writes ``runs.csv``, ``runs.json``, ``summary.md`` and
     plots into ``out``."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     from rich.progress import Progress
 
+    from jackson.calibration.cluster import map_trials
+
     variants = CAMPAIGNS[name]
+    if cluster is not None:
+        out = out.absolute()
+        config = config.absolute() if config is not None else None
+        map_yaml = map_yaml.absolute() if map_yaml is not None else None
     out.mkdir(parents=True, exist_ok=True)
     wall0 = time.perf_counter()
     if map_yaml is None:
@@ -435,16 +441,10 @@ def run_stage3_campaign(
         for i in range(trials)
     ]
     results: list[dict[str, Any]] = []
-    ctx = mp.get_context("forkserver")
-    with (
-        Progress(disable=not progress, transient=True) as bar,
-        ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool,
-    ):
+    with Progress(disable=not progress, transient=True) as bar:
         task = bar.add_task(f"{name}: {len(specs)} runs", total=len(specs))
-        futures = {pool.submit(run_nav_trial, s): s for s in specs}
-        for fut in as_completed(futures):
-            r = fut.result()
-            r["run"] = str(futures[fut].out.relative_to(out))
+        for k, r in map_trials(run_nav_trial, specs, workers=workers, cluster=cluster, folder=out):
+            r["run"] = str(specs[k].out.relative_to(out))
             results.append(r)
             bar.advance(task)
     results.sort(key=lambda r: (str(r["variant"]), int(r["trial"])))

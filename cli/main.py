@@ -301,6 +301,32 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_campaign(args: argparse.Namespace) -> int:
+    """``jackson campaign``, its trials on the local pool or on a Ray cluster (``--cluster``:
+    connected once here, so a wrong address fails before any trial or mapping run)."""
+    if args.cluster is None:
+        return _cmd_campaign_kind(args)
+    from jackson.calibration.cluster import ClusterError, RayMissingError, ray_session
+
+    try:
+        with ray_session(args.cluster, num_cpus=args.workers):
+            return _cmd_campaign_kind(args)
+    except RayMissingError as exc:
+        raise CliError(str(exc)) from exc
+    except ClusterError as exc:
+        print(f"jackson campaign: {one_line(exc)}", file=sys.stderr)
+        return 1
+
+
+def _cluster_arg(text: str) -> str:
+    from jackson.calibration.cluster import parse_cluster
+
+    try:
+        return parse_cluster(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from exc
+
+
+def _cmd_campaign_kind(args: argparse.Namespace) -> int:
     import datetime as dt
 
     from jackson.calibration.campaign import run_campaign
@@ -336,6 +362,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         world=args.world,
         seed=args.seed,
         workers=args.workers,
+        cluster=args.cluster,
         config=config,
     )
     done = sum(1 for r in results if r["completed"])
@@ -381,6 +408,7 @@ def _cmd_campaign_faults(args: argparse.Namespace) -> int:
             robot=args.robot,
             seed=args.seed,
             workers=args.workers,
+            cluster=args.cluster,
             config=config,
             map_yaml=map_yaml,
             progress=tty,
@@ -416,6 +444,7 @@ def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
         world=world,
         seed=args.seed,
         workers=args.workers,
+        cluster=args.cluster,
         config=config,
         map_yaml=map_yaml,
     )
@@ -495,7 +524,19 @@ def build_parser() -> argparse.ArgumentParser:
                 help="trials (per variant for ofat and robustness, per case for faults; default "
                 "10, ofat/robustness 15)",
             )
-            p.add_argument("--workers", type=positive_int, default=2, help="worker processes (2)")
+            p.add_argument(
+                "--workers",
+                type=positive_int,
+                default=2,
+                help="worker processes (2); with --cluster local, the Ray instance's CPUs",
+            )
+            p.add_argument(
+                "--cluster",
+                type=_cluster_arg,
+                metavar="auto|local|ray://HOST:PORT",
+                help="run the trials on Ray: auto = the running cluster, local = a Ray instance "
+                "started here, ray://HOST:PORT = Ray Client (default: the local process pool)",
+            )
             from jackson.calibration.fault_campaign import CASE_NAMES
 
             p.add_argument(

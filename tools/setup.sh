@@ -50,9 +50,15 @@ extras=dev
 if [ "$(uname -m)" = x86_64 ] && [ -z "${ROS_DISTRO:-}" ]; then
   extras=dev,ros
 fi
+# Ray for campaigns on a cluster (the `cluster` extra, docs/campaigns.md; its test needs it):
+# wheels for x86_64 Linux, about 15 s to install.
+cluster=
+if [ "$(uname -m)" = x86_64 ]; then
+  cluster=,cluster
+fi
 
 # Dependencies: reinstalled when pyproject.toml, the constraints or the extras change.
-deps_key=$( (cat pyproject.toml tools/constraints.txt; echo "$extras") | sha256sum | cut -c1-16)
+deps_key=$( (cat pyproject.toml tools/constraints.txt; echo "$extras$cluster") | sha256sum | cut -c1-16)
 # Strict editable install: a static link tree that mypy and pytest see like any install; it
 # is rebuilt when a Python file is added or removed.
 files_key=$( (echo "$deps_key"; find cli common protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
@@ -61,7 +67,7 @@ pip=("$VENV/bin/python" -m pip install -q --disable-pip-version-check)
 if [ "$(cat "$VENV/.deps-key" 2>/dev/null)" != "$deps_key" ]; then
   say "installing Python dependencies (pinned)"
   "${pip[@]}" -c tools/constraints.txt setuptools wheel
-  "${pip[@]}" -c tools/constraints.txt -e ".[$extras]" --config-settings editable_mode=strict
+  "${pip[@]}" -c tools/constraints.txt -e ".[$extras$cluster]" --config-settings editable_mode=strict
   if [ "$extras" = dev ]; then
     say "ROS 2: using the system's rclpy (${ROS_DISTRO:-none sourced}); create $VENV with --system-site-packages after sourcing /opt/ros/<distro>/setup.bash (docs/ros2.md)"
   fi

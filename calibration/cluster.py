@@ -1,0 +1,239 @@
+"""Where a campaign's trials run: the local process pool, or a Ray cluster (``--cluster``).
+
+:func:`map_trials` maps a trial function over the trial specs and yields each result as its
+trial finishes, with the spec's index so the caller can tell which. Without a cluster it is the
+local pool every campaign has always used (``--workers`` processes, ``forkserver``); with one it
+submits one Ray task per trial:
+
+``local``
+    a Ray instance started on this machine with ``--workers`` CPUs, stopped at the end;
+``auto``
+    the running cluster this machine belongs to (``ray start --head`` / ``ray start
+    --address``), ``ray.init(address="auto")``;
+``ray://HOST:PORT``
+    a cluster's head reached through Ray Client.
+
+A trial is a pure function of its spec (its seed is in the spec), so a trial gives the same
+result on a Ray worker as in a pool process. Run folders: each trial writes its folder where its
+spec says, so every node must see the report folder at the same path (one machine, or a shared
+filesystem such as NFS mounted at the same path on every node); a task refuses to run on a
+node that does not see it (:class:`ClusterError`), rather than writing a report's files where
+the driver cannot read them. The trial's metrics come back as the task's return value.
+
+Ray is the optional ``cluster`` extra: ``pip install 'jackson[cluster]'``.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import re
+import socket
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from pathlib import Path
+from types import ModuleType
+from typing import Any, TypeVar
+
+S = TypeVar("S")
+R = TypeVar("R")
+
+CLUSTER_FORMS = ("local", "auto", "ray://HOST:PORT")
+INSTALL_HINT = "--cluster needs the cluster extra: pip install 'jackson[cluster]'"
+_CLIENT = re.compile(r"^ray://[^\s:/]+:\d{1,5}$")
+
+
+class ClusterError(Exception):
+    """A cluster cannot run the campaign: unreachable, or a node without the report folder."""
+
+
+class RayMissingError(ClusterError):
+    """``--cluster`` was asked for but Ray (the ``cluster`` extra) is not installed."""
+
+
+class ClusterUnreachableError(ClusterError):
+    """The cluster's address answers not (no running cluster, a wrong host or port)."""
+
+
+def parse_cluster(text: str) -> str:
+    """Check a ``--cluster`` value: ``local``, ``auto`` or ``ray://HOST:PORT``.
+
+    Parameters
+    ----------
+    text : str
+        The value given.
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
+
+    Raises
+    ------
+    ValueError
+        Any other form.
+    """
+    if text in ("local", "auto") or _CLIENT.match(text):
+        return text
+    raise ValueError(f"{text!r}: give one of {', '.join(CLUSTER_FORMS)}")
+
+
+def import_ray() -> ModuleType:
+    """The ``ray`` module.
+
+    Returns
+    -------
+    module
+        ``ray``.
+
+    Raises
+    ------
+    RayMissingError
+        Ray is not installed.
+    """
+    try:
+        import ray
+    except ImportError as exc:
+        raise RayMissingError(INSTALL_HINT) from exc
+    return ray
+
+
+@contextmanager
+def ray_session(cluster: str, *, num_cpus: int) -> Iterator[ModuleType]:
+    """Connect to ``cluster`` (unless this process is already connected to one) for the
+    ``with`` block; a connection made here is closed at its end (a ``local`` instance stops).
+
+    Parameters
+    ----------
+    cluster : str
+        ``local``, ``auto`` or ``ray://HOST:PORT`` (:func:`parse_cluster`).
+    num_cpus : int
+        CPUs of a ``local`` instance, i.e. trials at once; a cluster has its own.
+
+    Yields
+    ------
+    module
+        ``ray``, connected.
+
+    Raises
+    ------
+    RayMissingError
+        Ray is not installed.
+    ClusterUnreachableError
+        Nothing answers at the address.
+    """
+    ray = import_ray()
+    if ray.is_initialized():
+        yield ray
+        return
+    options: dict[str, Any] = {"logging_level": logging.ERROR, "log_to_driver": False}
+    try:
+        with warnings.catch_warnings():  # Ray Client's timeout warns before it raises
+            warnings.simplefilter("ignore")
+            if cluster == "local":
+                ray.init(num_cpus=num_cpus, include_dashboard=False, **options)
+            else:
+                ray.init(address=cluster, **options)
+    except (ConnectionError, TimeoutError, RuntimeError, ValueError) as exc:
+        first = next((line for line in str(exc).splitlines() if line.strip()), type(exc).__name__)
+        raise ClusterUnreachableError(
+            f"--cluster {cluster}: no Ray cluster there ({first.strip()})"
+        ) from exc
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+def run_on_node(fn: Callable[[S], R], spec: S, folder: str | None) -> R:
+    """One trial in a Ray worker: ``fn(spec)``, once the node is seen to hold the report folder.
+
+    Parameters
+    ----------
+    fn : callable
+        The trial function (importable by name: the worker imports it).
+    spec : object
+        Its argument.
+    folder : str or None
+        The report folder (absolute), which must exist on the node; None: no check.
+
+    Returns
+    -------
+    object
+        ``fn(spec)``.
+
+    Raises
+    ------
+    ClusterError
+        The node does not see ``folder``.
+    """
+    if folder is not None and not Path(folder).is_dir():
+        raise ClusterError(
+            f"node {socket.gethostname()} does not see the report folder {folder}: every node "
+            "needs it at the same path (a shared filesystem)"
+        )
+    return fn(spec)
+
+
+def map_trials(
+    fn: Callable[[S], R],
+    specs: Sequence[S],
+    *,
+    workers: int = 2,
+    cluster: str | None = None,
+    folder: Path | None = None,
+) -> Iterator[tuple[int, R]]:
+    """``fn`` over ``specs`` in parallel; each result as soon as its trial is done.
+
+    Parameters
+    ----------
+    fn : callable
+        The trial function, a module-level function (worker processes import it by name).
+    specs : sequence
+        One argument per trial; paths in them must be absolute with a ``cluster``.
+    workers : int
+        Worker processes of the local pool, or CPUs of a ``local`` Ray instance.
+    cluster : str or None
+        None: the local pool; else ``local``, ``auto`` or ``ray://HOST:PORT`` (one Ray task
+        per trial, :func:`ray_session`).
+    folder : Path or None
+        The report folder every Ray node must see (:func:`run_on_node`).
+
+    Yields
+    ------
+    tuple of (int, object)
+        The spec's index in ``specs`` and ``fn``'s result, in the order trials finish.
+
+    Raises
+    ------
+    RayMissingError, ClusterUnreachableError, ClusterError
+        With a cluster: Ray missing, nothing at the address, a node without ``folder``.
+    """
+    if cluster is None:
+        ctx = mp.get_context("forkserver")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            futures = {pool.submit(fn, s): k for k, s in enumerate(specs)}
+            for fut in as_completed(futures):
+                yield futures[fut], fut.result()
+        return
+    with ray_session(cluster, num_cpus=workers) as ray:
+        task = ray.remote(num_cpus=1, max_retries=0)(run_on_node)
+        where = str(folder.resolve()) if folder is not None else None
+        refs = {task.remote(fn, s, where): k for k, s in enumerate(specs)}
+        pending = list(refs)
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    try:
+                        result = ray.get(ref)
+                    except ray.exceptions.RayTaskError as exc:
+                        if isinstance(exc.cause, ClusterError):
+                            raise ClusterError(str(exc.cause)) from None
+                        raise
+                    yield refs[ref], result
+        finally:
+            for ref in pending:
+                ray.cancel(ref, force=True)
