@@ -171,7 +171,7 @@ def run(quick: bool = False) -> list[BenchResult]:
         "encode": encode,
         "pymavlink_encode": pymavlink_encode,
     }
-    best, loop_us = interleaved_best(work, 3 if quick else 7)
+    best, loop_us = interleaved_best(work, 9 if quick else 15)
     mb = len(stream) / 1e6
     peer_mb_s = mb / best["pymavlink"]
 

@@ -168,12 +168,12 @@ def run(quick: bool = False) -> list[BenchResult]:
     Parameters
     ----------
     quick : bool
-        30 s of simulated time and 3 rounds instead of 120 s and 5.
+        30 s of simulated time and 5 rounds instead of 120 s and 7.
 
     Returns
     -------
     list[BenchResult]
         Without and with LiDAR.
     """
-    seconds, repeats = (30.0, 3) if quick else (120.0, 5)
+    seconds, repeats = (30.0, 5) if quick else (120.0, 7)
     return [twin_vs_pymunk(lidar, seconds, repeats) for lidar in (False, True)]
