@@ -1,20 +1,22 @@
 """Benchmarks of the host daemon (run by ``jackson bench``).
 
-- CPU time per telemetry frame (the thread's CPU clock, so a preemption by another process
-  does not count): decoding, odometry, EKF (30 Hz outputs, wheel and gyro
-  updates), the square mission, the actuation chain and the PCA9685 block write, measured on
-  the frames of a 60 s square in the twin. The I2C bus here is an in-memory register file, so
-  the figure is the host's own work. Beside each pass, interleaved, a bare EKF
-  (:class:`jackson.host.ekf.Ekf`) takes the same frames' wheel and gyro updates alone. Figures:
-  the median and p99 as shares of the 5 ms frame period at 200 Hz (targets 2 % and 6 %, 100 and
-  300 us) and the median over the EKF update's median (target 3x: the filter is most of the
-  work). Best of 5 passes each.
-- Command latency: from a new velocity command to the completed PCA9685 register write, over
-  the twin's I2C socket (a real Unix socket to a server in another thread), in lockstep;
-  interleaved sample by sample with a one-byte register write on the same bus, the transport's
-  floor. Figures: median and p99 as shares of the 5 ms frame period (target 20 %, 1 ms; the
-  paper saw about 50 ms of command transport on the robot) and the median over the one-byte
+- CPU time per telemetry frame (the thread's CPU clock, so a preemption by another process does
+  not count): decoding, odometry, EKF (30 Hz outputs, wheel and gyro updates), the square
+  mission, the actuation chain and the PCA9685 block write, measured on the frames of a 60 s
+  square in the twin. The I2C bus here is an in-memory register file, so the figure is the
+  host's own work. Beside it, frame by frame, a bare EKF (:class:`jackson.host.ekf.Ekf`) takes
+  the same frame's wheel and gyro updates alone. Figures: the median and p99 as shares of the
+  5 ms frame period at 200 Hz (targets 2 % and 6 %, 100 and 300 us) and over the bare EKF's
+  median and p99 (target 3x: the filter is most of the work).
+- Command latency (wall time): from a new velocity command to the completed PCA9685 register
+  write, over the twin's I2C socket (a real Unix socket to a server in another thread), in
+  lockstep; interleaved sample by sample with a one-byte register write on the same bus, the
+  transport's floor. Figures: median and p99 as shares of the 5 ms frame period (target 20 %,
+  1 ms; the paper saw about 50 ms of command transport on the robot) and over the one-byte
   write's (target 2x).
+
+Five passes, each a fresh host and EKF over the same frames followed by 200 (quick) or 1000
+commands; each median and p99 is the best over the passes.
 """
 
 from __future__ import annotations
@@ -95,66 +97,50 @@ class _EkfInputs(CoreListener):
         self.inputs.append((result.t_s, result.odometry.v_m_s, yaw_rate_rad_s(result.telemetry)))
 
 
-def cpu_per_frame(
-    frames: list[bytes], inputs: list[tuple[float, float, float]] | None = None
-) -> list[float]:
-    """A fresh host's CPU time for each of ``frames`` [s].
+def host_and_ekf(frames: list[bytes]) -> tuple[list[float], list[float]]:
+    """A fresh host and a bare EKF side by side, frame by frame: their CPU time per frame.
+
+    For each frame the host decodes and handles it (odometry, EKF, mission, actuation, the
+    PCA9685 write on an in-memory bus), then a bare :class:`~jackson.host.ekf.Ekf` takes the
+    wheel and gyro updates of the same frame alone. Times are this thread's CPU time, so a
+    preemption by another process is not counted.
 
     Parameters
     ----------
     frames : list[bytes]
         The MCU's frames, one telemetry frame each (from :func:`telemetry_stream`).
-    inputs : list or None
-        When given, filled with each frame's (t_s, wheel speed, yaw rate) for :func:`ekf_alone`.
 
     Returns
     -------
-    list[float]
-        CPU time of this thread decoding and handling each frame [s] (time spent preempted by
-        other processes is not counted).
+    host_s : list[float]
+        The host's CPU time for each frame [s].
+    ekf_s : list[float]
+        The bare EKF's CPU time for each frame that gave the host a result [s].
     """
     cfg = HostConfig()
     pca = Pca9685(MemoryBus())
     output = Pca9685Output(pca, cfg.pca9685.left, cfg.pca9685.right)
     sent: list[Message] = []
     core = HostCore(cfg, output, sent.append, mission=SquareMission())
-    if inputs is not None:
-        recorder = _EkfInputs()
-        core.listeners.append(recorder)
-        inputs.clear()
+    recorder = _EkfInputs()
+    core.listeners.append(recorder)
+    ekf = Ekf(cfg.ekf)
     decoder = FrameDecoder()
-    times: list[float] = []
+    host_s: list[float] = []
+    ekf_s: list[float] = []
+    clock = time.thread_time
     for raw in frames:
-        t0 = time.thread_time()
+        t0 = clock()
         for frame in decoder.feed(raw):
             core.on_frame(frame)
-        times.append(time.thread_time() - t0)
-    if inputs is not None:
-        inputs.extend(recorder.inputs)
-    return times
-
-
-def ekf_alone(inputs: list[tuple[float, float, float]]) -> list[float]:
-    """A bare EKF's time for each frame's wheel and gyro updates [s].
-
-    Parameters
-    ----------
-    inputs : list[tuple[float, float, float]]
-        Per frame: MCU time [s], the wheels' speed [m/s] and the yaw rate [rad/s].
-
-    Returns
-    -------
-    list[float]
-        CPU time of this thread for each frame's two updates [s].
-    """
-    ekf = Ekf(HostConfig().ekf)
-    times: list[float] = []
-    for t_s, v_m_s, wz in inputs:
-        t0 = time.thread_time()
-        ekf.update_wheel(t_s, v_m_s, 0.0)
-        ekf.update_gyro(t_s, wz)
-        times.append(time.thread_time() - t0)
-    return times
+        host_s.append(clock() - t0)
+        if len(recorder.inputs) > len(ekf_s):
+            t_s, v_m_s, wz = recorder.inputs[-1]
+            t0 = clock()
+            ekf.update_wheel(t_s, v_m_s, 0.0)
+            ekf.update_gyro(t_s, wz)
+            ekf_s.append(clock() - t0)
+    return host_s, ekf_s
 
 
 def command_latency(samples: int) -> tuple[list[float], list[float]]:
@@ -236,18 +222,18 @@ def run(quick: bool = False) -> list[BenchResult]:
         frame period and the bus's one-byte write.
     """
     frames = telemetry_stream(20.0 if quick else 60.0)
-    # Whole passes, each a fresh host over the same frames (skipping the start-up frames of the
-    # gyro-bias window), interleaved with passes of the EKF alone; each statistic is the best
+    # Whole passes, each a fresh host and a fresh bare EKF over the same frames side by side
+    # (skipping the start-up frames of the gyro-bias window); each statistic is the best
     # over the passes (as timeit takes its best run): another tenant's load on a shared machine
     # slows whole passes by up to 60 %, and its preemptions make the tail of any one pass.
-    inputs: list[tuple[float, float, float]] = []
     cpu_passes: list[list[float]] = []
     ekf_passes: list[list[float]] = []
     lat_passes: list[tuple[list[float], list[float]]] = []
     loop_us = float("inf")
     for _ in range(PASSES):
-        cpu_passes.append(cpu_per_frame(frames, inputs)[20:])
-        ekf_passes.append(ekf_alone(inputs)[20:])
+        host_s, ekf_s = host_and_ekf(frames)
+        cpu_passes.append(host_s[20:])
+        ekf_passes.append(ekf_s[20:])
         lat_passes.append(command_latency(200 if quick else 1000))
         loop_us = min(loop_us, reference_loop_us(3))
 

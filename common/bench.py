@@ -10,8 +10,9 @@ absolute time stays beside it for information, with the speed of a fixed referen
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -131,3 +132,48 @@ def interleaved_best(
             best[name] = min(best[name], elapsed)
         loop_us = min(loop_us, reference_loop_us(3))
     return best, loop_us
+
+
+def interleaved_slices(
+    make_round: Callable[[], Mapping[str, Sequence[Callable[[], object]]]], repeats: int
+) -> tuple[dict[str, float], float]:
+    """Time several workloads cut into slices, slice by slice: A0, B0, A1, B1, ...
+
+    Finer than :func:`interleaved_best`: a change in the machine's load within a run hits every
+    candidate's neighbouring slices alike, so the ratio of their sums hardly moves. Each round
+    is made afresh (new decoders, new twins) and does the same work slice for slice; a
+    candidate's figure is the sum over its slices of each slice's best time over the rounds
+    (a preemption spoils one slice of one round, not the figure).
+
+    Parameters
+    ----------
+    make_round : Callable[[], Mapping[str, Sequence[Callable[[], object]]]]
+        Makes one round: name -> the candidate's slices, all candidates with as many slices,
+        run in the mapping's order for each slice index.
+    repeats : int
+        Number of rounds.
+
+    Returns
+    -------
+    best_s : dict[str, float]
+        Name -> the sum of the best times of its slices [s].
+    machine_loop_us : float
+        Best time of :data:`REFERENCE_LOOP` over the rounds [us].
+    """
+    best: dict[str, list[float]] = {}
+    loop_us = float("inf")
+    for _ in range(repeats):
+        work = make_round()
+        counts = {len(slices) for slices in work.values()}
+        if len(counts) != 1:
+            raise ValueError(f"candidates with different slice counts: {sorted(counts)}")
+        n = counts.pop()
+        for i in range(n):
+            for name, slices in work.items():
+                t0 = time.perf_counter()
+                slices[i]()
+                elapsed = time.perf_counter() - t0
+                per_slice = best.setdefault(name, [float("inf")] * n)
+                per_slice[i] = min(per_slice[i], elapsed)
+        loop_us = min(loop_us, reference_loop_us(3))
+    return {name: math.fsum(times) for name, times in best.items()}, loop_us

@@ -1,12 +1,13 @@
 """Benchmarks of the Python codec against pymavlink's MAVLink v2 parser (run by ``jackson bench``).
 
-Both codecs decode, in the same process and interleaved (ours, pymavlink's, ours, ...; best of
-N), a stream of the same number of frames of the same size: our telemetry frames (38 bytes)
-and MAVLink v2 RAW_IMU messages (38 bytes: a 10-byte header, 26 bytes of payload, 2 bytes of
-CRC; pymavlink checks the CRC with fastcrc), in each of which 1 % of the bytes are then replaced
-by random values at the same places, fed in 4 KiB chunks as a serial reader delivers them.
-Both count full decoding into message objects. Our frame layer alone (sync, length, CRC, no
-message objects) is timed beside them as the floor. Figures:
+Both codecs decode, in the same process, a stream of the same number of frames of the same
+size: our telemetry frames (38 bytes) and MAVLink v2 RAW_IMU messages (38 bytes: a 10-byte
+header, 26 bytes of payload, 2 bytes of CRC; pymavlink checks the CRC with fastcrc), in each of
+which 1 % of the bytes are then replaced by random values at the same places, fed in 4 KiB
+chunks as a serial reader delivers them. Both count full decoding into message objects. Our
+frame layer alone (sync, length, CRC, no message objects) is timed beside them as the floor.
+The work is interleaved chunk by chunk (our decoding of chunk i, our frame layer's, pymavlink's,
+then chunk i + 1; encoding likewise by blocks of 100 messages), best of N rounds. Figures:
 
 - decoding and encoding speed as a multiple of pymavlink's (target: above 1, we beat it);
 - full decoding's time over the frame layer's (how far above the floor the message layer is);
@@ -15,12 +16,13 @@ message objects) is timed beside them as the floor. Figures:
 
 from __future__ import annotations
 
+import functools
 import importlib
 import random
 from collections.abc import Callable
 from typing import Any
 
-from jackson.common.bench import BenchResult, interleaved_best
+from jackson.common.bench import BenchResult, interleaved_slices
 from jackson.protocol.frame import FrameDecoder, decode_message, encode_frame
 from jackson.protocol.messages import Telemetry
 
@@ -28,6 +30,7 @@ LINK_BYTES_PER_S = 921_600 / 10  # 8N1: 10 bits per byte
 LINK_CPU_SHARE_TARGET = 0.01  # decoding the link's bytes takes at most 1 % of one core
 MESSAGE_OVER_FRAME_TARGET = 2.5  # full decoding within 2.5x of the frame layer alone
 CHUNK = 4096
+ENCODE_BLOCK = 100  # messages encoded per slice
 
 
 def _corrupt(stream: bytearray, fraction: float, rng: random.Random) -> bytes:
@@ -133,45 +136,43 @@ def run(quick: bool = False) -> list[BenchResult]:
     peer_chunks = [peer_stream[i : i + CHUNK] for i in range(0, len(peer_stream), CHUNK)]
     mavlink = _mavlink()
 
-    def decode_messages() -> None:
-        dec = FrameDecoder()
-        for chunk in chunks:
-            for frame in dec.feed(chunk):
-                decode_message(frame)
-
-    def decode_frames() -> None:
-        dec = FrameDecoder()
-        for chunk in chunks:
-            dec.feed(chunk)
-
-    def pymavlink_decode() -> None:
-        mav = mavlink.MAVLink(None)
-        mav.robust_parsing = True
-        for chunk in peer_chunks:
-            mav.parse_buffer(chunk)
-
     rng = random.Random(3)
     msgs = [_telemetry(rng, k) for k in range(2_000)]
     peer = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     rng = random.Random(3)
     peer_msgs = [_raw_imu(peer, rng, k) for k in range(2_000)]
+    blocks = range(0, len(msgs), ENCODE_BLOCK)
 
-    def encode() -> None:
-        for k, m in enumerate(msgs):
-            encode_frame(m, k & 0xFF)
+    def make_round() -> dict[str, list[Callable[[], object]]]:
+        """Fresh decoders; one slice per 4 KiB chunk, one per block of messages to encode."""
+        ours, frames, theirs = FrameDecoder(), FrameDecoder(), mavlink.MAVLink(None)
+        theirs.robust_parsing = True
 
-    def pymavlink_encode() -> None:
-        for m in peer_msgs:
-            m.pack(peer)
+        def decode_messages(chunk: bytes) -> Callable[[], object]:
+            return lambda: [decode_message(f) for f in ours.feed(chunk)]
 
-    work: dict[str, Callable[[], object]] = {
-        "ours": decode_messages,
-        "frames": decode_frames,
-        "pymavlink": pymavlink_decode,
-        "encode": encode,
-        "pymavlink_encode": pymavlink_encode,
-    }
-    best, loop_us = interleaved_best(work, 9 if quick else 15)
+        def encode(k0: int) -> Callable[[], object]:
+            return lambda: [
+                encode_frame(m, k & 0xFF) for k, m in enumerate(msgs[k0 : k0 + ENCODE_BLOCK])
+            ]
+
+        def pymavlink_encode(k0: int) -> Callable[[], object]:
+            return lambda: [m.pack(peer) for m in peer_msgs[k0 : k0 + ENCODE_BLOCK]]
+
+        pad = max(len(chunks), len(blocks))
+        idle: Callable[[], object] = lambda: None  # noqa: E731
+        return {
+            "ours": [decode_messages(c) for c in chunks] + [idle] * (pad - len(chunks)),
+            "frames": [functools.partial(frames.feed, c) for c in chunks]
+            + [idle] * (pad - len(chunks)),
+            "pymavlink": [functools.partial(theirs.parse_buffer, c) for c in peer_chunks]
+            + [idle] * (pad - len(chunks)),
+            "encode": [encode(k0) for k0 in blocks] + [idle] * (pad - len(blocks)),
+            "pymavlink_encode": [pymavlink_encode(k0) for k0 in blocks]
+            + [idle] * (pad - len(blocks)),
+        }
+
+    best, loop_us = interleaved_slices(make_round, 9 if quick else 15)
     mb = len(stream) / 1e6
     peer_mb_s = mb / best["pymavlink"]
 

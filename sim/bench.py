@@ -6,17 +6,19 @@ physics step; with LiDAR it also takes 7.43 scans per simulated second. Beside i
 and best of N, bare pymunk steps the same space (the room's walls and the robot's body, in a
 fresh twin) at the same rate for the same time, the body given at each 20 Hz period the
 velocities the twin's robot had then: the physics library's own cost for this motion, with
-none of the twin's models. With LiDAR the bare run also takes the same scans with the LiDAR
-model alone. Figure: the twin's wall time over the bare run's (target: within 2x); the twin's
-real-time factor stays beside it.
+none of the twin's models. The two run period by period (the twin's 20 Hz period, then bare
+pymunk's), each period's best time over the rounds summed. With LiDAR the bare run also takes
+the same scans with the LiDAR model alone. Figure: the twin's wall time over the bare run's
+(target: within 2x); the twin's real-time factor stays beside it.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
-from jackson.common.bench import BenchResult, interleaved_best
+from jackson.common.bench import BenchResult, interleaved_slices
 from jackson.sim.config import load_robot, load_world
 from jackson.sim.robot import WheelDrive
 from jackson.sim.twin import PHYSICS_HZ, Twin
@@ -27,6 +29,11 @@ TWIN_OVER_PYMUNK_TARGET = 2.0
 
 def _twin(lidar: bool) -> Twin:
     return Twin(load_world("square_room"), load_robot("jackson"), lidar=lidar, seed=1)
+
+
+def _duties(k: int, periods: int) -> tuple[float, float]:
+    """A left loop, then a right loop: a figure-eight."""
+    return (0.35, 0.5) if k < periods // 2 else (0.5, 0.35)
 
 
 def drive_figure_eight(
@@ -51,61 +58,96 @@ def drive_figure_eight(
     """
     periods = round(sim_seconds * SENSOR_HZ)
     velocities: list[tuple[float, float, float]] = []
-    robot = twin.robot
     t0 = time.perf_counter()
     for k in range(periods):
-        velocities.append((robot.vwx, robot.vwy, robot.wz))
-        first_half = k < periods // 2  # a left loop, then a right loop: a figure-eight
-        left, right = (0.35, 0.5) if first_half else (0.5, 0.35)
-        twin.command(WheelDrive(left, 1.0), WheelDrive(right, 1.0))
-        twin.advance(1.0 / SENSOR_HZ)
-        twin.sensors()
+        velocities.append(_twin_period(twin, *_duties(k, periods)))
     return time.perf_counter() - t0, velocities
 
 
+def _twin_period(twin: Twin, left: float, right: float) -> tuple[float, float, float]:
+    """One 20 Hz period of the twin; the robot's velocities at its start."""
+    robot = twin.robot
+    start = (robot.vwx, robot.vwy, robot.wz)
+    twin.command(WheelDrive(left, 1.0), WheelDrive(right, 1.0))
+    twin.advance(1.0 / SENSOR_HZ)
+    twin.sensors()
+    return start
+
+
+class BarePymunk:
+    """pymunk alone stepping a fresh twin's space (the room's walls and the robot's body).
+
+    Parameters
+    ----------
+    lidar : bool
+        Also take the twin's scans (at its scan period, from the body's pose) with the LiDAR
+        model alone.
+    """
+
+    def __init__(self, lidar: bool) -> None:
+        twin = _twin(lidar)
+        self.space, self.body = twin.world.space, twin.robot.body
+        self.body.position = (twin.robot.x, twin.robot.y)
+        self.body.angle = twin.robot.yaw
+        self.dt = twin.dt
+        self.steps_per_period = round(PHYSICS_HZ / SENSOR_HZ)
+        self.scanner = twin._lidar
+        self.obstacles = twin._obstacles if self.scanner is not None else None
+        self.scan_period_s = twin.scan_period_s if self.scanner is not None else math.inf
+        self.step = 0
+        self.next_scan_s = 0.0
+
+    def period(self, vx: float, vy: float, wz: float) -> None:
+        """One 20 Hz period: the body given these velocities, then 10 physics steps.
+
+        Parameters
+        ----------
+        vx, vy : float
+            Velocity in the world [m/s].
+        wz : float
+            Yaw rate [rad/s].
+        """
+        body, space, dt = self.body, self.space, self.dt
+        body.velocity = (vx, vy)
+        body.angular_velocity = wz
+        for _ in range(self.steps_per_period):
+            space.step(dt)
+            self.step += 1
+            if self.obstacles is not None and self.step * dt + 1e-9 >= self.next_scan_s:
+                assert self.scanner is not None
+                x, y = body.position
+                self.scanner.scan(x, y, body.angle, self.obstacles)
+                self.next_scan_s += self.scan_period_s
+
+
 def bare_pymunk(velocities: list[tuple[float, float, float]], lidar: bool) -> float:
-    """Wall time of pymunk alone stepping a fresh twin's space through the same motion.
+    """Wall time of :class:`BarePymunk` through the same motion.
 
     Parameters
     ----------
     velocities : list[tuple[float, float, float]]
         Per 20 Hz period, the body's velocity and yaw rate (from :func:`drive_figure_eight`).
     lidar : bool
-        Also take the twin's scans (at its scan period, from the body's pose) with the LiDAR
-        model alone.
+        Also take the twin's scans with the LiDAR model alone.
 
     Returns
     -------
     float
         Wall time [s].
     """
-    twin = _twin(lidar)
-    space, body = twin.world.space, twin.robot.body
-    body.position = (twin.robot.x, twin.robot.y)
-    body.angle = twin.robot.yaw
-    dt = twin.dt
-    steps = round(PHYSICS_HZ / SENSOR_HZ)
-    scanner = twin._lidar
-    obstacles = twin._obstacles if scanner is not None else None
-    scan_period_s = twin.scan_period_s if scanner is not None else math.inf
-    step = 0
-    next_scan_s = 0.0
+    bare = BarePymunk(lidar)
     t0 = time.perf_counter()
-    for vx, vy, wz in velocities:
-        body.velocity = (vx, vy)
-        body.angular_velocity = wz
-        for _ in range(steps):
-            space.step(dt)
-            step += 1
-            if scanner is not None and obstacles is not None and step * dt + 1e-9 >= next_scan_s:
-                x, y = body.position
-                scanner.scan(x, y, body.angle, obstacles)
-                next_scan_s += scan_period_s
+    for v in velocities:
+        bare.period(*v)
     return time.perf_counter() - t0
 
 
 def twin_vs_pymunk(lidar: bool, sim_seconds: float, repeats: int) -> BenchResult:
-    """The twin's wall time over bare pymunk's, interleaved, best of ``repeats``.
+    """The twin's wall time over bare pymunk's, period by period, best of ``repeats``.
+
+    In each round a fresh twin and a fresh :class:`BarePymunk` run side by side: the twin's
+    20 Hz period k, then bare pymunk's period k with the velocities the twin's robot had at its
+    start (:func:`jackson.common.bench.interleaved_slices`).
 
     Parameters
     ----------
@@ -114,19 +156,31 @@ def twin_vs_pymunk(lidar: bool, sim_seconds: float, repeats: int) -> BenchResult
     sim_seconds : float
         Simulated time per run [s].
     repeats : int
-        Rounds (each a fresh twin and a fresh bare space).
+        Rounds.
 
     Returns
     -------
     BenchResult
         The ratio, the twin's real-time factor and bare pymunk's.
     """
-    _, velocities = drive_figure_eight(_twin(lidar), sim_seconds)
-    work = {
-        "twin": lambda: drive_figure_eight(_twin(lidar), sim_seconds)[0],
-        "pymunk": lambda: bare_pymunk(velocities, lidar),
-    }
-    best, loop_us = interleaved_best(work, repeats, self_timed=True)
+    periods = round(sim_seconds * SENSOR_HZ)
+
+    def make_round() -> dict[str, list[Callable[[], object]]]:
+        twin, bare = _twin(lidar), BarePymunk(lidar)
+        starts: list[tuple[float, float, float]] = []
+
+        def twin_slice(k: int) -> Callable[[], object]:
+            return lambda: starts.append(_twin_period(twin, *_duties(k, periods)))
+
+        def bare_slice(k: int) -> Callable[[], object]:
+            return lambda: bare.period(*starts[k])
+
+        return {
+            "twin": [twin_slice(k) for k in range(periods)],
+            "pymunk": [bare_slice(k) for k in range(periods)],
+        }
+
+    best, loop_us = interleaved_slices(make_round, repeats)
     which = "lidar" if lidar else "no_lidar"
     return BenchResult(
         f"sim.twin_over_pymunk_{which}_{PHYSICS_HZ}Hz_physics",

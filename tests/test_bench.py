@@ -16,7 +16,12 @@ import numpy as np
 import pytest
 
 from jackson.benchmark import SUITES, print_table, run_suite, write_json
-from jackson.common.bench import BenchResult, interleaved_best, reference_loop_us
+from jackson.common.bench import (
+    BenchResult,
+    interleaved_best,
+    interleaved_slices,
+    reference_loop_us,
+)
 from jackson.protocol import FrameDecoder, decode_message
 from jackson.protocol.bench import _mavlink, mavlink_stream, telemetry_stream
 from jackson.sim.bench import bare_pymunk, drive_figure_eight, twin_vs_pymunk
@@ -52,6 +57,38 @@ def test_interleaved_best_alternates_and_keeps_each_best() -> None:
 def test_a_self_timed_candidate_must_return_its_time() -> None:
     with pytest.raises(TypeError, match="returns its time"):
         interleaved_best({"a": lambda: None}, 1, self_timed=True)
+
+
+def test_interleaved_slices_alternate_and_sum_each_slices_best(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    calls: list[str] = []
+    # slice durations by round: candidate a's slice 1 is slow in round 0, fast in round 1
+    durations = {("a", 0): [1.0, 5.0], ("a", 1): [3.0, 2.0], ("b", 0): [4.0, 4.0]}
+    durations[("b", 1)] = [6.0, 1.0]
+    clock = {"now": 0.0, "round": -1}
+    monkeypatch.setattr("jackson.common.bench.time.perf_counter", lambda: clock["now"])
+
+    def make_round() -> dict[str, list[object]]:
+        clock["round"] += 1
+
+        def piece(name: str, i: int) -> object:
+            def run() -> None:
+                calls.append(f"{name}{i}")
+                clock["now"] += durations[(name, clock["round"])][i]
+
+            return run
+
+        return {name: [piece(name, i) for i in range(2)] for name in ("a", "b")}
+
+    best, _ = interleaved_slices(make_round, 2)  # type: ignore[arg-type]
+    assert calls[:4] == ["a0", "b0", "a1", "b1"]
+    assert best == {"a": 1.0 + 2.0, "b": 4.0 + 1.0}
+
+
+def test_slices_of_different_counts_are_refused() -> None:
+    with pytest.raises(ValueError, match="slice counts"):
+        interleaved_slices(lambda: {"a": [lambda: None], "b": []}, 1)
 
 
 def test_run_suite_records_the_machine_loop_beside_each_figure(
