@@ -6,6 +6,7 @@ health, commands acknowledged, the motor path watched, systemd told, signals han
 from __future__ import annotations
 
 import dataclasses
+import gc
 import json
 import queue
 import signal
@@ -34,6 +35,32 @@ from jackson.protocol import (
     Telemetry,
     TelemetryFlags,
 )
+
+GC_GEN0_THRESHOLD = 20_000  # young objects allocated (less freed) between two collections
+
+
+class GcSettled:
+    """The garbage collector set for the frame loop: what set-up allocated (imports, the
+    config, the core, the bag's schemas) frozen out of every later collection, and young
+    objects collected 20 000 allocations apart instead of 700.
+
+    Per frame almost everything dies by reference count (about two tracked objects survive a
+    frame), so young collections become rare (one per ~10^4 frames) and scan only what the
+    run made. Unfrozen, an older generation's collection walks the ~10^5 objects of the
+    imports: 0.5-2 ms, several frames' work, at a frame the allocator picks. :meth:`restore`
+    puts the collector back as it was, for a process that goes on after the daemon.
+    """
+
+    def __init__(self) -> None:
+        self._threshold = gc.get_threshold()
+        gc.collect()
+        gc.freeze()
+        gc.set_threshold(GC_GEN0_THRESHOLD, self._threshold[1], self._threshold[2])
+
+    def restore(self) -> None:
+        """Unfreeze and the previous thresholds."""
+        gc.set_threshold(*self._threshold)
+        gc.unfreeze()
 
 
 class _OperatorListener(CoreListener):
@@ -334,6 +361,7 @@ class Daemon:
             self.notifier.ready()
         if self._repairer is not None and not self._repairer.is_alive():
             self._repairer.start()
+        settled = GcSettled()
         try:
             while not self.stop.is_set():
                 if deadline is not None and time.monotonic() > deadline:
@@ -405,6 +433,7 @@ class Daemon:
                     self.bag.close()
                 except Exception as exc:
                     print(f"daemon: the run's bag did not close cleanly: {exc}", flush=True)
+            settled.restore()
         return 1 if core.abort_reason is not None else 0
 
     def _read_lidar(self) -> None:

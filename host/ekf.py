@@ -70,29 +70,33 @@ _IDENTITY = np.eye(STATE_SIZE)
 
 
 def transition(x: Vector, dt_s: float) -> Vector:
-    """The process model f(x, dt) (module docstring); returns a new (7,) state."""
-    yaw = x[YAW]
+    """The process model f(x, dt) (module docstring); returns a new (7,) state.
+
+    Worked on Python floats (the same IEEE double operations as on NumPy scalars, several
+    times cheaper per operation).
+    """
+    out = np.array(x, dtype=np.float64)
+    x_m, y_m, yaw, vx, vy, vyaw, ax = out.tolist()
     c, s = math.cos(yaw), math.sin(yaw)
     half_dt2 = 0.5 * dt_s * dt_s
-    out = np.array(x, dtype=np.float64)
-    out[X] = x[X] + (x[VX] * c - x[VY] * s) * dt_s + x[AX] * c * half_dt2
-    out[Y] = x[Y] + (x[VX] * s + x[VY] * c) * dt_s + x[AX] * s * half_dt2
-    out[YAW] = wrap_angle(yaw + x[VYAW] * dt_s)
-    out[VX] = x[VX] + x[AX] * dt_s
+    out[X] = x_m + (vx * c - vy * s) * dt_s + ax * c * half_dt2
+    out[Y] = y_m + (vx * s + vy * c) * dt_s + ax * s * half_dt2
+    out[YAW] = wrap_angle(yaw + vyaw * dt_s)
+    out[VX] = vx + ax * dt_s
     return out
 
 
 def transition_jacobian(x: Vector, dt_s: float) -> Matrix:
     """F = df/dx at the state before the step (derived in the module docstring)."""
-    yaw = x[YAW]
+    _, _, yaw, vx, vy, _, ax = np.asarray(x, dtype=np.float64).reshape(STATE_SIZE).tolist()
     c, s = math.cos(yaw), math.sin(yaw)
     half_dt2 = 0.5 * dt_s * dt_s
     jac = _IDENTITY.copy()
-    jac[X, YAW] = -(x[VX] * s + x[VY] * c) * dt_s - x[AX] * s * half_dt2
+    jac[X, YAW] = -(vx * s + vy * c) * dt_s - ax * s * half_dt2
     jac[X, VX] = c * dt_s
     jac[X, VY] = -s * dt_s
     jac[X, AX] = c * half_dt2
-    jac[Y, YAW] = (x[VX] * c - x[VY] * s) * dt_s + x[AX] * c * half_dt2
+    jac[Y, YAW] = (vx * c - vy * s) * dt_s + ax * c * half_dt2
     jac[Y, VX] = s * dt_s
     jac[Y, VY] = c * dt_s
     jac[Y, AX] = s * half_dt2

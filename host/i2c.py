@@ -155,9 +155,13 @@ class SocketI2cBus:
             An argument is out of range.
         """
         _check_length(len(data))
-        for value in data:
-            _check_byte("data byte", value)
-        self._transfer(OP_WRITE_I2C_BLOCK_DATA, i2c_addr, register, len(data), bytes(data))
+        try:
+            payload = bytes(data)
+        except ValueError:
+            for value in data:
+                _check_byte("data byte", value)
+            raise
+        self._transfer(OP_WRITE_I2C_BLOCK_DATA, i2c_addr, register, len(payload), payload)
 
     def read_i2c_block_data(self, i2c_addr: int, register: int, length: int) -> list[int]:
         """Read ``length`` (1..32) bytes in one transaction starting at ``register``.
@@ -194,29 +198,36 @@ class SocketI2cBus:
     def _transfer(
         self, op: int, addr: int, reg: int, length: int, data: bytes, expect: int = 0
     ) -> bytes:
-        """Send one request and return the data of its OK response."""
+        """Send one request and return the data of its OK response.
+
+        The per-call path formats nothing: the error message is built only when a call fails.
+        """
         if not 0 <= addr <= MAX_ADDRESS:
             raise ValueError(f"I2C address {addr:#x} is not a 7-bit address")
         _check_byte("register", reg)
-        what = f"{_OP_NAMES[op]} at {addr:#04x} register {reg:#04x}"
         sock = self._sock
         if sock is None:
-            raise I2cError(f"{what}: I2C socket {self.path} is closed")
+            raise I2cError(f"{_what(op, addr, reg)}: I2C socket {self.path} is closed")
         try:
             sock.sendall(_HEADER.pack(op, addr, reg, length) + data)
-            status, n = self._receive(sock, RESPONSE_HEADER_SIZE, what)
-            payload = self._receive(sock, n, what)
+            status, n, payload = self._receive(sock, expect, op, addr, reg)
         except TimeoutError as exc:
             self.close()
             raise I2cError(
-                f"{what}: no answer from I2C socket {self.path} within {self.timeout_s} s"
+                f"{_what(op, addr, reg)}: no answer from I2C socket {self.path} "
+                f"within {self.timeout_s} s"
             ) from exc
         except OSError as exc:
             if isinstance(exc, I2cError):
                 raise
             self.close()
             reason = exc.strerror or str(exc)
-            raise I2cError(f"{what}: I2C socket {self.path} failed: {reason}") from exc
+            raise I2cError(
+                f"{_what(op, addr, reg)}: I2C socket {self.path} failed: {reason}"
+            ) from exc
+        if status == STATUS_OK and n == expect:
+            return payload
+        what = _what(op, addr, reg)
         if status == STATUS_NACK:
             raise I2cError(f"{what}: no device acknowledged on I2C socket {self.path}")
         if status == STATUS_BAD_REQUEST:
@@ -224,22 +235,47 @@ class SocketI2cBus:
         if status != STATUS_OK:
             self.close()
             raise I2cError(f"{what}: I2C socket {self.path} answered unknown status {status}")
-        if n != expect:
-            self.close()
-            raise I2cError(f"{what}: I2C socket {self.path} sent {n} bytes, expected {expect}")
-        return payload
+        self.close()
+        raise I2cError(f"{what}: I2C socket {self.path} sent {n} bytes, expected {expect}")
 
-    def _receive(self, sock: socket.socket, n: int, what: str) -> bytes:
-        buf = bytearray()
-        while len(buf) < n:
-            want = n - len(buf)
-            got = spin_poll(functools.partial(_recv_now, sock, want), self.spin_s)
-            chunk = got[0] if got else sock.recv(want)
+    def _receive(
+        self, sock: socket.socket, expect: int, op: int, addr: int, reg: int
+    ) -> tuple[int, int, bytes]:
+        """One response: (status, length, data). The first read asks for the header and the
+        ``expect`` bytes of an OK answer together (one system call for the usual response);
+        a shorter answer (NACK, BAD_REQUEST) is complete once its header's length arrived."""
+        buf = b""
+        size = RESPONSE_HEADER_SIZE + expect  # until the header tells
+        while len(buf) < size:
+            want = size - len(buf)
+            chunk = self._recv(sock, want)
             if not chunk:
                 self.close()
-                raise I2cError(f"{what}: I2C socket {self.path} closed by the other end")
+                raise I2cError(
+                    f"{_what(op, addr, reg)}: I2C socket {self.path} closed by the other end"
+                )
             buf += chunk
-        return bytes(buf)
+            if len(buf) >= RESPONSE_HEADER_SIZE:
+                size = RESPONSE_HEADER_SIZE + buf[1]
+        if len(buf) > size:  # only one request is ever outstanding: cannot happen on the wire
+            self.close()
+            raise I2cError(
+                f"{_what(op, addr, reg)}: I2C socket {self.path} sent more than one response"
+            )
+        return buf[0], buf[1], buf[RESPONSE_HEADER_SIZE:]
+
+    def _recv(self, sock: socket.socket, n: int) -> bytes:
+        """Up to ``n`` bytes: polled for :attr:`spin_s` first when spinning, else a blocking
+        read (with the twin in this process nobody can answer while this thread polls)."""
+        if self.spin_s <= 0.0:
+            return sock.recv(n)
+        got = spin_poll(functools.partial(_recv_now, sock, n), self.spin_s)
+        return got[0] if got else sock.recv(n)
+
+
+def _what(op: int, addr: int, reg: int) -> str:
+    """The call named for an error message."""
+    return f"{_OP_NAMES[op]} at {addr:#04x} register {reg:#04x}"
 
 
 def _recv_now(sock: socket.socket, n: int) -> tuple[bytes] | tuple[()]:

@@ -52,6 +52,20 @@ def led_registers(duty: float) -> list[int]:
     return [0, 0, off & 0xFF, off >> 8]
 
 
+def block_runs(channels: tuple[int, ...]) -> tuple[tuple[int, ...], ...]:
+    """Sorted channels grouped into block writes: contiguous, at most 32 bytes (8 channels)."""
+    runs: list[tuple[int, ...]] = []
+    run: list[int] = []
+    for ch in channels:
+        if run and (ch != run[-1] + 1 or 4 * (len(run) + 1) > MAX_BLOCK_BYTES):
+            runs.append(tuple(run))
+            run = []
+        run.append(ch)
+    if run:
+        runs.append(tuple(run))
+    return tuple(runs)
+
+
 class Pca9685:
     """One PCA9685 on an :class:`~jackson.host.i2c.I2cBus` (smbus2 or the twin's socket)."""
 
@@ -59,6 +73,7 @@ class Pca9685:
         self.bus = bus
         self.address = address
         self.writes = 0  # I2C transactions issued, for diagnostics
+        self._runs: dict[tuple[int, ...], tuple[tuple[int, ...], ...]] = {}
 
     def init(self, frequency_hz: float = 1000.0) -> None:
         """Sleep, set the prescaler and MODE2, wake, wait for the oscillator, restart with
@@ -90,18 +105,16 @@ class Pca9685:
         self.writes += 1
 
     def set_duties(self, duties: Mapping[int, float]) -> None:
-        """Set channels to duties in [0, 1], contiguous channels in one block write each."""
-        channels = sorted(duties)
-        run: list[int] = []
-        for ch in channels:
-            if run and (ch != run[-1] + 1 or 4 * (len(run) + 1) > MAX_BLOCK_BYTES):
-                self._write_run(run, duties)
-                run = []
-            run.append(ch)
-        if run:
+        """Set channels to duties in [0, 1], contiguous channels in one block write each (the
+        blocks of a set of channels are worked out once: a motor output sets the same six)."""
+        channels = tuple(sorted(duties))
+        runs = self._runs.get(channels)
+        if runs is None:
+            runs = self._runs[channels] = block_runs(channels)
+        for run in runs:
             self._write_run(run, duties)
 
-    def _write_run(self, run: list[int], duties: Mapping[int, float]) -> None:
+    def _write_run(self, run: tuple[int, ...], duties: Mapping[int, float]) -> None:
         data: list[int] = []
         for ch in run:
             data += led_registers(duties[ch])
