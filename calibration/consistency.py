@@ -576,6 +576,6 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
         fontsize=10,
     )
     bx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3)
-    from jackson.calibration.report import save_figure  # report imports this module
+    from jackson.common.figures import save_figure
 
     save_figure(fig, png)

@@ -1520,7 +1520,7 @@ def plot_faults(path: Path, summary: Mapping[str, Any]) -> None:
     if maze:
         _plot_navigation(axes[-1, 0], maze, [label(c) for c in maze])
     fig.tight_layout()
-    from jackson.calibration.report import save_figure
+    from jackson.common.figures import save_figure
 
     save_figure(fig, path)
 

@@ -439,7 +439,7 @@ def plot_brakes(rows: list[FaultRow], path: Path) -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    from jackson.calibration.report import save_figure
+    from jackson.common.figures import save_figure
 
     save_figure(fig, path)
 

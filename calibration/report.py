@@ -33,6 +33,9 @@ from jackson.calibration.consistency import (
     significant,
 )
 from jackson.calibration.trial import read_csv
+from jackson.common.figures import FIGURE_DPI as FIGURE_DPI  # re-exported
+from jackson.common.figures import save_figure
+from jackson.common.figures import vector_path as vector_path  # re-exported
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -40,8 +43,6 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 
-FIGURE_DPI = 200  # PNG resolution; the PDF beside it is vector
-VECTOR_SUFFIX = ".pdf"
 CONFIDENCE = 0.95  # two-sided level of every CI of the summary
 TRACE_STEP_M = 0.005  # [m] arc-length spacing of the plotted trajectories (a 0.5 m arc: 6 um off)
 ZOOM_MIN_HALF_M = 0.01  # [m] the closure zoom spans at least 2 cm
@@ -436,45 +437,6 @@ def _pyplot() -> Any:
     import matplotlib.pyplot as plt
 
     return plt
-
-
-def vector_path(png: Path) -> Path:
-    """The vector copy of a figure: ``trajectories.png`` -> ``trajectories.pdf``.
-
-    Parameters
-    ----------
-    png : Path
-        The PNG.
-
-    Returns
-    -------
-    Path
-    """
-    return png.with_suffix(VECTOR_SUFFIX)
-
-
-def save_figure(fig: Figure, png: Path, **savefig: Any) -> None:
-    """Write ``fig`` as a PNG at :data:`FIGURE_DPI` and as a PDF beside it, then close it.
-
-    The PDF embeds its fonts as TrueType (``pdf.fonttype`` 42, text a paper's editor can
-    select) and carries no creation date, so the same figure gives the same bytes.
-
-    Parameters
-    ----------
-    fig : Figure
-        The figure.
-    png : Path
-        The PNG's path; the PDF is :func:`vector_path` of it.
-    **savefig
-        More arguments to ``Figure.savefig`` (``bbox_inches="tight"``, ...).
-    """
-    import matplotlib
-    import matplotlib.pyplot as plt
-
-    fig.savefig(png, dpi=FIGURE_DPI, **savefig)
-    with matplotlib.rc_context({"pdf.fonttype": 42}):
-        fig.savefig(vector_path(png), metadata={"CreationDate": None}, **savefig)
-    plt.close(fig)
 
 
 def plot_nees(png: Path, campaign: CampaignConsistency, title: str = "") -> None:

@@ -618,6 +618,6 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]]) -> None:
     ax.set_title("Stage 3 on the twin: map, true paths, dropped cylinder")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()
-    from jackson.calibration.report import save_figure
+    from jackson.common.figures import save_figure
 
     save_figure(fig, png, bbox_inches="tight")
