@@ -34,6 +34,7 @@ from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig
 from jackson.host.control import SquareMission
 from jackson.host.core import CoreListener, FrameResult, HostCore
+from jackson.host.daemon import GcSettled
 from jackson.host.ekf import Ekf
 from jackson.host.i2c import SocketI2cBus
 from jackson.protocol import FrameDecoder, Message, encode_frame
@@ -129,17 +130,21 @@ def host_and_ekf(frames: list[bytes]) -> tuple[list[float], list[float]]:
     host_s: list[float] = []
     ekf_s: list[float] = []
     clock = time.thread_time
-    for raw in frames:
-        t0 = clock()
-        for frame in decoder.feed(raw):
-            core.on_frame(frame)
-        host_s.append(clock() - t0)
-        if len(recorder.inputs) > len(ekf_s):
-            t_s, v_m_s, wz = recorder.inputs[-1]
+    settled = GcSettled()  # the collector as the daemon's frame loop runs it
+    try:
+        for raw in frames:
             t0 = clock()
-            ekf.update_wheel(t_s, v_m_s, 0.0)
-            ekf.update_gyro(t_s, wz)
-            ekf_s.append(clock() - t0)
+            for frame in decoder.feed(raw):
+                core.on_frame(frame)
+            host_s.append(clock() - t0)
+            if len(recorder.inputs) > len(ekf_s):
+                t_s, v_m_s, wz = recorder.inputs[-1]
+                t0 = clock()
+                ekf.update_wheel(t_s, v_m_s, 0.0)
+                ekf.update_gyro(t_s, wz)
+                ekf_s.append(clock() - t0)
+    finally:
+        settled.restore()
     return host_s, ekf_s
 
 
