@@ -128,6 +128,8 @@ def ray_session(cluster: str, *, num_cpus: int) -> Iterator[ModuleType]:
     if ray.is_initialized():
         yield ray
         return
+    if cluster == "auto":
+        probe_gcs()
     options: dict[str, Any] = {"logging_level": logging.ERROR, "log_to_driver": False}
     try:
         with warnings.catch_warnings():  # Ray Client's timeout warns before it raises
@@ -145,6 +147,40 @@ def ray_session(cluster: str, *, num_cpus: int) -> Iterator[ModuleType]:
         yield ray
     finally:
         ray.shutdown()
+
+
+def probe_gcs(timeout_s: float = 5.0) -> None:
+    """For ``auto``: open a TCP connection to the cluster's GCS (``RAY_ADDRESS``, or the
+    cluster this machine last started) first, since ``ray.init`` retries an address where
+    nothing answers for many minutes.
+
+    Parameters
+    ----------
+    timeout_s : float
+        How long the GCS has to accept [s].
+
+    Raises
+    ------
+    ClusterUnreachableError
+        Nothing accepts at the address.
+    """
+    try:
+        from ray._private.services import get_ray_address_from_environment
+
+        address = get_ray_address_from_environment("auto", None)
+    except Exception:  # no address known: ray.init says so
+        return
+    if address is None:
+        return
+    host, _, port = address.rpartition(":")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s):
+            pass
+    except (OSError, ValueError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise ClusterUnreachableError(
+            f"--cluster auto: no Ray cluster there (nothing answers at {address}: {why})"
+        ) from exc
 
 
 def run_on_node(fn: Callable[[S], R], spec: S, folder: str | None) -> R:

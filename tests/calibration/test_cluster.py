@@ -70,7 +70,7 @@ def test_no_ray_installed_is_one_line_and_exit_2(
 def test_no_cluster_at_the_address_is_one_line_and_exit_1(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:1")  # nothing listens on port 1
     assert not ray.is_initialized()
     rc = main(["campaign", "square", "--trials", "1", "--cluster", "auto", "--out", str(tmp_path)])
     err = capsys.readouterr().err
