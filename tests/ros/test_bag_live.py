@@ -10,11 +10,9 @@ odometry carry stamps of one clock (within one scan period).
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 from collections import Counter
 from pathlib import Path
 
@@ -27,6 +25,8 @@ from rosbags.typesys import Stores, get_typestore
 from jackson.host.ros.bag import read_bag
 from jackson.host.ros.messages import SCAN_PERIOD_S, TOPIC_TYPES, RosSettings
 
+from .conftest import private_ros_env
+
 pytestmark = pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")
 
 JACKSON = str(Path(sys.executable).parent / "jackson")
@@ -37,16 +37,7 @@ OURS = ("wheel_odom", "imu", "joint_states", "filtered", "diagnostics", "tf", "t
 @pytest.fixture
 def ros_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> dict[str, str]:
     """A private ROS domain on the loopback interface, for this process and its children."""
-    env = {
-        "ROS_DOMAIN_ID": str(101 + (os.getpid() + int(time.time())) % 100),
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-        "ROS_STATIC_PEERS": "127.0.0.1",
-        "ROS_LOG_DIR": str(tmp_path / "ros-log"),
-    }
-    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    for k, v in env.items():
-        monkeypatch.setenv(k, v)
-    return {**os.environ, **env}
+    return private_ros_env(monkeypatch, tmp_path, 101, 100)
 
 
 def _stamp(msg: object) -> float:

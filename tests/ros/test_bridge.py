@@ -13,12 +13,10 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import platform
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +30,7 @@ from jackson.host.ros.bridge import ros_available, stamp_parts, yaw_quaternion
 from jackson.protocol import Telemetry
 
 from ..sil.harness import TwinThread
+from .conftest import private_ros_env
 
 # lark (pulled in by rosidl's parser) imports the deprecated sre_parse
 pytestmark = pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")
@@ -44,21 +43,7 @@ FRAME_S = 0.05  # one telemetry frame at 20 Hz
 @pytest.fixture
 def ros_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> dict[str, str]:
     """A private ROS domain on the loopback interface, for this process and its children."""
-    env = {
-        "ROS_DOMAIN_ID": str(1 + (os.getpid() + int(time.time())) % 100),
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",  # Jazzy and later
-        # Jazzy: unicast discovery on 127.0.0.1 (ROS_LOCALHOST_ONLY would override both and
-        # relies on multicast on the loopback, which containers often lack)
-        "ROS_STATIC_PEERS": "127.0.0.1",
-        "ROS_LOG_DIR": str(tmp_path / "ros-log"),
-    }
-    if os.environ.get("ROS_DISTRO") == "humble":
-        env["ROS_LOCALHOST_ONLY"] = "1"  # Humble has no discovery range
-    else:
-        monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    for k, v in env.items():
-        monkeypatch.setenv(k, v)
-    return {**os.environ, **env}
+    return private_ros_env(monkeypatch, tmp_path, 1, 100)
 
 
 def test_rclpy_is_available() -> None:

@@ -16,7 +16,6 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import os
 import platform
 import signal
 import subprocess
@@ -36,6 +35,7 @@ from jackson.host.ros.names import FRAMES
 from jackson.host.ros.qos import tf_qos, tf_static_qos
 
 from ..sil.harness import TwinThread
+from .conftest import private_ros_env
 
 # lark (pulled in by rosidl's parser) imports the deprecated sre_parse
 pytestmark = pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")
@@ -84,20 +84,7 @@ print(json.dumps({"sent": sent}))
 @pytest.fixture
 def ros_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> dict[str, str]:
     """A private ROS domain on the loopback interface, for this process and its children."""
-    env = {
-        # 215-231: clear of the other ROS tests' domains and of Linux's ephemeral ports
-        "ROS_DOMAIN_ID": str(215 + (os.getpid() + int(time.time())) % 17),
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",  # Jazzy and later
-        "ROS_STATIC_PEERS": "127.0.0.1",  # unicast discovery (see docs/ros2.md)
-        "ROS_LOG_DIR": str(tmp_path / "ros-log"),
-    }
-    if os.environ.get("ROS_DISTRO") == "humble":
-        env["ROS_LOCALHOST_ONLY"] = "1"  # Humble has no discovery range
-    else:
-        monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    for k, v in env.items():
-        monkeypatch.setenv(k, v)
-    return {**os.environ, **env}
+    return private_ros_env(monkeypatch, tmp_path, 215, 17)
 
 
 class Listener:

@@ -19,7 +19,6 @@ import signal
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +35,7 @@ from jackson.sim.runner import TwinRunner
 from jackson.sim.twin import Twin
 
 from ..sim.wire_peer import WirePeer
+from .conftest import private_ros_env
 
 # lark (pulled in by rosidl's parser) imports the deprecated sre_parse
 pytestmark = pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")
@@ -47,19 +47,7 @@ CLIENT = Path(__file__).with_name("twin_client.py")
 @pytest.fixture
 def ros_env(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> dict[str, str]:
     """A private ROS domain on the loopback interface, for this process and its children."""
-    env = {
-        "ROS_DOMAIN_ID": str(101 + (os.getpid() + int(time.time())) % 100),
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",  # Jazzy and later
-        "ROS_STATIC_PEERS": "127.0.0.1",  # unicast discovery (see docs/ros2.md)
-        "ROS_LOG_DIR": str(tmp_path / "ros-log"),
-    }
-    if os.environ.get("ROS_DISTRO") == "humble":
-        env["ROS_LOCALHOST_ONLY"] = "1"  # Humble has no discovery range
-    else:
-        monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    for k, v in env.items():
-        monkeypatch.setenv(k, v)
-    return {**os.environ, **env}
+    return private_ros_env(monkeypatch, tmp_path, 101, 100)
 
 
 class HostThread:
