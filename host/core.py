@@ -57,6 +57,8 @@ from jackson.protocol import (
 )
 from jackson.protocol.units import accel_m_s2, yaw_rate_rad_s
 
+_IMU_OK = int(TelemetryFlags.IMU_OK)  # a plain int: IntFlag's & builds an enum member
+
 ONE_WHEEL_VARIANCE_SCALE = 4.0  # R of v_x from one wheel and the gyro, relative to two wheels
 
 
@@ -418,7 +420,7 @@ class HostCore:
         place of the gyro; or, standing still, a zero-velocity update."""
         ekf = self.ekf
         wz: float | None = None
-        if t.flags & TelemetryFlags.IMU_OK:
+        if t.flags & _IMU_OK:
             raw_wz = yaw_rate_rad_s(t)
             still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
             self.gyro_bias.add(t_s, raw_wz, still)
@@ -441,11 +443,11 @@ class HostCore:
         still_cmd = self.braked or self._wheel_cmd == (0.0, 0.0)
         hm.link(t_s, self._lost)
         self._lost = 0
-        accel = accel_m_s2(t) if t.flags & TelemetryFlags.IMU_OK else None
+        accel = accel_m_s2(t) if t.flags & _IMU_OK else None
         v = self.verdict = hm.update(
             HealthInput(
                 t_s=t_s,
-                imu_ok=bool(t.flags & TelemetryFlags.IMU_OK),
+                imu_ok=bool(t.flags & _IMU_OK),
                 imu_raw=(*t.accel, *t.gyro, t.temp),
                 wz_rad_s=wz,
                 wheel_rad_s=om,
@@ -561,7 +563,7 @@ class HostCore:
             if self.guard is not None and not self.mission.done:
                 reason = self.guard.check(
                     t_s,
-                    bool(t.flags & TelemetryFlags.IMU_OK),
+                    bool(t.flags & _IMU_OK),
                     bias_known,
                     (t.enc_left, t.enc_right),
                     self._wheel_cmd,

@@ -1,4 +1,4 @@
-"""Planar EKF after robot_localization's constant-acceleration model (Table 2), on filterpy.
+"""Planar EKF after robot_localization's constant-acceleration model (Table 2).
 
 State (7), velocities in the body frame, pose in the odom frame:
 
@@ -37,14 +37,12 @@ MCU's unwrapped clock in seconds, passed in by the caller: the filter never read
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-from filterpy.kalman import ExtendedKalmanFilter
 
 from jackson.common.geometry import wrap_angle
 
@@ -310,31 +308,24 @@ class Innovation:
     accepted: bool
 
 
-@dataclass(frozen=True)
-class _Measurement:
-    sensor: str
-    t_s: float
-    z: Vector
-    indices: list[int]
-    variances: Vector
-    threshold: float | None
-    angular: list[bool]  # per row: wrap the innovation
-
-
 class Ekf:
-    """The planar EKF of the host (module docstring), robot_localization's behaviour on filterpy.
+    """The planar EKF of the host (module docstring), robot_localization's behaviour.
 
-    filterpy's ``ExtendedKalmanFilter`` holds x and P and performs the correction through its
-    ``update(z, HJacobian, Hx, R, residual=...)``. Its ``predict()`` is linear (x = F x + B u),
-    which cannot express the yaw-dependent rotation of the body velocities, so the prediction is
-    done here: x = f(x, dt) and P = F P F^T + dt Q are written into the filterpy object, with
-    F and dt Q left in its ``F`` and ``Q`` for inspection. ``predict_update`` is never used: it
-    predicts linearly and cannot wrap the yaw innovation.
+    The equations are filterpy's ``ExtendedKalmanFilter`` (Joseph-form correction), written
+    out for this filter's measurements, which each observe a few state components directly
+    (H selects them): H P H^T is a block of P, P H^T some of its columns and K H a matrix with
+    K in those columns. On the daemon's frame loop this takes a fifth of the time of
+    filterpy's generic ``update`` (general matrix products with H, a checked inverse, deep
+    copies of z, x and P on every call), which was most of the host's work per frame.
+    tests/host/test_ekf.py keeps filterpy's ``update`` as the reference: the same
+    measurements through both agree to rounding.
 
-    Like robot_localization, the filter starts uninitialised (state 0, P = 1e-9 I) and does not
-    predict; the first measurement writes its components and their covariance straight into
-    x and P and initialises it; from then on every measurement first predicts to its own time
-    (never backwards: an older one is corrected without prediction) and then corrects.
+    The prediction is x = f(x, dt), P = F P F^T + dt Q, with F and dt Q kept for inspection
+    (:attr:`F`). Like robot_localization, the filter starts uninitialised (state 0,
+    P = 1e-9 I) and does not predict; the first measurement writes its components and their
+    covariance straight into x and P and initialises it; from then on every measurement first
+    predicts to its own time (never backwards: an older one is corrected without prediction)
+    and then corrects.
 
     Attributes
     ----------
@@ -347,13 +338,13 @@ class Ekf:
 
     def __init__(self, config: EkfConfig | None = None) -> None:
         self.config = config if config is not None else EkfConfig()
-        self._kf = ExtendedKalmanFilter(dim_x=STATE_SIZE, dim_z=1)
         self._q_per_s: Matrix = np.diag(
             np.asarray(self.config.process_noise.diagonal, dtype=np.float64)
         )
         self._q_moving_diag = np.diagonal(self._q_per_s).copy()
         self._q_still_diag = self._q_moving_diag.copy()
         self._q_still_diag[[X, Y, YAW]] = 0.0
+        self._q_still: Matrix = np.diag(self._q_still_diag)
         self.rejected: dict[str, int] = {}
         self.innovations: dict[str, Innovation] = {}
         self.stationary = False  # the robot stands still: no process noise on the pose
@@ -362,17 +353,13 @@ class Ekf:
     # ---- state -------------------------------------------------------------------------------
     def reset(self) -> None:
         """Back to the uninitialised filter: x = 0, P = initial_covariance I, no time."""
-        kf = self._kf
-        kf.x = np.zeros((STATE_SIZE, 1))
-        kf.P = np.eye(STATE_SIZE) * self.config.initial_covariance
-        kf.F = np.eye(STATE_SIZE)
-        kf.Q = np.zeros((STATE_SIZE, STATE_SIZE))
+        self._x: Vector = np.zeros(STATE_SIZE)
+        self._P: Matrix = np.eye(STATE_SIZE) * self.config.initial_covariance
+        self._F: Matrix = np.eye(STATE_SIZE)
         self._t_s: float | None = None
         self._last_measurement_t_s: float | None = None
         self._initialized = False
-        self._y: Vector = np.zeros(0)
-        self._S: Matrix = np.zeros((0, 0))
-        self._mahalanobis_sq = 0.0
+        self._last = Innovation("", 0.0, (), (), 0.0, True)  # the last measurement's
         self.stationary = False
         self.rejected = {SENSOR_WHEEL: 0, SENSOR_GYRO: 0, SENSOR_YAW: 0}
         self.innovations = {}
@@ -391,14 +378,14 @@ class Ekf:
         covariance_diagonal : sequence of 7 float, optional
             diag(P); default initial_covariance for every state. Off-diagonal terms are zero.
         """
-        state = np.asarray(x, dtype=np.float64).reshape(STATE_SIZE)
+        state = np.array(x, dtype=np.float64).reshape(STATE_SIZE)
         state[YAW] = wrap_angle(float(state[YAW]))
         if covariance_diagonal is None:
             p_diag = np.full(STATE_SIZE, self.config.initial_covariance)
         else:
             p_diag = np.asarray(covariance_diagonal, dtype=np.float64).reshape(STATE_SIZE)
-        self._kf.x = state.reshape(STATE_SIZE, 1)
-        self._kf.P = np.diag(p_diag)
+        self._x = state
+        self._P = np.diag(p_diag)
         self._t_s = t_s
         self._last_measurement_t_s = t_s
         self._initialized = True
@@ -421,17 +408,17 @@ class Ekf:
     @property
     def x(self) -> Vector:
         """A copy of the state vector (7,)."""
-        return np.asarray(self._kf.x, dtype=np.float64).reshape(STATE_SIZE).copy()
+        return self._x.copy()
 
     @property
     def P(self) -> Matrix:  # noqa: N802 - named as in the maths
         """A copy of the state covariance (7, 7)."""
-        return np.array(self._kf.P, dtype=np.float64)
+        return self._P.copy()
 
     @property
     def F(self) -> Matrix:  # noqa: N802
         """The Jacobian of the last prediction step (7, 7)."""
-        return np.array(self._kf.F, dtype=np.float64)
+        return self._F.copy()
 
     @property
     def Q(self) -> Matrix:  # noqa: N802
@@ -441,62 +428,60 @@ class Ekf:
     @property
     def y(self) -> Vector:
         """Innovation of the last measurement, accepted or not (angles wrapped)."""
-        return self._y.copy()
+        return np.array(self._last.y, dtype=np.float64)
 
     @property
     def S(self) -> Matrix:  # noqa: N802
         """Innovation covariance H P H^T + R of the last measurement."""
-        return self._S.copy()
+        return np.array(self._last.S, dtype=np.float64).reshape(len(self._last.y), -1)
 
     @property
     def mahalanobis_sq(self) -> float:
         """Squared Mahalanobis distance y^T S^-1 y of the last measurement (what is gated)."""
-        return self._mahalanobis_sq
+        return self._last.mahalanobis_sq
 
     @property
     def mahalanobis(self) -> float:
         """Mahalanobis distance sqrt(y^T S^-1 y) of the last measurement (filterpy's meaning)."""
-        return math.sqrt(self._mahalanobis_sq)
-
-    def _component(self, i: int) -> float:
-        return float(self._kf.x[i, 0])
+        return math.sqrt(self._last.mahalanobis_sq)
 
     @property
     def x_m(self) -> float:
-        return self._component(X)
+        return float(self._x[X])
 
     @property
     def y_m(self) -> float:
-        return self._component(Y)
+        return float(self._x[Y])
 
     @property
     def yaw_rad(self) -> float:
-        return self._component(YAW)
+        return float(self._x[YAW])
 
     @property
     def vx_m_s(self) -> float:
-        return self._component(VX)
+        return float(self._x[VX])
 
     @property
     def vy_m_s(self) -> float:
-        return self._component(VY)
+        return float(self._x[VY])
 
     @property
     def vyaw_rad_s(self) -> float:
-        return self._component(VYAW)
+        return float(self._x[VYAW])
 
     @property
     def ax_m_s2(self) -> float:
-        return self._component(AX)
+        return float(self._x[AX])
 
     def state(self) -> EkfState:
         """A frozen snapshot of the estimate."""
+        p = self._P
         return EkfState(
             t_s=self._t_s,
-            x=tuple(self.x.tolist()),
-            covariance_diagonal=tuple(np.diagonal(self._kf.P).tolist()),
+            x=tuple(self._x.tolist()),
+            covariance_diagonal=tuple(np.diagonal(p).tolist()),
             initialized=self._initialized,
-            pose_cross=_pose_cross(np.asarray(self._kf.P, dtype=np.float64)),
+            pose_cross=_pose_cross(p),
         )
 
     def state_at(self, t_s: float) -> EkfState:
@@ -510,18 +495,15 @@ class Ekf:
         if not self._initialized or self._t_s is None or not t_s - self._t_s > 0.0:
             return self.state()
         dt_s = t_s - self._t_s
-        x = self.x
+        x = self._x
         jac = transition_jacobian(x, dt_s)
-        # only the diagonal of F P F^T + dt Q: row i of F P times row i of F
-        jp = jac @ np.asarray(self._kf.P, dtype=np.float64)
-        p_diag = np.einsum("ij,ij->i", jp, jac) + dt_s * self._q_diag()
-        pose = jp[:3] @ jac[:3].T  # the pose block of F P F^T (Q is diagonal)
+        p = jac @ self._P @ jac.T + dt_s * self._q_matrix()
         return EkfState(
             t_s=t_s,
             x=tuple(transition(x, dt_s).tolist()),
-            covariance_diagonal=tuple(p_diag.tolist()),
+            covariance_diagonal=tuple(p.diagonal().tolist()),
             initialized=True,
-            pose_cross=_pose_cross(pose),
+            pose_cross=_pose_cross(p),
         )
 
     # ---- prediction --------------------------------------------------------------------------
@@ -536,17 +518,16 @@ class Ekf:
         dt_s = t_s - self._t_s
         if not dt_s > 0.0:  # also NaN
             return
-        kf = self._kf
-        x = self.x
+        x = self._x
         jac = transition_jacobian(x, dt_s)
-        q_step = np.diag(dt_s * self._q_diag())
-        kf.F = jac
-        kf.Q = q_step
-        kf.x = transition(x, dt_s).reshape(STATE_SIZE, 1)
-        kf.P = jac @ kf.P @ jac.T + q_step
-        kf.x_prior = kf.x.copy()
-        kf.P_prior = kf.P.copy()
+        self._F = jac
+        self._P = jac @ self._P @ jac.T + dt_s * self._q_matrix()
+        self._x = transition(x, dt_s)
         self._t_s = t_s
+
+    def _q_matrix(self) -> Matrix:
+        """Q per second as a matrix: without the pose's while :attr:`stationary`."""
+        return self._q_still if self.stationary else self._q_per_s
 
     def _q_diag(self) -> Vector:
         """Q's diagonal per second: without the pose's while :attr:`stationary`."""
@@ -580,15 +561,12 @@ class Ekf:
         """
         cfg = self.config
         return self._process(
-            _Measurement(
-                sensor=SENSOR_WHEEL,
-                t_s=t_s,
-                z=np.array([vx, vy], dtype=np.float64),
-                indices=[VX, VY],
-                variances=np.array([cfg.r_vx * variance_scale, cfg.r_vy], dtype=np.float64),
-                threshold=cfg.mahalanobis_wheel,
-                angular=[False, False],
-            )
+            SENSOR_WHEEL,
+            t_s,
+            (vx, vy),
+            _WHEEL,
+            (cfg.r_vx * variance_scale, cfg.r_vy),
+            cfg.mahalanobis_wheel,
         )
 
     def update_gyro(self, t_s: float, wz: float) -> bool:
@@ -597,34 +575,14 @@ class Ekf:
         Gated with mahalanobis_imu. Returns False when rejected.
         """
         cfg = self.config
-        return self._process(
-            _Measurement(
-                sensor=SENSOR_GYRO,
-                t_s=t_s,
-                z=np.array([wz], dtype=np.float64),
-                indices=[VYAW],
-                variances=np.array([cfg.r_wz], dtype=np.float64),
-                threshold=cfg.mahalanobis_imu,
-                angular=[False],
-            )
-        )
+        return self._process(SENSOR_GYRO, t_s, (wz,), _VYAW, (cfg.r_wz,), cfg.mahalanobis_imu)
 
     def update_yaw_rate(
         self, t_s: float, wz: float, variance: float, sensor: str = SENSOR_WHEEL_YAW
     ) -> bool:
         """Fuse a yaw rate other than the gyro's (the wheels', when the IMU is excluded):
         z = [vyaw], R = variance [(rad/s)^2]. Not gated."""
-        return self._process(
-            _Measurement(
-                sensor=sensor,
-                t_s=t_s,
-                z=np.array([wz], dtype=np.float64),
-                indices=[VYAW],
-                variances=np.array([variance], dtype=np.float64),
-                threshold=None,
-                angular=[False],
-            )
-        )
+        return self._process(sensor, t_s, (wz,), _VYAW, (variance,), None)
 
     def update_zero_velocity(self, t_s: float, variance: float) -> bool:
         """A zero-velocity update: z = [vx, vy, vyaw, ax] = 0 with R = variance I.
@@ -633,17 +591,7 @@ class Ekf:
         pose noise either): its velocity covariance collapses and its pose covariance stops
         growing.
         """
-        return self._process(
-            _Measurement(
-                sensor=SENSOR_ZUPT,
-                t_s=t_s,
-                z=np.zeros(4, dtype=np.float64),
-                indices=[VX, VY, VYAW, AX],
-                variances=np.full(4, variance, dtype=np.float64),
-                threshold=None,
-                angular=[False] * 4,
-            )
-        )
+        return self._process(SENSOR_ZUPT, t_s, (0.0,) * 4, _ZUPT, (variance,) * 4, None)
 
     def update_yaw(
         self,
@@ -678,126 +626,137 @@ class Ekf:
             False when the gate rejected the measurement.
         """
         _check_threshold("mahalanobis_threshold", mahalanobis_threshold)
-        return self._process(
-            _Measurement(
-                sensor=sensor,
-                t_s=t_s,
-                z=np.array([yaw], dtype=np.float64),
-                indices=[YAW],
-                variances=np.array([variance], dtype=np.float64),
-                threshold=mahalanobis_threshold,
-                angular=[True],
-            )
-        )
+        return self._process(sensor, t_s, (yaw,), _YAW, (variance,), mahalanobis_threshold)
 
-    def _process(self, m: _Measurement) -> bool:
+    def _process(
+        self,
+        sensor: str,
+        t_s: float,
+        z: tuple[float, ...],
+        indices: tuple[int, ...],
+        variances: tuple[float, ...],
+        threshold: float | None,
+    ) -> bool:
+        """Gate and correct with z = H x + v, H selecting ``indices``, R = diag(variances)."""
         # robot_localization: non-finite values are left out of the update; variances are
         # taken as absolute values with a floor of 1e-9.
-        keep = [i for i in range(len(m.indices)) if math.isfinite(float(m.z[i]))]
-        if not keep:
-            return False
-        z = m.z[keep]
-        indices = [m.indices[i] for i in keep]
-        angular = [m.angular[i] for i in keep]
-        variances = np.maximum(np.abs(m.variances[keep]), MIN_MEASUREMENT_VARIANCE)
-        r_matrix = np.diag(variances)
-        for i, is_angle in enumerate(angular):
-            if is_angle:
-                z[i] = wrap_angle(float(z[i]))
+        if not all(map(math.isfinite, z)):
+            keep = [i for i, v in enumerate(z) if math.isfinite(v)]
+            if not keep:
+                return False
+            z = tuple(z[i] for i in keep)
+            indices = tuple(indices[i] for i in keep)
+            variances = tuple(variances[i] for i in keep)
+        r = [
+            v if v >= MIN_MEASUREMENT_VARIANCE else max(abs(v), MIN_MEASUREMENT_VARIANCE)
+            for v in variances
+        ]
+        if YAW in indices:  # angles: measurement and innovation wrapped to [-pi, pi)
+            z = tuple(wrap_angle(v) if i == YAW else v for v, i in zip(z, indices, strict=True))
 
-        if self._last_measurement_t_s is None or m.t_s >= self._last_measurement_t_s:
-            self._last_measurement_t_s = m.t_s
+        if self._last_measurement_t_s is None or t_s >= self._last_measurement_t_s:
+            self._last_measurement_t_s = t_s
 
         if not self._initialized:
-            self._initialize_from(m, z, indices, r_matrix)
+            self._initialize_from(sensor, t_s, z, indices, r)
             return True
 
-        self.predict_to(m.t_s)
-        h_matrix, residual = _observation(tuple(indices), tuple(angular))
-        if m.threshold is not None:  # gating: the innovation is judged before the update
-            x_col = np.asarray(self._kf.x, dtype=np.float64)
-            y = residual(z.reshape(-1, 1), h_matrix @ x_col).reshape(-1)
-            s_matrix = h_matrix @ self._kf.P @ h_matrix.T + r_matrix
-            d2 = float(y @ np.linalg.solve(s_matrix, y))
-            accepted = d2 < m.threshold * m.threshold
-            self._record(m.sensor, m.t_s, y, s_matrix, d2, accepted)
-            if not accepted:
-                self.rejected[m.sensor] = self.rejected.get(m.sensor, 0) + 1
-                return False
+        self.predict_to(t_s)
+        x, p = self._x, self._P
+        m = len(indices)
+        first = indices[0]
+        # P H^T: P's columns of the measured states (a view when they are adjacent)
+        adjacent = indices == tuple(range(first, first + m))
+        pht = p[:, first : first + m] if adjacent else p[:, list(indices)]
+        y = [zi - float(x[i]) for zi, i in zip(z, indices, strict=True)]
+        if YAW in indices:
+            y = [wrap_angle(v) if i == YAW else v for v, i in zip(y, indices, strict=True)]
+        if m == 1:  # S, S^-1 and d^2 on floats
+            s = float(p[first, first]) + r[0]
+            s_rows = [[s]]
+            d2 = y[0] * (y[0] / s)
+        elif m == 2:
+            i, j = indices
+            a, b = float(p[i, i]) + r[0], float(p[i, j])
+            c, d = float(p[j, i]), float(p[j, j]) + r[1]
+            s_rows = [[a, b], [c, d]]
+            det = a * d - b * c
+            s_inv = np.array([[d / det, -b / det], [-c / det, a / det]])
+            d2 = y[0] * (d * y[0] - b * y[1]) / det + y[1] * (a * y[1] - c * y[0]) / det
+        else:
+            rows = slice(first, first + m) if adjacent else list(indices)
+            s_matrix = pht[rows, :] + np.diag(r)
+            s_rows = s_matrix.tolist()
+            s_inv = np.linalg.inv(s_matrix)
+            y_arr = np.array(y)
+            d2 = float(y_arr @ (s_inv @ y_arr))
+        accepted = threshold is None or d2 < threshold * threshold
+        self._record(sensor, t_s, y, s_rows, d2, accepted)
+        if not accepted:
+            self.rejected[sensor] = self.rejected.get(sensor, 0) + 1
+            return False
 
-        self._kf.update(
-            z.reshape(-1, 1),
-            HJacobian=lambda _x: h_matrix,
-            Hx=lambda state: h_matrix @ state,
-            R=r_matrix,
-            residual=residual,
-        )
-        if m.threshold is None:  # no gate: filterpy's own innovation, its covariance and inverse
-            y_u = np.asarray(self._kf.y, dtype=np.float64).reshape(-1)
-            d2 = float(y_u @ np.asarray(self._kf.SI, dtype=np.float64) @ y_u)
-            self._record(m.sensor, m.t_s, y_u, np.asarray(self._kf.S, dtype=np.float64), d2, True)
-        self._kf.x[YAW, 0] = wrap_angle(float(self._kf.x[YAW, 0]))
+        i_kh = _IDENTITY.copy()  # I - K H: K in the measured states' columns
+        if m == 1:  # K = P H^T / s, a column
+            k1 = p[:, first] * (1.0 / s)
+            x = x + k1 * y[0]
+            i_kh[:, first] -= k1
+            krk = (k1 * r[0])[:, np.newaxis] * k1
+        else:
+            k = pht @ s_inv  # K = P H^T S^-1, (7, m)
+            x = x + k @ np.array(y)
+            if adjacent:
+                i_kh[:, first : first + m] -= k
+            else:
+                i_kh[:, list(indices)] -= k
+            krk = (k * r) @ k.T  # R is diagonal
+        x[YAW] = wrap_angle(float(x[YAW]))
+        self._P = (i_kh @ p) @ i_kh.T + krk  # Joseph form
+        self._x = x
         return True
 
     def _initialize_from(
-        self, m: _Measurement, z: Vector, indices: list[int], r_matrix: Matrix
+        self,
+        sensor: str,
+        t_s: float,
+        z: tuple[float, ...],
+        indices: tuple[int, ...],
+        r: list[float],
     ) -> None:
         """robot_localization's first measurement: measured states and their covariance block
         are copied from the measurement, the rest stay at 0 and initial_covariance."""
-        kf = self._kf
+        r_matrix = np.diag(r)
         for row, i in enumerate(indices):
-            kf.x[i, 0] = z[row]
+            self._x[i] = z[row]
             for col, j in enumerate(indices):
-                kf.P[i, j] = r_matrix[row, col]
-        self._t_s = m.t_s
+                self._P[i, j] = r_matrix[row, col]
+        self._t_s = t_s
         self._initialized = True
-        self._record(m.sensor, m.t_s, np.zeros(len(indices)), r_matrix, 0.0, True)
+        self._record(sensor, t_s, [0.0] * len(indices), r_matrix.tolist(), 0.0, True)
 
     def _record(
-        self, sensor: str, t_s: float, y: Vector, s_matrix: Matrix, d2: float, accepted: bool
+        self,
+        sensor: str,
+        t_s: float,
+        y: list[float],
+        s_rows: list[list[float]],
+        d2: float,
+        accepted: bool,
     ) -> None:
-        self._y = np.array(y, dtype=np.float64)
-        self._S = np.array(s_matrix, dtype=np.float64)
-        self._mahalanobis_sq = d2
-        self.innovations[sensor] = Innovation(
-            sensor=sensor,
-            t_s=t_s,
-            y=tuple(self._y.tolist()),
-            S=tuple(tuple(row) for row in self._S.tolist()),
-            mahalanobis_sq=d2,
-            accepted=accepted,
-        )
+        innovation = Innovation(sensor, t_s, tuple(y), tuple(map(tuple, s_rows)), d2, accepted)
+        self._last = innovation
+        self.innovations[sensor] = innovation
+
+
+_WHEEL = (VX, VY)
+_VYAW = (VYAW,)
+_YAW = (YAW,)
+_ZUPT = (VX, VY, VYAW, AX)
 
 
 def _pose_cross(p: Matrix) -> tuple[float, float, float]:
     """(P_xy, P_x,yaw, P_y,yaw) of a covariance whose first three states are x, y, yaw."""
     return (float(p[X, Y]), float(p[X, YAW]), float(p[Y, YAW]))
-
-
-@functools.lru_cache(maxsize=64)
-def _observation(
-    indices: tuple[int, ...], angular: tuple[bool, ...]
-) -> tuple[Matrix, Callable[[Matrix, Matrix], Matrix]]:
-    """H selecting the measured state components, and the residual for them (one per sensor
-    layout, built once: the daemon measures the same components every frame)."""
-    h_matrix = np.zeros((len(indices), STATE_SIZE))
-    for row, col in enumerate(indices):
-        h_matrix[row, col] = 1.0
-    h_matrix.flags.writeable = False  # shared between calls
-    return h_matrix, _residual_function(list(angular))
-
-
-def _residual_function(angular: list[bool]) -> Callable[[Matrix, Matrix], Matrix]:
-    """z - h(x) with the rows flagged in ``angular`` wrapped to [-pi, pi)."""
-
-    def residual(z: Matrix, hx: Matrix) -> Matrix:
-        y = np.asarray(z, dtype=np.float64) - np.asarray(hx, dtype=np.float64)
-        for row, is_angle in enumerate(angular):
-            if is_angle:
-                y[row, 0] = wrap_angle(float(y[row, 0]))
-        return y
-
-    return residual
 
 
 class GyroBiasEstimator:

@@ -488,6 +488,7 @@ class HealthMonitor:
         self._window: deque[tuple[float, float, float, float, float, float, float]] = deque()
         self._still: deque[tuple[float, float]] = deque()
         self._link: deque[tuple[float, int]] = deque()
+        self._link_missing = 0  # the sum of the window's lost counts
         self.remeasure_bias = False  # the gyro read non-zero standing still: measure its bias
         # failing samples of the last window: (t, res, var, om_l, om_r, wz, v)
         self._fails: deque[tuple[float, float, float, float, float, float, float]] = deque()
@@ -880,11 +881,13 @@ class HealthMonitor:
     def link(self, t_s: float, lost: int) -> None:
         """One telemetry frame received, ``lost`` frames missing before it (by SEQ)."""
         cfg, st = self.cfg, self._s["link"]
-        self._link.append((t_s, lost))
-        while self._link and self._link[0][0] <= t_s - cfg.link_window_s + 1e-9:
-            self._link.popleft()
-        missing = sum(n for _, n in self._link)
-        total = len(self._link) + missing
+        window = self._link
+        window.append((t_s, lost))
+        missing = self._link_missing + lost
+        while window and window[0][0] <= t_s - cfg.link_window_s + 1e-9:
+            missing -= window.popleft()[1]
+        self._link_missing = missing
+        total = len(window) + missing
         out: list[Transition] = []
         if missing >= 2 and missing > cfg.link_loss_fraction * total:
             why = f"{missing} of {total} frames lost in {cfg.link_window_s:.0f} s"

@@ -359,3 +359,93 @@ def test_gyro_bias_needs_enough_samples() -> None:
     for k in range(11, 20):
         est.add(k * 0.25, 0.1, standing_still=True)
     assert est.bias_rad_s == pytest.approx(0.1)
+
+
+class FilterpyReference:
+    """The same filter on filterpy's ``ExtendedKalmanFilter.update`` (the generic form)."""
+
+    def __init__(self, config: EkfConfig, ekf: Ekf) -> None:
+        from filterpy.kalman import ExtendedKalmanFilter
+
+        self.kf = ExtendedKalmanFilter(dim_x=7, dim_z=1)
+        self.kf.x = ekf.x.reshape(7, 1)
+        self.kf.P = ekf.P
+        self.t_s = ekf.t_s
+        self.q = np.asarray(config.process_noise.diagonal)
+
+    def update(
+        self,
+        t_s: float,
+        z: list[float],
+        indices: list[int],
+        r: list[float],
+        threshold: float | None,
+    ) -> bool:
+        assert self.t_s is not None
+        dt_s = t_s - self.t_s
+        if dt_s > 0.0:
+            x = self.kf.x.reshape(7)
+            jac = transition_jacobian(x, dt_s)
+            self.kf.P = jac @ self.kf.P @ jac.T + np.diag(dt_s * self.q)
+            self.kf.x = transition(x, dt_s).reshape(7, 1)
+            self.t_s = t_s
+        h = np.zeros((len(indices), 7))
+        for row, col in enumerate(indices):
+            h[row, col] = 1.0
+
+        def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            y = np.asarray(a, dtype=np.float64) - b
+            for row, col in enumerate(indices):
+                if col == YAW:
+                    y[row, 0] = wrap_angle(float(y[row, 0]))
+            return y
+
+        zc = np.array(z, dtype=np.float64).reshape(-1, 1)
+        rm = np.diag(r)
+        if threshold is not None:
+            y = residual(zc, h @ self.kf.x).reshape(-1)
+            s = h @ self.kf.P @ h.T + rm
+            if not float(y @ np.linalg.solve(s, y)) < threshold * threshold:
+                return False
+        self.kf.update(zc, HJacobian=lambda _x: h, Hx=lambda s: h @ s, R=rm, residual=residual)
+        self.kf.x[YAW, 0] = wrap_angle(float(self.kf.x[YAW, 0]))
+        return True
+
+
+def test_the_written_out_correction_is_filterpys_update() -> None:
+    """Every measurement kind, gated and not, angles across +-pi: x and P as filterpy's."""
+    cfg = EkfConfig(mahalanobis_wheel=3.0, mahalanobis_imu=2.0)
+    ekf = Ekf(cfg)
+    ekf.set_state(0.0, [0.1, -0.2, 3.1, 0.3, 0.0, 0.5, 0.1], [1e-3] * 7)
+    ref = FilterpyReference(cfg, ekf)
+    rng = np.random.default_rng(7)
+    t_s = 0.0
+    rejected = 0
+    for k in range(400):
+        t_s += float(rng.uniform(0.01, 0.06))
+        kind = k % 5
+        if kind == 0:
+            vx = float(rng.normal(0.3, 0.3))
+            ok = ekf.update_wheel(t_s, vx, 0.0)
+            ok_ref = ref.update(t_s, [vx, 0.0], [VX, VY], [cfg.r_vx, cfg.r_vy], 3.0)
+        elif kind == 1:
+            wz = float(rng.normal(0.5, 0.2))
+            ok = ekf.update_gyro(t_s, wz)
+            ok_ref = ref.update(t_s, [wz], [VYAW], [cfg.r_wz], 2.0)
+        elif kind == 2:
+            yaw = float(rng.uniform(-4.0, 4.0))
+            ok = ekf.update_yaw(t_s, yaw, 0.05)
+            ok_ref = ref.update(t_s, [wrap_angle(yaw)], [YAW], [0.05], None)
+        elif kind == 3:
+            wz = float(rng.normal(0.5, 0.2))
+            ok = ekf.update_yaw_rate(t_s, wz, 0.01)
+            ok_ref = ref.update(t_s, [wz], [VYAW], [0.01], None)
+        else:
+            ekf.stationary = False
+            ok = ekf.update_zero_velocity(t_s, 1e-4)
+            ok_ref = ref.update(t_s, [0.0] * 4, [VX, VY, VYAW, AX], [1e-4] * 4, None)
+        assert ok == ok_ref, k
+        rejected += not ok
+        np.testing.assert_allclose(ekf.x, ref.kf.x.reshape(7), rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(ekf.P, ref.kf.P, rtol=1e-9, atol=1e-15)
+    assert 0 < rejected < 200  # the gates were exercised both ways (160 gated)
