@@ -6,14 +6,15 @@
   square in the twin. The I2C bus here is an in-memory register file, so the figure is the
   host's own work. Beside it, frame by frame, a bare EKF (:class:`jackson.host.ekf.Ekf`) takes
   the same frame's wheel and gyro updates alone. Figures: the median and p99 as shares of the
-  5 ms frame period at 200 Hz (targets 2 % and 6 %, 100 and 300 us) and over the bare EKF's
-  median and p99 (target 3x: the filter is most of the work).
+  5 ms frame period at 200 Hz (the budget: 5 % and 10 %, see :data:`CPU_P50_SHARE_TARGET`),
+  over the bare EKF's median and p99 (target 3x: the filter is most of the work), and the p99
+  over the median (target 3x: no tail).
 - Command latency (wall time): from a new velocity command to the completed PCA9685 register
   write, over the twin's I2C socket (a real Unix socket to a server in another thread), in
   lockstep; interleaved sample by sample with a one-byte register write on the same bus, the
   transport's floor. Figures: median and p99 as shares of the 5 ms frame period (target 20 %,
   1 ms; the paper saw about 50 ms of command transport on the robot) and over the one-byte
-  write's (target 2x).
+  write's (target 2x), and the p99 over the median (target 3x).
 
 Five passes, each a fresh host and EKF over the same frames followed by 200 (quick) or 1000
 commands; each median and p99 is the best over the passes.
@@ -200,8 +201,13 @@ def command_latency(samples: int) -> tuple[list[float], list[float]]:
 
 PASSES = 5
 FRAME_PERIOD_S = 1.0 / 200  # the 200 Hz frame period [s]
-CPU_P50_SHARE_TARGET = 100e-6 / FRAME_PERIOD_S
-CPU_P99_SHARE_TARGET = 300e-6 / FRAME_PERIOD_S
+# The frame work's budget at the firmware's top rate: it shares the core with the Stage 3
+# cycles (mapping, particle filter, DWB: about 15 % of a core together here) and the ROS 2
+# bridge; 5 % median and 10 % p99 keep the whole under a third of one core on a machine 2.5x
+# slower than a desktop, so a Jetson core does not saturate.
+CPU_P50_SHARE_TARGET = 0.05
+CPU_P99_SHARE_TARGET = 0.10
+TAIL_TARGET = 3.0  # p99 within 3x of the median
 CPU_OVER_EKF_TARGET = 3.0
 COMMAND_SHARE_TARGET = 1e-3 / FRAME_PERIOD_S
 COMMAND_OVER_FLOOR_TARGET = 2.0
@@ -304,6 +310,15 @@ def run(quick: bool = False) -> list[BenchResult]:
             ekf_p99,
         ),
         fig(
+            "host.cpu_per_frame_p99_over_p50",
+            cpu_p99 / cpu_p50,
+            "x the median",
+            TAIL_TARGET,
+            "the median CPU time per frame, same passes",
+            cpu_p99,
+            cpu_p50,
+        ),
+        fig(
             "host.command_to_pca9685_p50_share",
             lat_p50 / period_us,
             "of 5 ms",
@@ -320,6 +335,15 @@ def run(quick: bool = False) -> list[BenchResult]:
             period,
             lat_p99,
             None,
+        ),
+        fig(
+            "host.command_to_pca9685_p99_over_p50",
+            lat_p99 / lat_p50,
+            "x the median",
+            TAIL_TARGET,
+            "the median command latency (wall time), same passes",
+            lat_p99,
+            lat_p50,
         ),
         fig(
             "host.command_to_pca9685_p50_over_bus_write",

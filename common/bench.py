@@ -32,8 +32,10 @@ class BenchResult:
         The judged figure: a ratio of two things measured side by side (see :attr:`reference`).
     unit : str
         What the ratio means, e.g. ``"x pymavlink's speed"`` or ``"of the 5 ms frame period"``.
-    target : float
-        The value :attr:`value` must reach (``better == "higher"``) or stay under (``"lower"``).
+    target : float or None
+        The value :attr:`value` must reach (``better == "higher"``) or stay under (``"lower"``);
+        None for a figure reported for information (its reference is itself being optimised,
+        so its ratio judges nothing on its own).
     better : {"higher", "lower"}
         Which side of :attr:`target` meets it.
     reference : str
@@ -51,7 +53,7 @@ class BenchResult:
     name: str
     value: float
     unit: str
-    target: float
+    target: float | None
     better: Literal["higher", "lower"]
     reference: str = ""
     absolute: float | None = None
@@ -66,8 +68,11 @@ class BenchResult:
         Returns
         -------
         bool
-            ``value >= target`` for ``better == "higher"``, ``value <= target`` otherwise.
+            ``value >= target`` for ``better == "higher"``, ``value <= target`` otherwise;
+            True for a figure without a target.
         """
+        if self.target is None:
+            return True
         return self.value >= self.target if self.better == "higher" else self.value <= self.target
 
 

@@ -166,6 +166,10 @@ class SerialTransport:
                 continue
             try:
                 data = port.read(max(1, port.in_waiting))
+                if data:  # the rest of what arrived with the first byte: one decode per wake
+                    waiting = port.in_waiting
+                    if waiting:
+                        data += port.read(waiting)
             except (serial.SerialException, OSError, TypeError) as exc:
                 self._drop(str(exc))
                 continue

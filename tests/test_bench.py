@@ -117,6 +117,7 @@ def test_json_and_table_carry_ratio_target_and_absolute(
     results = [
         BenchResult("x.vs_peer", 3.0, "x peer's speed", 1.0, "higher", "peer", 9.0, "MB/s", 3.0),
         BenchResult("x.share", 0.5, "of 5 ms", 0.2, "lower", "period", 2500.0, "us", None, 99.0),
+        BenchResult("x.info", 9.0, "x twin's time", None, "lower", "the twin alone"),
     ]
     path = tmp_path / "sub" / "bench.json"
     write_json(results, path)
@@ -127,6 +128,8 @@ def test_json_and_table_carry_ratio_target_and_absolute(
     out = capsys.readouterr().out
     assert "x.vs_peer" in out and ">= 1" in out and "<= 0.2" in out
     assert "NO" in out and "yes" in out
+    assert "(info)" in out  # reported, not judged
+    assert records[2]["target"] is None
     assert "targets met: 1/2" in out
 
 
