@@ -406,7 +406,11 @@ class Daemon:
                 if core.abort_reason is not None:
                     self.tell(f"mission aborted: {core.abort_reason}")
                     break
-                if self.ros is not None and core.last_telemetry is not None:
+                if (
+                    self.ros is not None
+                    and core.last_telemetry is not None
+                    and self.ros.diagnostics_due(core.t_s or 0.0)
+                ):
                     from jackson.host.ros.bridge import diagnostic_values
 
                     self.ros.diagnostics(

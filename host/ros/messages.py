@@ -770,11 +770,27 @@ class RosOutput(CoreListener):
         if len(scan.angles_rad) >= 2:
             self.send("scan", scan.t_s, self.builder.scan(scan))
 
+    def diagnostics_due(self, t_s: float) -> bool:
+        """Whether :meth:`diagnostics` would send at MCU time ``t_s`` (the daemon gathers the
+        values only then: once per second, not every frame).
+
+        Parameters
+        ----------
+        t_s : float
+            MCU time [s].
+
+        Returns
+        -------
+        bool
+            True once :data:`DIAGNOSTICS_PERIOD_S` has passed since the last summary.
+        """
+        due = self._next_diagnostics_s
+        return due is None or t_s >= due - 1e-9
+
     def diagnostics(self, values: DiagnosticValues) -> bool:
         """The daemon's summary, at most once per :data:`DIAGNOSTICS_PERIOD_S` of MCU time;
         True when it was sent."""
-        due = self._next_diagnostics_s
-        if due is not None and values.t_s < due - 1e-9:
+        if not self.diagnostics_due(values.t_s):
             return False
         self._next_diagnostics_s = values.t_s + DIAGNOSTICS_PERIOD_S
         self.send("diagnostics", values.t_s, self.builder.diagnostics(values))
