@@ -40,7 +40,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     for parent in args.out.parents:
         if parent.exists() and not parent.is_dir():
             raise CliError(f"--out {args.out}: {parent} is a file, not a folder")
-    results = run_all(quick=args.quick, only=args.suite)
+    try:
+        results = run_all(quick=args.quick, only=args.suite)
+    except ModuleNotFoundError as exc:  # a peer the ratios are taken against (pymavlink)
+        raise CliError(
+            f"the benchmarks need {exc.name}, which is not installed: run `make setup` "
+            "(or pip install -e '.[dev]')"
+        ) from exc
     print_table(results)
     write_json(results, args.out)
     print(f"wrote {args.out}")

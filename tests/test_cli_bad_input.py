@@ -497,3 +497,25 @@ def test_the_good_files_of_the_corpus_are_accepted(
     assert main(["decode", "--summary", "captures/empty.bin"]) == 0
     out = capsys.readouterr().out
     assert "frames_ok=2" in out
+
+
+def test_bench_without_its_peer_library_says_what_to_install(tmp_path: Path) -> None:
+    """A user without the dev extra: the protocol suite's peer (pymavlink) is missing."""
+    shadow = tmp_path / "shadow" / "pymavlink"
+    shadow.mkdir(parents=True)
+    (shadow / "__init__.py").write_text(
+        "raise ModuleNotFoundError(\"No module named 'pymavlink'\", name='pymavlink')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(shadow.parent)}
+    out = subprocess.run(
+        [*JACKSON, "bench", "--quick", "--suite", "protocol", "--out", str(tmp_path / "b.json")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+    )
+    assert out.returncode == 2, out.stderr
+    assert "Traceback" not in out.stderr
+    assert "pymavlink" in out.stderr and "make setup" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "b.json").exists()
