@@ -28,13 +28,15 @@ from __future__ import annotations
 import logging
 import multiprocessing as mp
 import re
+import signal
 import socket
+import threading
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from pathlib import Path
-from types import ModuleType
+from types import FrameType, ModuleType
 from typing import Any, TypeVar
 
 S = TypeVar("S")
@@ -247,13 +249,80 @@ def map_trials(
     RayMissingError, ClusterUnreachableError, ClusterError
         With a cluster: Ray missing, nothing at the address, a node without ``folder``.
     """
-    if cluster is None:
-        ctx = mp.get_context("forkserver")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = {pool.submit(fn, s): k for k, s in enumerate(specs)}
-            for fut in as_completed(futures):
-                yield futures[fut], fut.result()
+    with _terminate_raises():
+        if cluster is None:
+            yield from _map_pool(fn, specs, workers)
+        else:
+            yield from _map_ray(fn, specs, workers, cluster, folder)
+
+
+class Terminated(SystemExit):
+    """SIGTERM reached a campaign: raised in its main thread so the trials are stopped."""
+
+
+@contextmanager
+def _terminate_raises() -> Iterator[None]:
+    """SIGTERM raises :class:`Terminated` (exit status 143) in the main thread for the block,
+    so the pool's workers and Ray's tasks are stopped on the way out, not left running."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
         return
+
+    def on_term(signum: int, frame: FrameType | None) -> None:
+        for pool in list(_RUNNING_POOLS):  # before anything else can run: their trials die now
+            _stop_workers(pool)
+        raise Terminated(128 + signal.SIGTERM)
+
+    previous = signal.signal(signal.SIGTERM, on_term)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _map_pool(fn: Callable[[S], R], specs: Sequence[S], workers: int) -> Iterator[tuple[int, R]]:
+    """:func:`map_trials` on the local pool. Leaving early (an error, Ctrl-C, SIGTERM, the
+    caller closing the generator) stops the workers at once: their trials die with them, none
+    is left writing into the report folder."""
+    ctx = mp.get_context("forkserver")
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+    _RUNNING_POOLS.add(pool)
+    done = False
+    try:
+        futures = {pool.submit(fn, s): k for k, s in enumerate(specs)}
+        for fut in as_completed(futures):
+            yield futures[fut], fut.result()
+        done = True
+    finally:
+        _RUNNING_POOLS.discard(pool)
+        if not done:
+            _stop_workers(pool)
+        pool.shutdown(wait=True)
+
+
+_RUNNING_POOLS: set[ProcessPoolExecutor] = set()
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Cancel the pool's queued trials and terminate its worker processes (their trials with
+    them), waiting for each to end."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        proc.terminate()
+    for proc in procs:
+        proc.join(timeout=10)
+
+
+def _map_ray(
+    fn: Callable[[S], R],
+    specs: Sequence[S],
+    workers: int,
+    cluster: str,
+    folder: Path | None,
+) -> Iterator[tuple[int, R]]:
+    """:func:`map_trials` on a Ray cluster: one task per trial; tasks still pending when the
+    caller leaves are cancelled."""
     with ray_session(cluster, num_cpus=workers) as ray:
         task = ray.remote(num_cpus=1, max_retries=0)(run_on_node)
         where = str(folder.resolve()) if folder is not None else None
