@@ -109,26 +109,29 @@ class ImuModel:
             (accel LSB xyz, temperature raw, gyro LSB xyz).
         """
         s = self.spec
-        bias = self.gyro_bias_rad_s
+        bx, by, bz = self.gyro_bias_rad_s
         if len(self._noise) < 6:
             self._noise = self.rng.standard_normal(6 * 256).tolist()[::-1]
         pop = self._noise.pop
-        noise = (pop(), pop(), pop(), pop(), pop(), pop())
-        a_true = (accel_body[0], accel_body[1], GRAVITY_M_S2 * s.gravity_scale)
-        w_true = (0.0, 0.0, yaw_rate * s.yaw_scale)
+        n_ax, n_ay, n_az, n_gx, n_gy, n_gz = pop(), pop(), pop(), pop(), pop(), pop()
+        w_z = yaw_rate * s.yaw_scale
         if gyro_z_offset_rad_s:
-            w_true = (0.0, 0.0, w_true[2] + gyro_z_offset_rad_s)
+            w_z = w_z + gyro_z_offset_rad_s
         a_scale = ACCEL_LSB_PER_G[self.accel_fs] / GRAVITY_M_S2
         g_scale = GYRO_LSB_PER_DPS[self.gyro_fs] * 180.0 / math.pi
-        accel = tuple(
-            _lsb(a_true[i] + s.accel_bias_m_s2[i] + s.accel_noise_sigma_m_s2 * noise[i], a_scale)
-            for i in range(3)
+        a_bx, a_by, a_bz = s.accel_bias_m_s2
+        a_sigma, g_sigma = s.accel_noise_sigma_m_s2, s.gyro_noise_sigma_rad_s
+        accel = (
+            _lsb(accel_body[0] + a_bx + a_sigma * n_ax, a_scale),
+            _lsb(accel_body[1] + a_by + a_sigma * n_ay, a_scale),
+            _lsb(GRAVITY_M_S2 * s.gravity_scale + a_bz + a_sigma * n_az, a_scale),
         )
-        gyro = tuple(
-            _lsb(w_true[i] + bias[i] + s.gyro_noise_sigma_rad_s * noise[3 + i], g_scale)
-            for i in range(3)
+        gyro = (
+            _lsb(0.0 + bx + g_sigma * n_gx, g_scale),
+            _lsb(0.0 + by + g_sigma * n_gy, g_scale),
+            _lsb(w_z + bz + g_sigma * n_gz, g_scale),
         )
-        return (accel[0], accel[1], accel[2]), TEMP_RAW_AT_25C, (gyro[0], gyro[1], gyro[2])
+        return accel, TEMP_RAW_AT_25C, gyro
 
 
 def imu_register_bytes(accel: tuple[int, int, int], temp: int, gyro: tuple[int, int, int]) -> bytes:

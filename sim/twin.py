@@ -1,7 +1,10 @@
 """The twin: world, robot, sensors and ground truth, advanced in fixed physics steps.
 
 The physics rate is 200 Hz (``PHYSICS_HZ``): each step applies motor, stiction and traction
-forces (:mod:`jackson.sim.robot`) and lets pymunk integrate and resolve collisions. Sensor
+forces (:mod:`jackson.sim.physics`) and, near obstacles, lets pymunk integrate and resolve
+collisions; in free space the model integrates itself, running the steps up to the next event
+(a command taking effect, a wheel-slip window opening or closing, a scan, a trigger's check)
+in one call, which the compiled model (:mod:`jackson.sim.compiled`) makes fast. Sensor
 values for the MCU are read at telemetry instants; the IMU sample is the mean specific force
 and yaw rate over the steps since the previous read, as the firmware's averaging of its 100 Hz
 samples gives. Motor commands take effect after the robot's actuation latency.
@@ -35,6 +38,7 @@ from jackson.sim.config import ConfigError, RobotSpec, Sides, WorldSpec
 from jackson.sim.faults import FaultInjector, FaultSpec
 from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 from jackson.sim.mcu import SensorSample
+from jackson.sim.physics import TruthRow
 from jackson.sim.robot import DiffDriveRobot, WheelDrive
 from jackson.sim.sensors import ImuModel, encoder_counts
 from jackson.sim.world import FrictionField, World
@@ -262,9 +266,7 @@ class Twin:
         self._pending: deque[tuple[float, WheelDrive, WheelDrive]] = deque()
         self._acc_sum = [0.0, 0.0, 0.0]
         self._acc_from_step = 0
-        self._raw_truth: list[
-            tuple[int, float, float, float, float, float, float, float, float]
-        ] = []
+        self._raw_truth: list[TruthRow] = []
         self._truth_cache: list[Truth] = []
         self.record_truth = record_truth
         # the newest scans (all of them with scan_history None: about 115 MB per hour);
@@ -314,75 +316,68 @@ class Twin:
         """Set the H-bridge outputs; they reach the motors after the actuation latency."""
         latency = self.robot_spec.actuation_latency_s
         if latency <= 0.0:
-            self._drive = (left, right)
+            self._set_drive(left, right)
         else:
             self._pending.append((self.t_s + latency - 1e-9, left, right))
 
+    def _set_drive(self, left: WheelDrive, right: WheelDrive) -> None:
+        self._drive = (left, right)
+        self.robot.drive(left, right)
+
     def advance(self, duration_s: float) -> None:
-        """Run physics for ``duration_s`` (rounded to whole steps)."""
-        end = self.steps + round(duration_s / self.dt)
-        robot, space, dt, radius = self.robot, self.world.space, self.dt, self._radius
+        """Run physics for ``duration_s`` (rounded to whole steps).
+
+        In free space the model runs the steps up to the next event in one call
+        (:meth:`~jackson.sim.physics.DiffDriveDynamics.run_free`); near obstacles each step is
+        the model's forces and pymunk's integration. Events (commands taking effect, wheel-slip
+        windows, triggers, scans) are handled here between those calls, at the same steps as
+        if every step were taken one by one.
+        """
+        dt = self.dt
+        end = self.steps + round(duration_s / dt)
+        model, space, radius = self.robot.model, self.world.space, self._radius
         pending, world = self._pending, self.world
         raw = self._raw_truth if self.record_truth else None
-        step_forces = robot.step_forces
+        lidar = self._lidar is not None
         steps = self.steps
-        ax = ay = az = 0.0
-        left, right = self._drive
-        budget = self._free_budget
-        next_slip = self._next_slip_step
+        model.sum_accel_x = model.sum_accel_y = model.sum_wz = 0.0
         while steps < end:
-            if steps >= next_slip:
-                next_slip = self._slip_change(steps)
+            if steps >= self._next_slip_step:
+                self._slip_change(steps)
             if pending and pending[0][0] <= steps * dt:
                 while pending and pending[0][0] <= steps * dt:
                     _, left, right = pending.popleft()
-                self._drive = (left, right)
-            step_forces(dt, left, right)
-            if budget > 0.0:  # free space: the update pymunk would make (see robot.py)
-                robot.x += robot.vwx * dt
-                robot.y += robot.vwy * dt
-                robot.yaw += robot.wz * dt
-                robot.in_space = False
-                budget -= (abs(robot.vwx) + abs(robot.vwy) + abs(robot.wz) * radius) * dt
-            else:
-                self.steps = steps
-                self._free_budget = budget
-                self._step_near_obstacles(space, dt)
-                budget = self._free_budget
-            steps += 1
-            ax += robot.accel_x
-            ay += robot.accel_y
-            az += robot.wz
-            if raw is not None:
-                raw.append(
-                    (
-                        steps,
-                        robot.x,
-                        robot.y,
-                        robot.yaw,
-                        robot.vwx,
-                        robot.vwy,
-                        robot.wz,
-                        robot.omega_l,
-                        robot.omega_r,
-                    )
+                self._set_drive(left, right)
+            if self._free_budget > 0.0:  # free space: the update pymunk would make (physics.py)
+                steps = model.run_free(
+                    dt,
+                    steps,
+                    steps + 1 if world._pending else end,  # a trigger is checked every step
+                    self._next_slip_step,
+                    pending[0][0] if pending else math.inf,
+                    self._next_scan_s if lidar else math.inf,
+                    radius,
+                    self._free_budget,
+                    raw,
                 )
-            if world._pending or (
-                self._lidar is not None and steps * dt + 1e-9 >= self._next_scan_s
-            ):
+                self._free_budget = model.free_budget_m
+            else:
+                model.step_forces(dt)
                 self.steps = steps
-                self._free_budget = budget
+                self._step_near_obstacles(space, dt)
+                steps += 1
+                model.record(steps, raw)
+            if world._pending or (lidar and steps * dt + 1e-9 >= self._next_scan_s):
+                self.steps = steps
                 if world._pending:
                     self._check_triggers()
-                if self._lidar is not None and steps * dt + 1e-9 >= self._next_scan_s:
+                if lidar and steps * dt + 1e-9 >= self._next_scan_s:
                     self._take_scan()
-                budget = self._free_budget
         self.steps = steps
-        self._free_budget = budget
         acc = self._acc_sum
-        acc[0] += ax
-        acc[1] += ay
-        acc[2] += az
+        acc[0] += model.sum_accel_x
+        acc[1] += model.sum_accel_y
+        acc[2] += model.sum_wz
 
     def _slip_change(self, steps: int) -> int:
         """A wheel-slip window opens or closes at physics step ``steps``: set the wheels' floor

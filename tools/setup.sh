@@ -92,3 +92,8 @@ if [ "$extras" = dev,ros ]; then
     echo "$tf2_key" > "$VENV/.tf2-msgs-key"
   fi
 fi
+
+# The twin's per-step model (sim/physics.py) compiled with mypyc into build/compiled/<digest>
+# (docs/compiled.md): skipped when the build of the source as it is now exists; one that cannot
+# be made is one line on stderr and the twin runs the same model interpreted.
+"$VENV/bin/python" tools/build_compiled.py || true

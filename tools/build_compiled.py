@@ -1,0 +1,181 @@
+"""Compile the twin's per-step model, ``sim/physics.py``, with mypyc (run by ``make setup``).
+
+The build is ``build/compiled/<digest>/jackson_sim_physics<EXT_SUFFIX>``, named by the digest
+of the source it was compiled from (:mod:`jackson.sim.compiled` loads it only while
+``physics.py`` still has that digest). Nothing is done when that build exists. Otherwise:
+
+1. the source's bytes are hashed and copied, as they were hashed, into a scratch folder
+   beside the builds, as the module ``jackson_sim_physics``;
+2. mypyc (from the ``dev`` extra's mypy) translates it to C, and the system's C compiler
+   builds the extension with ``-ffp-contract=off`` (no fused multiply-add: the same IEEE
+   double operations, in the same order, as the interpreter's);
+3. the extension is imported once in a fresh interpreter, then moved into place; builds of
+   other digests are removed.
+
+A build that cannot be made (no mypyc, no C compiler, no Python headers, a compile error) is
+one line on stderr naming the reason, and the exit status is still 0: the twin then runs
+``physics.py`` interpreted, with the same results. ``--force`` rebuilds an existing build.
+Run it with the environment's interpreter (``.venv/bin/python tools/build_compiled.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import time
+from pathlib import Path
+
+SETUP_PY = """\
+from mypyc.build import mypycify
+from setuptools import setup
+
+extensions = mypycify(["{module}.py"], opt_level="3")
+for extension in extensions:
+    extension.extra_compile_args.append("-ffp-contract=off")
+setup(name="{module}", ext_modules=extensions, script_args=["build_ext", "--inplace"])
+"""
+CHECK_PY = """\
+import sys
+from jackson.sim.compiled import load_build
+from pathlib import Path
+module = load_build(Path(sys.argv[1]))
+sys.exit(0 if module.__file__ == sys.argv[1] else 1)
+"""
+TIMEOUT_S = 600
+
+
+class BuildError(Exception):
+    """The build cannot be made; the message is the reason, one line."""
+
+
+def _missing_tool() -> str | None:
+    """What the build needs and this machine lacks (None: nothing)."""
+    if importlib.util.find_spec("mypyc") is None:
+        return "mypyc is not installed (it comes with the dev extra's mypy)"
+    cc = (os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc").split()[0]
+    if shutil.which(cc) is None:
+        return f"no C compiler ({cc} not found)"
+    include = sysconfig.get_paths()["include"]
+    if not (Path(include) / "Python.h").exists():
+        return f"no Python headers ({include}/Python.h; install python3-dev)"
+    return None
+
+
+def _last_error(output: str) -> str:
+    """The line of a failed build's output that says why."""
+    lines = [line.strip() for line in output.splitlines() if line.strip()]
+    for line in lines:
+        if "error" in line.lower():
+            return line[:300]
+    return lines[-1][:300] if lines else "no output"
+
+
+def build(force: bool) -> Path | None:
+    """Build the compiled model for the present source unless it exists.
+
+    Parameters
+    ----------
+    force : bool
+        Rebuild even when the build exists.
+
+    Returns
+    -------
+    Path or None
+        The new build (None: it existed).
+
+    Raises
+    ------
+    BuildError
+        It cannot be made.
+    """
+    from jackson.sim import compiled
+
+    source = compiled.source_path()
+    text = source.read_bytes()
+    digest = compiled.source_digest(text)
+    builds = compiled.builds_dir(source)
+    target = compiled.build_path(builds, digest)
+    if target.is_file() and not force:
+        return None
+    missing = _missing_tool()
+    if missing is not None:
+        raise BuildError(missing)
+    builds.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=builds))
+    try:
+        (scratch / f"{compiled.MODULE}.py").write_bytes(text)
+        (scratch / "setup.py").write_text(SETUP_PY.format(module=compiled.MODULE))
+        (scratch / "mypy.ini").write_text("[mypy]\n")  # not the repository's configuration
+        try:
+            out = subprocess.run(
+                [sys.executable, "setup.py"],
+                cwd=scratch,
+                capture_output=True,
+                text=True,
+                timeout=TIMEOUT_S,
+            )
+        except subprocess.TimeoutExpired as e:
+            raise BuildError(f"mypyc took over {TIMEOUT_S} s") from e
+        built = scratch / target.name
+        if out.returncode != 0 or not built.is_file():
+            raise BuildError(f"mypyc failed: {_last_error(out.stdout + out.stderr)}")
+        check = subprocess.run(
+            [sys.executable, "-c", CHECK_PY, str(built)],
+            capture_output=True,
+            text=True,
+            env={**os.environ, compiled.ENV_INTERPRETED: "1"},  # load nothing else
+        )
+        if check.returncode != 0:
+            raise BuildError(f"the build does not import: {_last_error(check.stderr)}")
+        target.parent.mkdir(exist_ok=True)
+        os.replace(built, target)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    for old in builds.iterdir():  # builds of older sources, scratch folders of dead builds
+        if old.is_dir() and old.name != digest and not _in_progress(old):
+            shutil.rmtree(old, ignore_errors=True)
+    return target
+
+
+def _in_progress(folder: Path) -> bool:
+    """A scratch folder another build may still be using (younger than its timeout)."""
+    return folder.name.startswith(".scratch-") and time.time() - folder.stat().st_mtime < TIMEOUT_S
+
+
+def main() -> int:
+    """Build it; one line on stderr when it cannot be made.
+
+    Returns
+    -------
+    int
+        0 (the twin runs interpreted without a build).
+    """
+    parser = argparse.ArgumentParser(description="Compile sim/physics.py with mypyc.")
+    parser.add_argument("--force", action="store_true", help="rebuild an existing build")
+    args = parser.parse_args()
+    t0 = time.monotonic()
+    try:
+        target = build(args.force)
+    except BuildError as e:
+        print(f"setup: compiled physics not built, the twin runs interpreted: {e}", file=sys.stderr)
+        return 0
+    except Exception as e:  # never break make setup
+        print(
+            f"setup: compiled physics not built, the twin runs interpreted: "
+            f"{type(e).__name__}: {e}",
+            file=sys.stderr,
+        )
+        return 0
+    if target is not None:
+        print(f"setup: compiled sim/physics.py with mypyc ({time.monotonic() - t0:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
