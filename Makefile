@@ -48,8 +48,10 @@ native:
 native-test: native
 	ctest --test-dir $(NATIVE) --output-on-failure
 
+# One pytest worker per CPU (pytest-xdist): most tests wait on subprocesses (the twin, campaigns,
+# ROS nodes); a file's tests stay together in one worker, in order (their module fixtures).
 pytest:
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n auto --dist loadfile
 
 bench: setup
 	$(BIN)/jackson bench

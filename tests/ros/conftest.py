@@ -2,11 +2,29 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from pathlib import Path
 
 import pytest
+
+# where this process starts in its share of a domain range: differs between runs on one machine
+_RUN_OFFSET = os.getpid() + int(time.time())
+_domains_given = itertools.count()
+
+
+def xdist_worker() -> tuple[int, int]:
+    """This process's pytest-xdist worker and the run's number of workers.
+
+    Returns
+    -------
+    tuple of (int, int)
+        The worker's index (``gw1``: 1) and the worker count; ``(0, 1)`` without xdist.
+    """
+    name = os.environ.get("PYTEST_XDIST_WORKER", "")
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    return (int(name[2:]) if name.startswith("gw") else 0), workers
 
 
 def private_ros_env(
@@ -14,6 +32,10 @@ def private_ros_env(
 ) -> dict[str, str]:
     """Set a private ROS domain (one of ``first`` .. ``first + count - 1``) on the loopback
     interface for this process, and return the environment for its children.
+
+    Each pytest-xdist worker draws from a slice of the range of its own, so tests running at
+    once in two workers never share a domain; within a worker each call takes the slice's next
+    domain, so a test never hears the nodes of the test before it.
 
     Parameters
     ----------
@@ -29,8 +51,12 @@ def private_ros_env(
     dict of str to str
         ``os.environ`` with the settings, for subprocesses.
     """
+    worker, workers = xdist_worker()
+    share = count // workers
+    assert share >= 1, f"{count} ROS domains for {workers} pytest workers"
+    domain = first + worker * share + (_RUN_OFFSET + next(_domains_given)) % share
     env = {
-        "ROS_DOMAIN_ID": str(first + (os.getpid() + int(time.time())) % count),
+        "ROS_DOMAIN_ID": str(domain),
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",  # Jazzy and later
         # Jazzy: unicast discovery on 127.0.0.1 (ROS_LOCALHOST_ONLY would override both and
         # relies on multicast on the loopback, which containers often lack)

@@ -15,7 +15,6 @@ import ast
 import importlib
 import importlib.util
 import math
-import os
 import platform
 import sys
 import time
@@ -36,6 +35,8 @@ from jackson.host.nav.mapping import MappingConfig
 from jackson.host.nav.navigator import NavigatorConfig
 from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.main import build_parser
+
+from .conftest import private_ros_env
 
 ROOT = Path(__file__).resolve().parents[2]
 PKG = ROOT / "ros2" / "jackson_bringup"
@@ -653,14 +654,7 @@ def test_mcu_clock_advances_drops_repeats_and_follows_a_restart() -> None:
 @pytest.fixture
 def ros_domain(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     """A private ROS domain on the loopback interface (as tests/ros/test_bridge.py)."""
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(1 + (os.getpid() + int(time.time()) + 50) % 100))
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_STATIC_PEERS", "127.0.0.1")
-    monkeypatch.setenv("ROS_LOG_DIR", str(tmp_path / "ros-log"))
-    if os.environ.get("ROS_DISTRO") == "humble":
-        monkeypatch.setenv("ROS_LOCALHOST_ONLY", "1")
-    else:
-        monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
+    private_ros_env(monkeypatch, tmp_path, 1, 100)
 
 
 @pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")

@@ -56,9 +56,12 @@ def test_command_silence_brakes_within_0_6_s_plus_one_tick(tmp_path: Path) -> No
             time.sleep(0.001)
         while not core.braked and time.monotonic() < deadline:  # ...then brakes
             time.sleep(0.001)
-        time.sleep(0.05)
-        left, right = bridge_outputs(twin.runner.pca)
-        assert left.mode == BridgeMode.SHORT_BRAKE and right.mode == BridgeMode.SHORT_BRAKE
+        # ...through the PCA9685: both bridges short-braked once the output stage has run
+        wait_for(
+            lambda: all(b.mode == BridgeMode.SHORT_BRAKE for b in bridge_outputs(twin.runner.pca)),
+            timeout_s=5,
+            what="both bridges short-braked",
+        )
     finally:
         daemon.stop.set()
         runner.join(timeout=10)
