@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 
 from jackson.common.bench import BenchResult, interleaved_slices
+from jackson.sim.compiled import SELECTION
 from jackson.sim.config import load_robot, load_world
 from jackson.sim.robot import WheelDrive
 from jackson.sim.twin import PHYSICS_HZ, Twin
@@ -182,6 +183,7 @@ def twin_vs_pymunk(lidar: bool, sim_seconds: float, repeats: int) -> BenchResult
 
     best, loop_us = interleaved_slices(make_round, repeats)
     which = "lidar" if lidar else "no_lidar"
+    physics = "compiled" if SELECTION.compiled else "interpreted"
     return BenchResult(
         f"sim.twin_over_pymunk_{which}_{PHYSICS_HZ}Hz_physics",
         best["twin"] / best["pymunk"],
@@ -189,7 +191,8 @@ def twin_vs_pymunk(lidar: bool, sim_seconds: float, repeats: int) -> BenchResult
         TWIN_OVER_PYMUNK_TARGET,
         "lower",
         "pymunk stepping the same space through the same motion"
-        + (", plus the same scans by the LiDAR model" if lidar else ""),
+        + (", plus the same scans by the LiDAR model" if lidar else "")
+        + f" (the twin's physics {physics}: docs/compiled.md)",
         sim_seconds / best["twin"],
         "x real time",
         sim_seconds / best["pymunk"],

@@ -257,12 +257,16 @@ def run(args: argparse.Namespace) -> int:
             print(f"fault: {format_fault(f)}", flush=True)
     mode = "real time" if args.realtime else "lockstep"
     mcu = "POSIX firmware" if args.firmware else "MCU emulator"
+    from jackson.sim.compiled import SELECTION
+
+    physics = "compiled physics" if SELECTION.compiled else "interpreted physics"
     if publisher is not None:
         scan = ", /scan" if publisher.scan_pub is not None else ""
         topics = f"/clock, /ground_truth/odom{scan}"
         print(f"ros: publishing {topics} on sim time", flush=True)
     print(
-        f"twin: world {world.name}, robot {robot.name}, {mode}, {mcu}; waiting for HELLO",
+        f"twin: world {world.name}, robot {robot.name}, {mode}, {mcu}, {physics}; "
+        "waiting for HELLO",
         flush=True,
     )
     try:
