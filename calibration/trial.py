@@ -96,7 +96,7 @@ def twin_session(twin: Any, cfg: HostConfig, *, lidar: bool = False) -> Iterator
                 assert runner.lidar_path is not None
                 driver = RplidarDriver(runner.lidar_path)
                 driver.start()
-            transport.open()
+            transport.open(reader_thread=False)
             yield TwinSession(runner, cfg, transport, driver, pca)
         finally:
             transport.close()

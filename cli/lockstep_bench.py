@@ -117,7 +117,7 @@ def lockstep_rtf(frames: int) -> tuple[float, float]:
     clock = _Clock()
     try:
         pca.init(p.frequency_hz)
-        transport.open()
+        transport.open(reader_thread=False)
 
         def output(send: Callable[[Message], object]) -> MotorOutput:
             return Pca9685Output(pca, p.left, p.right, p.stby_channel)

@@ -158,7 +158,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             raise HostCliError(str(exc)) from exc
     transport = SerialTransport(cfg.serial.port, cfg.serial.baudrate)
     try:
-        transport.open()
+        transport.open(reader_thread=False)
     except LinkError as exc:
         if lidar is not None:
             lidar.close()

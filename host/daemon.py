@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import gc
 import json
-import queue
 import signal
 import threading
 import time
@@ -374,9 +373,8 @@ class Daemon:
                     raise DaemonError(str(exc)) from exc
                 self._check_version(started)
                 bus_up = self._motor_path(bus_up)
-                try:
-                    item = self.transport.items.get(timeout=0.1)
-                except queue.Empty:
+                item = self.transport.get(0.1)
+                if item is None:
                     continue
                 if isinstance(item, LinkEvent):
                     if item.kind == "down":

@@ -12,7 +12,6 @@ the wheels and the gyro are checked against each other.
 
 from __future__ import annotations
 
-import queue
 import time
 from dataclasses import dataclass, field
 
@@ -186,7 +185,7 @@ def _check_version(s: MonitorState, transport: SerialTransport, started_s: float
 def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = None) -> MonitorState:
     """Show the live view until Ctrl-C (or ``duration_s``); returns the final state."""
     transport = SerialTransport(port, baudrate)
-    transport.open()
+    transport.open(reader_thread=False)
     s = MonitorState()
     started = time.monotonic()
     end = None if duration_s is None else started + duration_s
@@ -194,9 +193,8 @@ def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = No
         with Live(render(s, transport), refresh_per_second=4, transient=False) as live:
             while end is None or time.monotonic() < end:
                 _check_version(s, transport, started)
-                try:
-                    item = transport.items.get(timeout=0.25)
-                except queue.Empty:
+                item = transport.get(0.25)
+                if item is None:
                     live.update(render(s, transport))
                     continue
                 if isinstance(item, LinkEvent):

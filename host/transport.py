@@ -1,22 +1,29 @@
-"""The serial link to the MCU: a pyserial reader thread, the handshake, reconnection.
+"""The serial link to the MCU: the reader, the handshake, reconnection.
 
-The reader thread owns the port: it opens it exclusively (a second program opening the same
-port gets one clear line instead of stealing frames), discards whatever was buffered, sends
-HELLO, reads, decodes and hands every frame to the daemon through a queue with the host's
-receive time. While no byte arrives it polls the decoder every few milliseconds, so a partial
-frame is dropped 20 ms after its last byte arrived (protocol/spec.md §5.2). When the port
-disappears (USB unplugged, the twin's pty closed) it reports the link down and retries forever
-with backoff from 0.1 s to 2 s; on success it sends HELLO again. When the port stays open but
-the device falls silent (an MCU reset behind a UART bridge ends the session), it re-sends HELLO
-every ``silence_s``. The daemon never restarts. Writes come from the daemon's thread and never
-block: a write to a link that is down is dropped and counted.
+The reader owns the port: it opens it exclusively (a second program opening the same port
+gets one clear line instead of stealing frames), discards whatever was buffered, sends HELLO,
+reads, decodes and hands every frame on with the host's receive time. It runs either in its own
+thread, queueing what it gets, or (``open(reader_thread=False)``, as the daemon and the monitor
+run it) in the caller's thread inside :meth:`SerialTransport.get`, so a telemetry frame reaches
+the frame loop without a hand-over between threads (in lockstep with the twin, one wake-up per
+frame fewer; on the twin's pty it polls briefly before it blocks). While no byte arrives it
+polls the decoder every few milliseconds, so a partial frame is dropped 20 ms after its last
+byte arrived (protocol/spec.md §5.2). When the port disappears (USB unplugged, the twin's pty
+closed) it reports the link down and retries forever with backoff from 0.1 s to 2 s; on success
+it sends HELLO again. When the port stays open but the device falls silent (an MCU reset behind
+a UART bridge ends the session), it re-sends HELLO every ``silence_s``. The daemon never
+restarts. Writes come from the daemon's thread and never block: a write to a link that is down
+is dropped and counted.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import os
 import queue
+import select
+import stat
 import threading
 import time
 from dataclasses import dataclass
@@ -25,6 +32,7 @@ from typing import Literal
 
 import serial
 
+from jackson.common.spin import DEFAULT_SPIN_S, spin_poll
 from jackson.protocol import Frame, FrameDecoder, Message, encode_frame, hello
 
 FIRST_BACKOFF_S = 0.1
@@ -91,12 +99,27 @@ class SerialTransport:
         self.silences = 0  # times the open port fell silent for silence_s
         self.silence_s = SILENCE_S
         self._last_rx_s = 0.0
+        self._backoff = FIRST_BACKOFF_S
+        self._retry_at = 0.0  # the next reconnection attempt (monotonic s)
+        self.spin_s = 0.0  # without the reader thread: poll this long before blocking [s]
 
     # ------------------------------------------------------------------ lifecycle
 
-    def open(self) -> None:
-        """Open the port once (raises :class:`LinkError`), send HELLO, start the reader."""
+    def open(self, reader_thread: bool = True) -> None:
+        """Open the port once (raises :class:`LinkError`) and send HELLO.
+
+        Parameters
+        ----------
+        reader_thread : bool
+            Start the reader thread, which reads, decodes and reconnects on its own and
+            queues what it gets (:attr:`items`). False: the caller reads through :meth:`get`
+            (the daemon's loop), with no thread and no hand-over between threads per frame;
+            on a pty (the twin) :meth:`get` polls for :attr:`spin_s` before it blocks.
+        """
         self._connect()
+        if not reader_thread:
+            self.spin_s = DEFAULT_SPIN_S if _is_pty(self.port_name) else 0.0
+            return
         self._thread = threading.Thread(target=self._run, name="jackson-serial", daemon=True)
         self._thread.start()
 
@@ -144,6 +167,7 @@ class SerialTransport:
                 with contextlib.suppress(OSError):
                     self._port.close()
                 self._port = None
+        self._retry_at = time.monotonic() + self._backoff
         if self.link_up:
             self.link_up = False
             self.items.put(LinkEvent("down", time.monotonic_ns(), detail))
@@ -151,41 +175,93 @@ class SerialTransport:
     # ------------------------------------------------------------------ reader thread
 
     def _run(self) -> None:
-        backoff = FIRST_BACKOFF_S
         while not self._stop.is_set():
-            port = self._port
-            if port is None:
-                if self._stop.wait(backoff):
-                    return
-                try:
-                    self._connect()
-                    self.reconnects += 1
-                    backoff = FIRST_BACKOFF_S
-                except LinkError:
-                    backoff = min(MAX_BACKOFF_S, backoff * 2)
-                continue
+            self._step(MAX_BACKOFF_S)  # reads block for the port's timeout, retries for the backoff
+
+    def _step(self, wait_s: float) -> None:
+        """One turn of the reader: a reconnection attempt when the port is gone (after its
+        backoff), else one read of what arrived within ``wait_s`` (at most
+        :data:`READ_TIMEOUT_S`), decoded into :attr:`items`."""
+        port = self._port
+        if port is None:
+            left = self._retry_at - time.monotonic()
+            if left > 0:
+                self._stop.wait(min(left, max(wait_s, 0.0)))
+                return
             try:
+                self._connect()
+                self.reconnects += 1
+                self._backoff = FIRST_BACKOFF_S
+            except LinkError:
+                self._backoff = min(MAX_BACKOFF_S, self._backoff * 2)
+                self._retry_at = time.monotonic() + self._backoff
+            return
+        try:
+            if self._thread is None and not self._readable(port, wait_s):
+                data = b""
+            else:
                 data = port.read(max(1, port.in_waiting))
                 if data:  # the rest of what arrived with the first byte: one decode per wake
                     waiting = port.in_waiting
                     if waiting:
                         data += port.read(waiting)
-            except (serial.SerialException, OSError, TypeError) as exc:
-                self._drop(str(exc))
-                continue
-            now = time.monotonic_ns()
-            dec = self.decoder
-            frames = dec.feed(data, now // 1000) if data else dec.poll(now // 1000)
-            for frame in frames:
-                self.items.put((now, frame))
-            if frames:
-                self._last_rx_s = now / 1e9
-            elif now / 1e9 - self._last_rx_s >= self.silence_s:
-                # an open port and a silent device: its session ended (reset) or never began
-                self.silences += 1
-                self._last_rx_s = now / 1e9
-                self.items.put(LinkEvent("silent", now, f"no frame for {self.silence_s:.2f} s"))
-                self.send_hello()
+        except (serial.SerialException, OSError, TypeError, ValueError) as exc:
+            self._drop(str(exc))
+            return
+        now = time.monotonic_ns()
+        dec = self.decoder
+        frames = dec.feed(data, now // 1000) if data else dec.poll(now // 1000)
+        for frame in frames:
+            self.items.put((now, frame))
+        if frames:
+            self._last_rx_s = now / 1e9
+        elif now / 1e9 - self._last_rx_s >= self.silence_s:
+            # an open port and a silent device: its session ended (reset) or never began
+            self.silences += 1
+            self._last_rx_s = now / 1e9
+            self.items.put(LinkEvent("silent", now, f"no frame for {self.silence_s:.2f} s"))
+            self.send_hello()
+
+    def _readable(self, port: serial.Serial, wait_s: float) -> bool:
+        """Without the reader thread: whether bytes wait on the port within ``wait_s``,
+        polled first for :attr:`spin_s` (a pty: the twin answers within microseconds)."""
+        fd = port.fileno()
+        if spin_poll(lambda: select.select([fd], [], [], 0)[0], self.spin_s):
+            return True
+        return bool(select.select([fd], [], [], max(0.0, min(wait_s, READ_TIMEOUT_S)))[0])
+
+    def get(self, timeout_s: float) -> Item | None:
+        """The next frame or link event, waiting at most ``timeout_s``; None if none came.
+
+        With the reader thread (:meth:`open`'s default) this waits on its queue. Without it
+        (``open(reader_thread=False)``) the caller's thread reads the port itself, and a frame
+        reaches it without a hand-over between threads.
+
+        Parameters
+        ----------
+        timeout_s : float
+            Longest wait [s].
+
+        Returns
+        -------
+        Item or None
+            ``(host receive time [ns], frame)``, a :class:`LinkEvent`, or None.
+        """
+        if self._thread is not None or self._stop.is_set():
+            try:
+                return self.items.get(timeout=timeout_s)
+            except queue.Empty:
+                return None
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                return self.items.get_nowait()
+            except queue.Empty:
+                pass
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            self._step(left)
 
     # ------------------------------------------------------------------ writing
 
@@ -214,3 +290,15 @@ class SerialTransport:
             self.writes_dropped += 1
             return False
         return True
+
+
+PTY_SLAVE_MAJORS = range(136, 144)  # Unix98 pty slaves (/dev/pts/N), Linux devices.txt
+
+
+def _is_pty(port: str) -> bool:
+    """Whether ``port`` is a pseudo-terminal (the twin's), not a device's serial port."""
+    try:
+        st = os.stat(port)
+    except OSError:
+        return False
+    return stat.S_ISCHR(st.st_mode) and os.major(st.st_rdev) in PTY_SLAVE_MAJORS

@@ -104,3 +104,52 @@ def test_a_partial_frame_is_dropped_while_the_line_is_idle(pty: tuple[int, str])
         assert t.decoder.pending == 0
     finally:
         t.close()
+
+
+# ------------------------------------------------ without the reader thread (the daemon's way)
+
+
+def test_without_the_reader_thread_get_reads_the_port_itself(pty: tuple[int, str]) -> None:
+    master, path = pty
+    t = SerialTransport(path)
+    t.open(reader_thread=False)
+    try:
+        assert t.spin_s > 0.0  # a pty: polled briefly before blocking
+        assert all(th.name != "jackson-serial" for th in threading.enumerate())
+        up = t.get(1.0)
+        assert isinstance(up, LinkEvent) and up.kind == "up"
+        assert t.get(0.01) is None  # nothing sent yet: the wait ends empty
+        os.write(master, encode_frame(Telemetry(t_us=7), 0) + encode_frame(Telemetry(t_us=8), 1))
+        got = [t.get(10.0), t.get(10.0)]
+        assert [decode_message(item[1]) for item in got] == [  # type: ignore[index]
+            Telemetry(t_us=7),
+            Telemetry(t_us=8),
+        ]
+        assert any(isinstance(m, Hello) for m in device_reads(master, 1))
+    finally:
+        t.close()
+
+
+def test_without_the_reader_thread_silence_and_partial_frames_are_handled_in_get(
+    pty: tuple[int, str],
+) -> None:
+    master, path = pty
+    t = SerialTransport(path)
+    t.silence_s = 0.2
+    t.open(reader_thread=False)
+    try:
+        os.write(master, encode_frame(Telemetry(t_us=3), 0)[:20])  # cut short: nothing follows
+        kinds: list[str] = []
+        deadline = time.monotonic() + 10.0
+        while ("silent" not in kinds or t.decoder.counters.timeouts == 0) and (
+            time.monotonic() < deadline
+        ):
+            item = t.get(0.05)
+            if isinstance(item, LinkEvent):
+                kinds.append(item.kind)
+        assert "silent" in kinds
+        assert t.decoder.counters.timeouts == 1 and t.decoder.pending == 0
+        hellos = [m for m in device_reads(master, 2) if isinstance(m, Hello)]
+        assert len(hellos) >= 2  # the first, and again after the silence
+    finally:
+        t.close()

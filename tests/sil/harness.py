@@ -107,7 +107,7 @@ def in_process_daemon(
     pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
     pca.init(cfg.pca9685.frequency_hz)
     transport = SerialTransport(port or twin.serial, cfg.serial.baudrate)
-    transport.open()
+    transport.open(reader_thread=False)
 
     def output(send: Callable[..., object]) -> Pca9685Output:
         return Pca9685Output(pca, cfg.pca9685.left, cfg.pca9685.right, cfg.pca9685.stby_channel)
