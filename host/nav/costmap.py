@@ -58,6 +58,7 @@ MAX_NON_OBSTACLE = INSCRIBED_INFLATED_OBSTACLE - 1  # 252, the top of the inflat
 # one, so near that the robot's disc certainly overlaps one, a centre on a lethal or unknown
 # cell or off the grid
 _CLEAR, _NEAR, _DEEP, _BLOCKED = 0, 1, 2, 3
+_ONE_CALL_POSES = 2048  # up to this many poses need the exact test: all in one call
 
 ENVELOPE_X_M = (-0.135, 0.135177)  # REFERENCE Stage 3 collision envelope, robot frame [m]
 ENVELOPE_Y_M = (-0.135439, 0.135)  # [m]
@@ -549,6 +550,7 @@ class Costmap:
         cls[dist < self._deep_m] = _DEEP
         cls[master >= LETHAL_OBSTACLE] = _BLOCKED  # lethal or unknown under the centre
         self._class_padded = np.pad(cls, 1, constant_values=_BLOCKED).ravel()
+        self._clear_reach_padded: FloatArray | None = None
 
     def _index_obstacles(self, lethal: BoolArray) -> None:
         """The obstacle discs the footprint test uses, and a padded grid of their ids.
@@ -610,6 +612,36 @@ class Costmap:
 
     # ------------------------------------------------------------------ collision checks
 
+    def clear_reach_m(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> FloatArray:
+        """How far the robot's centre may move from each point and stay clear of every check.
+
+        Within this distance of the point every pose is settled as clear by the one lookup of
+        :meth:`trajectories_collide` (far from every obstacle, on a known cell of the grid),
+        whatever the heading and margin, so it can never collide there: d(c) - sqrt 2 h, with
+        d(c) the distance from the point's cell centre c to the nearest centre of a cell that
+        is not clear (the ring around the grid included) and h the cell edge, since two
+        points s apart lie in cells whose centres are at most s + sqrt 2 h apart. The
+        distances come from one Euclidean distance transform per change of the costmap.
+
+        Parameters
+        ----------
+        x_m, y_m : array_like
+            Points in the map frame [m], matching shapes.
+
+        Returns
+        -------
+        ndarray
+            The distance [m] (negative where the point itself needs a check).
+        """
+        if self._clear_reach_padded is None:
+            rows, cols = self.shape
+            clear = self._class_padded.reshape(rows + 2, cols + 2) == _CLEAR
+            d = np.asarray(ndimage.distance_transform_edt(clear), np.float64)
+            self._clear_reach_padded = (
+                d * self.resolution_m - math.sqrt(2.0) * self.resolution_m
+            ).ravel()
+        return np.take(self._clear_reach_padded, self._padded_index(x_m, y_m))
+
     def footprint_collides(
         self, x_m: npt.ArrayLike, y_m: npt.ArrayLike, yaw_rad: npt.ArrayLike
     ) -> BoolArray:
@@ -650,7 +682,7 @@ class Costmap:
         y_m: FloatArray,
         yaw_rad: FloatArray,
         escape: bool = True,
-        margin_m: float = 0.0,
+        margin_m: float | FloatArray = 0.0,
     ) -> BoolArray:
         """Which trajectories make the robot overlap an obstacle anywhere along them.
 
@@ -668,11 +700,12 @@ class Costmap:
         x_m, y_m, yaw_rad : ndarray, shape (M, K)
             Poses of M trajectories of K poses each, all starting at one pose, map frame.
         escape : bool
-            Apply the escape rule.
-        margin_m : float
-            Grow the robot's disc and rectangle by this much [m], at most
-            :attr:`max_margin_m`: for poses checked s apart (the farthest any point of the
-            robot moves between them), s / 2 makes the test catch every overlap in between.
+            Apply the escape rule (with each trajectory's margin at the start pose).
+        margin_m : float or ndarray, shape (M,)
+            Grow the robot's disc and rectangle by this much [m] (one value, or one per
+            trajectory), at most :attr:`max_margin_m`: for poses checked s apart (the
+            farthest any point of the robot moves between them), s / 2 makes the test catch
+            every overlap in between.
 
         Returns
         -------
@@ -684,25 +717,40 @@ class Costmap:
         ValueError
             If ``margin_m`` is negative or above :attr:`max_margin_m`.
         """
-        if not 0.0 <= margin_m <= self.max_margin_m + 1e-12:
+        margins = np.asarray(margin_m, np.float64)
+        if margins.ndim not in (0, 1) or (margins.ndim == 1 and margins.shape != x_m.shape[:1]):
+            raise ValueError(f"margin_m: one value or one per trajectory, got {margins.shape}")
+        if not np.all((margins >= 0.0) & (margins <= self.max_margin_m + 1e-12)):
             raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m, got {margin_m}")
         idx = self._padded_index(x_m, y_m)
         cls = np.take(self._class_padded, idx)
-        allowed, floor_m = 0, -math.inf
-        if escape and _NEAR <= cls.flat[0] <= _DEEP:
+        m = cls.shape[0]
+        # escape: per distinct margin, the start pose's overlaps and clearance
+        allowed: IntArray = np.zeros(m, np.int_)
+        floor_m: FloatArray = np.full(m, -math.inf)
+        if escape and m and _NEAR <= cls.flat[0] <= _DEEP:
+            values, which = np.unique(np.broadcast_to(margins, (m,)), return_inverse=True)
             count0, clear0 = self._footprint_hits(
-                x_m.flat[0:1], y_m.flat[0:1], yaw_rad.flat[0:1], True, margin_m
-            )
-            if count0[0] > 0:
-                allowed, floor_m = int(count0[0]), float(clear0[0]) - 1e-9
-        if allowed:
+                np.repeat(x_m.flat[0], len(values)), np.repeat(y_m.flat[0], len(values)),
+                np.repeat(yaw_rad.flat[0], len(values)), True, values,
+            )  # fmt: skip
+            allowed = count0[which]
+            floor_m = np.where(allowed > 0, clear0[which] - 1e-9, -math.inf)
+        escaping = allowed > 0
+        any_escaping = bool(np.any(escaping))
+        if not any_escaping:
+            hit = np.any(cls >= _DEEP, axis=1)
+            test = cls == _NEAR
+        elif np.all(escaping):
             hit = np.any(cls == _BLOCKED, axis=1)
             test = (cls == _NEAR) | (cls == _DEEP)
         else:
-            hit = np.any(cls >= _DEEP, axis=1)
-            test = cls == _NEAR
+            hit = np.where(escaping, np.any(cls == _BLOCKED, axis=1), np.any(cls >= _DEEP, axis=1))
+            test = (cls == _NEAR) | ((cls == _DEEP) & escaping[:, None])
+        test &= ~hit[:, None]
         k = cls.shape[1]
-        chunk = max(1, math.ceil(k / 8))  # along time, so early collisions spare the rest
+        # many poses to test: in chunks along time, so that early collisions spare the rest
+        chunk = k if np.count_nonzero(test) <= _ONE_CALL_POSES else max(1, math.ceil(k / 8))
         for c0 in range(0, k, chunk):
             sub = test[:, c0 : c0 + chunk] & ~hit[:, None]
             rows, cols = np.nonzero(sub)
@@ -710,11 +758,12 @@ class Costmap:
                 continue
             cols += c0
             count, clearance = self._footprint_hits(
-                x_m[rows, cols], y_m[rows, cols], yaw_rad[rows, cols], allowed > 0, margin_m
-            )
-            bad = count > allowed
-            if allowed:
-                bad |= (count > 0) & (clearance < floor_m)
+                x_m[rows, cols], y_m[rows, cols], yaw_rad[rows, cols], any_escaping,
+                margins if margins.ndim == 0 else margins[rows],
+            )  # fmt: skip
+            bad = count > allowed[rows]
+            if any_escaping:
+                bad |= (count > 0) & (clearance < floor_m[rows])
             hit[rows[bad]] = True
         return np.asarray(hit, bool)
 
@@ -724,7 +773,7 @@ class Costmap:
         y: FloatArray,
         yaw: FloatArray,
         with_clearance: bool = False,
-        margin_m: float = 0.0,
+        margin_m: float | FloatArray = 0.0,
     ) -> tuple[IntArray, FloatArray]:
         """Obstacles overlapping the robot, and the centre's clearance, at each pose.
 
@@ -740,8 +789,8 @@ class Costmap:
             Poses, map frame.
         with_clearance : bool
             Compute the clearance (else it is all ``inf``).
-        margin_m : float
-            Grow the disc and the rectangle by this much [m].
+        margin_m : float or ndarray, shape (P,)
+            Grow the disc and the rectangle by this much [m] (one value, or one per pose).
 
         Returns
         -------
@@ -778,9 +827,12 @@ class Costmap:
         if with_clearance:
             np.minimum.at(clearance, pose_i, gap)
         cfg = self.config
-        hit = gap < cfg.robot_radius_m + margin_m
+        margin = np.asarray(margin_m, np.float64)
+        if margin.ndim:
+            margin = margin[pose_i]
+        hit = gap < cfg.robot_radius_m + margin
         # only discs within the grown rectangle's corner radius can touch it
-        grown = h + margin_m
+        grown = h + margin
         reach = cfg.circumscribed_radius_m + math.sqrt(2.0) * grown - h
         maybe = np.flatnonzero(~hit & (gap < reach))
         if maybe.size:
