@@ -3,10 +3,10 @@ worker process is left running a trial into the report folder."""
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -43,10 +43,12 @@ def _alive(pid: int) -> bool:
 
 
 def _wait_for(condition: object, timeout_s: float, what: str) -> None:
+    """Poll ``condition`` every 10 ms (a busy loop would take a core from the campaign)."""
     deadline = time.monotonic() + timeout_s
+    tick = threading.Event()
     while not condition():  # type: ignore[operator]
         assert time.monotonic() < deadline, f"timed out waiting for {what}"
-        os.sched_yield()
+        tick.wait(0.01)
 
 
 def test_sigterm_stops_the_workers_and_their_trials(tmp_path: Path) -> None:
