@@ -48,8 +48,8 @@ native:
 native-test: native
 	ctest --test-dir $(NATIVE) --output-on-failure
 
-# One pytest worker per CPU (pytest-xdist): most tests wait on subprocesses (the twin, campaigns,
-# ROS nodes); a file's tests stay together in one worker, in order (their module fixtures).
+# One pytest worker per CPU (pytest-xdist); a file's tests run together in one worker, in file
+# order (module fixtures such as tests/calibration/test_cluster.py's Ray instance).
 pytest:
 	$(BIN)/pytest -q -n auto --dist loadfile
 
