@@ -99,6 +99,11 @@ class SerialTransport:
         self.silences = 0  # times the open port fell silent for silence_s
         self.silence_s = SILENCE_S
         self._last_rx_s = 0.0
+        # silence is counted while the caller waits, not while it works on a frame: a
+        # lockstep device (the twin) sends the next frame only after the HEARTBEAT the
+        # caller sends once done with this one
+        self._handed_frame = False  # get() returned a frame; the caller is busy with it
+        self._back_s = 0.0  # when the caller last came back to get() after a frame
         self._backoff = FIRST_BACKOFF_S
         self._retry_at = 0.0  # the next reconnection attempt (monotonic s)
         self.spin_s = 0.0  # without the reader thread: poll this long before blocking [s]
@@ -215,7 +220,10 @@ class SerialTransport:
             self.items.put((now, frame))
         if frames:
             self._last_rx_s = now / 1e9
-        elif now / 1e9 - self._last_rx_s >= self.silence_s:
+        elif (
+            not self._handed_frame
+            and now / 1e9 - max(self._last_rx_s, self._back_s) >= self.silence_s
+        ):
             # an open port and a silent device: its session ended (reset) or never began
             self.silences += 1
             self._last_rx_s = now / 1e9
@@ -247,21 +255,29 @@ class SerialTransport:
         Item or None
             ``(host receive time [ns], frame)``, a :class:`LinkEvent`, or None.
         """
+        if self._handed_frame:  # back from working on a frame: the silence clock restarts
+            self._handed_frame = False
+            self._back_s = time.monotonic()
         if self._thread is not None or self._stop.is_set():
             try:
-                return self.items.get(timeout=timeout_s)
+                return self._hand(self.items.get(timeout=timeout_s))
             except queue.Empty:
                 return None
         deadline = time.monotonic() + timeout_s
         while True:
             try:
-                return self.items.get_nowait()
+                return self._hand(self.items.get_nowait())
             except queue.Empty:
                 pass
             left = deadline - time.monotonic()
             if left <= 0:
                 return None
             self._step(left)
+
+    def _hand(self, item: Item) -> Item:
+        if isinstance(item, tuple):
+            self._handed_frame = True
+        return item
 
     # ------------------------------------------------------------------ writing
 

@@ -153,3 +153,38 @@ def test_without_the_reader_thread_silence_and_partial_frames_are_handled_in_get
         assert len(hellos) >= 2  # the first, and again after the silence
     finally:
         t.close()
+
+
+@pytest.mark.parametrize("reader_thread", [False, True], ids=["inline", "reader-thread"])
+def test_time_the_caller_spends_on_a_frame_is_not_silence(
+    pty: tuple[int, str], reader_thread: bool
+) -> None:
+    """A lockstep device (the twin) sends its next frame only after the host's answer to
+    this one. A host that works longer than ``silence_s`` on a frame has not heard silence:
+    no HELLO (which would restart the device's session and move its telemetry clock)."""
+    master, path = pty
+    t = SerialTransport(path)
+    t.silence_s = 0.2
+    t.open(reader_thread=reader_thread)
+    try:
+        assert [type(m) for m in device_reads(master, 1)] == [Hello]
+        for k in range(3):
+            os.write(master, encode_frame(Telemetry(t_us=k), k))  # frame k, then the turn
+            item = t.get(10.0)  # is the host's
+            while isinstance(item, LinkEvent):
+                item = t.get(10.0)
+            assert item is not None
+            busy_until = time.monotonic() + 0.5  # the host's work on frame k: 2.5 silence_s
+            while time.monotonic() < busy_until:
+                sum(range(1000))
+        assert t.silences == 0 and t.hellos == 1
+        # waiting for a frame that does not come is silence, as before
+        kinds: list[str] = []
+        deadline = time.monotonic() + 10.0
+        while "silent" not in kinds and time.monotonic() < deadline:
+            item = t.get(0.05)
+            if isinstance(item, LinkEvent):
+                kinds.append(item.kind)
+        assert t.silences == 1 and t.hellos == 2
+    finally:
+        t.close()
