@@ -202,6 +202,7 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     """Drive one navigation (or mapping) run and return its metrics (also ``metrics.json``)."""
     from jackson.sim.twin import Twin
 
+    cpu0 = time.process_time()  # the trial's CPU, the twin's thread included
     run_dir = spec.out
     run_dir.mkdir(parents=True, exist_ok=True)
     cfg = load_config(spec.config) if spec.config else HostConfig()
@@ -268,6 +269,7 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     if built is not None:
         built.save(run_dir / "built_map.yaml")
         result["map_ssim"] = map_quality(built, world)
+    result["cpu_s"] = time.process_time() - cpu0
     (run_dir / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
     return result
 
@@ -421,6 +423,7 @@ def run_stage3_campaign(
         map_yaml = map_yaml.absolute() if map_yaml is not None else None
     out.mkdir(parents=True, exist_ok=True)
     wall0 = time.perf_counter()
+    cpu0 = time.process_time()
     if map_yaml is None:
         mapping = run_nav_trial(mapping_spec(robot, world, seed, out / "map", config))
         if not mapping["completed"]:
@@ -457,6 +460,8 @@ def run_stage3_campaign(
         "trials": trials,
         "workers": workers,
         "wall_s": wall,
+        # this process's (the mapping run) and every trial's, in whichever worker it ran
+        "cpu_s": time.process_time() - cpu0 + sum(float(r["cpu_s"]) for r in results),
         "map": str(map_yaml),
     }
     write_stage3_report(out, name, results, meta)
@@ -512,7 +517,7 @@ def write_stage3_report(
         "",
         f"Robot `{meta['robot']}`, world `{meta['world']}`, {meta['trials']} trials per "
         f"variant, seed {meta['seed']}, {meta['workers']} workers, wall time "
-        f"{meta['wall_s']:.0f} s. Map: `{meta['map']}`.",
+        f"{meta['wall_s']:.0f} s, CPU time {meta['cpu_s']:.0f} s. Map: `{meta['map']}`.",
         "",
         "Continuous outcomes: median [IQR] over completed runs (REFERENCE: Stage 3).",
         "",

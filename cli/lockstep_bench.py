@@ -7,7 +7,7 @@ with constant wheel duties as its command source: per telemetry frame the whole 
 when a user runs ``jackson daemon`` against the twin. In the same run the host's own work is
 timed (the CPU time of ``HostCore.on_frame`` on the daemon's thread) and, interleaved, the twin
 alone (:mod:`jackson.sim.bench`'s figure-eight, no LiDAR) runs for the same simulated time in
-this process. Figures, best of 3 rounds each:
+this process. Figures, best of 5 rounds each (a round takes about 3 s):
 
 - the lockstep's wall time per frame over the twin alone's plus the host's work: what the
   coupling (the pty, the I2C socket, the second process, the daemon's reader thread) adds to
@@ -140,7 +140,7 @@ def lockstep_rtf(frames: int) -> tuple[float, float]:
     return rtf, work.cpu_s / max(1, timed)
 
 
-RUNS = 3
+RUNS = 5
 COUPLING_TARGET = 2.0
 TELEMETRY_HZ = 20
 

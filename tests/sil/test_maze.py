@@ -27,6 +27,7 @@ def test_the_host_maps_the_maze_while_it_drives(mapped: tuple[Path, dict[str, An
     out, r = mapped
     assert r["completed"], r["failure"]
     assert r["collisions"] == 0
+    assert 0.0 < r["cpu_s"] < 10.0 * r["wall_s"]  # the trial's own CPU time, twin thread included
     assert r["scans"] > 50  # 7.43 Hz of sim time
     assert r["map_ssim"] > 0.85  # the paper: 0.885 (robot), 0.942 (Isaac)
     assert r["localisation_error_max_cm"] < 5.0  # scan matching against the map so far
