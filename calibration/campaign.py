@@ -224,9 +224,11 @@ def run_scored_trial(spec: TrialSpec) -> dict[str, Any]:
 def write_runs(out: Path, results: list[dict[str, Any]]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (out / "runs.json").write_text(json.dumps(results, indent=2) + "\n")
-    keys = list(results[0]) if results else []
+    # every run's columns, in the order they first appear: a run that failed has fewer
+    # metrics than one that completed, and either may come first
+    keys = list(dict.fromkeys(k for r in results for k in r))
     with (out / "runs.csv").open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
+        w = csv.DictWriter(f, fieldnames=keys, restval="")
         w.writeheader()
         for r in results:
             w.writerow(r)

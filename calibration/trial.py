@@ -76,13 +76,20 @@ class TwinSession:
 def twin_session(twin: Any, cfg: HostConfig, *, lidar: bool = False) -> Iterator[TwinSession]:
     """Run ``twin`` in lockstep in a thread and open the host's links to it; all closed at the
     end (the twin stops). The twin's faults (``Twin(..., faults=...)`` and its robot file's)
-    act as it runs, the link faults on the MCU's pty the daemon reads."""
+    act as it runs, the link faults on the MCU's pty the daemon reads.
+
+    The twin waits for its host's HEARTBEAT however long that takes (no wall-clock timeout):
+    both run in this process, so a host that stops answering has ended (the session then
+    stops the twin), and a process the machine keeps from running (a busy machine; Ray runs
+    its workers niced) must not see its world move on without its host. With a 5 s timeout,
+    5 of 180 maze runs on a local Ray instance at load 5 lost their LiDAR that way ("no scan
+    for 1.00 s") and failed where the pool's completed."""
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.sim.runner import TwinRunner
 
     with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp:
         sock = Path(tmp) / "i2c.sock"
-        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=5.0, lidar=lidar)
+        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=math.inf, lidar=lidar)
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
         stop = threading.Event()
         thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)

@@ -626,7 +626,7 @@ class TwinRunner:
                 if self.lockstep and self._host_gone is None:
                     status = fw.wait_heartbeat(
                         status.telemetry_seq,
-                        round(self.heartbeat_timeout_s * 1000),
+                        round(min(self.heartbeat_timeout_s, 3600.0) * 1000),  # inf: an hour
                         on_wait=self._service_side,
                     )
                     if status.heartbeat_ack != last_seq:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import subprocess
 import sys
@@ -82,3 +83,16 @@ def test_jackson_run_prints_the_table_and_writes_the_plot(tmp_path: Path) -> Non
     assert "ground-truth closure" in out.stdout and "real-time factor" in out.stdout
     assert (tmp_path / "run" / "trajectory.png").stat().st_size > 10_000
     assert (tmp_path / "run" / "trajectory.pdf").read_bytes()[:5] == b"%PDF-"
+
+
+def test_runs_csv_has_every_runs_columns_when_the_first_run_failed(tmp_path: Path) -> None:
+    """A failed run has fewer metrics than a completed one; sorted first, it used to make
+    the report fail (DictWriter: fields not in fieldnames) and leave no summary."""
+    from jackson.calibration.campaign import write_runs
+
+    failed = {"variant": "C00", "trial": 0, "completed": False, "failure": "LiDAR excluded"}
+    done = {"variant": "C00", "trial": 1, "completed": True, "failure": None, "d_traj_cm": 0.5}
+    write_runs(tmp_path, [failed, done])
+    rows = list(csv.DictReader((tmp_path / "runs.csv").open()))
+    assert list(rows[0]) == ["variant", "trial", "completed", "failure", "d_traj_cm"]
+    assert rows[0]["d_traj_cm"] == "" and rows[1]["d_traj_cm"] == "0.5"
