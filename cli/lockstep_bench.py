@@ -4,14 +4,20 @@ Starts ``jackson sim --no-lidar`` (the twin and its MCU emulator in their own pr
 200 Hz physics) and drives it with the host daemon itself (:class:`jackson.host.daemon.Daemon`)
 with constant wheel duties as its command source: per telemetry frame the whole host pipeline
 (odometry, EKF, listeners), one PCA9685 block write over the I2C socket and one HEARTBEAT, as
-when a user runs ``jackson daemon`` against the twin. In the same run the host's own work is
-timed (the CPU time of ``HostCore.on_frame`` on the daemon's thread) and, interleaved, the twin
-alone (:mod:`jackson.sim.bench`'s figure-eight, no LiDAR) runs for the same simulated time in
-this process. Figures, best of 5 rounds each (a round takes about 3 s):
+when a user runs ``jackson daemon`` against the twin. In the same run each end's own work is
+timed: the daemon thread's CPU time and the twin process's (it prints it on exit), each less
+the time it spent polling for the other end (jackson.common.spin); and, interleaved, the twin
+alone (:mod:`jackson.sim.bench`'s figure-eight, no LiDAR, no MCU emulator) runs for the same
+simulated time in this process. Five rounds (a round takes about 3 s); the lockstep's wall time
+is cut into slices of 50 frames and each slice's best time over the rounds is kept (a
+preemption spoils one slice of one round, as for the other suites); the work and the twin alone
+are the best of the rounds. Figures:
 
-- the lockstep's wall time per frame over the twin alone's plus the host's work: what the
-  coupling (the pty, the I2C socket, the second process, the daemon's reader thread) adds to
-  the work it carries; target 2x;
+- the lockstep's wall time per frame over the work both ends do per frame: what handing the
+  turn over (the pty and its kernel worker, the I2C socket, the wake-ups of two processes)
+  adds to the work; target 2x;
+- the twin process's work per frame over the twin alone's, for information: what the MCU
+  emulator, the I2C server and the lockstep loop add to the physics and the sensors;
 - the twin alone's real-time factor over the lockstep's, for information (its reference is the
   twin alone, which gets faster on its own: the figure would worsen when the twin improves).
 """
@@ -19,6 +25,9 @@ this process. Figures, best of 5 rounds each (a round takes about 3 s):
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import math
+import re
 import signal
 import subprocess
 import sys
@@ -27,6 +36,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from jackson.common.bench import BenchResult, reference_loop_us
+from jackson.common.spin import contention
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import DEFAULT_CONFIG, load_config
@@ -34,7 +44,7 @@ from jackson.host.core import CoreListener, FrameResult, HostCore
 from jackson.host.daemon import Daemon, with_port
 from jackson.host.i2c import open_bus
 from jackson.host.transport import SerialTransport
-from jackson.protocol import Frame, Message
+from jackson.protocol import Message
 
 WARMUP_FRAMES = 20
 DUTIES = (0.4, 0.45)
@@ -56,39 +66,30 @@ class ConstantDuties:
 
 
 class _Clock(CoreListener):
-    """Wall and MCU time of each frame after the warm-up."""
+    """Wall time, MCU time and the daemon thread's CPU time (less its spinning waits) at each
+    frame from the end of the warm-up on. Called on the daemon's thread."""
 
     def __init__(self) -> None:
         self.frames = 0
-        self.first: tuple[float, float] | None = None  # (wall s, MCU s)
-        self.last: tuple[float, float] | None = None
+        self.first: tuple[float, float, float] | None = None  # (wall s, MCU s, work CPU s)
+        self.last: tuple[float, float, float] | None = None
+        self.wall_s: list[float] = []  # of the warm-up's last frame and of each timed frame
 
     def on_result(self, core: HostCore, result: FrameResult) -> None:
         self.frames += 1
+        if self.frames < WARMUP_FRAMES:
+            return
+        now = time.perf_counter()
+        self.wall_s.append(now)
+        mark = (now, result.t_s, time.thread_time() - contention.spun_s)
         if self.frames == WARMUP_FRAMES:
-            self.first = (time.perf_counter(), result.t_s)
-        elif self.frames > WARMUP_FRAMES:
-            self.last = (time.perf_counter(), result.t_s)
+            self.first = mark
+        else:
+            self.last = mark
 
 
-class _HostWork:
-    """The CPU time the daemon's thread spends in :meth:`HostCore.on_frame` (the host's work)."""
-
-    def __init__(self, core: HostCore, clock: _Clock) -> None:
-        self.cpu_s = 0.0
-        inner = core.on_frame
-
-        def on_frame(frame: Frame, host_time_ns: int = 0) -> None:
-            t0 = time.thread_time()
-            inner(frame, host_time_ns)
-            if clock.first is not None:  # after the warm-up
-                self.cpu_s += time.thread_time() - t0
-
-        core.on_frame = on_frame  # type: ignore[method-assign]
-
-
-def lockstep_rtf(frames: int) -> tuple[float, float]:
-    """MCU seconds per wall second over ``frames`` frames of the daemon against a fresh twin.
+def lockstep_round(frames: int) -> _Round:
+    """The daemon against a fresh twin for ``frames`` timed frames after a warm-up.
 
     Parameters
     ----------
@@ -97,11 +98,13 @@ def lockstep_rtf(frames: int) -> tuple[float, float]:
 
     Returns
     -------
-    rtf : float
-        The lockstep's real-time factor.
-    host_cpu_s : float
-        The host's own work per frame: the CPU time of :meth:`HostCore.on_frame` on the
-        daemon's thread, averaged over the timed frames [s].
+    _Round
+        The lockstep's real-time factor; the host's own work per frame: the CPU time of the
+        daemon's thread (reading and decoding the port, :meth:`HostCore.on_frame`, the
+        PCA9685 write, the HEARTBEAT) less the time it spent polling in a wait
+        (jackson.common.spin); the twin's own work per frame: its process's CPU time (the
+        physics, the sensors, the MCU emulator, the I2C server) less its polling, as it prints
+        on exit; and the wall time of each slice of :data:`SLICE_FRAMES` timed frames.
     """
     exe = Path(sys.executable).parent / "jackson"
     proc = subprocess.Popen([str(exe), "sim", "--no-lidar"], stdout=subprocess.PIPE, text=True)
@@ -126,21 +129,47 @@ def lockstep_rtf(frames: int) -> tuple[float, float]:
             cfg, output, transport, duty_source=ConstantDuties(WARMUP_FRAMES + frames, *DUTIES)
         )
         daemon.core.listeners.append(clock)
-        work = _HostWork(daemon.core, clock)
         daemon.run(max_s=120.0)
     finally:
         transport.close()
         bus.close()
         proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=20)
+        out, _ = proc.communicate(timeout=20)
     if clock.first is None or clock.last is None:
         raise RuntimeError(f"lockstep bench: the twin sent {clock.frames} frames")
+    summary = _TWIN_SUMMARY.search(out)
+    if summary is None:
+        raise RuntimeError(f"lockstep bench: no summary line from the twin in {out!r}")
+    twin_frames, twin_cpu, twin_spun = int(summary[1]), float(summary[2]), float(summary[3])
     timed = clock.frames - WARMUP_FRAMES
-    rtf = (clock.last[1] - clock.first[1]) / (clock.last[0] - clock.first[0])
-    return rtf, work.cpu_s / max(1, timed)
+    marks = clock.wall_s[::SLICE_FRAMES]
+    return _Round(
+        (clock.last[1] - clock.first[1]) / (clock.last[0] - clock.first[0]),
+        (clock.last[2] - clock.first[2]) / max(1, timed),
+        (twin_cpu - twin_spun) / max(1, twin_frames),
+        [b - a for a, b in itertools.pairwise(marks)],
+    )
+
+
+# the twin's last line: "twin: ... s simulated in ..., N telemetry frames, ..., CPU X s (Y s of
+# it polling for the host)"
+_TWIN_SUMMARY = re.compile(
+    r"(\d+) telemetry frames, .*CPU ([0-9.]+) s \(([0-9.]+) s of it polling for the host\)"
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Round:
+    """One lockstep run's figures."""
+
+    rtf: float  # MCU seconds per wall second over the timed frames
+    host_s: float  # the daemon thread's CPU per timed frame, less its spinning [s]
+    twin_s: float  # the twin process's CPU per frame since the HELLO, less its spinning [s]
+    slices_s: list[float]  # wall time of each run of SLICE_FRAMES timed frames, in order [s]
 
 
 RUNS = 5
+SLICE_FRAMES = 50
 COUPLING_TARGET = 2.0
 TELEMETRY_HZ = 20
 
@@ -164,27 +193,54 @@ def run(quick: bool = False) -> list[BenchResult]:
 
     frames = 400 if quick else 2000
     sim_s = frames / TELEMETRY_HZ
-    # interleaved rounds, best of each: a shared machine's load slows whole runs
-    lockstep, twin, host_s, loop_us = 0.0, 0.0, float("inf"), float("inf")
+    # interleaved rounds: the lockstep's figure is the sum over its 50-frame slices of each
+    # slice's best time over the rounds (a preemption spoils one slice of one round, as in
+    # jackson.common.bench.interleaved_slices); the twin alone and the host's CPU time are the
+    # best of the rounds
+    slices: list[float] | None = None
+    twin, host_s, twin_s, loop_us = 0.0, float("inf"), float("inf"), float("inf")
     for _ in range(RUNS):
-        rtf, host = lockstep_rtf(frames)
-        lockstep, host_s = max(lockstep, rtf), min(host_s, host)
+        r = lockstep_round(frames)
+        host_s, twin_s = min(host_s, r.host_s), min(twin_s, r.twin_s)
+        if slices is None:
+            slices = r.slices_s
+        slices = [min(a, b) for a, b in zip(slices, r.slices_s, strict=False)]
         twin = max(twin, real_time_factor(False, sim_s))
         loop_us = min(loop_us, reference_loop_us(3))
+    if not slices:
+        raise RuntimeError("lockstep bench: no whole slice of frames was timed")
     period_s = 1.0 / TELEMETRY_HZ
-    lock_us, twin_us, host_us = 1e6 * period_s / lockstep, 1e6 * period_s / twin, 1e6 * host_s
+    lock_us = 1e6 * math.fsum(slices) / (SLICE_FRAMES * len(slices))
+    lockstep = 1e6 * period_s / lock_us
+    work_us = 1e6 * (twin_s + host_s)
+    twin_us = 1e6 * period_s / twin
     return [
         BenchResult(
             "sim.lockstep_over_twin_and_host_no_lidar",
-            lock_us / (twin_us + host_us),
+            lock_us / work_us,
             "x the work's time",
             COUPLING_TARGET,
             "lower",
-            "the twin alone per frame (same run) plus the host's own work per frame in the "
-            "lockstep (HostCore.on_frame's CPU time): what the coupling costs",
+            "the work both ends do per frame in the same lockstep: the twin process's CPU "
+            "time (physics, sensors, MCU emulator, I2C server) plus the daemon thread's, each "
+            "less its polling waits: what handing the turn over costs",
             lock_us,
             "us per frame",
-            twin_us + host_us,
+            work_us,
+            loop_us,
+        ),
+        BenchResult(
+            "sim.lockstep_twin_process_over_twin_alone_no_lidar",
+            1e6 * twin_s / twin_us,
+            "x the twin alone's time",
+            None,
+            "lower",
+            "the twin alone on the figure-eight per frame, same run (for information: what "
+            "the MCU emulator, the I2C server and the lockstep loop add to the physics and "
+            "sensors in the twin process)",
+            1e6 * twin_s,
+            "us per frame",
+            twin_us,
             loop_us,
         ),
         BenchResult(

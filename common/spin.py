@@ -12,6 +12,13 @@ Only links to the twin spin (the twin's own loop, the twin's I²C socket and the
 wire-level peer); the daemon's serial link never does. Two ends in the same process
 gain nothing (the GIL serialises them), so :func:`peer_is_this_process` lets a socket client
 turn it off.
+
+A spin helps only while the partner has a core of its own. When other work keeps both cores
+busy, ``os.sched_yield`` hands the CPU to that work for a whole scheduler tick (4 ms seen on
+a 2-core machine with three CPU-bound processes), where a process blocked in ``select`` would
+have been woken, ahead of it, as soon as its bytes arrived. So a yield that takes longer than
+:data:`STOLEN_S` ends the spin, and the process's next :data:`BACKOFF_WAITS` waits block at
+once; then it tries spinning again. The state is per process: contention is the machine's.
 """
 
 from __future__ import annotations
@@ -29,7 +36,26 @@ DEFAULT_SPIN_S = 0.0005
 """How long a lockstep wait polls before it blocks [s]: above the twin's and a minimal host's
 work per frame (about 0.1-0.15 ms each), far below a telemetry period."""
 
+STOLEN_S = 0.001
+"""A yield longer than this [s] means another process ran on this core: the CPU is
+contended (an uncontended yield takes about a microsecond)."""
+
+BACKOFF_WAITS = 256
+"""Waits that block at once, without spinning, after a yield was stolen."""
+
 _PEERCRED = struct.Struct("3i")  # struct ucred: pid, uid, gid
+
+
+class _Contention:
+    """This process's view of the machine: waits left to block at once, yields stolen, and
+    the CPU time spent spinning (a benchmark tells it apart from the work)."""
+
+    backoff = 0
+    stolen = 0
+    spun_s = 0.0
+
+
+contention = _Contention()
 
 
 def spin_poll(poll: Callable[[], T], spin_s: float) -> T:
@@ -45,18 +71,33 @@ def spin_poll(poll: Callable[[], T], spin_s: float) -> T:
     Returns
     -------
     T
-        The last result of ``poll`` (falsy if nothing arrived within ``spin_s``: the caller
-        then blocks as it would have without spinning).
+        The last result of ``poll`` (falsy if nothing arrived within ``spin_s``, or when the
+        CPU is contended (see the module's notes): the caller then blocks as it would have
+        without spinning).
     """
     result = poll()
     if result or spin_s <= 0:
         return result
-    end = time.perf_counter() + spin_s
+    state = contention
+    if state.backoff > 0:  # the CPU was contended lately: block at once
+        state.backoff -= 1
+        return result
+    clock = time.perf_counter
+    cpu0 = time.thread_time()
+    now = clock()
+    end = now + spin_s
     while True:
         os.sched_yield()
+        then, now = now, clock()
         result = poll()
-        if result or time.perf_counter() >= end:
-            return result
+        if now - then > STOLEN_S:  # another process had this core: stop spinning for a while
+            state.stolen += 1
+            state.backoff = BACKOFF_WAITS
+            break
+        if result or now >= end:
+            break
+    state.spun_s += time.thread_time() - cpu0  # CPU time: a stolen yield was not ours
+    return result
 
 
 def peer_is_this_process(sock: socket.socket) -> bool:

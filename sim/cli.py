@@ -129,7 +129,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=nonneg_float,
         default=DEFAULT_SPIN_S * 1e6,
         help="lockstep: poll this many microseconds for the host before blocking "
-        "(0: block at once, for a busy machine; default %(default).0f)",
+        "(0: block at once; the polling pauses by itself while other processes keep the "
+        "cores busy; default %(default).0f)",
     )
 
 
@@ -280,7 +281,8 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"twin: {stats.sim_s:.2f} s simulated in {stats.wall_s:.2f} s "
         f"(x{stats.real_time_factor:.0f}), {stats.frames} telemetry frames, "
-        f"{twin.collisions} collisions",
+        f"{twin.collisions} collisions, CPU {stats.cpu_s:.3f} s "
+        f"({stats.spun_s:.3f} s of it polling for the host)",
         flush=True,
     )
     if twin.faults is not None:

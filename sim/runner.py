@@ -53,7 +53,7 @@ from typing import TextIO
 import numpy as np
 from numpy.typing import NDArray
 
-from jackson.common.spin import spin_poll
+from jackson.common.spin import contention, spin_poll
 from jackson.sim.faults import LINK_KINDS, FaultError, format_fault
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
@@ -74,6 +74,8 @@ class RunnerStats:
     wall_s: float
     frames: int
     heartbeat_timeouts: int
+    cpu_s: float = 0.0  # this process's CPU time since the HELLO
+    spun_s: float = 0.0  # of it, polling for the host (jackson.common.spin)
 
     @property
     def real_time_factor(self) -> float:
@@ -311,6 +313,7 @@ class TwinRunner:
         self._host_gone: int | None = None
         self._pace_origin = (0.0, 0.0)
         self._session_wall0 = 0.0  # wall time of the HELLO (run() statistics)
+        self._session_cpu0 = (0.0, 0.0)  # CPU time and time spun by then
         self._sel = selectors.DefaultSelector()
         self._sel.register(self.i2c, selectors.EVENT_READ, "i2c")
         if self.link is not None:
@@ -467,15 +470,17 @@ class TwinRunner:
 
     # ------------------------------------------------------------------ serving the host
 
-    def _serve(self, timeout_s: float) -> None:
-        """Serve the serial link and the I2C bus for at most ``timeout_s``."""
+    def _serve(self, timeout_s: float) -> bool:
+        """Serve the serial link and the I2C bus for at most ``timeout_s``; whether the bus
+        answered a request."""
         sel = self._sel
         events = spin_poll(lambda: sel.select(0), min(self.spin_s, timeout_s))
         if not events and timeout_s > 0:
             events = sel.select(timeout_s)
+        bus = False
         for key, _ in events:
             if key.data == "i2c":
-                self.i2c.service(0.0)
+                bus = self.i2c.service(0.0) > 0 or bus
             elif key.data == "lidar":
                 assert self.lidar is not None
                 self.lidar.serve(self.twin.t_s)
@@ -483,6 +488,7 @@ class TwinRunner:
                 data = self.link.read()
                 if data:
                     self.mcu.receive(data, self.twin.t_us)
+        return bus
 
     def _wait_heartbeat(self, seq: int) -> None:
         """Lockstep: serve the host until it acknowledges frame ``seq``. After a timeout the
@@ -506,7 +512,10 @@ class TwinRunner:
                 self._host_gone = mcu.heartbeats
                 self._pace_origin = (time.monotonic(), self.twin.t_s)
                 return
-            self._serve(min(left, 0.05))  # wakes often enough to notice a stop request
+            if self._serve(min(left, 0.05)) and not self.mcu_motors:  # wakes to see a stop
+                # the host wrote the PCA9685 and now sends its HEARTBEAT: the bridges' outputs
+                # are worked out while it does (the step after the HEARTBEAT finds them cached)
+                self.bridges()
 
     # ------------------------------------------------------------------ the loop
 
@@ -517,17 +526,21 @@ class TwinRunner:
         before it), so its real-time factor is the loop's own.
         """
         self._session_wall0 = time.monotonic()  # replaced at the HELLO
+        self._session_cpu0 = (time.process_time(), contention.spun_s)  # likewise
         start_s = self.twin.t_s
         self._stop = stop
         if self.firmware is not None:
             self._run_firmware(duration_s, stop)
         else:
             self._run_emulator(duration_s, stop)
+        cpu0, spun0 = self._session_cpu0
         return RunnerStats(
             self.twin.t_s - start_s,
             time.monotonic() - self._session_wall0,
             self.frames,
             self.heartbeat_timeouts,
+            time.process_time() - cpu0,
+            contention.spun_s - spun0,
         )
 
     def _done(self, end_s: float | None, stop: Event | None) -> bool:
@@ -545,6 +558,7 @@ class TwinRunner:
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
         self._session_wall0 = wall0
+        self._session_cpu0 = (time.process_time(), contention.spun_s)
         while not self._done(end_s, stop):
             now = self.twin.t_us
             self._check_outage()
@@ -599,6 +613,7 @@ class TwinRunner:
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
         self._session_wall0 = wall0
+        self._session_cpu0 = (time.process_time(), contention.spun_s)
         last_seq = status.telemetry_seq
         while not self._done(end_s, stop):
             now = self.twin.t_us

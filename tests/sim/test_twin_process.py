@@ -10,6 +10,7 @@ from pathlib import Path
 
 import serial
 
+from jackson.lockstep_bench import _TWIN_SUMMARY
 from jackson.protocol import Heartbeat, HostState, MotorPwm, TelemetryFlags
 
 from .twin_process import JACKSON, TwinProcess
@@ -40,7 +41,15 @@ def test_host_drives_the_twin_through_the_pca9685() -> None:
         assert [b.t_us - a.t_us for a, b in itertools.pairwise(tel)] == [50_000] * 39
     finally:
         host.close()
-        twin.stop()
+        code, out, _ = twin.stop()
+    assert code == 0
+    # the summary the lockstep bench reads: frames since the HELLO, CPU time, polling part
+    summary = _TWIN_SUMMARY.search(out)
+    assert summary is not None, out
+    frames, cpu_s, spun_s = int(summary[1]), float(summary[2]), float(summary[3])
+    assert frames >= 80
+    assert 0.0 < cpu_s < 60.0
+    assert 0.0 <= spun_s <= cpu_s
 
 
 def test_client_can_close_and_reopen_the_port() -> None:
