@@ -15,7 +15,8 @@ are the best of the rounds. Figures:
 
 - the lockstep's wall time per frame over the work both ends do per frame: what handing the
   turn over (the pty and its kernel worker, the I2C socket, the wake-ups of two processes)
-  adds to the work; target 2x;
+  adds to the work; below 1 where the ends work at once (the host's listeners run after its
+  HEARTBEAT, while the twin steps); target 2x;
 - the twin process's work per frame over the twin alone's, for information: what the MCU
   emulator, the I2C server and the lockstep loop add to the physics and the sensors;
 - the twin alone's real-time factor over the lockstep's, for information (its reference is the
