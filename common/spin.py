@@ -8,8 +8,9 @@ running). Polling for a short while before blocking keeps both ends awake across
 exchange; ``os.sched_yield`` between polls hands the CPU to the other end when both share a
 core. The spin is bounded, so a slow partner costs at most ``spin_s`` of CPU per wait.
 
-Only links to the twin spin (the twin's own loop, the twin's I²C socket and the tests'
-wire-level peer); the daemon's serial link never does. Two ends in the same process
+Only links to the twin spin (the twin's own loop, the twin's I²C socket, the daemon's serial
+port when it is a pty, and the tests' wire-level peer); the robot's USB port and I²C bus never
+do. Two ends in the same process
 gain nothing (the GIL serialises them), so :func:`peer_is_this_process` lets a socket client
 turn it off.
 
