@@ -525,8 +525,7 @@ class TwinRunner:
         The wall time in the returned stats counts from the HELLO (the clock stands still
         before it), so its real-time factor is the loop's own.
         """
-        self._session_wall0 = time.monotonic()  # replaced at the HELLO
-        self._session_cpu0 = (time.process_time(), contention.spun_s)  # likewise
+        self._start_session(time.monotonic())  # again at the HELLO
         start_s = self.twin.t_s
         self._stop = stop
         if self.firmware is not None:
@@ -543,6 +542,11 @@ class TwinRunner:
             contention.spun_s - spun0,
         )
 
+    def _start_session(self, wall0: float) -> None:
+        """Count run()'s statistics from now: wall time ``wall0``, CPU time, time spun."""
+        self._session_wall0 = wall0
+        self._session_cpu0 = (time.process_time(), contention.spun_s)
+
     def _done(self, end_s: float | None, stop: Event | None) -> bool:
         return (stop is not None and stop.is_set()) or (
             end_s is not None and self.twin.t_s >= end_s - 1e-9
@@ -557,8 +561,7 @@ class TwinRunner:
             self._serve(0.05)
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
-        self._session_wall0 = wall0
-        self._session_cpu0 = (time.process_time(), contention.spun_s)
+        self._start_session(wall0)
         while not self._done(end_s, stop):
             now = self.twin.t_us
             self._check_outage()
@@ -612,8 +615,7 @@ class TwinRunner:
             status = fw.wait_heartbeat(256, 50, on_wait=self._service_side)
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
-        self._session_wall0 = wall0
-        self._session_cpu0 = (time.process_time(), contention.spun_s)
+        self._start_session(wall0)
         last_seq = status.telemetry_seq
         while not self._done(end_s, stop):
             now = self.twin.t_us
