@@ -11,7 +11,7 @@ JOBS   ?= 2
         firmware flash firmware-test
 
 help:
-	@echo "make demo    set up, then drive the 1 m square on the twin with the real host"
+	@echo "make demo    set up, then drive the 1 m square and Stage 3's maze on the twin with the real host"
 	@echo "make test    set up, then ruff, mypy, generated-code check, C++ tests (ASan+UBSan), pytest"
 	@echo "make bench   benchmarks: table on screen, JSON in build/bench.json"
 	@echo "make setup   only install what is missing (.venv, Debian packages)"
@@ -57,10 +57,13 @@ bench: setup
 	$(BIN)/jackson bench
 
 # The newcomer's first command: the twin and the real host daemon over a pty drive the paper's
-# 1 m square; a table, a plot and the run folder (the previous demo's folder is replaced).
+# 1 m square, then Stage 3: the host maps the maze with the twin's RPLIDAR and navigates around
+# the cylinder dropped in its way; a table and a plot each, and the run folders (the previous
+# demo's folders are replaced).
 demo: setup
-	@rm -rf build/demo/square
+	@rm -rf build/demo/square build/demo/maze
 	@$(BIN)/jackson run square --out build/demo/square
+	@$(BIN)/jackson run maze --out build/demo/maze
 
 # ---- firmware ---------------------------------------------------------------------------------
 PORT ?= /dev/ttyACM0

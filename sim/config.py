@@ -255,7 +255,12 @@ class Trigger:
 
 @dataclass(frozen=True)
 class WorldSpec:
-    """A floor with walls, cylinders and triggered obstacles."""
+    """A floor with walls, cylinders and triggered obstacles.
+
+    ``goal`` (the default goal of ``jackson run maze`` in this world) and ``survey`` (the
+    waypoints ``jackson map`` drives through before it returns to the start) are optional;
+    without them the Stage 3 goal of the paper is both.
+    """
 
     name: str
     mu_static: float = 0.8
@@ -264,6 +269,8 @@ class WorldSpec:
     cylinders: tuple[Cylinder, ...] = ()
     triggers: tuple[Trigger, ...] = ()
     start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    goal: tuple[float, float] | None = None
+    survey: tuple[tuple[float, float], ...] = ()
 
 
 # ------------------------------------------------------------------------- validation
@@ -526,6 +533,20 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
         )
         tr.finish()
     start = r.vector("start_pose", d.start_pose, 3)
+    goal = None
+    if r.has("goal"):
+        gx, gy = r.vector("goal", (0.0, 0.0), 2)
+        goal = (gx, gy)
+    survey = []
+    for k, w in enumerate(r.items("survey")):
+        if (
+            not isinstance(w, list)
+            or len(w) != 2
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
+            or not all(math.isfinite(x) for x in w)
+        ):
+            raise r.fail(f"survey[{k}]", f"expected [x, y] in metres, got {show(w)}")
+        survey.append((float(w[0]), float(w[1])))
     spec = WorldSpec(
         name=r.text("name", path.stem),
         mu_static=mu_s,
@@ -534,6 +555,8 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
         cylinders=tuple(cylinders),
         triggers=tuple(triggers),
         start_pose=(start[0], start[1], start[2]),
+        goal=goal,
+        survey=tuple(survey),
     )
     r.finish()
     return spec

@@ -223,6 +223,12 @@ class Costmap:
         centres); None for no static layer.
     rolling : bool
         Whether :meth:`recentre` may move the grid.
+    collision_checks : bool
+        Keep what :meth:`footprint_collides` and :meth:`trajectories_collide` need (the local
+        costmap). Without them (the global costmap, which A* and the blocked-path test read)
+        a scan re-inflates only the part of the grid it can change, so its cost does not grow
+        with the map, and ``lethal_distance_m`` is exact only up to the inflation radius
+        (farther cells read ``inf``).
 
     Attributes
     ----------
@@ -249,6 +255,7 @@ class Costmap:
         origin_y_m: float = 0.0,
         static_map: OccupancyGrid | None = None,
         rolling: bool = False,
+        collision_checks: bool = True,
     ) -> None:
         if rows < 1 or cols < 1:
             raise ValueError(f"Costmap: size must be at least 1 x 1 cells, got {rows} x {cols}")
@@ -259,6 +266,7 @@ class Costmap:
         self.origin_x_m = float(origin_x_m)
         self.origin_y_m = float(origin_y_m)
         self._rolling = rolling
+        self._collision_checks = collision_checks
         self._static_map = static_map
         self._unknown = NO_INFORMATION if config.track_unknown_space else FREE_SPACE
         self._obstacle = np.full((rows, cols), self._unknown, np.uint8)
@@ -274,7 +282,9 @@ class Costmap:
     # ------------------------------------------------------------------ construction
 
     @classmethod
-    def from_map(cls, grid: OccupancyGrid, config: CostmapConfig) -> Costmap:
+    def from_map(
+        cls, grid: OccupancyGrid, config: CostmapConfig, collision_checks: bool = True
+    ) -> Costmap:
         """The global costmap: the map's grid, its occupied cells as the static layer.
 
         Parameters
@@ -283,6 +293,8 @@ class Costmap:
             The static map.
         config : CostmapConfig
             Robot shape, inflation and ranges.
+        collision_checks : bool
+            Keep the collision tests' tables (see the class); False for a planning costmap.
 
         Returns
         -------
@@ -291,7 +303,7 @@ class Costmap:
         """
         return cls(
             config, grid.height, grid.width, grid.resolution_m, grid.origin_x_m,
-            grid.origin_y_m, static_map=grid,
+            grid.origin_y_m, static_map=grid, collision_checks=collision_checks,
         )  # fmt: skip
 
     @classmethod
@@ -413,7 +425,9 @@ class Costmap:
     def recentre(self, x_m: float, y_m: float) -> None:
         """Move a rolling window so it is centred on (x, y), keeping the overlap.
 
-        Does nothing for a fixed grid or when the window would not move a whole cell.
+        Does nothing for a fixed grid or when the window would not move a whole cell. A
+        jump farther than the window's own size (a start far from where the window was
+        made, a relocalisation) keeps nothing: the window starts unknown where it lands.
 
         Parameters
         ----------
@@ -429,17 +443,18 @@ class Costmap:
         if dc == 0 and dr == 0:
             return
         moved = np.full_like(self._obstacle, self._unknown)
-        src_r = slice(max(0, dr), min(rows, rows + dr))
-        dst_r = slice(max(0, -dr), min(rows, rows - dr))
-        src_c = slice(max(0, dc), min(cols, cols + dc))
-        dst_c = slice(max(0, -dc), min(cols, cols - dc))
-        moved[dst_r, dst_c] = self._obstacle[src_r, src_c]
-        self._obstacle = moved
         hit_xy = np.zeros_like(self._hit_xy)
-        hit_xy[dst_r, dst_c] = self._hit_xy[src_r, src_c]
-        self._hit_xy = hit_xy
         spread = np.zeros_like(self._hit_spread_m)
-        spread[dst_r, dst_c] = self._hit_spread_m[src_r, src_c]
+        if abs(dr) < rows and abs(dc) < cols:  # else no overlap: the window starts afresh
+            src_r = slice(max(0, dr), min(rows, rows + dr))
+            dst_r = slice(max(0, -dr), min(rows, rows - dr))
+            src_c = slice(max(0, dc), min(cols, cols + dc))
+            dst_c = slice(max(0, -dc), min(cols, cols - dc))
+            moved[dst_r, dst_c] = self._obstacle[src_r, src_c]
+            hit_xy[dst_r, dst_c] = self._hit_xy[src_r, src_c]
+            spread[dst_r, dst_c] = self._hit_spread_m[src_r, src_c]
+        self._obstacle = moved
+        self._hit_xy = hit_xy
         self._hit_spread_m = spread
         self.origin_x_m += dc * self.resolution_m
         self.origin_y_m += dr * self.resolution_m
@@ -481,7 +496,17 @@ class Costmap:
             cr, cc = np.divmod(cells, self.shape[1])
             self._hit_xy[cr, cc] = centroid
             self._hit_spread_m[cr, cc] = spread
-        self._update_master()
+        if self._collision_checks:
+            self._update_master()
+            return
+        # the scan changed cells within reach of the sensor only (rays are cleared up to
+        # raytrace_max_range_m, returns marked up to obstacle_max_range_m)
+        reach = max(cfg.raytrace_max_range_m, cfg.obstacle_max_range_m) + self.resolution_m
+        (r0, r1), (c0, c1) = self.world_to_cell(
+            [sensor_xy[0] - reach, sensor_xy[0] + reach],
+            [sensor_xy[1] - reach, sensor_xy[1] + reach],
+        )
+        self._update_window(int(r0), int(r1) + 1, int(c0), int(c1) + 1)
 
     def _clear_rays(
         self, p: FloatArray, d: FloatArray, length: FloatArray, sensor_xy: tuple[float, float]
@@ -514,22 +539,52 @@ class Costmap:
         ok = self.inside(r, c)
         self._obstacle[r[ok], c[ok]] = FREE_SPACE
 
-    def clear_obstacles(self) -> None:
-        """Forget every scan (the clear-costmap recovery); the static layer stays."""
-        self._obstacle.fill(self._unknown)
+    def clear_obstacles(
+        self, beyond_m: float = 0.0, centre_xy: tuple[float, float] = (0, 0)
+    ) -> None:
+        """Forget the scans (the clear-costmap recovery); the static layer stays.
+
+        Parameters
+        ----------
+        beyond_m : float
+            Forget only the cells farther than this from ``centre_xy`` [m] (0: all of them).
+            Nearer cells are the ones the next scan re-marks or clears along its rays, so
+            keeping them means a clearing cannot open a path through an obstacle in view.
+        centre_xy : tuple of float
+            The centre of the kept disc (the robot) [m].
+        """
+        if beyond_m <= 0.0:
+            self._obstacle.fill(self._unknown)
+        else:
+            rows, cols = self.shape
+            x, y = self.cell_to_world(np.arange(rows)[:, None], np.arange(cols)[None, :])
+            far = np.hypot(x - centre_xy[0], y - centre_xy[1]) > beyond_m
+            self._obstacle[far] = self._unknown
         self._update_master()
 
-    def _update_master(self) -> None:
-        """Combine the layers (maximum, unknown yields to knowledge) and inflate."""
-        master = self._static.copy()
-        known = self._obstacle != NO_INFORMATION
-        take = known & ((master == NO_INFORMATION) | (self._obstacle > master))
-        master[take] = self._obstacle[take]
+    def _combined(
+        self, static: CostArray, obstacle: CostArray, far_m: float = math.inf
+    ) -> tuple[CostArray, BoolArray, FloatArray]:
+        """The layers combined (maximum, unknown yields to knowledge) and inflated.
+
+        Distances to the nearest lethal cell beyond ``far_m`` may read ``inf``.
+
+        Returns
+        -------
+        tuple of ndarray
+            (costs, lethal mask, distance to the nearest lethal cell centre [m]).
+        """
+        master = static.copy()
+        known = obstacle != NO_INFORMATION
+        take = known & ((master == NO_INFORMATION) | (obstacle > master))
+        master[take] = obstacle[take]
         lethal = master == LETHAL_OBSTACLE
         dist: FloatArray
         if np.any(lethal):
             dist = np.asarray(ndimage.distance_transform_edt(~lethal), np.float64)
             dist *= self.resolution_m
+            if far_m < math.inf:
+                dist[dist > far_m] = math.inf
         else:
             dist = np.full(master.shape, math.inf)
         cfg = self.config
@@ -540,10 +595,48 @@ class Costmap:
         raise_known = ~unknown & (inflated > master)
         raise_unknown = unknown & (inflated >= INSCRIBED_INFLATED_OBSTACLE)
         master[raise_known | raise_unknown] = inflated[raise_known | raise_unknown]
-        self.costs = master
+        return master, lethal, dist
+
+    def _update_window(self, r0: int, r1: int, c0: int, c1: int) -> None:
+        """Re-inflate after a change of the obstacle layer within rows r0:r1, cols c0:c1.
+
+        A change moves costs at most the inflation radius (k cells) away, and those costs
+        depend on lethal cells at most k cells farther: the layers are combined and inflated
+        over the change grown by 2k cells, and the costs of the change grown by k are kept.
+        """
+        rows, cols = self.shape
+        k = math.ceil(self.config.inflation_radius_m / self.resolution_m) + 1
+        if (r1 - r0 + 4 * k) * (c1 - c0 + 4 * k) >= rows * cols:
+            self._update_master()
+            return
+        wr0, wr1 = max(0, r0 - 2 * k), min(rows, r1 + 2 * k)
+        wc0, wc1 = max(0, c0 - 2 * k), min(cols, c1 + 2 * k)
+        kr0, kr1 = max(0, r0 - k), min(rows, r1 + k)
+        kc0, kc1 = max(0, c0 - k), min(cols, c1 + k)
+        if kr0 >= kr1 or kc0 >= kc1:
+            return
+        window = (slice(wr0, wr1), slice(wc0, wc1))
+        master, _, dist = self._combined(
+            self._static[window], self._obstacle[window], self.config.inflation_radius_m
+        )
+        keep = (slice(kr0 - wr0, kr1 - wr0), slice(kc0 - wc0, kc1 - wc0))
+        self._costs_2d[kr0 + 1 : kr1 + 1, kc0 + 1 : kc1 + 1] = master[keep]
+        self.lethal_distance_m[kr0:kr1, kc0:kc1] = dist[keep]
+        self.version += 1
+
+    def _update_master(self) -> None:
+        """Combine the layers (maximum, unknown yields to knowledge) and inflate, everywhere."""
+        far = math.inf if self._collision_checks else self.config.inflation_radius_m
+        master, lethal, dist = self._combined(self._static, self._obstacle, far)
         self.version += 1
         self.lethal_distance_m = dist
-        self._costs_padded = np.pad(master, 1, constant_values=NO_INFORMATION).ravel()
+        # the costs live inside a grid padded by one unknown ring (off-grid lookups land on
+        # it); ``costs`` is a view of its inside, updated in place
+        self._costs_2d = np.pad(master, 1, constant_values=NO_INFORMATION)
+        self._costs_padded = self._costs_2d.ravel()
+        self.costs = self._costs_2d[1:-1, 1:-1]
+        if not self._collision_checks:
+            return
         self._lethal_padded = np.pad(self.lethal_distance_m, 1, constant_values=-1.0).ravel()
         self._index_obstacles(lethal)
         cls = np.where(dist <= self._near_m, _NEAR, _CLEAR).astype(np.uint8)

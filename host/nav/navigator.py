@@ -7,17 +7,26 @@ One :meth:`Navigator.step` per control tick, on MCU time, does what Nav2's bring
   inflation, unknown space tracked) and the local rolling window (3 m x 3 m at 0.05 m, scans
   only, as in Nav2's bringup);
 * the global A* path is recomputed every ``replan_period_s`` (1 Hz) and at once when the
-  remaining path crosses a cell A* would refuse (inscribed or lethal) in either costmap; a
-  failed plan clears the global obstacle layer and tries once more (the tree's contextual
-  clear) before it counts as a failure;
+  remaining path crosses a cell A* would refuse (inscribed or lethal) in either costmap;
+* "no path" is a state, not a loop. Obstacles the LiDAR has seen stay in the global costmap
+  until a scan's ray clears them (Nav2's obstacle layer), and a failed plan does not clear
+  them (Nav2's tree clears the global costmap and retries: with the obstacle still there, the
+  retry plans through the erased obstacle, the next scan blocks it again, and the robot
+  loops until its recoveries run out). Instead the robot stops, and the place that blocks
+  the goal is found: the first point of the path planned on the map alone that the costmap
+  now refuses. If that point is within the LiDAR's clearing range, scans keep checking it
+  while the robot waits; still blocked after ``unreachable_confirm_s`` of them, the goal
+  fails with ``goal (x, y) unreachable: blocked at (x, y)``. If it is farther, what the scans
+  saw beyond their clearing range is forgotten (it may have moved; nothing in view is) and
+  the robot drives on to look, at most ``max_reverifications`` times per goal;
 * the DWB planner turns the path into (v, w) on the local costmap; when no trajectory is legal
   the robot is stopped, and after ``controller_failure_tolerance_s`` the local costmap is
   cleared once, then it counts as a failure;
 * the progress checker counts a failure when the robot has not left a circle of
   ``progress_radius_m`` within ``progress_time_s``;
-* each failure starts the next recovery of the round robin: clear both costmaps' obstacle
-  layers, spin 1.57 rad, wait 5 s, back up; after ``max_retries`` (6) recoveries the goal
-  fails with the last reason;
+* each failure starts the next recovery of the round robin: clear the local costmap and what
+  the global one holds beyond the clearing range, spin 1.57 rad, wait 5 s, back up; after
+  ``max_retries`` (6) recoveries the goal fails with the last reason;
 * the goal checker succeeds once the robot has been within the xy tolerance (latched, as
   Nav2's stateful goal checker) and, if a yaw tolerance is set, faces the goal's yaw.
 
@@ -58,10 +67,11 @@ from enum import Enum
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 
 from jackson.common.geometry import wrap_angle
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.nav.astar import AStarConfig, NoPathError, astar, path_cost
+from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, path_cost
 from jackson.host.nav.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
@@ -73,6 +83,11 @@ from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]
+
+
+class RouteError(ValueError):
+    """A start or goal the map rules out (one line: which pose, where, what is wrong)."""
+
 
 RECOVERIES = ("clear_costmaps", "spin", "wait", "backup")
 """The round robin of recovery behaviours, in Nav2 bringup's order."""
@@ -119,6 +134,11 @@ class NavigatorConfig:
         The progress checker: leave a circle of this radius within this time [m], [s].
     xy_goal_tolerance_m : float
         Goal checker distance [m] (REFERENCE: 0.25 m).
+    goal_margin_m : float
+        The robot aims this much inside ``xy_goal_tolerance_m`` [m]: the goal checker and
+        DWB's goal window use the tolerance less the margin, so that the error of the pose
+        estimate does not leave the true end just outside the tolerance (stopping at its edge
+        by the estimate, a run ends outside it on the ground truth about every other time).
     yaw_goal_tolerance_rad : float or None
         Goal checker yaw [rad]; None ignores the yaw.
     max_retries : int
@@ -130,6 +150,11 @@ class NavigatorConfig:
         Back-up recovery [m] (0.15), [m/s] (0.05), [s] (10).
     wait_s : float
         Wait recovery [s] (Nav2 bringup tree: 5).
+    unreachable_confirm_s : float
+        How long scans must keep a goal cut off before it fails as unreachable [s].
+    max_reverifications : int
+        How often per goal a block beyond the clearing range may be forgotten and looked at
+        again.
     simulate_ahead_time_s : float
         How far ahead spin and back-up check for collisions [s] (Nav2: 2.0).
     """
@@ -147,6 +172,7 @@ class NavigatorConfig:
     progress_radius_m: float = 0.25
     progress_time_s: float = 10.0
     xy_goal_tolerance_m: float = 0.25
+    goal_margin_m: float = 0.10
     yaw_goal_tolerance_rad: float | None = None
     max_retries: int = 6
     spin_angle_rad: float = 1.57
@@ -158,6 +184,8 @@ class NavigatorConfig:
     backup_time_allowance_s: float = 10.0
     wait_s: float = 5.0
     simulate_ahead_time_s: float = 2.0
+    unreachable_confirm_s: float = 2.0
+    max_reverifications: int = 3
 
     def __post_init__(self) -> None:
         for name in (
@@ -174,6 +202,8 @@ class NavigatorConfig:
             "blocked_replan_interval_s",
             "controller_failure_tolerance_s",
             "wait_s",
+            "unreachable_confirm_s",
+            "goal_margin_m",
         ):
             value = getattr(self, name)
             if not 0.0 <= value < math.inf:
@@ -185,6 +215,15 @@ class NavigatorConfig:
             )
         if self.max_retries < 0:
             raise ValueError(f"NavigatorConfig.max_retries must be >= 0, got {self.max_retries}")
+        if self.goal_margin_m >= self.xy_goal_tolerance_m:
+            raise ValueError(
+                "NavigatorConfig.goal_margin_m must be below xy_goal_tolerance_m, "
+                f"got {self.goal_margin_m} >= {self.xy_goal_tolerance_m}"
+            )
+        if self.max_reverifications < 0:
+            raise ValueError(
+                f"NavigatorConfig.max_reverifications must be >= 0, got {self.max_reverifications}"
+            )
         if self.spin_min_rad_s > self.spin_max_rad_s:
             raise ValueError(
                 f"NavigatorConfig.spin_min_rad_s must not exceed spin_max_rad_s, "
@@ -274,13 +313,17 @@ class Navigator:
             config.costmap, track_unknown_space=config.global_track_unknown_space
         )
         local_cfg = dataclasses.replace(config.costmap, track_unknown_space=False)
-        self.global_costmap = Costmap.from_map(static_map, global_cfg)
+        self.global_costmap = Costmap.from_map(static_map, global_cfg, collision_checks=False)
+        # the map alone (no scans): where a path would run if nothing had been seen
+        self.static_costmap = Costmap.from_map(static_map, global_cfg, collision_checks=False)
         cx = static_map.origin_x_m + 0.5 * static_map.width * static_map.resolution_m
         cy = static_map.origin_y_m + 0.5 * static_map.height * static_map.resolution_m
         self.local_costmap = Costmap.rolling_window(
             local_cfg, cx, cy, config.local_size_m, config.local_resolution_m
         )
-        self.dwb = DwbPlanner(config.dwb, limits)
+        self.dwb = DwbPlanner(
+            dataclasses.replace(config.dwb, xy_goal_tolerance_m=self.goal_window_m), limits
+        )
         self.recoveries: dict[str, int] = dict.fromkeys(RECOVERIES, 0)
         self.retries = 0
         self.replans = 0
@@ -298,6 +341,9 @@ class Navigator:
         self._xy_reached = False
         self._next_recovery = 0
         self._recovery: _Recovery | None = None
+        self._no_path_since_s: float | None = None
+        self._reverifications = 0
+        self.blocked_at: tuple[float, float] | None = None
         self.last_command: Command | None = None
 
     # ------------------------------------------------------------------ goal and outputs
@@ -323,6 +369,9 @@ class Navigator:
         self._xy_reached = False
         self._next_recovery = 0
         self._recovery = None
+        self._no_path_since_s = None
+        self._reverifications = 0
+        self.blocked_at = None
         self.recoveries = dict.fromkeys(RECOVERIES, 0)
         self.retries = 0
         self.replans = 0
@@ -334,6 +383,11 @@ class Navigator:
         self._goal = None
         self._state = NavState.IDLE
         self._recovery = None
+
+    @property
+    def goal_window_m(self) -> float:
+        """Where the goal checker succeeds: the xy tolerance less the margin [m]."""
+        return self.config.xy_goal_tolerance_m - self.config.goal_margin_m
 
     @property
     def state(self) -> NavState:
@@ -404,6 +458,8 @@ class Navigator:
         if self._progress_anchor is None:
             self._progress_anchor = (pose_map, t_s)
 
+        if self._no_path_since_s is not None and scan_points_map is None:
+            return self._stop(goal, pose_map)  # cut off: only a new scan can change that
         if self._needs_plan(t_s, pose_map) and not self._make_plan(t_s, pose_map, goal):
             return self._stop(goal, pose_map)
         path = self._path
@@ -453,7 +509,7 @@ class Navigator:
     def _goal_reached(self, pose: Pose2D, goal: Pose2D) -> bool:
         """The stateful goal checker."""
         cfg = self.config
-        self._xy_reached = self._xy_reached or pose.distance(goal) <= cfg.xy_goal_tolerance_m
+        self._xy_reached = self._xy_reached or pose.distance(goal) <= self.goal_window_m
         if not self._xy_reached:
             return False
         tol = cfg.yaw_goal_tolerance_rad
@@ -503,18 +559,23 @@ class Navigator:
         return False
 
     def _make_plan(self, t_s: float, pose: Pose2D, goal: Pose2D) -> bool:
-        """Plan on the global costmap, clearing its obstacle layer once on failure."""
+        """Plan on the global costmap; without a path, stop and find out why."""
         start, target = (pose.x, pose.y), (goal.x, goal.y)
         try:
             path = astar(self.global_costmap, start, target, self.config.planner)
         except NoPathError:
-            self.global_costmap.clear_obstacles()
-            try:
-                path = astar(self.global_costmap, start, target, self.config.planner)
-            except NoPathError as exc:
-                self._path = None
-                self._begin_recovery(t_s, pose, f"planner: {exc}")
+            self._path = None
+            if not self._no_path(t_s, pose, goal):
                 return False
+            try:  # what blocked it was forgotten: plan again at once
+                path = astar(self.global_costmap, start, target, self.config.planner)
+            except NoPathError:
+                self._no_path(t_s, pose, goal)
+                return False
+        self._no_path_since_s = None
+        self.blocked_at = None
+        if self._state == NavState.PLANNING and self._reason.startswith("no path"):
+            self._reason = ""
         self.replans += 1
         self._t_plan_s = t_s
         if self._path is not None and self.config.replan_hysteresis > 0.0:
@@ -526,6 +587,64 @@ class Navigator:
                 return True
         self._path = path
         return True
+
+    def _no_path(self, t_s: float, pose: Pose2D, goal: Pose2D) -> bool:
+        """The goal is cut off: wait for scans to confirm it, look again, or fail.
+
+        Returns True when what blocked it lay out of view and was forgotten (plan again).
+        """
+        cfg = self.config
+        start, target = (pose.x, pose.y), (goal.x, goal.y)
+        try:
+            witness = astar(self.static_costmap, start, target, cfg.planner)
+        except NoPathError as on_map:
+            self._fail(f"goal ({goal.x:.2f}, {goal.y:.2f}) unreachable on the map: {on_map}")
+            return False
+        blocked = self._first_blocked(witness, pose)
+        self.blocked_at = blocked
+        where = f"({blocked[0]:.2f}, {blocked[1]:.2f})"
+        self._state = NavState.PLANNING
+        self._reason = f"no path: blocked at {where}"
+        self._local_plan = np.empty((0, 3))
+        clearing_m = cfg.costmap.raytrace_max_range_m
+        out_of_view = math.hypot(blocked[0] - pose.x, blocked[1] - pose.y) > clearing_m - 0.25
+        if out_of_view and self._reverifications < cfg.max_reverifications:
+            # seen from afar and out of view now: forget it, drive on and look again
+            self._reverifications += 1
+            self.global_costmap.clear_obstacles(clearing_m, (pose.x, pose.y))
+            self._no_path_since_s = None
+            return True
+        if self._no_path_since_s is None:
+            self._no_path_since_s = t_s
+        elif t_s - self._no_path_since_s >= cfg.unreachable_confirm_s:
+            self._fail(f"goal ({goal.x:.2f}, {goal.y:.2f}) unreachable: blocked at {where}")
+        return False
+
+    def _first_blocked(self, path: FloatArray, pose: Pose2D) -> tuple[float, float]:
+        """The first point along ``path`` (beyond the robot's own disc) on a cell the global
+        costmap refuses, sampled every half cell; the robot's position when there is none."""
+        res = self.global_costmap.resolution_m
+        seg = np.diff(path, axis=0)
+        length = np.hypot(seg[:, 0], seg[:, 1])
+        pts = [path[:1]]
+        for p0, d, n in zip(path[:-1], seg, np.ceil(length / (0.5 * res)).astype(int), strict=True):
+            if n > 0:
+                pts.append(p0 + d * (np.arange(1, n + 1)[:, None] / n))
+        samples = np.vstack(pts)
+        near = self.config.costmap.robot_radius_m + res
+        ahead = np.hypot(samples[:, 0] - pose.x, samples[:, 1] - pose.y) > near
+        cost = self.global_costmap.cost_at(samples[:, 0], samples[:, 1])
+        bad = np.flatnonzero(ahead & (cost >= INSCRIBED_INFLATED_OBSTACLE))
+        if bad.size == 0:
+            return (pose.x, pose.y)
+        return (float(samples[bad[0], 0]), float(samples[bad[0], 1]))
+
+    def _fail(self, reason: str) -> None:
+        """The goal fails at once (no recovery can help)."""
+        self._state = NavState.FAILED
+        self._reason = reason
+        self._recovery = None
+        self._local_plan = np.empty((0, 3))
 
     # ------------------------------------------------------------------ recoveries
 
@@ -572,7 +691,7 @@ class Navigator:
         done = False
         if rec.name == "clear_costmaps":
             self.local_costmap.clear_obstacles()
-            self.global_costmap.clear_obstacles()
+            self.global_costmap.clear_obstacles(cfg.costmap.raytrace_max_range_m, (pose.x, pose.y))
             done = True
         elif rec.name == "wait":
             done = elapsed >= cfg.wait_s
@@ -613,3 +732,65 @@ class Navigator:
             self._end_recovery(t_s)
             return None
         return NavCommand(v, w, self._state, self._reason, rec.name, pose.distance(goal))
+
+
+def check_route(
+    grid: OccupancyGrid, start: Pose2D, goals: tuple[Pose2D, ...], config: NavigatorConfig
+) -> None:
+    """Refuse a start or goal the map rules out, before anything moves.
+
+    Each pose must lie on the map, on a known cell (when the global costmap tracks unknown
+    space), outside every obstacle and its inscribed band (the robot's radius), and every goal
+    must be connected to the start through cells A* may cross.
+
+    Parameters
+    ----------
+    grid : OccupancyGrid
+        The map the robot localises and plans on.
+    start : Pose2D
+        Where the robot stands (map frame).
+    goals : tuple of Pose2D
+        The goals, in order.
+    config : NavigatorConfig
+        The costmap and planner settings the navigation will use.
+
+    Raises
+    ------
+    RouteError
+        Naming the first pose at fault (``start`` or ``goal k``), its position and why.
+    """
+    global_cfg = dataclasses.replace(
+        config.costmap, track_unknown_space=config.global_track_unknown_space
+    )
+    costmap = Costmap.from_map(grid, global_cfg, collision_checks=False)
+    passable = cell_costs(costmap, config.planner)[1]
+    labels, _ = ndimage.label(passable, structure=np.ones((3, 3), bool))
+    x0, y0 = grid.origin_x_m, grid.origin_y_m
+    x1 = x0 + grid.width * grid.resolution_m
+    y1 = y0 + grid.height * grid.resolution_m
+    start_label = 0
+    for k, pose in enumerate((start, *goals)):
+        name = "start" if k == 0 else f"goal {k}"
+        where = f"{name} ({pose.x:.2f}, {pose.y:.2f}) is"
+        (r,), (c,) = (np.atleast_1d(a) for a in costmap.world_to_cell(pose.x, pose.y))
+        if not costmap.inside(r, c):
+            raise RouteError(
+                f"{where} outside the map (x {x0:.2f} to {x1:.2f} m, y {y0:.2f} to {y1:.2f} m)"
+            )
+        value = int(grid.data[r, c])
+        cost = int(costmap.costs[r, c])
+        if value >= global_cfg.lethal_threshold_percent:
+            raise RouteError(f"{where} in an obstacle of the map: pick a free point")
+        if value < 0 and global_cfg.track_unknown_space:
+            raise RouteError(
+                f"{where} in unknown space of the map: map it first (jackson map --waypoint)"
+            )
+        if cost >= INSCRIBED_INFLATED_OBSTACLE and cost != 255:
+            raise RouteError(
+                f"{where} within the robot's radius ({global_cfg.robot_radius_m:g} m) of an "
+                "obstacle of the map: pick a point farther from it"
+            )
+        if k == 0:
+            start_label = int(labels[r, c])
+        elif start_label == 0 or int(labels[r, c]) != start_label:
+            raise RouteError(f"{where} cannot be reached from the start on the map")

@@ -116,6 +116,23 @@ def test_the_rolling_window_keeps_what_it_saw_while_it_moves() -> None:
     assert cm.cost_at(0.7, 0.3) == FREE_SPACE  # forgotten, unknown counts as free here
 
 
+@pytest.mark.parametrize(
+    "jump", [(3.0, 0.0), (0.0, -3.0), (-7.3, 12.4), (25.0, -25.0), (1.5, 2.95)]
+)
+def test_the_rolling_window_follows_a_jump_of_any_size(jump: tuple[float, float]) -> None:
+    """A window made at the map's centre follows a robot standing anywhere (a far start)."""
+    cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+    cm.update(np.array([[0.7, 0.3]]), (0.0, 0.0))
+    x, y = jump
+    cm.recentre(x, y)
+    assert cm.origin_x_m == pytest.approx(math.floor((x - 1.5) / RES) * RES)
+    assert cm.origin_y_m == pytest.approx(math.floor((y - 1.5) / RES) * RES)
+    assert cm.cost_at(x, y) == FREE_SPACE
+    cm.update(np.array([[x + 0.6, y]]), (x, y))
+    assert cm.cost_at(x + 0.6, y) == LETHAL_OBSTACLE
+    assert cm.cost_at(x + 0.3, y) == FREE_SPACE
+
+
 def test_clearing_forgets_the_scans_but_keeps_the_map() -> None:
     grid = OccupancyGrid.empty(2.0, 2.0, RES, origin_x_m=-1.0, origin_y_m=-1.0, fill=0)
     grid.data[0, :] = 100
@@ -181,3 +198,37 @@ def test_a_scan_updates_a_costmap_well_within_a_scan_period() -> None:
         timings[name] = (time.perf_counter() - t0) / 10 * 1e3
     print("costmap update per scan: " + ", ".join(f"{k} {v:.2f} ms" for k, v in timings.items()))
     assert max(timings.values()) < 134.65  # the A1M8's scan period
+
+
+def test_a_planning_costmap_reinflates_only_around_the_scan_and_gets_the_same_costs() -> None:
+    """Without collision tables a scan re-inflates the part of the grid it can change; on a
+    20 m map every cost equals that of a full re-inflation, scan after scan."""
+    g = OccupancyGrid.empty(20.0, 16.0, RES, origin_x_m=-1.0, origin_y_m=-2.0, fill=-1)
+    g.data[: g.height // 2, :] = 0
+    g.data[::40, :] = 100
+    cfg = CostmapConfig(track_unknown_space=True)
+    full = Costmap.from_map(g, cfg)
+    windowed = Costmap.from_map(g, cfg, collision_checks=False)
+    rng = np.random.default_rng(1)
+    for _ in range(12):
+        centre = (float(rng.uniform(-1.0, 19.0)), float(rng.uniform(-2.0, 14.0)))
+        a = np.linspace(-math.pi, math.pi, 1080, endpoint=False)
+        r = rng.uniform(0.2, 4.0, a.size)
+        points = np.column_stack((centre[0] + r * np.cos(a), centre[1] + r * np.sin(a)))
+        full.update(points, centre)
+        version = windowed.version
+        windowed.update(points, centre)
+        assert windowed.version == version + 1
+        assert np.array_equal(windowed.costs, full.costs)
+        near = full.lethal_distance_m <= cfg.inflation_radius_m
+        assert np.array_equal(windowed.lethal_distance_m[near], full.lethal_distance_m[near])
+        assert np.all(np.isinf(windowed.lethal_distance_m[~near]))
+
+
+def test_clearing_beyond_a_range_keeps_the_obstacles_near_the_robot() -> None:
+    cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0, size_m=10.0)
+    cm.update(np.array([[1.0, 0.0], [2.4, 0.0]]), (0.0, 0.0))
+    cm.recentre(-2.0, 0.0)
+    cm.clear_obstacles(3.5, (-2.0, 0.0))
+    assert cm.cost_at(1.0, 0.0) == LETHAL_OBSTACLE  # 3.0 m from the robot: kept
+    assert cm.cost_at(2.4, 0.0) == FREE_SPACE  # 4.4 m: forgotten

@@ -548,7 +548,10 @@ def test_dwb_speeds_accelerations_and_critics_are_the_daemons() -> None:
     assert f["sim_time"] == dwb.sim_time_s
     assert f["linear_granularity"] == dwb.linear_granularity_m
     assert f["angular_granularity"] == dwb.angular_granularity_rad
-    assert f["xy_goal_tolerance"] == dwb.xy_goal_tolerance_m == PAPER_XY_GOAL_TOLERANCE_M
+    nav = NavigatorConfig()
+    assert dwb.xy_goal_tolerance_m == PAPER_XY_GOAL_TOLERANCE_M == nav.xy_goal_tolerance_m
+    # the navigator hands DWB its goal window: the tolerance less the margin it aims inside
+    assert f["xy_goal_tolerance"] == pytest.approx(nav.xy_goal_tolerance_m - nav.goal_margin_m)
     assert f["trans_stopped_velocity"] == dwb.trans_stopped_velocity_m_s
     assert f["prune_distance"] == dwb.prune_distance_m
     assert f["forward_prune_distance"] == dwb.forward_prune_distance_m
@@ -580,7 +583,8 @@ def test_checkers_planner_and_recoveries_are_the_navigators() -> None:
     assert progress["required_movement_radius"] == nav.progress_radius_m
     assert progress["movement_time_allowance"] == nav.progress_time_s
     goal = p["general_goal_checker"]
-    assert goal["xy_goal_tolerance"] == nav.xy_goal_tolerance_m == PAPER_XY_GOAL_TOLERANCE_M
+    assert nav.xy_goal_tolerance_m == PAPER_XY_GOAL_TOLERANCE_M
+    assert goal["xy_goal_tolerance"] == pytest.approx(nav.xy_goal_tolerance_m - nav.goal_margin_m)
     assert nav.yaw_goal_tolerance_rad is None and goal["yaw_goal_tolerance"] > math.pi
     grid = _params("planner_server")["GridBased"]
     assert grid["use_astar"] is True and grid["tolerance"] == AStarConfig().goal_tolerance_m
