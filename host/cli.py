@@ -295,13 +295,31 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
     xs = [start.x] + [g.x for g in goals]
     ys = [start.y] + [g.y for g in goals]
     extent = (min(xs) - 3.0, min(ys) - 3.0, max(xs) + 3.0, max(ys) + 3.0)
+    if grid is None:  # mapping as it goes, on a blank grid over the route: bound as a map file
+        from jackson.host.nav.grid import MAX_CELLS, MAX_SIDE
+        from jackson.host.nav.mapping import MappingConfig
+
+        res = MappingConfig().resolution_m
+        width_m, height_m = extent[2] - extent[0], extent[3] - extent[1]
+        cols, rows = width_m / res, height_m / res
+        if max(cols, rows) > MAX_SIDE or cols * rows > MAX_CELLS:
+            raise HostCliError(
+                f"--start and --goal span {width_m:.0f} m x {height_m:.0f} m with the 3 m margin; "
+                f"mapping as it goes covers at most {MAX_SIDE * res:g} m a side and "
+                f"{MAX_CELLS:,} cells of {res:g} m: give closer goals, or --map"
+            )
     config = NavigateConfig(
         start=start,
         goals=goals,
         localisation="amcl" if grid is not None else "slam",
         extent=extent,
     )
-    return NavigateMission(config, cfg.limits, grid)
+    from jackson.host.nav.navigator import RouteError
+
+    try:
+        return NavigateMission(config, cfg.limits, grid)
+    except RouteError as exc:
+        raise HostCliError(f"{exc} (--map {args.map})") from exc
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:

@@ -88,6 +88,65 @@ start_pose: {start}
 ROOM = "  - [-2, -2, 2, -2]\n  - [2, -2, 2, 2]\n  - [2, 2, -2, 2]\n  - [-2, 2, -2, -2]\n"
 
 
+MAP_FIELDS = {
+    "image": "free.pgm",
+    "resolution": "0.05",
+    "origin": "[0, 0, 0]",
+    "occupied_thresh": "0.65",
+    "free_thresh": "0.196",
+    "negate": "0",
+    "mode": "trinary",
+}
+
+
+def _map_yaml(**damage: str) -> str:
+    """map_server's YAML with every field map_server documents, ``damage`` replacing some."""
+    return "".join(f"{k}: {v}\n" for k, v in {**MAP_FIELDS, **damage}.items())
+
+
+MAP_IMAGES: dict[str, bytes] = {  # headers only, or broken: nothing here may be decoded
+    "huge.pgm": b"P5\n200000 200000\n255\n\0",
+    "wide.pgm": b"P5\n30000 2\n255\n\0",
+    "many_cells.pgm": b"P5\n12000 9000\n255\n\0",
+    "truncated.pgm": b"P5\n20 10\n255\n" + bytes(50),
+    "text.pgm": b"this is a text file, not an image\n",
+}
+
+# maps/<name>.yaml -> (its text, what the one line must name after "<name>.yaml: ")
+BAD_MAPS: dict[str, tuple[str | bytes, str]] = {
+    "huge_image": (_map_yaml(image="huge.pgm"), "image: huge.pgm"),
+    "wide_image": (_map_yaml(image="wide.pgm"), "image: wide.pgm"),
+    "image_cells": (_map_yaml(image="many_cells.pgm"), "image: many_cells.pgm"),
+    "truncated_image": (_map_yaml(image="truncated.pgm"), "image: truncated.pgm"),
+    "text_image": (_map_yaml(image="text.pgm"), "image: text.pgm"),
+    "missing_image": (_map_yaml(image="nowhere.pgm"), "image: nowhere.pgm"),
+    "image_folder": (_map_yaml(image="."), "image: "),
+    "res_zero": (_map_yaml(resolution="0"), "resolution"),
+    "res_negative": (_map_yaml(resolution="-0.05"), "resolution"),
+    "res_tiny": (_map_yaml(resolution="1e-9"), "resolution"),
+    "res_huge": (_map_yaml(resolution="1e300"), "resolution"),
+    "res_inf": (_map_yaml(resolution=".inf"), "resolution"),
+    "res_nan": (_map_yaml(resolution=".nan"), "resolution"),
+    "res_text": (_map_yaml(resolution="fine"), "resolution"),
+    "origin_inf": (_map_yaml(origin="[.inf, 0, 0]"), "origin"),
+    "origin_nan": (_map_yaml(origin="[0, .nan, 0]"), "origin"),
+    "origin_far": (_map_yaml(origin="[1e308, 0, 0]"), "origin"),
+    "origin_short": (_map_yaml(origin="[0, 0]"), "origin"),
+    "origin_long": (_map_yaml(origin="[0, 0, 0, 0]"), "origin"),
+    "origin_yaw": (_map_yaml(origin="[0, 0, 0.3]"), "origin"),
+    "thresh_reversed": (_map_yaml(occupied_thresh="0.2", free_thresh="0.6"), "free_thresh"),
+    "thresh_above_one": (_map_yaml(occupied_thresh="1.5"), "occupied_thresh"),
+    "thresh_negative": (_map_yaml(free_thresh="-0.1"), "free_thresh"),
+    "mode_bogus": (_map_yaml(mode="bogus"), "mode"),
+    "negate_7": (_map_yaml(negate="7"), "negate"),
+    "unknown_key": (_map_yaml(colour="red"), "unknown field colour"),
+    "duplicate_key": (_map_yaml() + "mode: raw\n", "line 8: not valid YAML (duplicate field"),
+    "list": ("- image: good.pgm\n- resolution: 0.05\n", "expected a mapping"),
+    "empty": ("", "expected a mapping"),
+    "binary": (b"\xff\xfe\x00image: good.pgm\x00", "not UTF-8"),
+}
+
+
 @pytest.fixture(scope="module")
 def corpus(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     root = tmp_path_factory.mktemp("corpus")
@@ -130,6 +189,12 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     w("maps/good.pgm", b"P5\n2 2\n255\n" + bytes([254, 0, 205, 254]))
     w("maps/garbage.yaml", "image: [unclosed\n")
     w("maps/no_image.yaml", "image: nope.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    w("maps/free.pgm", b"P5\n40 40\n255\n" + bytes([254] * 1600))  # 2 m x 2 m, all free
+    w("maps/full.yaml", _map_yaml())  # what the bad maps below damage
+    for name, data in MAP_IMAGES.items():
+        w(f"maps/{name}", data)
+    for name, (text, _) in BAD_MAPS.items():
+        w(f"maps/{name}.yaml", text)
     # host configs
     w("configs/syntax.yaml", "serial: {port: \n")
     w("configs/nan.yaml", "robot:\n  wheel_radius_m: .nan\n")
@@ -305,6 +370,24 @@ CASES: dict[str, Case] = {
     "daemon_map_no_image": c(
         "daemon --goal 1,0 --lidar robot_tty --map maps/no_image.yaml --no-record", "nope.pgm"
     ),
+    "daemon_goal_huge": c(
+        "daemon --goal 1e308,1e308 --lidar nowhere/lidar --port nowhere/tty --no-record",
+        "--goal: x and y must lie within",
+    ),
+    "daemon_start_huge": c(
+        "daemon --goal 1,0 --start 0,-2e4 --lidar nowhere/lidar --port nowhere/tty --no-record",
+        "--start: x and y must lie within",
+    ),
+    "daemon_route_too_wide_to_map": c(
+        "daemon --goal 10000,10000 --start=-10000,-10000 --lidar nowhere/lidar "
+        "--port nowhere/tty --no-record",
+        "mapping as it goes covers at most",
+    ),
+    "daemon_good_map_then_lidar": c(
+        "daemon --goal 1,0 --lidar nowhere/lidar --port nowhere/tty --no-record "
+        "--map maps/full.yaml",
+        "nowhere/lidar",
+    ),
     "daemon_lidar_missing": c(
         "daemon --goal 1,0 --lidar nowhere/lidar --port robot_tty --no-record", "nowhere/lidar"
     ),
@@ -320,6 +403,11 @@ CASES: dict[str, Case] = {
     "run_maze_map_missing": c(f"run maze --map {MISSING}", "missing.yaml"),
     "run_square_map": c("run square --map maps/good.yaml", "--map"),
     "campaign_ofat_map_file": c("campaign ofat --map a_file", "a_file"),
+    "run_maze_goal_huge": c("run maze --goal 1e308,1e308", "--goal: x and y must lie within"),
+    "run_maze_goal_far": c("run maze --goal 0,-1e5", "--goal: x and y must lie within"),
+    "run_maze_goal_inf": c("run maze --goal inf,0", "--goal"),
+    "run_maze_good_map_bad_world": c(f"run maze --map maps/full.yaml --world {MISSING}", MISSING),
+    "map_waypoint_huge": c(f"map --world {GOOD_WORLD} --waypoint 1e308,0", "--waypoint"),
     "campaign_robustness_trials": c("campaign robustness --trials 0", "--trials"),
     "calibrate_step_duty": c("calibrate step --duty 1.5", "--duty"),
     "calibrate_step_runs_missing": c("calibrate step --runs nowhere/run", "nowhere/run"),
@@ -402,6 +490,25 @@ CASES: dict[str, Case] = {
     "cal_fit_heading": c("calibrate twin-fit --runs runs/good --heading compass", "compass"),
 }
 
+# every bad map through both commands that take one; the daemon checks it before it opens the
+# LiDAR or the serial port (both missing here: were the map accepted, the line would name them)
+CASES.update(
+    {
+        f"run_maze_map_{name}": c(f"run maze --map maps/{name}.yaml", f"{name}.yaml: {field}")
+        for name, (_, field) in BAD_MAPS.items()
+    }
+)
+CASES.update(
+    {
+        f"daemon_map_{name}": c(
+            "daemon --goal 1,0 --lidar nowhere/lidar --port nowhere/tty --no-record "
+            f"--map maps/{name}.yaml",
+            f"{name}.yaml: {field}",
+        )
+        for name, (_, field) in BAD_MAPS.items()
+    }
+)
+
 
 def _tree(root: Path) -> dict[str, tuple[bool, int, int]]:
     out = {}
@@ -453,13 +560,17 @@ def test_the_corpus_is_large() -> None:
         ["replay", "runs/meta_mission"],
         ["sim", "--world", "worlds/nan_wall.yaml"],
         ["campaign", "square", "--workers", "0"],
+        ["run", "maze", "--map", "maps/huge_image.yaml"],
+        ["run", "maze", "--goal", "1e308,1e308"],
+        ["daemon", "--goal", "1,0", "--lidar", "x", "--map", "maps/res_tiny.yaml", "--no-record"],
+        ["daemon", "--goal", "1e308,1e308", "--lidar", "x", "--no-record"],
     ],
 )
 def test_the_installed_command_answers_in_one_line(
     argv: list[str], corpus: Path, tmp_path: Path
 ) -> None:
     work = tmp_path / "work"
-    shutil.copytree(corpus, work)
+    shutil.copytree(corpus, work, symlinks=True)  # robot_tty: a pty, not a file to copy
     before = _tree(work)
     out = subprocess.run([*JACKSON, *argv], cwd=work, capture_output=True, text=True, timeout=60)
     assert out.returncode == 2, out.stderr

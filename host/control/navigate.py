@@ -42,7 +42,13 @@ from jackson.host.control.base import NavState as MissionState
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
 from jackson.host.nav.mapping import Mapper, MappingConfig
-from jackson.host.nav.navigator import NavCommand, Navigator, NavigatorConfig, NavState
+from jackson.host.nav.navigator import (
+    NavCommand,
+    Navigator,
+    NavigatorConfig,
+    NavState,
+    check_route,
+)
 from jackson.host.nav.types import Pose2D, Scan
 
 Localisation = Literal["amcl", "slam"]
@@ -124,6 +130,12 @@ class NavigateMission:
     static_map : OccupancyGrid or None
         The known map (``amcl``); None in ``slam`` mode.
 
+    Raises
+    ------
+    RouteError
+        The start or a goal lies off the map, in unknown space, on or beside an obstacle, or
+        apart from the start (:func:`jackson.host.nav.navigator.check_route`).
+
     Attributes
     ----------
     done : bool
@@ -178,6 +190,8 @@ class NavigateMission:
             nav_config = dataclasses.replace(nav_config, global_track_unknown_space=False)
         self.map_to_odom = Pose2D()  # the localiser's correction (identity until it has one)
         self._requested: Pose2D | None = None  # a goal from another thread (ROS /goal_pose)
+        if static_map is not None:  # a start or goal the map rules out: before anything moves
+            check_route(static_map, config.start, config.goals, nav_config)
         self.navigator = Navigator(nav_config, nav_map, limits)
         self.navigator.set_goal(config.goals[0])
         self.last: NavCommand | None = None
@@ -268,8 +282,27 @@ class NavigateMission:
         return self.mapper.grid() if self.mapper is not None else None
 
 
-def parse_pose(text: str) -> Pose2D:
-    """``x,y`` or ``x,y,yaw`` [m, m, rad] as a pose; ValueError naming the text."""
+def parse_pose(text: str, limit_m: float = 1e4) -> Pose2D:
+    """A pose from the command line.
+
+    Parameters
+    ----------
+    text : str
+        ``x,y`` or ``x,y,yaw`` [m, m, rad]; the yaw defaults to 0.
+    limit_m : float
+        The largest ``|x|`` and ``|y|`` accepted [m].
+
+    Returns
+    -------
+    Pose2D
+        The pose.
+
+    Raises
+    ------
+    ValueError
+        One line naming the text: not two or three finite numbers, or a position beyond
+        ``limit_m``.
+    """
     parts = text.split(",")
     try:
         values = [float(p) for p in parts]
@@ -277,6 +310,8 @@ def parse_pose(text: str) -> Pose2D:
         values = []
     if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
         raise ValueError(f"expected x,y or x,y,yaw in metres and radians, got {text!r}")
+    if abs(values[0]) > limit_m or abs(values[1]) > limit_m:
+        raise ValueError(f"x and y must lie within ±{limit_m:g} m, got {text!r}")
     return Pose2D(values[0], values[1], values[2] if len(values) == 3 else 0.0)
 
 

@@ -271,8 +271,10 @@ class Costmap:
         self._unknown = NO_INFORMATION if config.track_unknown_space else FREE_SPACE
         self._obstacle = np.full((rows, cols), self._unknown, np.uint8)
         # where the returns marking each obstacle cell lay: their centroid and spread [m]
-        self._hit_xy = np.zeros((rows, cols, 2))
-        self._hit_spread_m = np.zeros((rows, cols))
+        # (for the collision tests only)
+        disc_shape = (rows, cols) if collision_checks else (0, 0)
+        self._hit_xy = np.zeros((*disc_shape, 2))
+        self._hit_spread_m = np.zeros(disc_shape)
         self._static = self._sample_static()
         self.costs: CostArray = np.zeros((rows, cols), np.uint8)
         self.lethal_distance_m: FloatArray = np.full((rows, cols), math.inf)
@@ -451,8 +453,9 @@ class Costmap:
             src_c = slice(max(0, dc), min(cols, cols + dc))
             dst_c = slice(max(0, -dc), min(cols, cols - dc))
             moved[dst_r, dst_c] = self._obstacle[src_r, src_c]
-            hit_xy[dst_r, dst_c] = self._hit_xy[src_r, src_c]
-            spread[dst_r, dst_c] = self._hit_spread_m[src_r, src_c]
+            if self._collision_checks:
+                hit_xy[dst_r, dst_c] = self._hit_xy[src_r, src_c]
+                spread[dst_r, dst_c] = self._hit_spread_m[src_r, src_c]
         self._obstacle = moved
         self._hit_xy = hit_xy
         self._hit_spread_m = spread
@@ -485,7 +488,7 @@ class Costmap:
         ok = self.inside(r, c)
         r, c, q = r[ok], c[ok], p[mark][ok]
         self._obstacle[r, c] = LETHAL_OBSTACLE
-        if len(q):
+        if len(q) and self._collision_checks:
             cells, inv = np.unique(r * self.shape[1] + c, return_inverse=True)
             count = np.bincount(inv)
             centroid = np.column_stack(
