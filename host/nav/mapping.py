@@ -240,6 +240,7 @@ class Mapper:
         self._col0 = 0
         self._last_odom: Pose2D | None = None
         self._field: PointField | None = None
+        self._field_window = (0, 0, 0, 0)
 
     # ------------------------------------------------------------------ public
 
@@ -304,25 +305,45 @@ class Mapper:
         """The cell-centred likelihood field of the current map (what a localiser would use)."""
         return LikelihoodField.from_grid(self.grid())
 
-    def match_field(self) -> PointField:
+    def match_field(self, centre_xy: tuple[float, float] | None = None) -> PointField:
         """The field the scan matcher uses: the mean return of every cell with log-odds > 0.
+
+        Parameters
+        ----------
+        centre_xy : tuple of float or None
+            Build it only over the cells within ``max_range_m`` + ``search_xy_m`` + 1 m of
+            this point [m] (the scan being matched there cannot reach farther), so that its
+            cost stays that of an 18 m map however large the map grows; None for the whole
+            map.
 
         Returns
         -------
         PointField
-            Cached until the next integration.
+            Cached until the next integration or another window.
         """
-        if self._field is None:
-            res = self.config.resolution_m
-            sum_x, sum_y, n = self._hits
-            occupied = (self._log_odds > 0.0) & (n > 0.0)
+        res = self.config.resolution_m
+        rows_n, cols_n = self._log_odds.shape
+        r0, r1, c0, c1 = 0, rows_n, 0, cols_n
+        if centre_xy is not None:
+            half = math.ceil((self.config.max_range_m + self.config.search_xy_m + 1.0) / res)
+            rc = math.floor(centre_xy[1] / res) - self._row0
+            cc = math.floor(centre_xy[0] / res) - self._col0
+            r0, r1 = max(0, rc - half), min(rows_n, rc + half + 1)
+            c0, c1 = max(0, cc - half), min(cols_n, cc + half + 1)
+            if r0 >= r1 or c0 >= c1:
+                r0, r1, c0, c1 = 0, rows_n, 0, cols_n
+        window = (r0, r1, c0, c1)
+        if self._field is None or self._field_window != window:
+            sum_x, sum_y, n = (a[r0:r1, c0:c1] for a in self._hits)
+            occupied = (self._log_odds[r0:r1, c0:c1] > 0.0) & (n > 0.0)
             inv_n = np.divide(1.0, n, out=np.zeros_like(n), where=occupied)
             rows, cols = np.indices(n.shape)
-            x = (cols + self._col0) * res + sum_x * inv_n
-            y = (rows + self._row0) * res + sum_y * inv_n
+            x = (cols + self._col0 + c0) * res + sum_x * inv_n
+            y = (rows + self._row0 + r0) * res + sum_y * inv_n
             self._field = PointField.from_cells(
-                occupied, x, y, res, self._col0 * res, self._row0 * res
+                occupied, x, y, res, (self._col0 + c0) * res, (self._row0 + r0) * res
             )
+            self._field_window = window
         return self._field
 
     # ------------------------------------------------------------------ scan matching
@@ -341,7 +362,8 @@ class Mapper:
         a = scan.angles_rad[idx] + mount.yaw
         bx = mount.x + r[idx] * np.cos(a)
         by = mount.y + r[idx] * np.sin(a)
-        pose, score = self._search(self.match_field(), bx, by, predicted)
+        field = self.match_field((predicted.x, predicted.y))
+        pose, score = self._search(field, bx, by, predicted)
         self.last_match_score = score
         if score >= cfg.min_match_score:
             self.matches_accepted += 1

@@ -7,7 +7,10 @@ One :meth:`Navigator.step` per control tick, on MCU time, does what Nav2's bring
   inflation, unknown space tracked) and the local rolling window (3 m x 3 m at 0.05 m, scans
   only, as in Nav2's bringup);
 * the global A* path is recomputed every ``replan_period_s`` (1 Hz) and at once when the
-  remaining path crosses a cell A* would refuse (inscribed or lethal) in either costmap;
+  remaining path crosses a cell A* would refuse (inscribed or lethal) in either costmap; a
+  plan that falls due on a tick that brought a scan waits for the next tick (50 ms), so that
+  no tick both re-inflates the costmaps and plans: the worst tick is the larger of the two,
+  not their sum;
 * "no path" is a state, not a loop. Obstacles the LiDAR has seen stay in the global costmap
   until a scan's ray clears them (Nav2's obstacle layer), and a failed plan does not clear
   them (Nav2's tree clears the global costmap and retries: with the obstacle still there, the
@@ -343,6 +346,8 @@ class Navigator:
         self._recovery: _Recovery | None = None
         self._no_path_since_s: float | None = None
         self._reverifications = 0
+        self._plan_deferred = False
+        self._scan_since_plan = False
         self.blocked_at: tuple[float, float] | None = None
         self.last_command: Command | None = None
 
@@ -371,6 +376,8 @@ class Navigator:
         self._recovery = None
         self._no_path_since_s = None
         self._reverifications = 0
+        self._plan_deferred = False
+        self._scan_since_plan = False
         self.blocked_at = None
         self.recoveries = dict.fromkeys(RECOVERIES, 0)
         self.retries = 0
@@ -458,10 +465,19 @@ class Navigator:
         if self._progress_anchor is None:
             self._progress_anchor = (pose_map, t_s)
 
-        if self._no_path_since_s is not None and scan_points_map is None:
+        scanned = scan_points_map is not None
+        self._scan_since_plan = self._scan_since_plan or scanned
+        if self._no_path_since_s is not None and not self._scan_since_plan:
             return self._stop(goal, pose_map)  # cut off: only a new scan can change that
-        if self._needs_plan(t_s, pose_map) and not self._make_plan(t_s, pose_map, goal):
-            return self._stop(goal, pose_map)
+        due = self._needs_plan(t_s, pose_map) or self._plan_deferred
+        if due and scanned and not self._plan_deferred:
+            # this tick updated both costmaps: plan on the next one, so that no tick does both
+            self._plan_deferred = True
+        elif due:
+            self._plan_deferred = False
+            self._scan_since_plan = False
+            if not self._make_plan(t_s, pose_map, goal):
+                return self._stop(goal, pose_map)
         path = self._path
         if path is None:  # not reached: a successful plan sets it
             return self._stop(goal, pose_map)

@@ -88,12 +88,14 @@ def test_an_obstacle_remembered_out_of_view_is_looked_at_again_not_trusted() -> 
     nav = Navigator(NavigatorConfig(), corridor_map(), LimiterConfig())
     near = Pose2D(4.0, 0.0, 0.0)
     nav.set_goal(GOAL)
-    nav.step(0.0, near, (0.0, 0.0), scan(near, barrier))  # sees it 1 m ahead: no path
+    nav.step(0.0, near, (0.0, 0.0), scan(near, barrier))  # sees it 1 m ahead ...
+    nav.step(0.05, near, (0.0, 0.0), None)  # ... and plans on the next tick: no path
     assert nav.state == NavState.PLANNING and nav.blocked_at is not None
     back = Pose2D(0.8, 0.0, 0.0)  # the robot is carried back; the barrier is taken away
     open_world = Obstacles(segments=WALLS)
     nav.set_goal(GOAL)
-    cmd = nav.step(0.1, back, (0.0, 0.0), scan(back, open_world))
+    nav.step(0.1, back, (0.0, 0.0), scan(back, open_world))
+    cmd = nav.step(0.15, back, (0.0, 0.0), None)
     assert cmd.state == NavState.FOLLOWING, cmd.reason
     path = nav.plan
     assert path[-1, 0] == pytest.approx(GOAL.x) and nav.replans == 1
