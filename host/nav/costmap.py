@@ -533,14 +533,18 @@ class Costmap:
         n = math.ceil(float(stop.max()) / step) + 1 if stop.max() > 0.0 else 0
         if n == 0:
             return
-        s = np.arange(n) * step
-        unit = d[use] / length[use, None]
-        keep = s[None, :] <= stop[:, None]
-        x = sensor_xy[0] + unit[:, 0:1] * s[None, :]
-        y = sensor_xy[1] + unit[:, 1:2] * s[None, :]
-        r, c = self.world_to_cell(x[keep], y[keep])
-        ok = self.inside(r, c)
-        self._obstacle[r[ok], c[ok]] = FREE_SPACE
+        # in cell units: sample k of a ray lies at (f0 + k u) cells from the grid's origin
+        inv = 1.0 / res
+        k = np.arange(n, dtype=np.float64)
+        unit = d[use] * (step * inv / length[use, None])
+        keep = (k[None, :] * step <= stop[:, None]).ravel()
+        fx = ((sensor_xy[0] - self.origin_x_m) * inv + unit[:, 0:1] * k[None, :]).ravel()[keep]
+        fy = ((sensor_xy[1] - self.origin_y_m) * inv + unit[:, 1:2] * k[None, :]).ravel()[keep]
+        c = np.floor(fx, out=fx)
+        r = np.floor(fy, out=fy)
+        ok = (r >= 0.0) & (r < rows) & (c >= 0.0) & (c < cols)
+        flat = (r[ok] * cols + c[ok]).astype(np.intp)
+        self._obstacle.ravel()[flat] = FREE_SPACE
 
     def clear_obstacles(
         self, beyond_m: float = 0.0, centre_xy: tuple[float, float] = (0, 0)

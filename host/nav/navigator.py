@@ -74,7 +74,14 @@ from scipy import ndimage
 
 from jackson.common.geometry import wrap_angle
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, path_cost
+from jackson.host.nav.astar import (
+    AStarConfig,
+    NoPathError,
+    astar,
+    cell_costs,
+    path_cost,
+    prepare,
+)
 from jackson.host.nav.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     LETHAL_OBSTACLE,
@@ -317,6 +324,7 @@ class Navigator:
         )
         local_cfg = dataclasses.replace(config.costmap, track_unknown_space=False)
         self.global_costmap = Costmap.from_map(static_map, global_cfg, collision_checks=False)
+        prepare(self.global_costmap)  # the search objects: not in the first control step
         # the map alone (no scans): where a path would run if nothing had been seen
         self.static_costmap = Costmap.from_map(static_map, global_cfg, collision_checks=False)
         cx = static_map.origin_x_m + 0.5 * static_map.width * static_map.resolution_m
