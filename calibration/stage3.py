@@ -14,6 +14,14 @@ made beforehand (``amcl``) or mapping while driving (``slam``), A* + DWB navigat
   the oriented envelope from the insertion on), path length, t_nav, recoveries, plus the
   localisation error against ground truth.
 
+Success is judged on the truth: a run is ``completed`` (the campaigns' success) when the
+navigator reached its last goal by its own estimate (``reached``) *and* the twin's ground truth
+ends within the goal tolerance of it (``reached_truth``, the true end distance in
+``goal_error_m``). A run is limited by the mission's MCU time (the daemon's guard, 180 s); the
+wall clock is a backstop (:func:`jackson.calibration.trial.wall_backstop_s`), and a lockstep
+that stands still ends the run within seconds; a run cut either way has ``failure`` ``not
+ended: ...`` (:func:`jackson.calibration.trial.cut_reason`).
+
 Either run takes faults (:attr:`NavTrialSpec.faults`, :mod:`jackson.sim.faults`) as a square's
 or a figure-eight's trial does: the twin injects them besides the robot file's, meta.json lists
 their schedule and metrics.json what each injected.
@@ -42,7 +50,12 @@ import numpy.typing as npt
 import yaml
 
 from jackson.calibration import metrics as m
-from jackson.calibration.trial import twin_session, write_ground_truth
+from jackson.calibration.trial import (
+    cut_reason,
+    twin_session,
+    wall_backstop_s,
+    write_ground_truth,
+)
 from jackson.host.config import HostConfig, dump_config, load_config
 from jackson.host.control.navigate import (
     MAP_NAME,
@@ -53,14 +66,15 @@ from jackson.host.control.navigate import (
 )
 from jackson.host.daemon import Daemon
 from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.nav.navigator import NavigatorConfig, check_route
 from jackson.host.nav.types import Pose2D
+from jackson.host.transport import STALL_S
 from jackson.sim.config import RobotSpec, Sides, WorldSpec, load_robot, load_world
 from jackson.sim.faults import FaultSpec, schedule
 
 STAGE3_START = Pose2D(-0.6909, -0.0364, 0.0)  # REFERENCE: Stage 3
 STAGE3_GOAL = Pose2D(1.2091, -0.0364, 0.0)
 STAGE3_WORLD = "maze"
-NAV_TIMEOUT_S = 600.0  # [s] of wall time a trial may take before it is stopped
 
 
 @dataclass(frozen=True)
@@ -174,6 +188,9 @@ class NavTrialSpec:
         Faults injected besides the robot file's (:mod:`jackson.sim.faults`), as
         :class:`jackson.calibration.trial.TrialSpec`'s: meta.json lists their schedule and
         metrics.json what each injected (``faults``).
+    stall_s : float
+        Wall seconds both ends of the lockstep may wait for each other before the run is cut
+        as stalled (:func:`jackson.calibration.trial.twin_session`).
     """
 
     index: int
@@ -187,6 +204,7 @@ class NavTrialSpec:
     config: Path | None = None
     static_only: bool = False
     faults: tuple[FaultSpec, ...] = ()
+    stall_s: float = STALL_S
 
 
 def world_extent(world: WorldSpec, margin_m: float = 0.5) -> tuple[float, float, float, float]:
@@ -225,7 +243,7 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     if grid is not None:
         grid.save(run_dir / f"{MAP_NAME}.yaml")  # the replay localises on the same map
     wall0 = time.perf_counter()
-    with twin_session(twin, cfg, lidar=True) as session:
+    with twin_session(twin, cfg, lidar=True, stall_s=spec.stall_s) as session:
         cfg = session.cfg
         (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
         meta = {
@@ -247,13 +265,15 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
             meta=meta,
             lidar=session.lidar,
         )
-        daemon.run(max_s=NAV_TIMEOUT_S)
+        daemon.run(max_s=wall_backstop_s("navigate"))  # the mission's limit is MCU time
         wall = time.perf_counter() - wall0
+        cut = cut_reason(daemon, "navigate", session.runner.stalled)
     t_host = daemon.core.t_s if daemon.core.t_s is not None else math.inf
     truth = [s for s in twin.truth_log if s.t_s <= t_host + 1e-9]
     write_ground_truth(run_dir / "ground_truth.csv", truth)
     write_nav_samples(run_dir / "nav.csv", mission)
-    result = nav_metrics(mission, truth, list(twin.world.inserted), daemon.core.abort_reason)
+    inserted = list(twin.world.inserted)
+    result = nav_metrics(mission, truth, inserted, cut or daemon.core.abort_reason)
     result.update(
         trial=spec.index,
         seed=spec.seed,
@@ -290,10 +310,42 @@ def nav_metrics(
     inserted: Sequence[tuple[float, Any]],
     abort_reason: str | None,
 ) -> dict[str, Any]:
-    """The Stage 3 figures of one run from the twin's ground truth and the mission's log."""
+    """The Stage 3 figures of one run from the twin's ground truth and the mission's log.
+
+    Parameters
+    ----------
+    mission : NavigateMission
+        The run's mission, after the run.
+    truth : sequence of Truth
+        The twin's ground truth up to the host's last frame.
+    inserted : sequence of (float, Cylinder)
+        The obstacles the twin dropped, with their time [s].
+    abort_reason : str or None
+        Why the host stopped the run (an abort, or a cut: ``not ended: ...``), None otherwise.
+
+    Returns
+    -------
+    dict
+        The figures. ``reached``: the navigator reached the last goal by its own estimate;
+        ``reached_truth``: the ground truth ends within the goal tolerance of it
+        (``goal_tolerance_m``; the true end distance is ``goal_error_m``); ``completed``, the
+        run's success: both. ``failure`` names why a run did not succeed.
+    """
     t = np.array([s.t_s for s in truth])
     poses = np.array([(s.x, s.y, s.yaw) for s in truth]).reshape(-1, 3)
-    success = mission.done and mission.failure is None and abort_reason is None
+    reached = mission.done and mission.failure is None and abort_reason is None
+    end = poses[-1] if t.size else np.zeros(3)
+    goal = mission.config.goals[-1]
+    goal_error_m = float(math.hypot(end[0] - goal.x, end[1] - goal.y))
+    tolerance_m = mission.config.navigator.xy_goal_tolerance_m
+    reached_truth = bool(t.size) and goal_error_m <= tolerance_m
+    success = reached and reached_truth
+    failure = mission.failure or abort_reason
+    if reached and not reached_truth:
+        failure = (
+            f"reached by the navigator's own estimate, but the true end is "
+            f"{100 * goal_error_m:.1f} cm from the goal (tolerance {100 * tolerance_m:g} cm)"
+        )
     t0 = mission.t_start_s if mission.t_start_s is not None else 0.0
     t1 = mission.t_goal_s if mission.t_goal_s is not None else (t[-1] if t.size else t0)
     moving = (t >= t0) & (t <= t1)
@@ -319,11 +371,11 @@ def nav_metrics(
         gyaw = np.interp(ts, t, np.unwrap(poses[:, 2]))
         err = np.hypot(est[:, 0] - gx, est[:, 1] - gy).tolist()
         yaw_err = np.abs(m.wrap_angle(est[:, 2] - gyaw)).tolist()
-    end = poses[-1] if t.size else np.zeros(3)
-    goal = mission.config.goals[-1]
     return {
         "completed": bool(success),
-        "failure": mission.failure or abort_reason,
+        "reached": bool(reached),
+        "reached_truth": bool(reached_truth),
+        "failure": failure,
         "t_nav_s": (t1 - t0) if success else math.nan,
         "duration_s": float(t1 - t0),
         "path_length_m": path_m,
@@ -334,7 +386,8 @@ def nav_metrics(
         "recoveries": int(sum(mission.navigator.recoveries.values())),
         "recoveries_by_kind": dict(mission.navigator.recoveries),
         "replans": mission.navigator.replans,
-        "goal_error_m": float(math.hypot(end[0] - goal.x, end[1] - goal.y)),
+        "goal_error_m": goal_error_m,
+        "goal_tolerance_m": tolerance_m,
         "start": [mission.config.start.x, mission.config.start.y],
         "goal": [goal.x, goal.y],
         "localisation_error_mean_cm": 100 * float(np.mean(err)) if err else math.nan,
@@ -429,6 +482,7 @@ def run_stage3_campaign(
         if not mapping["completed"]:
             raise RuntimeError(f"the mapping run failed: {mapping['failure']}")
         map_yaml = out / "map" / "built_map.yaml"
+    goals = world_goals(load_world(world))
     specs = [
         NavTrialSpec(
             i,
@@ -437,6 +491,7 @@ def run_stage3_campaign(
             world,
             out / "runs" / f"{v.name}-R{i + 1:02d}",
             map_yaml=map_yaml,
+            goals=goals,
             variant=v,
             config=config,
         )
@@ -471,11 +526,35 @@ def run_stage3_campaign(
 def mapping_spec(
     robot: str, world: str, seed: int, out: Path, config: Path | None = None
 ) -> NavTrialSpec:
-    """The survey of the static world: to the Stage 3 goal and back to the start."""
-    start = Pose2D(*load_world(world).start_pose)
+    """The survey of the static world: through the world's ``survey`` waypoints (by default
+    to its goal, or the Stage 3 goal) and back to the start."""
+    spec = load_world(world)
+    start = Pose2D(*spec.start_pose)
+    via = tuple(Pose2D(x, y) for x, y in spec.survey) or world_goals(spec)
     return NavTrialSpec(
-        0, seed, robot, world, out, goals=(STAGE3_GOAL, start), config=config, static_only=True
+        0, seed, robot, world, out, goals=(*via, start), config=config, static_only=True
     )
+
+
+def check_world_route(world: WorldSpec, goals: tuple[Pose2D, ...]) -> None:
+    """Refuse goals the twin's world rules out (in or beside a wall or cylinder, outside the
+    world, shut off from the start), before a mapping run drives anywhere.
+
+    Raises
+    ------
+    RouteError
+        As :func:`jackson.host.nav.navigator.check_route` on the world's own raster.
+    """
+    from jackson.sim.raster import raster
+
+    occupied, ox, oy = raster(world, 0.05)
+    grid = OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), 0.05, ox, oy)
+    check_route(grid, Pose2D(*world.start_pose), goals, NavigatorConfig())
+
+
+def world_goals(world: WorldSpec) -> tuple[Pose2D, ...]:
+    """The goal a world file gives (``goal``), else the paper's Stage 3 goal."""
+    return (Pose2D(*world.goal),) if world.goal is not None else (STAGE3_GOAL,)
 
 
 def add_d_traj(out: Path, results: list[dict[str, Any]]) -> None:
@@ -519,11 +598,15 @@ def write_stage3_report(
         f"variant, seed {meta['seed']}, {meta['workers']} workers, wall time "
         f"{meta['wall_s']:.0f} s, CPU time {meta['cpu_s']:.0f} s. Map: `{meta['map']}`.",
         "",
-        "Continuous outcomes: median [IQR] over completed runs (REFERENCE: Stage 3).",
+        "Success is judged on the truth: the navigator reached the goal by its own estimate "
+        "*and* the twin's ground truth ends within the goal tolerance of it; `reached (own "
+        "estimate)` counts the navigator's judgement alone. Continuous outcomes: median [IQR] "
+        "over successful runs (REFERENCE: Stage 3).",
         "",
-        "| variant | success | contacts | recoveries | D_traj (cm) | d_min (cm) | path (m) |"
-        " t_nav (s) | loc. error mean (cm) | paper D_traj / d_min / t_nav |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| variant | success | reached (own estimate) | contacts | recoveries | D_traj (cm) |"
+        " d_min (cm) | path (m) | t_nav (s) | loc. error mean (cm) |"
+        " paper D_traj / d_min / t_nav |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     variants = sorted({str(r["variant"]) for r in results})
     for v in variants:
@@ -532,7 +615,9 @@ def write_stage3_report(
         paper = PAPER_MEDIANS.get(v)
         paper_text = " / ".join("-" if math.isnan(x) else f"{x:g}" for x in paper) if paper else "-"
         lines.append(
-            f"| {v} | {len(ok)}/{len(rs)} | {sum(int(r['collisions']) for r in rs)} | "
+            f"| {v} | {len(ok)}/{len(rs)} | "
+            f"{sum(1 for r in rs if r.get('reached', r['completed']))}/{len(rs)} | "
+            f"{sum(int(r['collisions']) for r in rs)} | "
             f"{sum(int(r['recoveries']) for r in rs)} | "
             f"{_median_iqr([r.get('d_traj_cm', math.nan) for r in ok])} | "
             f"{_median_iqr([r['d_min_m'] for r in ok], 100.0)} | "

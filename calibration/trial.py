@@ -8,6 +8,13 @@ truth (``ground_truth.csv``, every physics step) and returns its metrics.
 A trial's faults (``TrialSpec.faults``, injected besides the robot file's:
 :mod:`jackson.sim.faults`) ride on the twin into :func:`twin_session`; meta.json lists their
 schedule and metrics.json what each injected (``faults``).
+
+A trial's time limit is the mission's own, in simulated (MCU) time (the daemon's mission guard:
+square 150 s, figure-eight 300 s, navigation 180 s); the wall clock is only a backstop, ten
+times that budget (:func:`wall_backstop_s`), for a host that runs without end. A lockstep that
+stands still (:func:`twin_session`) ends the trial after ``TrialSpec.stall_s`` (10 s).
+A trial cut either way says so in metrics.json: ``failure`` is ``not ended: lockstep stalled:
+...`` or ``not ended: wall-clock backstop: ...`` (:func:`cut_reason`).
 """
 
 from __future__ import annotations
@@ -32,14 +39,65 @@ from jackson.calibration import metrics as m
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, dump_config, load_config
+from jackson.host.control.guard import MISSION_TIMEOUT_S
 from jackson.host.daemon import Daemon
 from jackson.host.i2c import open_bus
-from jackson.host.transport import SerialTransport
+from jackson.host.transport import STALL_S, SerialTransport
 
 if TYPE_CHECKING:
     from jackson.sim.faults import FaultSpec
 
 MISSIONS = ("square", "figure8")
+WALL_BACKSTOP_FACTOR = 10.0  # the wall-clock backstop over a mission's MCU-time budget
+
+
+def wall_backstop_s(mission: str) -> float:
+    """The wall-clock backstop of a trial of ``mission`` [s]: ten times its MCU-time limit.
+
+    Parameters
+    ----------
+    mission : str
+        ``square``, ``figure8`` or ``navigate``.
+
+    Returns
+    -------
+    float
+        Wall seconds after which the trial is stopped: 1500 s for the square, 3000 s for the
+        figure-eight, 1800 s for a navigation. A run on a machine ten times slower than real
+        time still ends on its own limit first.
+    """
+    return WALL_BACKSTOP_FACTOR * MISSION_TIMEOUT_S[mission]
+
+
+def cut_reason(daemon: Daemon, mission: str, twin_stalled: str | None = None) -> str | None:
+    """Why a trial was cut before its mission ended, or None when it was not.
+
+    Parameters
+    ----------
+    daemon : Daemon
+        The trial's daemon, after ``run()``.
+    mission : str
+        The mission's name (its wall-clock backstop, :func:`wall_backstop_s`).
+    twin_stalled : str or None
+        The twin's stall line, when it gave up (``TwinRunner.stalled``).
+
+    Returns
+    -------
+    str or None
+        ``not ended: lockstep stalled: ...`` (the twin's line when it gave up first, else the
+        host's) or ``not ended: wall-clock backstop: ...``.
+    """
+    stalled = twin_stalled or daemon.stalled
+    if stalled is not None:
+        return f"not ended: {stalled}"
+    if daemon.wall_limit_hit:
+        t = daemon.core.t_s
+        at = f" at {t:.2f} s of MCU time" if t is not None else " before the first frame"
+        return (
+            f"not ended: wall-clock backstop: {wall_backstop_s(mission):.0f} s of wall time "
+            f"passed{at} (the mission's limit is {MISSION_TIMEOUT_S[mission]:.0f} s of MCU time)"
+        )
+    return None
 
 
 @dataclass
@@ -73,28 +131,47 @@ class TwinSession:
 
 
 @contextmanager
-def twin_session(twin: Any, cfg: HostConfig, *, lidar: bool = False) -> Iterator[TwinSession]:
+def twin_session(
+    twin: Any, cfg: HostConfig, *, lidar: bool = False, stall_s: float = STALL_S
+) -> Iterator[TwinSession]:
     """Run ``twin`` in lockstep in a thread and open the host's links to it; all closed at the
     end (the twin stops). The twin's faults (``Twin(..., faults=...)`` and its robot file's)
     act as it runs, the link faults on the MCU's pty the daemon reads.
 
-    The twin waits for its host's HEARTBEAT however long that takes (no wall-clock timeout):
-    both run in this process, so a host that stops answering has ended (the session then
-    stops the twin), and a process the machine keeps from running (a busy machine; Ray runs
+    The twin waits for its host's HEARTBEAT however long the host works on a frame (no
+    wall-clock timeout): a process the machine keeps from running (a busy machine; Ray runs
     its workers niced) must not see its world move on without its host. With a 5 s timeout,
     5 of 180 maze runs on a local Ray instance at load 5 lost their LiDAR that way ("no scan
-    for 1.00 s") and failed where the pool's completed."""
+    for 1.00 s") and failed where the pool's completed.
+
+    What ends a session that stands still is a lockstep stall: both ends waiting for each other
+    for ``stall_s`` of wall time (the twin for a HEARTBEAT, the host for a telemetry frame). Each
+    end sees whether the other waits or works (``TwinRunner(host_waiting=...)``,
+    ``SerialTransport.peer_waiting``), so a slow or starved end is never taken for a stopped
+    one. The twin then gives up (``runner.stalled``) and keeps serving the links without moving
+    its clock, and the daemon (which takes the transport's ``stall_s``) aborts on the stall:
+    it brakes through the PCA9685 and says SHUTDOWN, and exits 1."""
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.sim.runner import TwinRunner
 
     with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp:
         sock = Path(tmp) / "i2c.sock"
-        runner = TwinRunner(twin, i2c_path=sock, heartbeat_timeout_s=math.inf, lidar=lidar)
+        runner = TwinRunner(
+            twin, i2c_path=sock, heartbeat_timeout_s=math.inf, lidar=lidar, stall_s=stall_s
+        )
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
-        stop = threading.Event()
-        thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
-        thread.start()
         transport = SerialTransport(runner.serial_path, cfg.serial.baudrate)
+        transport.stall_s = stall_s
+        transport.peer_waiting = lambda: runner.waiting_since
+        runner.host_waiting = lambda: transport.waiting_since
+        stop = threading.Event()
+
+        def twin_loop() -> None:
+            runner.run(None, stop)
+            runner.serve(stop)  # after a stall: the host's brake and SHUTDOWN still land
+
+        thread = threading.Thread(target=twin_loop, daemon=True)
+        thread.start()
         driver = None
         try:
             pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
@@ -122,6 +199,9 @@ class TrialSpec:
     ----------
     faults : tuple of FaultSpec
         Faults injected besides the robot file's (:mod:`jackson.sim.faults`).
+    stall_s : float
+        Wall seconds both ends of the lockstep may wait for each other before the trial is cut
+        as stalled (:func:`twin_session`).
     """
 
     mission: str
@@ -132,6 +212,7 @@ class TrialSpec:
     out: Path
     config: Path | None = None
     faults: tuple[FaultSpec, ...] = ()
+    stall_s: float = STALL_S
 
 
 def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
@@ -161,7 +242,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
     conditions = trial_conditions(twin.trial)
     faults = twin.faults.faults if twin.faults is not None else ()
     wall0 = time.perf_counter()
-    with twin_session(twin, cfg) as session:
+    with twin_session(twin, cfg, stall_s=spec.stall_s) as session:
         cfg = session.cfg
         (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
         meta = {
@@ -181,8 +262,9 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
             run_folder=run_dir,
             meta=meta,
         )
-        daemon.run(max_s=300.0)
+        daemon.run(max_s=wall_backstop_s(spec.mission))
         wall = time.perf_counter() - wall0
+        cut = cut_reason(daemon, spec.mission, session.runner.stalled)
     done = bool(daemon.core.mission is not None and daemon.core.mission.done)
     # the truth up to the host's last frame: the twin may run a few steps more in real time
     # between the host's exit and its own stop, as many as the machine's load allows
@@ -194,6 +276,7 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         trial=spec.index,
         seed=spec.seed,
         completed=done,
+        failure=None if done else cut or daemon.core.abort_reason,
         wall_s=wall,
         collisions=twin.collisions,
         sim_s=twin.t_s,

@@ -11,7 +11,7 @@ import argparse
 import dataclasses
 import sys
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -26,6 +26,8 @@ from jackson.common.args import (
 )
 from jackson.common.fields import ConfigError
 from jackson.host.cli import HostCliError
+
+DEFAULT_ROBOT = "jackson_physical"  # the twin robot of run and campaign
 
 
 class CliError(Exception):
@@ -160,10 +162,21 @@ def _host_config(path: Path | None) -> Path | None:
     return path.resolve()  # the campaign's worker processes read it too
 
 
+def _check_route(check: Callable[[], None], against: str) -> None:
+    """Run a route check; its RouteError becomes one line naming what it was checked against."""
+    from jackson.host.nav.navigator import RouteError
+
+    try:
+        check()
+    except RouteError as exc:
+        raise CliError(f"{exc} ({against})") from exc
+
+
 def _cmd_map(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.stage3 import mapping_spec, run_nav_trial
+    from jackson.calibration.stage3 import check_world_route, mapping_spec, run_nav_trial
+    from jackson.sim.config import load_world
 
     _check_twin_files(args.robot, args.world)
     config = _host_config(args.config)
@@ -180,6 +193,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
     spec = mapping_spec(args.robot, args.world, args.seed, out, config)
     if waypoints is not None:
         spec = dataclasses.replace(spec, goals=waypoints)
+    world_spec = load_world(args.world)
+    _check_route(lambda: check_world_route(world_spec, spec.goals), f"--world {args.world}")
     r = run_nav_trial(spec)
     if not r["completed"]:
         print(f"jackson map: the survey stopped: {r['failure']}; the partial map is in {out}")
@@ -200,16 +215,19 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
 
     from jackson.calibration.stage3 import (
         NavTrialSpec,
+        check_world_route,
         mapping_spec,
         plot_stage3,
         run_nav_trial,
+        world_goals,
     )
+    from jackson.host.nav.grid import OccupancyGrid
+    from jackson.host.nav.navigator import NavigatorConfig, check_route
+    from jackson.host.nav.types import Pose2D
+    from jackson.sim.config import load_world
     from jackson.sim.faults import summary
 
-    world = args.world or "maze"
-    _check_twin_files(args.robot, world)
-    config = _host_config(args.config)
-    map_yaml = _map_file(args.map)
+    map_yaml = _map_file(args.map)  # the map and the goals first: nothing is built before
     goals = None
     if args.goal:
         from jackson.host.control.navigate import poses
@@ -218,6 +236,12 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
             goals = poses(args.goal)
         except ValueError as exc:
             raise CliError(f"--goal: {exc}") from exc
+    world = args.world or "maze"
+    _check_twin_files(args.robot, world)
+    config = _host_config(args.config)
+    world_spec = load_world(world)
+    goals = goals or world_goals(world_spec)
+    _check_route(lambda: check_world_route(world_spec, goals), f"--world {world}")
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("runs") / f"{stamp}-maze")
     if map_yaml is None:
@@ -226,12 +250,14 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
             print(f"jackson run maze: the mapping run stopped: {m['failure']}")
             return 1
         map_yaml = out / "map" / "built_map.yaml"
+    grid = OccupancyGrid.load(map_yaml)
+    start = Pose2D(*world_spec.start_pose)
+    _check_route(lambda: check_route(grid, start, goals, NavigatorConfig()), f"map {map_yaml}")
     faults = tuple(args.fault)  # on the navigation run, not on the mapping run before it
     spec = NavTrialSpec(
         0, args.seed, args.robot, world, out / "nav", map_yaml, config=config, faults=faults
     )
-    if goals is not None:
-        spec = dataclasses.replace(spec, goals=goals)
+    spec = dataclasses.replace(spec, goals=goals)
     r = run_nav_trial(spec)
     r["run"] = "nav"
     plot_stage3(out / "maze.png", out, [r])
@@ -240,7 +266,17 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     table.add_column("value", justify="right", overflow="fold")
     table.add_column("paper (physical / Isaac)", justify="right")
     for label, value, paper in (
-        ("goal reached", "yes" if r["completed"] else f"no: {r['failure']}", "10/10"),
+        (
+            "goal reached (navigator)",
+            "yes" if r["reached"] else f"no: {r['failure']}",
+            "",
+        ),
+        (
+            "goal reached (ground truth)",
+            f"{'yes' if r['reached_truth'] else 'no'}: ends {100 * r['goal_error_m']:.1f} cm "
+            f"from the goal (tolerance {100 * r['goal_tolerance_m']:g} cm)",
+            "10/10",
+        ),
         ("contacts", str(r["collisions"]), "0"),
         (
             "d_min (Eq. 21)",
@@ -272,6 +308,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from jackson.calibration.trial import TrialSpec, run_trial
     from jackson.sim.faults import summary
 
+    args.robot = args.robot or DEFAULT_ROBOT
     if args.mission == "maze":
         return _cmd_run_maze(args)
     if args.mission in STAGE3:
@@ -337,6 +374,9 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
 
     from jackson.calibration.campaign import run_campaign
 
+    if args.mission == "worlds":
+        return _cmd_campaign_worlds(args)
+    args.robot = args.robot or DEFAULT_ROBOT
     if args.mission == "faults":
         return _cmd_campaign_faults(args)
     for option, value in (
@@ -375,6 +415,46 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
     print((out / "summary.md").read_text())
     print(f"report: {out}/summary.md ({done}/{len(results)} trials completed)")
     return 0 if done == len(results) else 1
+
+
+def _cmd_campaign_worlds(args: argparse.Namespace) -> int:
+    import datetime as dt
+
+    from jackson.calibration.worlds_campaign import ROBOTS, WORLDS, run_worlds_campaign
+
+    for option, value in (
+        ("--short", args.short),
+        ("--clean-hours", args.clean_hours),
+        ("--case", args.case),
+        ("--map", args.map),
+    ):
+        if value:
+            raise CliError(f"{option} is not for jackson campaign worlds (each world maps itself)")
+    worlds = [w for w in (args.world or ",".join(WORLDS)).split(",") if w]
+    robots = [r for r in (args.robot or ",".join(ROBOTS)).split(",") if r]
+    if not worlds or not robots:
+        raise CliError("--world and --robot: give at least one name")
+    for world in worlds:
+        for robot in robots:
+            _check_twin_files(robot, world)
+    config = _host_config(args.config)
+    trials = args.trials if args.trials is not None else 10
+    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = _out(args.out or Path("reports") / f"{stamp}-worlds-x{trials * len(worlds)}")
+    results = run_worlds_campaign(
+        out,
+        trials,
+        worlds=worlds,
+        robots=robots,
+        seed=args.seed,
+        workers=args.workers,
+        config=config,
+        cluster=args.cluster,
+    )
+    passed = sum(1 for r in results if r["passed"])
+    print((out / "summary.md").read_text())
+    print(f"report: {out}/summary.md ({passed}/{len(results)} runs passed)")
+    return 0 if passed == len(results) == trials * len(worlds) else 1
 
 
 def _cmd_campaign_faults(args: argparse.Namespace) -> int:
@@ -496,7 +576,7 @@ def build_parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=helptext)
         missions = ["square", "figure8", "maze"] + (
-            ["ofat", "robustness", "faults"] if name == "campaign" else []
+            ["ofat", "robustness", "faults", "worlds"] if name == "campaign" else []
         )
         p.add_argument("mission", choices=missions)
         p.add_argument(
@@ -520,8 +600,8 @@ def build_parser() -> argparse.ArgumentParser:
                 "--goal",
                 action="append",
                 metavar="X,Y[,YAW]",
-                help="maze: navigate here (world coordinates, repeatable; default the Stage 3 "
-                "goal)",
+                help="maze: navigate here (world coordinates, repeatable; default the world "
+                "file's goal, else the Stage 3 goal)",
             )
         if name == "campaign":
             p.add_argument(
@@ -564,9 +644,15 @@ def build_parser() -> argparse.ArgumentParser:
                 help=f"faults: only this case (repeatable; {', '.join(CASE_NAMES)})",
             )
         p.add_argument(
-            "--robot", default="jackson_physical", help="twin robot file (default jackson_physical)"
+            "--robot",
+            help="twin robot file (default jackson_physical; campaign worlds: a comma list, "
+            "default both shipped robots in turn)",
         )
-        p.add_argument("--world", help="world (default: square_room / open_floor / maze)")
+        p.add_argument(
+            "--world",
+            help="world (default: square_room / open_floor / maze; campaign worlds: a comma "
+            "list, default all six of its worlds)",
+        )
         p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
         p.add_argument(
             "--config",

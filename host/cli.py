@@ -58,6 +58,13 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
     p.add_argument("--max-seconds", type=positive_float, help="stop after this much wall time")
     p.add_argument(
+        "--stall-timeout",
+        type=positive_float,
+        metavar="S",
+        help="on a twin's pty: give up after S s of waiting without a telemetry frame (the twin "
+        "stopped in lockstep), brake and exit 1 (default 10; never on a serial port)",
+    )
+    p.add_argument(
         "--mission-timeout",
         type=positive_float,
         help="abort the mission after this many seconds of MCU time "
@@ -198,6 +205,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         notifier=notifier_from_env(),
         mission=navigate,
         lidar=lidar,
+        stall_s=args.stall_timeout,
     )
     if run_dir is not None:
         import yaml
@@ -232,7 +240,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     e = core.ekf
     if core.abort_reason is not None:
         print(
-            f"mission {core.mission.name if core.mission else ''} aborted: {core.abort_reason}; "
+            f"{f'mission {core.mission.name}' if core.mission else 'daemon'} aborted: "
+            f"{core.abort_reason}; "
             f"braked at EKF pose x={e.x_m:+.4f} m y={e.y_m:+.4f} m",
             flush=True,
         )
@@ -349,7 +358,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         r = replay(args.run, out)
     except (RecordingError, ConfigError, ValueError) as exc:
         raise HostCliError(str(exc)) from exc
-    how = "closed cleanly" if r.complete else "cut (no end record: killed or power lost)"
+    how = r.how()
     print(
         f"replayed {r.frames} telemetry frames and {r.commands} commands of {args.run}, "
         f"{r.span()}; the run was {how}"

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import json
+import math
 import signal
 import threading
 import time
@@ -153,7 +154,15 @@ class Daemon:
     """The process: transport, core, recorder, signals. ``run()`` returns an exit status:
     0 when it stopped as asked or the mission is done, 1 when the mission was aborted
     (:attr:`HostCore.abort_reason`). A device that refuses a command, never answers one, or
-    speaks another protocol raises :class:`DaemonError` (or ProtocolMismatchError)."""
+    speaks another protocol raises :class:`DaemonError` (or ProtocolMismatchError).
+
+    On a twin's pty the link watches for a lockstep stall (:mod:`jackson.host.transport`):
+    ``stall_s`` wall seconds of waiting without a telemetry frame (default: the transport's own
+    setting, else :data:`~jackson.host.transport.STALL_S`; ``math.inf``: never). A stall ends
+    the run on the abort path (braked, SHUTDOWN heartbeat, exit status 1) with one line,
+    ``lockstep stalled: the host waited 10.0 s for a telemetry frame after frame N (MCU time
+    T s)``, kept in :attr:`stalled` and in the run's log, where ``jackson replay`` finds it.
+    """
 
     def __init__(
         self,
@@ -171,9 +180,18 @@ class Daemon:
         imu_calibration: bool = True,
         mission: Mission | None = None,
         lidar: Any = None,
+        stall_s: float | None = None,
     ) -> None:
+        from jackson.host.transport import STALL_S
+
         self.cfg = cfg
         self.transport = transport
+        if stall_s is not None:
+            transport.stall_s = None if math.isinf(stall_s) else stall_s
+        elif getattr(transport, "stall_s", 0.0) is None and getattr(transport, "on_pty", False):
+            transport.stall_s = STALL_S  # a twin's pty: lockstep can stall
+        self.stalled: str | None = None  # the stall line, when a lockstep stall ended the run
+        self.wall_limit_hit = False  # run(max_s) ended on its wall-clock limit
         self.run_folder = run_folder
         self.recorder = RunRecorder(run_folder, meta or {}) if run_folder is not None else None
         self.commands = CommandTracker(transport.encode, self._send_frame)
@@ -364,6 +382,7 @@ class Daemon:
         try:
             while not self.stop.is_set():
                 if deadline is not None and time.monotonic() > deadline:
+                    self.wall_limit_hit = True
                     break
                 if self.notifier is not None:
                     self.notifier.watchdog()
@@ -385,6 +404,17 @@ class Daemon:
                         self.commands.forget()
                         if self.link_downs:
                             self.tell("serial link up again")
+                    elif item.kind == "stalled":
+                        # the twin stopped: the abort path brakes and says SHUTDOWN on the way out
+                        when = (
+                            f"after frame {core.frames} (MCU time {core.t_s:.2f} s)"
+                            if core.t_s is not None
+                            else "before the first frame"
+                        )
+                        self.stalled = f"lockstep stalled: {item.detail} {when}"
+                        self.tell(self.stalled)
+                        core.abort(self.stalled)
+                        break
                     elif self.recorder is not None:
                         self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     continue

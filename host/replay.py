@@ -6,6 +6,11 @@ closed cleanly (its log ends with the end record) must be reproduced bit for bit
 a kill or a power loss is compared on what both hold: every complete row the run kept must be
 reproduced; the replay says how far the log went (frames, MCU time) and how many rows each file
 kept.
+
+A run the daemon ended on a lockstep stall (the twin stopped sending, :mod:`jackson.host.
+transport`) has its end record, but did not end: its log holds the daemon's link record
+``lockstep stalled: ...``, and the replay counts it as cut, with that line as the reason
+(:attr:`ReplayResult.cut_reason`).
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from jackson.host.recording import (
     KIND_CMD,
     KIND_END,
     KIND_LIDAR,
+    KIND_LINK,
     KIND_RX,
     KINDS,
     RecordingError,
@@ -28,6 +34,8 @@ from jackson.host.recording import (
 from jackson.protocol import Frame
 
 COMPARED = ("odometry.csv", "ekf.csv", "commands.csv", "health.csv")
+STALL_RECORD = "lockstep stalled: "  # the daemon's link record when a stall ended the run
+NO_END_RECORD = "no end record: killed or power lost"
 
 
 @dataclass
@@ -36,9 +44,14 @@ class ReplayResult:
     commands: int = 0  # velocity commands replayed
     t0_s: float | None = None  # MCU time of the first and last telemetry frame
     t1_s: float | None = None
-    complete: bool = False  # the log ends with the end record
+    complete: bool = False  # the run was closed cleanly: an end record and no stall
     rows: dict[str, tuple[int, int]] = field(default_factory=dict)  # file: (run, replay)
     differ: list[str] = field(default_factory=list)
+    cut_reason: str | None = None  # why the run is cut (None when closed cleanly)
+
+    def how(self) -> str:
+        """How the run ended, for the user: ``closed cleanly`` or ``cut (REASON)``."""
+        return "closed cleanly" if self.cut_reason is None else f"cut ({self.cut_reason})"
 
     def span(self) -> str:
         if self.t0_s is None or self.t1_s is None:
@@ -69,13 +82,14 @@ def _meta(run: Path) -> tuple[dict[str, object], str | None]:
 
 def _checked_log(
     run: Path,
-) -> tuple[list[tuple[int, Frame | tuple[float, float] | bytes]], bool]:
-    """The log's records, each received frame decoded and each command unpacked, or one line
-    naming the first damaged record."""
+) -> tuple[list[tuple[int, Frame | tuple[float, float] | bytes]], str | None]:
+    """The log's records, each received frame decoded and each command unpacked, and why the
+    run is cut (None: closed cleanly); or one line naming the first damaged record."""
     from jackson.protocol import ProtocolError, decode_message
 
     records: list[tuple[int, Frame | tuple[float, float] | bytes]] = []
     complete = False
+    stalled: str | None = None
     for k, r in enumerate(read_log(run)):
         where = f"{run / 'log.jrec'}: record {k}"
         if r.kind not in KINDS:
@@ -99,9 +113,11 @@ def _checked_log(
             records.append((r.host_time_ns, unpack_command(r.payload)))
         elif r.kind == KIND_LIDAR:
             records.append((r.host_time_ns, r.payload))
+        elif r.kind == KIND_LINK and r.payload.startswith(STALL_RECORD.encode()):
+            stalled = r.payload.decode("utf-8", "replace")
         elif r.kind == KIND_END:
             complete = True
-    return records, complete
+    return records, stalled if stalled is not None else (None if complete else NO_END_RECORD)
 
 
 def _rows(path: Path) -> list[str]:
@@ -134,11 +150,12 @@ def replay(run: Path, out: Path) -> ReplayResult:
     meta, mission = _meta(run)
     cfg_path = run / "config.yaml"
     cfg = load_config(cfg_path if cfg_path.exists() else DEFAULT_CONFIG)
-    records, complete = _checked_log(run)
+    records, cut_reason = _checked_log(run)
+    complete = cut_reason is None
     for name in COMPARED:
         if not (run / name).is_file():
             raise RecordingError(f"{run / name}: missing; the run folder is incomplete")
-    result = ReplayResult(complete=complete)
+    result = ReplayResult(complete=complete, cut_reason=cut_reason)
     rec = RunRecorder(out, meta)
     the_mission: Mission | None = None
     if mission == "navigate":

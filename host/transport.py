@@ -14,6 +14,17 @@ it sends HELLO again. When the port stays open but the device falls silent (an M
 a UART bridge ends the session), it re-sends HELLO every ``silence_s``. The daemon never
 restarts. Writes come from the daemon's thread and never block: a write to a link that is down
 is dropped and counted.
+
+**Lockstep stall.** A twin in lockstep sends telemetry frame k+1 only after the host's HEARTBEAT
+of frame k; a twin that stops (a stopped or hung process, or both ends waiting for each other)
+leaves the host waiting for ever. With :attr:`SerialTransport.stall_s` set (the daemon sets it on
+a twin's pty, :data:`STALL_S` by default) the link reports a ``stalled`` :class:`LinkEvent`, once,
+when the caller has waited that long for a telemetry frame: only the time it spends waiting
+counts (not its work on a frame, as with the silence), and the port is read once more after the
+limit before the stall is declared, so a frame that arrived while this process was kept from
+running is taken, not missed. With :attr:`SerialTransport.peer_waiting` (a twin in this
+process) only the time both ends wait counts: a twin that is working, however slowly, never
+stalls its host.
 """
 
 from __future__ import annotations
@@ -26,6 +37,7 @@ import select
 import stat
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from termios import error as termios_error
 from typing import Literal
@@ -33,12 +45,13 @@ from typing import Literal
 import serial
 
 from jackson.common.spin import DEFAULT_SPIN_S, spin_poll
-from jackson.protocol import Frame, FrameDecoder, Message, encode_frame, hello
+from jackson.protocol import Frame, FrameDecoder, Message, Telemetry, encode_frame, hello
 
 FIRST_BACKOFF_S = 0.1
 MAX_BACKOFF_S = 2.0
 READ_TIMEOUT_S = 0.005  # [s] the reader's longest block: the decoder is polled this often
 SILENCE_S = 1.0  # [s] no frame for this long on an open port: send HELLO again
+STALL_S = 10.0  # [s] of waiting without a telemetry frame: a lockstep twin has stalled
 
 
 class LinkError(RuntimeError):
@@ -49,7 +62,7 @@ class LinkError(RuntimeError):
 class LinkEvent:
     """A change of the link's state, in the frame queue between frames."""
 
-    kind: Literal["up", "down", "silent"]
+    kind: Literal["up", "down", "silent", "stalled"]
     rx_time_ns: int
     detail: str = ""
 
@@ -107,6 +120,18 @@ class SerialTransport:
         self._backoff = FIRST_BACKOFF_S
         self._retry_at = 0.0  # the next reconnection attempt (monotonic s)
         self.spin_s = 0.0  # without the reader thread: poll this long before blocking [s]
+        # lockstep stall (module notes): wall seconds of waiting without a telemetry frame
+        # before a "stalled" event; None: never (a device's port streams on its own clock)
+        self.stall_s: float | None = None
+        # a twin in this process: since when it waits for this host's HEARTBEAT (monotonic s),
+        # None while it works; with it only the time both ends wait counts towards a stall
+        self.peer_waiting: Callable[[], float | None] | None = None
+        # since when the caller waits for a telemetry frame (monotonic s): from its first get()
+        # and from each get() after a telemetry frame; None before and while it works on one
+        self.waiting_since: float | None = None
+        self.stalled = False  # the "stalled" event was sent
+        self._telemetry_rx_s = 0.0  # the last telemetry frame decoded (monotonic s)
+        self._stall_armed = False  # the limit passed: one more read before the stall counts
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -127,6 +152,11 @@ class SerialTransport:
             return
         self._thread = threading.Thread(target=self._run, name="jackson-serial", daemon=True)
         self._thread.start()
+
+    @property
+    def on_pty(self) -> bool:
+        """Whether the port is a pseudo-terminal: the twin's, not a device's."""
+        return _is_pty(self.port_name)
 
     def close(self) -> None:
         self._stop.set()
@@ -192,6 +222,7 @@ class SerialTransport:
             left = self._retry_at - time.monotonic()
             if left > 0:
                 self._stop.wait(min(left, max(wait_s, 0.0)))
+                self._check_stall(time.monotonic_ns())
                 return
             try:
                 self._connect()
@@ -200,6 +231,7 @@ class SerialTransport:
             except LinkError:
                 self._backoff = min(MAX_BACKOFF_S, self._backoff * 2)
                 self._retry_at = time.monotonic() + self._backoff
+                self._check_stall(time.monotonic_ns())
             return
         try:
             if self._thread is None and not self._readable(port, wait_s):
@@ -218,17 +250,47 @@ class SerialTransport:
         frames = dec.feed(data, now // 1000) if data else dec.poll(now // 1000)
         for frame in frames:
             self.items.put((now, frame))
+            if frame.type == Telemetry.TYPE:
+                self._telemetry_rx_s = now / 1e9
         if frames:
             self._last_rx_s = now / 1e9
-        elif (
-            not self._handed_frame
-            and now / 1e9 - max(self._last_rx_s, self._back_s) >= self.silence_s
+            return
+        self._check_stall(now)
+        if not self._handed_frame and now / 1e9 - max(self._last_rx_s, self._back_s) >= (
+            self.silence_s
         ):
             # an open port and a silent device: its session ended (reset) or never began
             self.silences += 1
             self._last_rx_s = now / 1e9
             self.items.put(LinkEvent("silent", now, f"no frame for {self.silence_s:.2f} s"))
             self.send_hello()
+
+    def _check_stall(self, now_ns: int) -> None:
+        """Report a lockstep stall (the module's notes), once: the caller has waited
+        :attr:`stall_s` for a telemetry frame (and the peer as long for the caller, when
+        :attr:`peer_waiting` says), and a read after the limit found none."""
+        since = self.waiting_since
+        if self.stall_s is None or self.stalled or since is None:
+            return
+        since = max(since, self._telemetry_rx_s)
+        if self.peer_waiting is not None:
+            peer = self.peer_waiting()
+            if peer is None:  # the twin works on its next frame: slow, not stalled
+                self._stall_armed = False
+                return
+            since = max(since, peer)
+        waited = now_ns / 1e9 - since
+        if waited < self.stall_s:
+            self._stall_armed = False
+        elif not self._stall_armed:
+            self._stall_armed = True  # read the port once more before it counts
+        else:
+            self.stalled = True
+            self.items.put(
+                LinkEvent(
+                    "stalled", now_ns, f"the host waited {waited:.1f} s for a telemetry frame"
+                )
+            )
 
     def _readable(self, port: serial.Serial, wait_s: float) -> bool:
         """Without the reader thread: whether bytes wait on the port within ``wait_s``,
@@ -258,6 +320,8 @@ class SerialTransport:
         if self._handed_frame:  # back from working on a frame: the silence clock restarts
             self._handed_frame = False
             self._back_s = time.monotonic()
+        if self.waiting_since is None:  # back after a telemetry frame (or the first call)
+            self.waiting_since = time.monotonic()
         if self._thread is not None or self._stop.is_set():
             try:
                 return self._hand(self.items.get(timeout=timeout_s))
@@ -277,6 +341,9 @@ class SerialTransport:
     def _hand(self, item: Item) -> Item:
         if isinstance(item, tuple):
             self._handed_frame = True
+            if item[1].type == Telemetry.TYPE:  # progress: the caller works on it now
+                self.waiting_since = None
+                self._stall_armed = False
         return item
 
     # ------------------------------------------------------------------ writing

@@ -8,6 +8,10 @@ reads, :class:`jackson.sim.runner.TruthStream`).
 ``--fault KIND@AT_S[+DURATION_S][:key=value,...]`` (repeatable) injects a fault besides the
 robot file's (:mod:`jackson.sim.faults`); the twin prints ``fault: ...`` for each at the start
 and what each injected on the way out.
+
+In lockstep, a twin that has waited ``--stall-timeout`` seconds for one HEARTBEAT (possible
+when ``--heartbeat-timeout`` is longer) gives up: it prints its summary, then one line on
+stderr (``jackson sim: lockstep stalled: the twin waited ...``), and exits with status 1.
 """
 
 from __future__ import annotations
@@ -63,6 +67,10 @@ FAULT_HELP = (
     "...] on MCU time, e.g. imu_bias_step@20:magnitude_rad_s=0.05, encoder_dropout@15+5:"
     "side=left, frame_loss@0:probability=0.05 (kinds and keys: docs/sim.md, Faults)"
 )
+
+STALL_TIMEOUT_S = 10.0
+"""``--stall-timeout``'s default: :data:`jackson.sim.runner.STALL_S` (not imported here, so
+``jackson --help`` does not load the physics)."""
 
 SCAN_HISTORY = 64
 """Scans ``jackson sim`` keeps (8.6 s at 7.43 Hz): enough for the /scan publisher, which takes
@@ -123,6 +131,15 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=positive_float,
         default=1.0,
         help="lockstep: wall seconds to wait for the host before moving on",
+    )
+    p.add_argument(
+        "--stall-timeout",
+        type=positive_float,
+        default=STALL_TIMEOUT_S,
+        metavar="S",
+        help="lockstep: wall seconds of waiting for one HEARTBEAT, the clock standing still, "
+        "before the twin gives up and exits 1 (applies when shorter than --heartbeat-timeout; "
+        "default %(default)g)",
     )
     p.add_argument(
         "--spin-us",
@@ -231,6 +248,7 @@ def run(args: argparse.Namespace) -> int:
             lidar=not args.no_lidar,
             lidar_link=args.lidar_link,
             truth=args.truth,
+            stall_s=args.stall_timeout,
         )
     except (I2cServerError, FirmwareError, FaultError, OSError) as exc:
         if publisher is not None:
@@ -288,4 +306,7 @@ def run(args: argparse.Namespace) -> int:
     if twin.faults is not None:
         for entry in twin.faults.record():
             print(f"fault: {entry['fault']}: {summary(entry)}", flush=True)
+    if stats.stalled is not None:
+        print(f"jackson sim: {stats.stalled}", file=sys.stderr, flush=True)
+        return 1
     return 0

@@ -7,6 +7,18 @@ physics to the next frame. A host that does not answer within ``heartbeat_timeou
 time does not stop the world: the twin moves on, and the MCU's failsafe sees the silence in
 simulated time. **Real time** paces the same steps on the wall clock and never waits.
 
+**Stall.** A twin that waits longer than ``heartbeat_timeout_s`` (campaign trials wait without
+a limit) can wait for ever for a host that stopped. After ``stall_s`` of wall time waiting for
+one HEARTBEAT, its clock standing still, the twin gives up: :attr:`TwinRunner.stalled` holds one
+line (``lockstep stalled: the twin waited 10.0 s for the host's HEARTBEAT after frame N (sim time
+T s)``), :meth:`TwinRunner.run` returns, and the clock never moves again. Only the wait counts:
+a host that answers each frame, however late, never stalls it. The link is served once more
+after the limit before the stall counts, so a HEARTBEAT that arrived while this process was
+kept from running is taken. With ``host_waiting`` (a host in this process) only the time both
+ends wait counts: a host that is working on a frame, however slowly (a starved process), is not
+stalled. The default ``heartbeat_timeout_s`` (1 s) is shorter than the default ``stall_s``
+(:data:`STALL_S`): such a twin moves on in real time before it could stall.
+
 The MCU is the Python emulator (:mod:`jackson.sim.mcu`) or, with ``firmware=True``, the compiled
 POSIX firmware (:mod:`jackson.sim.fil`) fed the same sensor values at the same instants.
 
@@ -65,6 +77,8 @@ from jackson.sim.rplidar import RplidarEmulator
 from jackson.sim.tb6612 import BridgeOutput, bridge_outputs
 from jackson.sim.twin import Twin
 
+STALL_S = 10.0  # [s] of wall time waiting for one HEARTBEAT before the twin gives up
+
 
 @dataclass(frozen=True)
 class RunnerStats:
@@ -76,6 +90,7 @@ class RunnerStats:
     heartbeat_timeouts: int
     cpu_s: float = 0.0  # this process's CPU time since the HELLO
     spun_s: float = 0.0  # of it, polling for the host (jackson.common.spin)
+    stalled: str | None = None  # the stall line, when a lockstep stall ended the run
 
     @property
     def real_time_factor(self) -> float:
@@ -247,6 +262,8 @@ class TwinRunner:
         lidar: bool = True,
         lidar_link: str | None = None,
         truth: str | Path | None = None,
+        stall_s: float | None = STALL_S,
+        host_waiting: Callable[[], float | None] | None = None,
     ) -> None:
         faults = twin.faults
         if firmware and faults is not None and faults.link:
@@ -267,6 +284,15 @@ class TwinRunner:
         self.lockstep = lockstep
         self.mcu_motors = mcu_motors
         self.heartbeat_timeout_s = heartbeat_timeout_s
+        # lockstep stall (module notes): wall seconds of waiting for one HEARTBEAT before the
+        # twin gives up (None: never); ``host_waiting``, a host in this process: since when it
+        # waits for a telemetry frame (monotonic s), None while it works on one
+        self.stall_s = stall_s
+        self.host_waiting = host_waiting
+        self.stalled: str | None = None  # the stall line, once the twin gave up
+        # since when the twin waits for the host's HEARTBEAT (monotonic s), None otherwise; it
+        # stays set after a stall (the twin will never send again)
+        self.waiting_since: float | None = None
         wiring = twin.robot_spec.wiring
         self.pca = Pca9685()
         self.i2c = I2cSocketServer(i2c_path, {wiring.pca9685_address: self.pca})
@@ -502,20 +528,59 @@ class TwinRunner:
             else:
                 self._pace(*self._pace_origin)
             return
-        deadline = time.monotonic() + self.heartbeat_timeout_s
+        start = time.monotonic()
+        self.waiting_since = start
+        deadline = start + self.heartbeat_timeout_s
+        armed = False  # the stall limit passed: the link is served once more before it counts
         while not (mcu.heartbeat_seen and mcu.heartbeat_ack == seq):
             if self._stop is not None and self._stop.is_set():
                 return
-            left = deadline - time.monotonic()
+            now = time.monotonic()
+            left = deadline - now
             if left <= 0:
                 self.heartbeat_timeouts += 1
                 self._host_gone = mcu.heartbeats
                 self._pace_origin = (time.monotonic(), self.twin.t_s)
+                self.waiting_since = None
                 return
-            if self._serve(min(left, 0.05)) and not self.mcu_motors:  # wakes to see a stop
+            wait = min(left, 0.05)  # wakes to see a stop
+            stalled_for = self._stalled_for(start, now)
+            if stalled_for is not None and self.stall_s is not None:
+                if stalled_for < self.stall_s:
+                    armed = False
+                    wait = min(wait, self.stall_s - stalled_for)
+                elif armed:
+                    self._give_up(stalled_for)
+                    return
+                else:
+                    armed, wait = True, 0.0
+            if self._serve(wait) and not self.mcu_motors:
                 # the host wrote the PCA9685 and now sends its HEARTBEAT: the bridges' outputs
                 # are worked out while it does (the step after the HEARTBEAT finds them cached)
                 self.bridges()
+        self.waiting_since = None
+
+    def _stalled_for(self, start: float, now: float) -> float | None:
+        """How long the lockstep has stood still waiting for the host, since ``start``
+        (monotonic s): the wait itself, or with ``host_waiting`` the time both ends have
+        waited; None while the host works on a frame (slow, not stalled)."""
+        if self.host_waiting is None:
+            return now - start
+        host = self.host_waiting()
+        return None if host is None else now - max(start, host)
+
+    def _give_up(self, waited_s: float) -> None:
+        self.stalled = (
+            f"lockstep stalled: the twin waited {waited_s:.1f} s for the host's HEARTBEAT after "
+            f"frame {self.frames} (sim time {self.twin.t_s:.2f} s)"
+        )
+
+    def serve(self, stop: Event) -> None:
+        """Serve the host's links (serial, I2C, LiDAR) without moving the clock until ``stop``:
+        after a stall, a host in this process still brakes through the PCA9685 and says
+        SHUTDOWN to the MCU on its way out."""
+        while not stop.is_set():
+            self._serve(0.05)
 
     # ------------------------------------------------------------------ the loop
 
@@ -540,6 +605,7 @@ class TwinRunner:
             self.heartbeat_timeouts,
             time.process_time() - cpu0,
             contention.spun_s - spun0,
+            self.stalled,
         )
 
     def _start_session(self, wall0: float) -> None:
@@ -548,8 +614,10 @@ class TwinRunner:
         self._session_cpu0 = (time.process_time(), contention.spun_s)
 
     def _done(self, end_s: float | None, stop: Event | None) -> bool:
-        return (stop is not None and stop.is_set()) or (
-            end_s is not None and self.twin.t_s >= end_s - 1e-9
+        return (
+            (stop is not None and stop.is_set())
+            or self.stalled is not None
+            or (end_s is not None and self.twin.t_s >= end_s - 1e-9)
         )
 
     def _run_emulator(self, duration_s: float | None, stop: Event | None) -> None:
@@ -576,6 +644,8 @@ class TwinRunner:
                     self._serve(0.0)  # nobody will acknowledge a frame lost on the line
                 elif self.lockstep:
                     self._wait_heartbeat(mcu.last_telemetry_seq)
+                    if self.stalled is not None:
+                        return  # the clock stands still for good
                 else:
                     self._serve(0.0)
                 self._actuate()
@@ -641,11 +711,9 @@ class TwinRunner:
                 last_seq = status.telemetry_seq
                 self.frames += 1
                 if self.lockstep and self._host_gone is None:
-                    status = fw.wait_heartbeat(
-                        status.telemetry_seq,
-                        round(min(self.heartbeat_timeout_s, 3600.0) * 1000),  # inf: an hour
-                        on_wait=self._service_side,
-                    )
+                    status = self._wait_firmware_heartbeat(fw, status)
+                    if self.stalled is not None or (stop is not None and stop.is_set()):
+                        return  # a stall: the clock stands still for good
                     if status.heartbeat_ack != last_seq:
                         # the host is gone: run in real time until its heartbeats come back
                         self.heartbeat_timeouts += 1
@@ -661,6 +729,36 @@ class TwinRunner:
                 self._actuate(status)
             elif self._line_changed():
                 self._actuate(status)
+
+    def _wait_firmware_heartbeat(self, fw: FirmwareProcess, status: FeedStatus) -> FeedStatus:
+        """Lockstep with the compiled firmware: wait for the HEARTBEAT of ``status``'s frame
+        (at most ``heartbeat_timeout_s``, an hour when infinite), or until a stall or a stop;
+        the last status (its ``heartbeat_ack`` tells which)."""
+        seq = status.telemetry_seq
+        start = time.monotonic()
+        self.waiting_since = start
+        deadline = start + min(self.heartbeat_timeout_s, 3600.0)
+        armed = False
+        while True:
+            now = time.monotonic()
+            wait = max(0.0, min(deadline - now, 0.5))  # wakes to see a stop
+            stalled_for = self._stalled_for(start, now)
+            if stalled_for is not None and self.stall_s is not None:
+                if stalled_for < self.stall_s:
+                    armed = False
+                    wait = min(wait, self.stall_s - stalled_for)
+                elif armed:
+                    self._give_up(stalled_for)
+                    return status
+                else:
+                    armed, wait = True, 0.0
+            status = fw.wait_heartbeat(seq, round(wait * 1000), on_wait=self._service_side)
+            if status.heartbeat_ack == seq:
+                break
+            if time.monotonic() >= deadline or (self._stop is not None and self._stop.is_set()):
+                break
+        self.waiting_since = None
+        return status
 
     def close(self) -> None:
         if self.truth is not None:

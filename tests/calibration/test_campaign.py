@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from jackson.calibration.campaign import run_campaign
@@ -96,3 +98,62 @@ def test_runs_csv_has_every_runs_columns_when_the_first_run_failed(tmp_path: Pat
     rows = list(csv.DictReader((tmp_path / "runs.csv").open()))
     assert list(rows[0]) == ["variant", "trial", "completed", "failure", "d_traj_cm"]
     assert rows[0]["d_traj_cm"] == "" and rows[1]["d_traj_cm"] == "0.5"
+
+
+def _nav_run(out: Path, short_of_goal_m: float) -> dict[str, object]:
+    """The metrics of a run whose navigator reached its goal by its own estimate, the twin's
+    truth ending ``short_of_goal_m`` before it on the straight line from the start."""
+    from jackson.calibration.stage3 import STAGE3_GOAL, STAGE3_START, nav_metrics
+    from jackson.calibration.trial import write_ground_truth
+    from jackson.host.config import HostConfig
+    from jackson.host.control.navigate import NavigateConfig, NavigateMission
+    from jackson.sim.twin import Truth
+
+    nav = NavigateConfig(start=STAGE3_START, goals=(STAGE3_GOAL,), localisation="slam")
+    mission = NavigateMission(nav, HostConfig().limits)
+    # the run as the navigator saw it: it declared the goal reached at 10 s
+    mission.done, mission.t_start_s, mission.t_goal_s = True, 2.0, 10.0
+    end_x = STAGE3_GOAL.x - short_of_goal_m
+    t = np.linspace(0.0, 12.0, 241)
+    x = np.clip(np.linspace(-1.5, 3.5, 241), STAGE3_START.x, end_x)  # drives, then stands
+    truth = [
+        Truth(float(ti), float(xi), STAGE3_GOAL.y, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        for ti, xi in zip(t, x, strict=True)
+    ]
+    out.mkdir(parents=True)
+    write_ground_truth(out / "ground_truth.csv", truth)
+    r = nav_metrics(mission, truth, [], None)
+    r.update(variant="C00", collisions=0, trial=0, run=f"runs/{out.name}")
+    return r
+
+
+def test_a_run_reached_by_its_estimate_but_not_in_truth_is_no_success(tmp_path: Path) -> None:
+    """The maze run that ended 25.1 cm from the goal on the ground truth while the robot's own
+    estimate was within 0.25 m: reached by the navigator, not in truth, no success."""
+    from jackson.calibration.stage3 import write_stage3_report
+
+    short = _nav_run(tmp_path / "runs" / "short", 0.251)
+    assert short["reached"] is True and short["reached_truth"] is False
+    assert short["completed"] is False and math.isnan(short["t_nav_s"])  # type: ignore[arg-type]
+    assert short["goal_error_m"] == pytest.approx(0.251) and short["goal_tolerance_m"] == 0.25
+    assert short["failure"] == (
+        "reached by the navigator's own estimate, but the true end is 25.1 cm from the goal "
+        "(tolerance 25 cm)"
+    )
+    inside = _nav_run(tmp_path / "runs" / "inside", 0.249)
+    assert inside["reached"] and inside["reached_truth"] and inside["completed"]
+    assert inside["failure"] is None and inside["t_nav_s"] == 8.0
+    meta = {"robot": "r", "world": "maze", "trials": 2, "seed": 0, "workers": 1}
+    meta.update(wall_s=1.0, cpu_s=1.0, map="map.yaml")
+    write_stage3_report(tmp_path, "maze", [short, inside], meta)
+    summary = (tmp_path / "summary.md").read_text()
+    assert "| variant | success | reached (own estimate) |" in summary
+    assert "| C00 | 1/2 | 2/2 |" in summary  # P_success on the truth
+    assert "- runs/short: reached by the navigator's own estimate, but the true end is 25.1 cm" in (
+        summary
+    )
+    rows = list(csv.DictReader((tmp_path / "runs.csv").open()))
+    assert [(r["reached"], r["reached_truth"], r["completed"]) for r in rows] == [
+        ("True", "False", "False"),
+        ("True", "True", "True"),
+    ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import queue
+import re
 import select
 import threading
 import time
@@ -186,5 +187,111 @@ def test_time_the_caller_spends_on_a_frame_is_not_silence(
             if isinstance(item, LinkEvent):
                 kinds.append(item.kind)
         assert t.silences == 1 and t.hellos == 2
+    finally:
+        t.close()
+
+
+def _events_until(t: SerialTransport, kind: str, timeout_s: float = 10.0) -> list[object]:
+    """Everything get() hands over until a link event of ``kind`` (or the deadline)."""
+    got: list[object] = []
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        item = t.get(0.05)
+        if item is None:
+            continue
+        got.append(item)
+        if isinstance(item, LinkEvent) and item.kind == kind:
+            break
+    return got
+
+
+@pytest.mark.parametrize("reader_thread", [False, True], ids=["inline", "reader-thread"])
+def test_a_lockstep_device_that_stops_is_a_stall_reported_once(
+    pty: tuple[int, str], reader_thread: bool
+) -> None:
+    """No telemetry frame for ``stall_s`` of waiting: one ``stalled`` event naming the wait."""
+    master, path = pty
+    t = SerialTransport(path)
+    t.stall_s = 0.5
+    t.silence_s = 0.1  # HELLOs and INFO-less silence do not reset the stall's clock
+    t.open(reader_thread=reader_thread)
+    try:
+        os.write(master, encode_frame(Telemetry(t_us=1), 0))
+        item = t.get(10.0)
+        while isinstance(item, LinkEvent):
+            item = t.get(10.0)
+        assert item is not None
+        back = time.monotonic()  # the host waits for the next frame from here
+        got = _events_until(t, "stalled")
+        waited = time.monotonic() - back
+        assert not [g for g in got if isinstance(g, tuple)]
+        stall = got[-1]
+        assert isinstance(stall, LinkEvent) and stall.kind == "stalled"
+        assert re.fullmatch(r"the host waited 0\.[5-9] s for a telemetry frame", stall.detail)
+        assert 0.5 <= waited < 5.0
+        assert t.stalled and t.silences >= 2
+        # once: waiting on does not report it again
+        later = _events_until(t, "stalled", timeout_s=0.5)
+        assert not [g for g in later if isinstance(g, LinkEvent) and g.kind == "stalled"]
+    finally:
+        t.close()
+
+
+def test_a_device_sending_slowly_is_not_a_stall(pty: tuple[int, str]) -> None:
+    """Frames 0.3 s apart, 3 s in all, at a 0.5 s limit: slow progress, no stall."""
+    master, path = pty
+    t = SerialTransport(path)
+    t.stall_s = 0.5
+    t.open(reader_thread=False)
+    done = threading.Event()
+
+    def device() -> None:
+        for k in range(10):
+            if done.wait(0.3):  # the device's slowness under test
+                return
+            os.write(master, encode_frame(Telemetry(t_us=k), k))
+
+    writer = threading.Thread(target=device, daemon=True)
+    writer.start()
+    try:
+        frames = 0
+        while frames < 10:
+            item = t.get(10.0)
+            assert not (isinstance(item, LinkEvent) and item.kind == "stalled")
+            frames += isinstance(item, tuple)
+        assert not t.stalled
+    finally:
+        done.set()
+        writer.join()
+        t.close()
+
+
+def test_a_host_slow_on_a_frame_or_a_peer_at_work_is_not_a_stall(pty: tuple[int, str]) -> None:
+    """Only the time both ends wait counts: the host's work on a frame does not (it is not
+    waiting), nor does waiting while a twin in the same process says it works on its frame."""
+    master, path = pty
+    t = SerialTransport(path)
+    t.stall_s = 0.3
+    peer_since: list[float | None] = [None]  # the twin: working
+    t.peer_waiting = lambda: peer_since[0]
+    t.open(reader_thread=False)
+    try:
+        os.write(master, encode_frame(Telemetry(t_us=1), 0))
+        item = t.get(10.0)
+        while isinstance(item, LinkEvent):
+            item = t.get(10.0)
+        assert item is not None and t.waiting_since is None  # at work on the frame
+        busy_until = time.monotonic() + 0.6  # the host's work: twice the limit
+        while time.monotonic() < busy_until:
+            sum(range(1000))
+        quiet_until = time.monotonic() + 0.6  # then waits while the twin works: twice again
+        while time.monotonic() < quiet_until:
+            assert t.get(0.05) is None
+        assert not t.stalled
+        peer_since[0] = time.monotonic()  # the twin waits for the host too: a deadlock
+        got = _events_until(t, "stalled")
+        stall = got[-1]
+        assert isinstance(stall, LinkEvent) and stall.kind == "stalled"
+        assert time.monotonic() - peer_since[0] >= 0.3
     finally:
         t.close()

@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
+import os
+import re
 import signal
 import subprocess
+import threading
 import time
 from pathlib import Path
 
+import pytest
 import serial
 
 from jackson.lockstep_bench import _TWIN_SUMMARY
-from jackson.protocol import Heartbeat, HostState, MotorPwm, TelemetryFlags
+from jackson.protocol import Heartbeat, HostState, MotorPwm, Telemetry, TelemetryFlags
+from jackson.sim.fil import DEFAULT_BINARY
 
 from .twin_process import JACKSON, TwinProcess
 
@@ -125,3 +131,74 @@ def test_unknown_field_and_bad_world_are_refused(tmp_path: Path) -> None:
     )
     assert out.returncode == 2
     assert "no_such_world" in out.stderr
+
+
+TWIN_STALL = re.compile(
+    r"jackson sim: lockstep stalled: the twin waited (\d+\.\d) s for the host's HEARTBEAT after "
+    r"frame (\d+) \(sim time (\d+\.\d\d) s\)"
+)
+
+
+FIRMWARE_BUILT = Path(os.environ.get("JACKSON_FIRMWARE_POSIX", DEFAULT_BINARY)).exists()
+
+
+@pytest.mark.parametrize(
+    "mcu",
+    [
+        (),
+        pytest.param(
+            ("--firmware",),
+            marks=pytest.mark.skipif(
+                not FIRMWARE_BUILT, reason="the POSIX firmware is not built (make native)"
+            ),
+        ),
+    ],
+    ids=["emulator", "firmware"],
+)
+def test_a_host_answering_late_is_not_a_stall_and_a_silent_one_is(mcu: tuple[str, ...]) -> None:
+    """A twin that waits without a heartbeat timeout (longer than --stall-timeout) is not cut by
+    a host that answers each frame 0.3 s late, 3 s in all, at a 1 s limit; it gives up 1 s after
+    the host stops answering: its summary, one line on stderr, exit status 1. With either MCU."""
+    twin = TwinProcess("--no-lidar", *mcu, "--heartbeat-timeout", "3600", "--stall-timeout", "1")
+    host = twin.host()
+    try:
+        host.connect()
+
+        def late(_: Telemetry) -> tuple[float, float]:
+            threading.Event().wait(0.3)  # the host's slowness under test
+            return 0.3, 0.3
+
+        tel = host.run(10, late)
+        assert [b.t_us - a.t_us for a, b in itertools.pairwise(tel)] == [50_000] * 9
+        assert twin.proc.poll() is None  # 3 s of slow answers: still running
+        silent = time.monotonic()
+        twin.proc.wait(timeout=60)  # no more heartbeats
+        waited = time.monotonic() - silent
+    finally:
+        with contextlib.suppress(OSError):
+            host.close()
+        code, out, err = twin.stop()
+    assert code == 1
+    assert err.count("\n") == 1 and "Traceback" not in err
+    said = TWIN_STALL.fullmatch(err.strip())
+    assert said is not None, err
+    assert 1.0 <= float(said[1]) < 2.0 and waited >= 1.0
+    assert int(said[2]) == 11  # the frame after the last one answered
+    assert _TWIN_SUMMARY.search(out) is not None  # the summary, as on any way out
+
+
+def test_stall_timeout_default_is_the_runners() -> None:
+    from jackson.sim.cli import STALL_TIMEOUT_S
+    from jackson.sim.runner import STALL_S
+
+    assert STALL_TIMEOUT_S == STALL_S
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "nan", "inf", "x"])
+def test_a_bad_stall_timeout_is_one_line(value: str) -> None:
+    out = subprocess.run(
+        [JACKSON, "sim", "--stall-timeout", value], capture_output=True, text=True, timeout=60
+    )
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and "--stall-timeout" in out.stderr
+    assert "Traceback" not in out.stderr
