@@ -78,9 +78,10 @@ def test_the_daemon_publishes_nav2s_topics_while_it_navigates(
         twin.stop()
     assert client.returncode == 0, c_out + c_err + d_err
     report: dict[str, Any] = json.loads(c_out.strip().splitlines()[-1])
-    assert report["map"] >= 1 and report["map_frame"] == "map", report
-    assert report["map_size"][2] == 0.05, report
-    assert report["plan"] >= 3 and report["plan_points"] > 10, report  # 1 Hz and when blocked
-    assert report["local_plan"] >= 10, report
-    assert report["scan"] >= 10 and report["scan_beams"] == 1080, report
+    seen = (report, d_out[-2000:], d_err[-2000:])  # what the daemon said, should one fail
+    assert report["map"] >= 1 and report["map_frame"] == "map", seen
+    assert report["map_size"][2] == 0.05, seen
+    assert report["plan"] >= 3 and report["plan_points"] > 10, seen  # 1 Hz and when blocked
+    assert report["local_plan"] >= 10, seen
+    assert report["scan"] >= 10 and report["scan_beams"] == 1080, seen
     assert "daemon:" in d_out, d_out + d_err
