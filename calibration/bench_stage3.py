@@ -119,6 +119,16 @@ def _amcl_ms(grid: OccupancyGrid, poses: list[Pose2D], scans: list[Scan]) -> flo
     return 1e3 * statistics.median(times[1:])
 
 
+def _scan_points(
+    pose: Pose2D, obstacles: Obstacles, rng: np.random.Generator, t_s: float
+) -> npt.NDArray[np.float64]:
+    """One revolution of the ray caster from ``pose`` (0.01 m noise), as map-frame points."""
+    angles = np.asarray(-math.pi + np.arange(A1M8_BEAMS) * A1M8_ANGLE_INCREMENT_RAD, np.float64)
+    ranges = cast((pose.x, pose.y), angles + pose.yaw, obstacles, 8.0)
+    ranges = ranges + rng.normal(0.0, 0.01, ranges.shape)
+    return Scan(t_s, angles, ranges).points(pose)
+
+
 def _dwb_ms(grid: OccupancyGrid, obstacles: Obstacles) -> float:
     """Mean DWB cycle [ms] over a drive along the maze's route as the navigator runs it: a
     control tick every 50 ms at 0.15 m/s, a new scan (the ray caster's, 0.01 m noise) every
@@ -138,7 +148,6 @@ def _dwb_ms(grid: OccupancyGrid, obstacles: Obstacles) -> float:
 
     dwb.compute = timed  # type: ignore[method-assign]
     rng = np.random.default_rng(3)
-    angles = np.asarray(-math.pi + np.arange(A1M8_BEAMS) * A1M8_ANGLE_INCREMENT_RAD, np.float64)
     v_m_s, next_scan_s = 0.15, 0.0
     for k in range(round(1.0 / (v_m_s * CONTROL_PERIOD_S))):  # one metre of the route
         t_s = k * CONTROL_PERIOD_S
@@ -147,9 +156,7 @@ def _dwb_ms(grid: OccupancyGrid, obstacles: Obstacles) -> float:
         points = None
         if t_s + 1e-9 >= next_scan_s:
             next_scan_s += SCAN_PERIOD_S
-            ranges = cast((pose.x, pose.y), angles + pose.yaw, obstacles, 8.0)
-            ranges = ranges + rng.normal(0.0, 0.01, ranges.shape)
-            points = Scan(t_s, angles.copy(), ranges).points(pose)
+            points = _scan_points(pose, obstacles, rng, t_s)
         nav.step(t_s, pose, (v_m_s, 0.0), points)
     return 1e3 * statistics.fmean(times[3:])  # after the first plan's cycles
 
@@ -325,7 +332,6 @@ def _replanning_steps_ms() -> tuple[float, float]:
     start = Pose2D(2.5, 2.5, 0.0)
     nav.set_goal(Pose2D(17.5, 17.5))
     limiter = VelocityLimiter(limits)
-    angles = np.asarray(-math.pi + np.arange(A1M8_BEAMS) * A1M8_ANGLE_INCREMENT_RAD, np.float64)
     rng = np.random.default_rng(4)
     pose, vel, moved, dropped = start, (0.0, 0.0), 0.0, False
     steps: list[float] = []
@@ -340,9 +346,7 @@ def _replanning_steps_ms() -> tuple[float, float]:
         points = None
         if t_s + 1e-9 >= next_scan_s:
             next_scan_s += SCAN_PERIOD_S
-            ranges = cast((pose.x, pose.y), angles + pose.yaw, obstacles, 8.0)
-            ranges = ranges + rng.normal(0.0, 0.01, ranges.shape)
-            points = Scan(t_s, angles.copy(), ranges).points(pose)
+            points = _scan_points(pose, obstacles, rng, t_s)
         t0 = time.process_time()
         cmd = nav.step(t_s, pose, vel, points)
         steps.append(time.process_time() - t0)
