@@ -6,16 +6,23 @@ command, per telemetry frame and on MCU time, and says which measurements the EK
 
 **Cross-check.** The wheels give a yaw rate of their own, w_e = (r_R omega_R - r_L omega_L) / B.
 A healthy robot's is w_e = s w_g + c v (:class:`WheelYawModel`, learned while every sensor is
-ok: s the scrub of turns, c the yaw per metre of unequal wheels). The residual
-r = w_e - (s w_g + c v) has the variance
+ok: s the scrub of turns, c the yaw per metre of unequal wheels; each a Kalman filter from a
+prior the configured geometry and its uncertainties give, :func:`wheel_yaw_prior`). The
+residual r = w_e - (s w_g + c v) has the variance
 
-    sigma_r^2 = R_wz + sigma_q^2 + (dw_e / 2)^2 + (kappa w_g)^2 + (kappa_v v)^2
+    sigma_r^2 = R_wz + sigma_q^2 + (dw_e / 2)^2 + (kappa_a v alpha)^2 + (kappa w_g)^2
+                + (kappa_v v)^2 + P_s w_g^2 + P_c (v - rho w_g)^2
 
 with R_wz the gyro's variance (``gyro_noise_rad_s``^2, not the EKF's tuning), sigma_q^2 the
 encoders' quantisation (one count of each wheel over the frame, a triangular error of 1/6
 count^2 per wheel), dw_e / 2 the lag of the wheels' frame mean behind the gyro's sample under
-angular acceleration, and kappa, kappa_v how much s and c vary on a healthy robot
-(``scale_tolerance``, ``straight_tolerance_rad_m``).
+angular acceleration, kappa_a v alpha the tyres' creep while the yaw rate changes at speed
+(alpha the smaller of the wheels' and the gyro's change of yaw rate over the last 0.25 s, per
+second; ``creep_tolerance_s``; one sign through a turn-in, so the windowed test counts its
+mean as a model error that does not average down), kappa, kappa_v how much s and c vary on
+a healthy robot (``scale_tolerance``, ``straight_tolerance_rad_m``), and P_s, P_c the model's
+own variances (:meth:`WheelYawModel.variance`: P_s once s is identified, c's prior variance
+with the lever v - rho w_g until c is).
 
 **Tests.** Per frame, the normalised innovation squared NIS = r^2 / sigma_r^2 against the
 chi-square(1) quantile of ``gate_probability``: a failing sample is not fused (a spike). Over
@@ -79,6 +86,7 @@ from jackson.host.odometry import RobotGeometry
 POLICIES = ("continue", "stop")
 SILENT_TICKS = 3.0  # a wheel expected to make this many counts in a frame and making none
 RECOVER_Z_FRACTION = 0.5  # a sensor out of ok passes the windowed test only within half its band
+CREEP_MEMORY_S = 0.25  # [s] the creep term's yaw acceleration is the change over this span
 SPEED_WITNESS_LEAD_S = 0.5  # [s] the speed witness's reference, before the disagreement was seen
 SPEED_WITNESS_FRAMES = 5  # frames averaged for the speed witness's two levels
 SPEED_WITNESS_BIAS_S = 1.5  # [s] over which the forward accelerometer's bias is measured
@@ -125,9 +133,25 @@ class HealthConfig:
         kappa: how much a healthy robot's wheel/gyro yaw scale varies (pivots against arcs).
     straight_tolerance_rad_m : float
         kappa_v: how much its yaw per metre driven varies [rad/m].
+    creep_tolerance_s : float
+        kappa_a: the yaw rate the wheels over-read per (m/s x rad/s^2) while the robot's yaw
+        rate changes at speed (the tyres' creep under the traction that turns it) [s].
     ratio_time_constant_s : float
         Forgetting time of the learned wheel yaw model (:class:`WheelYawModel`) [s]; 0 keeps
         the prior (s = 1, c = 0).
+    wheel_radius_uncertainty : float
+        sigma_r: how far each wheel's effective rolling radius may be from the configured one
+        on a healthy robot, relative, one sigma (tyre wear, load, the measurement) [-].
+    ticks_per_rev_uncertainty : float
+        sigma_C: the same for each encoder's counts per revolution, relative [-].
+    wheel_separation_uncertainty : float
+        sigma_B: how far the effective track may be from the configured one, relative (tyre
+        scrub makes a turning robot's wheels over-read its yaw by several per cent) [-].
+    gyro_scale_uncertainty : float
+        sigma_g: the gyro's scale error, relative (the MPU-6050's sensitivity tolerance) [-].
+    model_bound_sigmas : float
+        The learned s and c stay within this many prior sigmas of the configured geometry
+        (:func:`wheel_yaw_prior`).
     spikes_to_exclude : int
         Failing samples within ``window_s`` that exclude the IMU.
     imu_silence_s, stuck_s, encoder_stuck_s : float
@@ -182,7 +206,13 @@ class HealthConfig:
     window_probability: float = 0.9999
     scale_tolerance: float = 0.03
     straight_tolerance_rad_m: float = 0.03
+    creep_tolerance_s: float = 0.4
     ratio_time_constant_s: float = 60.0
+    wheel_radius_uncertainty: float = 0.005
+    ticks_per_rev_uncertainty: float = 0.009
+    wheel_separation_uncertainty: float = 0.05
+    gyro_scale_uncertainty: float = 0.015
+    model_bound_sigmas: float = 4.0
     spikes_to_exclude: int = 3
     imu_silence_s: float = 0.25
     stuck_s: float = 0.5
@@ -228,6 +258,7 @@ class HealthConfig:
             "lidar_useless_m",
             "lidar_silence_s",
             "lidar_window_s",
+            "model_bound_sigmas",
         ):
             v = getattr(self, name)
             if not 0.0 < v < math.inf:
@@ -235,8 +266,13 @@ class HealthConfig:
         for name in (
             "scale_tolerance",
             "straight_tolerance_rad_m",
+            "creep_tolerance_s",
             "ratio_time_constant_s",
             "zupt_after_s",
+            "wheel_radius_uncertainty",
+            "ticks_per_rev_uncertainty",
+            "wheel_separation_uncertainty",
+            "gyro_scale_uncertainty",
         ):
             v = getattr(self, name)
             if not 0.0 <= v < math.inf:
@@ -359,62 +395,250 @@ class Transition:
     reason: str
 
 
+@dataclass(frozen=True)
+class WheelYawPrior:
+    """What the configured geometry says of the wheel yaw model before any data
+    (:func:`wheel_yaw_prior`): s = 1 and c = 0, give or take these sigmas, within these bounds.
+
+    Attributes
+    ----------
+    scale_sigma : float
+        sigma_s0: one sigma of s about 1 [-].
+    per_metre_sigma : float
+        sigma_c0: one sigma of c about 0 [rad/m].
+    scale_bounds : tuple of float
+        1 -+ n sigma_s0: the scales a healthy robot can plausibly have [-].
+    per_metre_bounds : tuple of float
+        -+ n sigma_c0 [rad/m].
+    """
+
+    scale_sigma: float
+    per_metre_sigma: float
+    scale_bounds: tuple[float, float]
+    per_metre_bounds: tuple[float, float]
+
+
+def wheel_yaw_prior(cfg: HealthConfig, robot: RobotGeometry) -> WheelYawPrior:
+    """The prior of the wheel yaw model from the configured geometry and its uncertainties.
+
+    Each wheel reads its floor speed u_i as e_i u_i, with e_i = (r_i / r_i,cfg)^-1 (C_i / C_i,cfg)
+    (its true rolling radius and counts per revolution against the configured ones), of relative
+    sigma sigma_e^2 = sigma_r^2 + sigma_C^2, independently per wheel. With the effective track B'
+    (scrub) against the configured B, the gyro's scale g (w_g = g w) and u_R,L = v +- w B' / 2,
+
+        w_e = (e_R u_R - e_L u_L) / B = (e_mean B' / (B g)) w_g + ((e_R - e_L) / B) v
+
+    so s = e_mean B' / (B g) and c = (e_R - e_L) / B, and to first order
+
+        sigma_s0^2 = sigma_B^2 + sigma_g^2 + sigma_e^2 / 2,    sigma_c0^2 = 2 sigma_e^2 / B^2.
+
+    The bounds are ``model_bound_sigmas`` of each sigma about s = 1, c = 0.
+
+    Parameters
+    ----------
+    cfg : HealthConfig
+        ``wheel_radius_uncertainty`` (sigma_r), ``ticks_per_rev_uncertainty`` (sigma_C),
+        ``wheel_separation_uncertainty`` (sigma_B), ``gyro_scale_uncertainty`` (sigma_g),
+        ``model_bound_sigmas`` (n).
+    robot : RobotGeometry
+        The configured geometry (B).
+
+    Returns
+    -------
+    WheelYawPrior
+        sigma_s0, sigma_c0 and the bounds.
+    """
+    var_e = cfg.wheel_radius_uncertainty**2 + cfg.ticks_per_rev_uncertainty**2
+    sigma_s = math.sqrt(
+        cfg.wheel_separation_uncertainty**2 + cfg.gyro_scale_uncertainty**2 + 0.5 * var_e
+    )
+    sigma_c = math.sqrt(2.0 * var_e) / robot.wheel_separation_m
+    n = cfg.model_bound_sigmas
+    return WheelYawPrior(
+        scale_sigma=sigma_s,
+        per_metre_sigma=sigma_c,
+        scale_bounds=(1.0 - n * sigma_s, 1.0 + n * sigma_s),
+        per_metre_bounds=(-n * sigma_c, n * sigma_c),
+    )
+
+
 class WheelYawModel:
     """What a healthy robot's wheels say of its yaw rate, learned while all sensors are ok:
     w_e = s w_g + c v.
 
     c is a yaw the wheels read per metre driven (unequal wheel radii or encoder scales: the
-    paper's raw odometry drifts by it), learned while driving straight (|w_g| < 0.05 rad/s,
-    v > 0.05 m/s) from (w_e - s w_g) / v; s is the scale of the wheels' yaw against the
-    gyro's (tyre scrub and creep in turns), learned while turning (|w_g| > 0.1 rad/s) from
-    (w_e - c v) / w_g. Each is the plain mean of its first 20 samples, then a low-pass over
-    ``tau_s`` of driving, and stays within [0.8, 1.25] and [-0.5, 0.5] rad/m. Learning them
-    apart keeps a gyro bias step out of both over the second the windowed test needs; a
-    robot that never drives straight keeps c = 0 and its s absorbs c v / w.
+    paper's raw odometry drifts by it), s the scale of the wheels' yaw against the gyro's (tyre
+    scrub and creep in turns). Each is a scalar Kalman filter (recursive least squares) started
+    at its prior (:func:`wheel_yaw_prior`: s0 = 1, c0 = 0 with variances P0 = sigma_0^2), so the
+    first samples move it only by the weight their information has against the prior's:
+
+        K = P h / (h^2 P + R),   theta <- theta + K (y - h theta),   P <- (1 - K h)^2 P + K^2 R
+
+    until the term is identified (below), then the same with K h capped at dt / ``tau_s``: a
+    low-pass over ``tau_s`` of driving, which a slow fault (a bias step) cannot move in the
+    second the windowed test needs. For c, y = w_e - s w_g, h = v and R = R_0 + P_s w_g^2 (the
+    scale's own uncertainty); for s, y = w_e - c v, h = w_g and R = R_0 + P_c v^2, so that an
+    arc of curvature kappa informs s with c's error P_c / kappa^2: s is learned from tight
+    turns until c is known. R_0 is the sample's noise (:meth:`learn`). Before each sample P
+    grows by the forgetting factor 1 / lambda, lambda = 1 - dt / ``tau_s``, never beyond P0.
+
+    **Identifiability.** c is learned only from nearly straight driving (curvature
+    |w_g / v| <= 0.3 rad/m and |v| >= 0.1 m/s: there s w_g is small against c v, and its error
+    is counted in R), s only from turns (|w_g| > 0.1 rad/s), and either only from steady samples
+    (the gyro's rate changed by less than 0.5 rad/s^2: under angular acceleration the tyres
+    creep and the wheels' frame mean lags the gyro's sample) whose innovation is within 3 sigma
+    of its prediction (h^2 P + R: a slip is not the robot's geometry). A term keeps its prior
+    (s = 1 or c = 0, variance P0) until it is identified: at least 20 samples, covering 0.5 rad
+    of turn (s) or 2 m of driving (c), that carry 4 times the prior's information
+    (sum h^2 / R >= 4 / P0: a posterior sigma under 0.45 of the prior's), so that one transient
+    cannot make the model. Each stays within its bounds. A robot that never drives straight
+    keeps c = 0 and its s absorbs c v / w (:attr:`absorbed`); learning them apart keeps a gyro
+    bias step out of both over the second the windowed test needs.
     """
 
-    FIRST_SAMPLES = 20  # averaged plainly; then the low-pass
-    SCALE_RANGE = (0.8, 1.25)
-    PER_METRE_RANGE = (-0.5, 0.5)  # [rad/m]
+    IDENTIFY_SAMPLES = 20  # samples a term needs before it leaves its prior ...
+    IDENTIFY_SPAN = (0.5, 2.0)  # ... the turn [rad] (s) and the distance [m] (c) they cover ...
+    IDENTIFY_INFORMATION = 4.0  # ... and the information they carry, in prior informations
+    STRAIGHT_CURVATURE = 0.3  # [rad/m] c is learned below this curvature |w_g / v| ...
+    STRAIGHT_SPEED = 0.1  # [m/s] ... and above this speed
+    TURN_RATE = 0.1  # [rad/s] s is learned above this gyro rate
+    STEADY_ALPHA = 0.5  # [rad/s^2] learned only while the gyro's rate changes less than this
+    LEARN_GATE = 3.0  # [sigma] innovations beyond this are not learned
 
-    def __init__(self, tau_s: float) -> None:
+    def __init__(self, tau_s: float, prior: WheelYawPrior | None = None) -> None:
         self.tau_s = tau_s
-        self.scale = 1.0
-        self.per_metre = 0.0
-        self._n = [0, 0]
+        if prior is None:
+            prior = wheel_yaw_prior(HealthConfig(), RobotGeometry())
+        self.prior = p = prior
+        self._center = (1.0, 0.0)
+        self._p0 = (p.scale_sigma**2, p.per_metre_sigma**2)
+        self._bounds = (p.scale_bounds, p.per_metre_bounds)
+        self._est = [1.0, 0.0]  # the filters' s and c
+        self._var = list(self._p0)  # their variances
+        self._info = [0.0, 0.0]  # information of the data learned (forgotten as P is)
+        self._n = [0, 0]  # samples learned
+        self._cross = 0.0  # sum(w_g v / R) over the scale's samples, forgotten as _info[0]
+        self._span = [0.0, 0.0]  # [rad] turned and [m] driven by the samples learned
+        self.identified = [False, False]  # s, c have left their priors
+
+    @property
+    def scale(self) -> float:
+        """s: the filter's once identified, the prior's 1 before."""
+        return self._est[0] if self.identified[0] else self._center[0]
+
+    @property
+    def per_metre(self) -> float:
+        """c [rad/m]: the filter's once identified, the prior's 0 before."""
+        return self._est[1] if self.identified[1] else self._center[1]
+
+    @property
+    def scale_variance(self) -> float:
+        """P_s: the variance of :attr:`scale` (the prior's until identified)."""
+        return self._var[0] if self.identified[0] else self._p0[0]
+
+    @property
+    def per_metre_variance(self) -> float:
+        """P_c [(rad/m)^2]: the variance of :attr:`per_metre` (the prior's until identified)."""
+        return self._var[1] if self.identified[1] else self._p0[1]
 
     @property
     def scale_learned(self) -> bool:
-        """s has its first samples (before, it is the prior 1 +- 0.15)."""
-        return self.tau_s <= 0.0 or self._n[0] >= self.FIRST_SAMPLES
+        """s is identified (before, it is the prior 1 +- 0.15 for the gates)."""
+        return self.tau_s <= 0.0 or self.identified[0]
 
     def predict(self, wz: float, v: float) -> float:
         """The wheels' yaw rate a healthy robot shows at gyro rate wz and speed v."""
         return self.scale * wz + self.per_metre * v
 
+    @property
+    def absorbed(self) -> float:
+        """rho = sum(w_g v / R) / sum(w_g^2 / R) over the scale's samples [m/rad]: while c is
+        not identified, s has absorbed rho times c's error (s = sum(w_g y / R) / sum(w_g^2 / R))."""
+        return self._cross / self._info[0] if self._info[0] > 0.0 else 0.0
+
+    def variance(self, wz: float, v: float, *, prior: bool = True) -> float:
+        """The variance of :meth:`predict` from the model's own uncertainty.
+
+            P_s wz^2 + P_c v^2                       (both identified)
+            P_s wz^2 + P0_c (v - rho wz)^2           (c not identified: s took rho dc of its
+                                                      error dc; none is left where it learned)
+
+        Parameters
+        ----------
+        wz, v : float
+            The gyro's rate [rad/s] and the forward speed [m/s].
+        prior : bool
+            Count s, while not identified, by its prior variance (the EKF's stand-in yaw
+            rate); False: not at all (the gates, which widen ``scale_tolerance`` to 0.15
+            until s is identified).
+        """
+        p_s = self.scale_variance if prior or self.identified[0] else 0.0
+        if self.identified[1]:
+            return p_s * wz * wz + self._var[1] * v * v
+        lever = v - self.absorbed * wz
+        return p_s * wz * wz + self._p0[1] * lever * lever
+
     def true_rate(self, w_e: float, v: float) -> float:
         """The yaw rate the wheels' w_e stands for: (w_e - c v) / s."""
         return (w_e - self.per_metre * v) / self.scale
 
-    def learn(self, w_e: float, wz: float, v: float, dt_s: float) -> None:
-        """One healthy sample (a no-op with ``tau_s`` 0: s = 1, c = 0 stay)."""
-        if self.tau_s <= 0.0:
-            return
-        if abs(wz) < 0.05 and abs(v) > 0.05:
-            obs = (w_e - self.scale * wz) / v
-            self.per_metre = self._step(1, self.per_metre, obs, dt_s, self.PER_METRE_RANGE)
-        elif abs(wz) > 0.1:
-            obs = (w_e - self.per_metre * v) / wz
-            self.scale = self._step(0, self.scale, obs, dt_s, self.SCALE_RANGE)
+    def learn(
+        self, w_e: float, wz: float, v: float, dt_s: float, noise_var: float, steady: bool
+    ) -> None:
+        """One healthy sample (a no-op with ``tau_s`` 0: s = 1, c = 0 stay).
 
-    def _step(
-        self, i: int, value: float, obs: float, dt_s: float, bounds: tuple[float, float]
-    ) -> float:
-        if not bounds[0] < obs < bounds[1]:  # a skid, not the robot's geometry
-            return value
+        Parameters
+        ----------
+        w_e, wz : float
+            The wheels' and the gyro's yaw rates [rad/s].
+        v : float
+            The wheels' forward speed [m/s].
+        dt_s : float
+            The frame's interval [s].
+        noise_var : float
+            R_0: the sample's noise variance about the model [(rad/s)^2] (the gyro's and the
+            encoders' noise, and how much s and c vary on a healthy robot).
+        steady : bool
+            The gyro's rate changed by less than ``STEADY_ALPHA`` over the frame.
+        """
+        if self.tau_s <= 0.0 or not steady or dt_s <= 0.0:
+            return
+        forget = max(0.0, 1.0 - dt_s / self.tau_s)
+        if abs(v) >= self.STRAIGHT_SPEED and abs(wz) <= self.STRAIGHT_CURVATURE * abs(v):
+            r = noise_var + self._var[0] * wz * wz
+            self._update(1, w_e - self._est[0] * wz, v, r, forget, abs(v) * dt_s)
+        elif abs(wz) > self.TURN_RATE:
+            r = noise_var + self._var[1] * v * v
+            if self._update(0, w_e - self._est[1] * v, wz, r, forget, abs(wz) * dt_s):
+                self._cross = forget * self._cross + wz * v / r
+
+    def _update(self, i: int, y: float, h: float, r: float, forget: float, span: float) -> bool:
+        """The scalar Kalman update of term i (0: s, 1: c) by y = h theta_i + noise(r), the
+        sample covering ``span`` (rad turned or m driven); whether it was learned."""
+        p0 = self._p0[i]
+        p = min(self._var[i] / forget, p0) if forget > 0.0 else p0
+        innovation = y - h * self._est[i]
+        predicted = h * h * p + r
+        if innovation * innovation > self.LEARN_GATE**2 * predicted:
+            return False  # a slip or a transient: not the robot's geometry
+        gain = p * h / predicted
+        if self.identified[i]:
+            # from then on a low-pass over tau_s: a slow fault must not be learned in seconds
+            gain = math.copysign(min(abs(gain), (1.0 - forget) / abs(h)), gain)
+        lo, hi = self._bounds[i]
+        self._est[i] = min(hi, max(lo, self._est[i] + gain * innovation))
+        self._var[i] = (1.0 - gain * h) ** 2 * p + gain * gain * r  # Joseph: any gain
+        self._info[i] = forget * self._info[i] + h * h / r
         self._n[i] += 1
-        gain = 1.0 / self._n[i] if self._n[i] <= self.FIRST_SAMPLES else min(1.0, dt_s / self.tau_s)
-        return value + gain * (obs - value)
+        self._span[i] += span
+        if (
+            not self.identified[i]
+            and self._n[i] >= self.IDENTIFY_SAMPLES
+            and self._span[i] >= self.IDENTIFY_SPAN[i]
+            and self._info[i] * p0 >= self.IDENTIFY_INFORMATION
+        ):
+            self.identified[i] = True
+        return True
 
 
 class _SensorState:
@@ -489,6 +713,7 @@ class HealthMonitor:
         self._moved_s = [0.0, 0.0]
         self._still_since_s: float | None = None
         self._window: deque[tuple[float, float, float, float, float, float, float]] = deque()
+        self._window_creep: deque[tuple[float, float]] = deque()  # (t, kappa_a v alpha)
         self._still: deque[tuple[float, float]] = deque()
         self._link: deque[tuple[float, int]] = deque()
         self._link_missing = 0  # the sum of the window's lost counts
@@ -502,7 +727,11 @@ class HealthMonitor:
         self._prev_we: float | None = None
         # (t, a_y, v, w_g, w_e, ticks_l, ticks_r) of the last 3 windows, for the witness
         self._hist: deque[tuple[float, float, float, float, float, int, int, float]] = deque()
-        self.model = WheelYawModel(cfg.ratio_time_constant_s)
+        self.model = WheelYawModel(cfg.ratio_time_constant_s, wheel_yaw_prior(cfg, robot))
+        self._prev_wz: float | None = None  # the gyro's last live rate (for steadiness)
+        # (t, w_e, w_g) over the last CREEP_MEMORY_S: the yaw acceleration, for the creep term
+        self._alpha: deque[tuple[float, float, float]] = deque()
+        self._window_judged = False  # the windowed test ran on the last sample
         self._ambiguous_since: float | None = None  # wheels and gyro disagree, nobody to blame
         self._calm_since: float | None = None  # the disagreement has been gone since
         self._ambiguous_size = 0.0  # [rad/s] the disagreement that began the ambiguity
@@ -590,6 +819,7 @@ class HealthMonitor:
                 imu.fail(t, True, f"no IMU_OK for {t - self._imu_ok_s:.2f} s (dead)", out)
         gyro_live = h.imu_ok and not imu_frozen and wz is not None
         prev_we, self._prev_we = self._prev_we, (w_e if h.dt_s > 0.0 else None)
+        prev_wz, self._prev_wz = self._prev_wz, (wz if gyro_live else None)
         trusted_wz = wz if gyro_live and imu.state.usable else None
 
         # the encoders without the cross-check: a wheel that must turn but does not count
@@ -658,11 +888,25 @@ class HealthMonitor:
             # acceleration they differ by up to half the change over the frame (the wheels'
             # change: a gyro spike must not widen its own gate)
             lag = 0.5 * (w_e - prev_we) if prev_we is not None else 0.0
+            # the tyres creep while the yaw rate changes at speed: alpha is the smaller of the
+            # wheels' and the gyro's change over the last CREEP_MEMORY_S (a fault in one of
+            # them does not widen its own gate; the span keeps their noise out of it, and
+            # the creep outlasts the push a little)
+            self._alpha.append((t, w_e, wz))
+            while self._alpha and self._alpha[0][0] < t - CREEP_MEMORY_S - 1e-9:
+                self._alpha.popleft()
+            t_a, we_a, wz_a = self._alpha[0]
+            alpha = 0.0
+            if t - t_a > 0.5 * CREEP_MEMORY_S:
+                alpha = min(abs(w_e - we_a), abs(wz - wz_a)) / (t - t_a)
+            creep = cfg.creep_tolerance_s * abs(v_now) * alpha
+            lag2 = lag * lag + creep * creep
             var_r = (
                 var
-                + lag * lag
+                + lag2
                 + (self._kappa() * abs(wz)) ** 2
                 + (cfg.straight_tolerance_rad_m * v_now) ** 2
+                + self.model.variance(wz, v_now, prior=False)
             )
             res = w_e - self.model.predict(wz, v_now)
             nis = res * res / var_r
@@ -728,17 +972,38 @@ class HealthMonitor:
                 self._run.clear()
             if not spike and not any(skip) and not charged:
                 self._window.append((t, res, var + lag * lag, om_l, om_r, wz, v_now))
+                self._window_creep.append((t, creep))
                 while self._window and self._window[0][0] <= t - cfg.window_s + 1e-9:
                     self._window.popleft()
+                while self._window_creep and self._window_creep[0][0] <= t - cfg.window_s + 1e-9:
+                    self._window_creep.popleft()
                 charged |= self._window_test(t, out)
                 # learned only from a robot healthy for a while: a slow fault must not be
                 # learned as the robot's geometry between two alarms
                 quiet = not self.transitions or t - self.transitions[-1].t_s >= cfg.recovered_hold_s
                 healthy = quiet and all(x.state is Health.OK for x in self._s.values())
-                if not charged and healthy and self._ambiguous_since is None:
-                    self.model.learn(w_e, wz, v_now, h.dt_s)
+                judged = self._window_judged  # a sample the windowed test could not judge yet
+                if not charged and healthy and judged and self._ambiguous_since is None:
+                    steady = (
+                        prev_wz is not None
+                        and abs(wz - prev_wz) <= WheelYawModel.STEADY_ALPHA * h.dt_s
+                    )
+                    noise = (
+                        var
+                        + lag2
+                        + (cfg.scale_tolerance * wz) ** 2
+                        + (cfg.straight_tolerance_rad_m * v_now) ** 2
+                    )
+                    known = list(self.model.identified)
+                    self.model.learn(w_e, wz, v_now, h.dt_s, noise, steady)
+                    if self.model.identified != known:
+                        # the window's residuals were the prior's, its variance now the
+                        # posterior's: judge the identified model on residuals of its own
+                        self._window.clear()
+                        self._window_creep.clear()
         elif not gyro_live or not wheels_live:
             self._window.clear()
+            self._window_creep.clear()
 
         # passes: a sensor whose tests ran and passed this frame
         # (an excluded IMU only where a test could check it: the wheels live, or standing still)
@@ -773,7 +1038,8 @@ class HealthMonitor:
             stationary=bool(stationary),
             wheel_yaw_variance=var
             + (cfg.scale_tolerance * abs(w_e)) ** 2
-            + (cfg.straight_tolerance_rad_m * v_now) ** 2,
+            + (cfg.straight_tolerance_rad_m * v_now) ** 2
+            + self.model.variance(w_e, v_now),
             lost=self._lost(),
             hold_yaw=hold,
         )
@@ -944,6 +1210,7 @@ class HealthMonitor:
         cfg = self.cfg
         n = len(self._window)
         span = self._window[-1][0] - self._window[0][0] if n else 0.0
+        self._window_judged = not (n < 5 or span < 0.8 * cfg.window_s)
         if n < 5 or span < 0.8 * cfg.window_s:
             self.nis["window"] = 0.0
             self._window_mean = 0.0 if n < 5 else self._window_mean
@@ -954,6 +1221,16 @@ class HealthMonitor:
         speed = math.fsum(abs(w[6]) for w in self._window) / n
         var_mean = math.fsum(w[2] for w in self._window) / (n * n)
         var_mean += (self._kappa() * rate) ** 2 + (cfg.straight_tolerance_rad_m * speed) ** 2
+        # the creep of a turn-in has one sign all along: it does not average down either
+        creep = math.fsum(c for _, c in self._window_creep) / max(len(self._window_creep), 1)
+        var_mean += creep * creep
+        # the learned model's own error does not average down either: P_s mean(w_g)^2 +
+        # P_c mean(v)^2 of the terms identified
+        var_mean += self.model.variance(
+            math.fsum(w[5] for w in self._window) / n,
+            math.fsum(w[6] for w in self._window) / n,
+            prior=False,
+        )
         z2 = mean * mean / var_mean
         self.nis["window"] = z2
         self._window_mean = mean
@@ -972,6 +1249,7 @@ class HealthMonitor:
             return set()
         charged = self._charge(t, list(self._window), mean, span, out)
         self._window.clear()
+        self._window_creep.clear()
         return charged
 
     def _charge(

@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from jackson.host.ekf import Ekf
-from jackson.host.health import Health, HealthConfig, HealthInput, HealthMonitor, Verdict
+from jackson.host.health import (
+    Health,
+    HealthConfig,
+    HealthInput,
+    HealthMonitor,
+    Verdict,
+    wheel_yaw_prior,
+)
 from jackson.host.odometry import RobotGeometry
 
 DT = 0.05
@@ -402,3 +409,108 @@ def test_lost_revolutions_make_the_lidar_suspect_and_silence_excludes_it() -> No
     assert mon.state("lidar") is Health.EXCLUDED and "no scan" in mon.reason("lidar")
     t, used = scans(mon, rng, robot.t, 3.0)
     assert mon.state("lidar") is Health.RECOVERED and used[-1]
+
+
+# ----------------------------------------------------------------- the wheel yaw model
+
+
+def test_the_wheel_yaw_prior_follows_the_configured_uncertainties() -> None:
+    """sigma_c0 = sqrt(2 (sigma_r^2 + sigma_C^2)) / B and sigma_s0^2 = sigma_B^2 + sigma_g^2 +
+    (sigma_r^2 + sigma_C^2) / 2, the bounds n of them about s = 1, c = 0."""
+    cfg = HealthConfig()
+    prior = wheel_yaw_prior(cfg, ROBOT)
+    var_e = 0.005**2 + 0.009**2
+    assert prior.per_metre_sigma == pytest.approx(math.sqrt(2.0 * var_e) / 0.198)
+    assert prior.scale_sigma == pytest.approx(math.sqrt(0.05**2 + 0.015**2 + var_e / 2.0))
+    assert prior.per_metre_bounds == pytest.approx((-0.294, 0.294), abs=1e-3)
+    assert prior.scale_bounds == pytest.approx((0.789, 1.211), abs=1e-3)
+    wide = wheel_yaw_prior(replace(cfg, ticks_per_rev_uncertainty=0.02), ROBOT)
+    assert wide.per_metre_sigma > prior.per_metre_sigma
+
+
+def test_a_term_the_driving_does_not_excite_keeps_its_prior() -> None:
+    """Pivots say nothing of c, straights nothing of s: each stays at its prior."""
+    pivots, robot = monitor(), Robot(41)
+    for _ in range(10):
+        drive(pivots, robot, 3.0, 0.0, 0.6)
+        drive(pivots, robot, 3.0, 0.0, -0.6)
+    assert pivots.model.scale_learned and pivots.model.per_metre == 0.0
+    straights, robot = monitor(), Robot(42)
+    drive(straights, robot, 30.0, 0.2, 0.0)
+    assert straights.model.identified == [False, True] and straights.model.scale == 1.0
+    assert abs(straights.model.per_metre) < 0.02
+    assert pivots.transitions == [] and straights.transitions == []
+
+
+@pytest.mark.parametrize(("slip_s", "slip"), [(1.0, 1.08), (1.0, 1.05), (2.0, 1.04)])
+def test_a_bad_first_seed_neither_locks_the_model_nor_excludes_a_healthy_gyro(
+    slip_s: float, slip: float
+) -> None:
+    """The first straight samples come out of a turn with the right wheel spinning (0.1 rad/s
+    of yaw the robot does not make: c = 0.4 rad/m if taken for its geometry). A model that
+    takes them (gain 1/n) reads a yaw of c v on every straight after, which the monitor
+    takes for a gyro bias step; this robot's true c is 0."""
+    mon, robot = monitor(), Robot(40)
+    bounds = wheel_yaw_prior(HealthConfig(), ROBOT).per_metre_bounds
+    drive(mon, robot, 1.0, 0.0, 0.0)
+    drive(mon, robot, 0.5, 0.12, 0.6)  # turning in
+    drive(mon, robot, slip_s, 0.25, 0.0, slip=(1.0, slip))  # out of the turn, spinning
+    seen = []
+    for _ in range(6):
+        for v, w, span in ((0.25, 0.0, 4.0), (0.15, 0.4, 2.0)):
+            verdicts = drive(mon, robot, span, v, w)
+            assert all(x.use_gyro and x.lost is None for x in verdicts)
+            seen.append(mon.model.per_metre)
+    assert all(bounds[0] <= c <= bounds[1] for c in seen)
+    assert abs(seen[-1]) < 0.05 and mon.model.identified[1]  # learned from the healthy data
+    assert mon.transitions == [], mon.transitions[:2]
+
+
+def test_a_gyro_bias_step_is_still_found_once_the_model_is_learned() -> None:
+    """The model learned over straights, arcs and pivots at navigation speeds; a +0.05 rad/s
+    bias step on a straight at 0.25 m/s is the gyro's."""
+    mon, robot = monitor(), Robot(43)
+    for _ in range(3):
+        for v, w, span in ((0.25, 0.0, 5.0), (0.15, 0.4, 3.0), (0.0, 0.8, 2.0)):
+            drive(mon, robot, span, v, w)
+    assert mon.model.identified == [True, True] and mon.transitions == []
+    verdicts = drive(mon, robot, 6.0, 0.25, 0.0, gyro_extra=0.05)
+    first = next(i for i, v in enumerate(verdicts) if not v.use_gyro)
+    assert first * DT < 1.5
+    assert mon.state("imu") is Health.EXCLUDED
+    assert mon.state("encoder_left").usable and mon.state("encoder_right").usable
+    assert abs(mon.model.per_metre) < 0.02  # the step was not learned as geometry
+
+
+def _turn_in(mon: HealthMonitor, robot: Robot, creep: float) -> None:
+    """Healthy driving, then turning in from 0.08 m/s to 0.24 m/s and 0.72 rad/s in 0.4 s
+    (1.8 rad/s^2) with the outer wheel over-reading its floor speed by ``creep``."""
+    drive(mon, robot, 1.0, 0.0, 0.0)
+    for _ in range(3):
+        for v, w, span in ((0.25, 0.0, 4.0), (0.15, 0.4, 3.0), (0.0, 0.8, 2.0)):
+            drive(mon, robot, span, v, w)
+    drive(mon, robot, 4.0, 0.08, 0.0)
+    assert mon.transitions == []
+    for k in range(1, 9):
+        drive(mon, robot, DT, 0.08 + 0.02 * k, 0.09 * k, slip=(1.0, 1.0 + creep))
+    drive(mon, robot, 3.0, 0.24, 0.72)
+
+
+@pytest.mark.parametrize("seed", [50, 51, 52])
+def test_the_tyres_creep_while_turning_in_at_speed_is_no_fault(seed: int) -> None:
+    """Turning in at speed, the outer tyre creeps under the traction that turns the robot: its
+    wheel reads 20 % more than the floor moved for 0.4 s (0.2 rad/s of yaw the robot does
+    not make, as the twin's tyres do). The creep term (kappa_a v alpha) covers it."""
+    mon, robot = monitor(), Robot(seed)
+    _turn_in(mon, robot, 0.2)
+    assert mon.transitions == [], mon.transitions[:2]
+
+
+def test_a_wheel_spinning_while_turning_in_is_still_found() -> None:
+    """The same turn-in with the outer wheel spinning 50 % faster than the floor: beyond any
+    creep, the right wheel is excluded."""
+    mon, robot = monitor(), Robot(50)
+    _turn_in(mon, robot, 0.5)
+    assert mon.transitions[0].sensor == "encoder_right"
+    assert mon.transitions[0].new is Health.EXCLUDED
+    assert mon.state("imu").usable
