@@ -161,6 +161,35 @@ def _dwb_ms(grid: OccupancyGrid, obstacles: Obstacles) -> float:
     return 1e3 * statistics.fmean(times[3:])  # after the first plan's cycles
 
 
+def perfect_maze(n: int, k: int, wall: int, rng: np.random.Generator) -> npt.NDArray[np.int8]:
+    """An n x n occupancy array (100 walls, 0 free) holding a perfect maze of k x k cells,
+    carved depth first from the corner cell (0, 0) in the order ``rng`` draws, with walls
+    ``wall`` cells thick."""
+    maze = np.full((n, n), 100, np.int8)
+    m = n // k
+    seen = np.zeros((m, m), bool)
+    seen[0, 0] = True
+    maze[wall:k, wall:k] = 0
+    stack = [(0, 0)]
+    while stack:
+        r, c = stack[-1]
+        nxt = [
+            (r + dr, c + dc)
+            for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1))
+            if 0 <= r + dr < m and 0 <= c + dc < m and not seen[r + dr, c + dc]
+        ]
+        if not nxt:
+            stack.pop()
+            continue
+        nr, nc = nxt[int(rng.integers(len(nxt)))]
+        seen[nr, nc] = True
+        maze[
+            min(r, nr) * k + wall : max(r, nr) * k + k, min(c, nc) * k + wall : max(c, nc) * k + k
+        ] = 0
+        stack.append((nr, nc))
+    return maze
+
+
 def _plan_maps() -> dict[str, OccupancyGrid]:
     """The 20 m x 20 m maps at 0.05 m the global plans are timed on (fixed seeds).
 
@@ -190,29 +219,7 @@ def _plan_maps() -> dict[str, OccupancyGrid]:
     walled[3 * room - 1 : 3 * room + 1, 3 * room :] = 100
     walled[3 * room :, 3 * room - 1 : 3 * room + 1] = 100
 
-    maze = np.full((n, n), 100, np.int8)
-    k = round(1.0 / PLAN_RESOLUTION_M)
-    m = n // k
-    seen = np.zeros((m, m), bool)
-    seen[0, 0] = True
-    maze[wall:k, wall:k] = 0
-    stack = [(0, 0)]
-    while stack:
-        r, c = stack[-1]
-        nxt = [
-            (r + dr, c + dc)
-            for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1))
-            if 0 <= r + dr < m and 0 <= c + dc < m and not seen[r + dr, c + dc]
-        ]
-        if not nxt:
-            stack.pop()
-            continue
-        nr, nc = nxt[int(rng.integers(len(nxt)))]
-        seen[nr, nc] = True
-        maze[
-            min(r, nr) * k + wall : max(r, nr) * k + k, min(c, nc) * k + wall : max(c, nc) * k + k
-        ] = 0
-        stack.append((nr, nc))
+    maze = perfect_maze(n, round(1.0 / PLAN_RESOLUTION_M), wall, rng)
     return {
         name: OccupancyGrid(data, PLAN_RESOLUTION_M)
         for name, data in (("rooms", rooms), ("maze", maze), ("rooms_goal_walled_in", walled))

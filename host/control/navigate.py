@@ -190,9 +190,11 @@ class NavigateMission:
             nav_config = dataclasses.replace(nav_config, global_track_unknown_space=False)
         self.map_to_odom = Pose2D()  # the localiser's correction (identity until it has one)
         self._requested: Pose2D | None = None  # a goal from another thread (ROS /goal_pose)
-        if static_map is not None:  # a start or goal the map rules out: before anything moves
-            check_route(static_map, config.start, config.goals, nav_config)
         self.navigator = Navigator(nav_config, nav_map, limits)
+        if static_map is not None:  # a start or goal the map rules out: before anything moves
+            check_route(
+                static_map, config.start, config.goals, nav_config, self.navigator.static_costmap
+            )
         self.navigator.set_goal(config.goals[0])
         self.last: NavCommand | None = None
 

@@ -759,7 +759,11 @@ class Navigator:
 
 
 def check_route(
-    grid: OccupancyGrid, start: Pose2D, goals: tuple[Pose2D, ...], config: NavigatorConfig
+    grid: OccupancyGrid,
+    start: Pose2D,
+    goals: tuple[Pose2D, ...],
+    config: NavigatorConfig,
+    costmap: Costmap | None = None,
 ) -> None:
     """Refuse a start or goal the map rules out, before anything moves.
 
@@ -777,6 +781,9 @@ def check_route(
         The goals, in order.
     config : NavigatorConfig
         The costmap and planner settings the navigation will use.
+    costmap : Costmap or None
+        The map's costmap under those settings, if one is at hand (a navigator's
+        ``static_costmap``); else it is built here.
 
     Raises
     ------
@@ -786,7 +793,8 @@ def check_route(
     global_cfg = dataclasses.replace(
         config.costmap, track_unknown_space=config.global_track_unknown_space
     )
-    costmap = Costmap.from_map(grid, global_cfg, collision_checks=False)
+    if costmap is None:
+        costmap = Costmap.from_map(grid, global_cfg, collision_checks=False)
     passable = cell_costs(costmap, config.planner)[1]
     labels, _ = ndimage.label(passable, structure=np.ones((3, 3), bool))
     x0, y0 = grid.origin_x_m, grid.origin_y_m

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from jackson.calibration.bench_stage3 import perfect_maze
 from jackson.calibration.metrics import Cylinder, d_min
 from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.nav import astar as astar_module
@@ -160,29 +161,8 @@ def grid_costmap(values: np.ndarray) -> Costmap:
 
 def maze_map(size_m: float, cell_m: float, seed: int) -> OccupancyGrid:
     """A perfect maze (depth-first carved, seeded) of ``cell_m`` cells with 0.1 m walls."""
-    g = OccupancyGrid.empty(size_m, size_m, RES, origin_x_m=0.0, origin_y_m=0.0, fill=100)
-    k = round(cell_m / RES)
-    m = g.height // k
-    rng = np.random.default_rng(seed)
-    seen = np.zeros((m, m), bool)
-    seen[0, 0] = True
-    g.data[2:k, 2:k] = 0
-    stack = [(0, 0)]
-    while stack:
-        r, c = stack[-1]
-        nxt = [
-            (r + dr, c + dc)
-            for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1))
-            if 0 <= r + dr < m and 0 <= c + dc < m and not seen[r + dr, c + dc]
-        ]
-        if not nxt:
-            stack.pop()
-            continue
-        nr, nc = nxt[rng.integers(len(nxt))]
-        seen[nr, nc] = True
-        g.data[min(r, nr) * k + 2 : max(r, nr) * k + k, min(c, nc) * k + 2 : max(c, nc) * k + k] = 0
-        stack.append((nr, nc))
-    return g
+    n, k = round(size_m / RES), round(cell_m / RES)
+    return OccupancyGrid(perfect_maze(n, k, 2, np.random.default_rng(seed)), RES)
 
 
 def test_astar_finds_the_cheapest_path_around_an_obstacle() -> None:
