@@ -316,9 +316,13 @@ def _measured(
 
 
 def _load(folders: Sequence[Path]) -> list[proc.RunData]:
+    from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    return [runs.load_run(f) for f in folders]
+    data = [runs.load_run(f) for f in folders]
+    for run in data:
+        proc.check_frames(run)
+    return data
 
 
 def _truth_references(
@@ -715,7 +719,10 @@ def cmd_step(args: argparse.Namespace) -> int:
     else:
         folders = list(args.runs)
     ident = proc.identify_steps(
-        _load(folders), cfg.robot, breakaway=cfg.deadband if args.hold_breakaway else None
+        _load(folders),
+        cfg.robot,
+        breakaway=cfg.deadband if args.hold_breakaway else None,
+        expected=cfg.deadband,
     )
     print("Motor model per wheel and direction: omega = K (|d| - d_0) (1 - exp(-(t - t_d) / tau))")
     for m in ident.models:

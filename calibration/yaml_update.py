@@ -48,7 +48,7 @@ from ruamel.yaml.scalarbool import ScalarBoolean
 from ruamel.yaml.tokens import CommentToken
 
 from jackson.common.fields import read_yaml
-from jackson.host.config import ConfigError, config_diff, load_config
+from jackson.host.config import ConfigError, load_config
 
 Value = float | int | Sequence[float]
 Updates = Mapping[str, Value]
@@ -76,7 +76,8 @@ class UpdateResult:
         The copy of the file before the change; None when nothing changed (and nothing was
         written).
     changes : list of str
-        One line per changed field, ``robot.ticks_per_rev_left: 621 -> 617.2``.
+        One line per changed field, named by its YAML path as the file spells it
+        (``robot.ticks_per_rev.left: 621 -> 617.2``).
     diff : str
         Unified diff of the file's text ("" when nothing changed).
     """
@@ -466,7 +467,7 @@ def update_config(
     p = Path(path)
     where = f"config {p.name}"
     try:
-        old_cfg = load_config(p)
+        load_config(p)  # a file the host cannot read is not edited
         text = p.read_text(encoding="utf-8")
     except ConfigError as exc:
         raise YamlUpdateError(str(exc)) from exc
@@ -490,15 +491,21 @@ def update_config(
             f.write(new_text)
         shutil.copymode(p, tmp)
         try:
-            new_cfg = load_config(tmp)  # the host's own reader and checks
+            load_config(tmp)  # the host's own reader and checks
             _, data = read_yaml(Path(tmp), "config")
         except ConfigError as exc:
             detail = str(exc).split(": ", 1)[-1]
             raise YamlUpdateError(
                 f"{where}: the calibrated values would be invalid: {detail}"
             ) from exc
+        _, old_data = read_yaml(p, "config")
+        changes: list[str] = []
         for dotted, value in updates.items():
             got = _read_back(data, dotted.split("."))
+            was = _read_back(old_data, dotted.split("."))
+            if was is None or not _same(was, value):
+                before = "(not set)" if was is None else _shown(was)
+                changes.append(f"{dotted}: {before} -> {format_value(value)}")
             if not _same(got, value):
                 raise YamlUpdateError(
                     f"{where}: {dotted} would read back as {got!r}, not {format_value(value)}"
@@ -512,4 +519,14 @@ def update_config(
     finally:
         if tmp is not None:
             Path(tmp).unlink(missing_ok=True)
-    return UpdateResult(p, backup, config_diff(old_cfg, new_cfg), diff)
+    return UpdateResult(p, backup, changes, diff)
+
+
+def _shown(value: Any) -> str:
+    """A value read from the YAML as the change summary shows it."""
+    if _is_number(value) or isinstance(value, list):
+        try:
+            return format_value(value)
+        except TypeError:
+            return str(value)
+    return str(value)

@@ -628,6 +628,12 @@ class HostCore:
             duties = (d_l, d_r)
         return v, w, duties
 
+    def link_up(self) -> None:
+        """The port was (re)opened: frames sent while nobody read it are not lost on the link,
+        so SEQ gaps count again from this session's first frame."""
+        self._last_seq = None
+        self._lost = 0
+
     def brake(self) -> None:
         """Brake now (link lost, shutdown)."""
         self.output.brake()

@@ -213,6 +213,7 @@ class Daemon:
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         self.events: list[str] = []  # what the operator was told, in order
+        self._hello_retries = 0  # HELLOs re-sent before the first INFO
         self._repairer: threading.Thread | None = None
         self.bag: Any = None
         self.bridge: Any = None
@@ -350,6 +351,20 @@ class Daemon:
         where = f"device on {getattr(self.transport, 'port_name', 'the link')}"
         raise FrameVersionError(getattr(dec, "last_unknown_version", None), PROTOCOL_VERSION, where)
 
+    def _unanswered(self, detail: str) -> None:
+        """HELLO got no INFO yet: one line at once, then one per retry that doubles the count
+        (1, 2, 4, 8, ... retries), so the operator sees the retries without a flood."""
+        self._hello_retries += 1
+        n = self._hello_retries
+        port = getattr(self.transport, "port_name", "the link")
+        if n == 1:
+            self.tell(
+                f"no answer on {port}: is the firmware flashed? (make flash); is it the MCU's "
+                f"port? HELLO is sent again every {self.transport.silence_s:g} s ({detail})"
+            )
+        elif n & (n - 1) == 0:
+            self.tell(f"still no answer on {port}: HELLO sent {n + 1} times ({detail})")
+
     def _motor_path(self, was_up: bool) -> bool:
         """Follow the PCA9685 path's health; while its bus is down the heartbeats say SHUTDOWN,
         so the MCU drops the interlock line and the bridge brakes without the bus."""
@@ -401,6 +416,7 @@ class Daemon:
                         core.brake()
                         self.tell(f"serial link down ({item.detail}): braked, reconnecting")
                     elif item.kind == "up":
+                        core.link_up()
                         self.commands.forget()
                         if self.link_downs:
                             self.tell("serial link up again")
@@ -415,6 +431,8 @@ class Daemon:
                         self.tell(self.stalled)
                         core.abort(self.stalled)
                         break
+                    elif item.kind == "silent" and core.info is None:
+                        self._unanswered(item.detail)
                     elif self.recorder is not None:
                         self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     continue

@@ -12,7 +12,18 @@ byte arrived (protocol/spec.md §5.2). When the port disappears (USB unplugged, 
 closed) it reports the link down and retries forever with backoff from 0.1 s to 2 s; on success
 it sends HELLO again. When the port stays open but the device falls silent (an MCU reset behind
 a UART bridge ends the session), it re-sends HELLO every ``silence_s``. The daemon never
-restarts. Writes come from the daemon's thread and never block: a write to a link that is down
+restarts.
+
+**A session starts at the answer to its HELLO.** A device that streamed while nobody read its
+port (a real USB CDC device's transmit buffer; the twin's 8 KiB queue behind its pty) still
+holds frames of that time when a host opens the port, and they arrive after the host has
+discarded its own input buffer. Until the INFO that answers this connection's HELLO, every
+decoded frame is dropped and counted (:attr:`SerialTransport.stale_frames`), never handed on:
+they belong to nobody's session, so they are neither decoded as measurements nor counted as
+lost. Without an INFO, HELLO is sent again every ``silence_s`` and a ``silent`` event says so
+(the daemon turns the first into ``no answer on PORT: ...``).
+
+Writes come from the daemon's thread and never block: a write to a link that is down
 is dropped and counted.
 
 **Lockstep stall.** A twin in lockstep sends telemetry frame k+1 only after the host's HEARTBEAT
@@ -45,7 +56,15 @@ from typing import Literal
 import serial
 
 from jackson.common.spin import DEFAULT_SPIN_S, spin_poll
-from jackson.protocol import Frame, FrameDecoder, Message, Telemetry, encode_frame, hello
+from jackson.protocol import (
+    Frame,
+    FrameDecoder,
+    Info,
+    Message,
+    Telemetry,
+    encode_frame,
+    hello,
+)
 
 FIRST_BACKOFF_S = 0.1
 MAX_BACKOFF_S = 2.0
@@ -132,6 +151,11 @@ class SerialTransport:
         self.stalled = False  # the "stalled" event was sent
         self._telemetry_rx_s = 0.0  # the last telemetry frame decoded (monotonic s)
         self._stall_armed = False  # the limit passed: one more read before the stall counts
+        # this connection's session (module notes): frames before the INFO are stale
+        self.in_session = False
+        self.stale_frames = 0  # frames dropped before the INFO (an earlier time's, buffered)
+        self._hello_s = 0.0  # the last HELLO (monotonic s)
+        self._session_wait_s = 0.0  # since when this connection waits for its INFO
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -186,14 +210,18 @@ class SerialTransport:
         with self._lock:
             self._port = port
         self.decoder = FrameDecoder()  # a new session starts a new stream
+        self.decoder.seq_from_type = Info.TYPE  # frames before this session's INFO: not lost
         self.link_up = True
         self._last_rx_s = time.monotonic()
+        self.in_session = False
+        self._session_wait_s = self._last_rx_s
         self.items.put(LinkEvent("up", time.monotonic_ns()))
         self.send_hello()
 
     def send_hello(self) -> None:
         """HELLO: starts (or restarts) the device's session."""
         self.hellos += 1
+        self._hello_s = time.monotonic()
         self.send(hello())
 
     def _drop(self, detail: str) -> None:
@@ -248,6 +276,8 @@ class SerialTransport:
         now = time.monotonic_ns()
         dec = self.decoder
         frames = dec.feed(data, now // 1000) if data else dec.poll(now // 1000)
+        if not self.in_session and frames:
+            frames = self._session_frames(frames)
         for frame in frames:
             self.items.put((now, frame))
             if frame.type == Telemetry.TYPE:
@@ -256,6 +286,22 @@ class SerialTransport:
             self._last_rx_s = now / 1e9
             return
         self._check_stall(now)
+        if not self.in_session:
+            if now / 1e9 - self._hello_s >= self.silence_s:
+                # HELLO unanswered (a mute device, or one still busy with another session)
+                self.silences += 1
+                self._last_rx_s = now / 1e9
+                waited = now / 1e9 - self._session_wait_s
+                stale = (
+                    f"; {self.stale_frames} frames from before it dropped"
+                    if (self.stale_frames)
+                    else ""
+                )
+                self.items.put(
+                    LinkEvent("silent", now, f"no answer to HELLO for {waited:.1f} s{stale}")
+                )
+                self.send_hello()
+            return
         if not self._handed_frame and now / 1e9 - max(self._last_rx_s, self._back_s) >= (
             self.silence_s
         ):
@@ -264,6 +310,15 @@ class SerialTransport:
             self._last_rx_s = now / 1e9
             self.items.put(LinkEvent("silent", now, f"no frame for {self.silence_s:.2f} s"))
             self.send_hello()
+
+    def _session_frames(self, frames: list[Frame]) -> list[Frame]:
+        """The frames from this connection's INFO on; the ones before it are counted stale."""
+        for i, frame in enumerate(frames):
+            if frame.type == Info.TYPE:
+                self.in_session = True
+                return frames[i:]
+            self.stale_frames += 1
+        return []
 
     def _check_stall(self, now_ns: int) -> None:
         """Report a lockstep stall (the module's notes), once: the caller has waited

@@ -96,6 +96,10 @@ class FrameDecoder:
         self._last_seq: int | None = None
         # the VER byte of the newest candidate rejected for its version (to name it to a user)
         self.last_unknown_version: int | None = None
+        # SEQ continuity is tracked from the first frame of this TYPE on (None: from the first
+        # frame): a host's session starts at the INFO answering its HELLO, and frames a device
+        # buffered before it are not losses (protocol/spec.md section 6.3)
+        self.seq_from_type: int | None = None
 
     def copy(self) -> FrameDecoder:
         """An independent decoder in the same state (to try input and roll back)."""
@@ -105,6 +109,7 @@ class FrameDecoder:
         twin._last_us = self._last_us
         twin._last_seq = self._last_seq
         twin.last_unknown_version = self.last_unknown_version
+        twin.seq_from_type = self.seq_from_type
         return twin
 
     @property
@@ -209,10 +214,15 @@ class FrameDecoder:
             ftype = buf[pos + 3]
             seq = buf[pos + 4]
             last = self._last_seq
-            if last is not None and seq != (last + 1) & 0xFF:
-                c.seq_gaps += 1
-                c.seq_lost += (seq - last - 1) & 0xFF
-            self._last_seq = seq
+            if self.seq_from_type is not None:
+                if ftype == self.seq_from_type:  # SEQ is tracked from here on
+                    self.seq_from_type = None
+                    self._last_seq = seq
+            else:
+                if last is not None and seq != (last + 1) & 0xFF:
+                    c.seq_gaps += 1
+                    c.seq_lost += (seq - last - 1) & 0xFF
+                self._last_seq = seq
             if ftype not in MESSAGES:
                 c.unknown_type += 1
                 if self.deliver_unknown:

@@ -38,6 +38,7 @@ from jackson.calibration.procedures.base import (
     FloatArray,
     IntArray,
     RunData,
+    check_frames,
     wheel_angle_rad,
     wheel_travel_m,
 )
@@ -146,6 +147,7 @@ __all__ = [
     "calibrate_encoders",
     "calibrate_track",
     "characterise",
+    "check_frames",
     "combine_brackets",
     "datasheet_noise",
     "dead_reckon",

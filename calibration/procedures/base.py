@@ -25,8 +25,36 @@ MOTION_MARGIN_FRAMES = 5  # frames before the first count change that may alread
 MIN_TRAVEL_TICKS = 50  # a wheel that moved less did not drive (about 1.7 cm at 621 TPR)
 
 
+MAX_GAP_PERIODS = 3.0  # a run with a longer gap between frames lost frames on the link
+MIN_GAP_S = 0.1  # [s] gaps shorter than this are jitter at any telemetry rate
+
+
 class CalibrationError(ValueError):
     """Recorded data that cannot give the result (one line for the user, naming the run)."""
+
+
+def check_frames(run: RunData) -> None:
+    """Refuse a run whose telemetry has a gap: every procedure fits what the frames show, and
+    a link that lost seconds of them (a busy machine, frames of an earlier session) gives a
+    wrong fit, not an error, unless it is caught here.
+
+    Raises
+    ------
+    CalibrationError
+        A gap longer than :data:`MAX_GAP_PERIODS` telemetry periods and :data:`MIN_GAP_S`.
+    """
+    if run.frames < 3:
+        return
+    dt = np.diff(run.t_s)
+    period = float(np.median(dt))
+    i = int(np.argmax(dt))
+    gap = float(dt[i])
+    if gap > max(MAX_GAP_PERIODS * period, MIN_GAP_S):
+        raise CalibrationError(
+            f"run {run.name}: {gap:.2f} s without a frame at {run.t_s[i] - run.t_s[0]:.2f} s "
+            f"into it ({gap / period - 1:.0f} frames missing): the link lost them; nothing was "
+            "written, record it again (a busy machine? another program on the port?)"
+        )
 
 
 @dataclass(frozen=True)

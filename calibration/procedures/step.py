@@ -61,6 +61,10 @@ MIN_STEP_FRAMES = 10  # a step shorter than this cannot show a lag and a steady 
 MIN_STEP_TICKS = 20  # a wheel that turned less did not run up (12 degrees at 621 TPR)
 MAX_DEAD_TIME_S = 0.5  # [s] a longer dead time is a wheel that did not start, not a lag
 MAX_TIME_CONSTANT_S = 5.0  # [s]
+MAX_GAP_PERIODS = 3.0  # a step with a longer gap between frames lost frames on the link
+MAX_RMS_TICKS = 3.0  # a fit whose angle residual exceeds this many ticks (RMS) is not a motor:
+# a clean fit on the twin leaves about half a tick (0.0056 rad at 621 TPR, encoder quantisation
+# 0.29 tick RMS); fits on streams with seconds of frames missing left 40-70 times that
 
 
 # ------------------------------------------------------------------------- the recording
@@ -263,7 +267,9 @@ class WheelStep:
         return float((a[-1] - a[k]) / (t[-1] - t[k]))
 
 
-def find_steps(run: RunData, geometry: RobotGeometry) -> list[WheelStep]:
+def find_steps(
+    run: RunData, geometry: RobotGeometry, breakaway: DeadbandConfig | None = None
+) -> list[WheelStep]:
     """Every duty step from rest of either wheel in a raw duty run.
 
     A wheel's step starts at a frame whose duty (written after it, commands.csv) is nonzero
@@ -276,6 +282,9 @@ def find_steps(run: RunData, geometry: RobotGeometry) -> list[WheelStep]:
         A run with raw duties.
     geometry : RobotGeometry
         Encoder resolution per wheel.
+    breakaway : DeadbandConfig or None
+        The host's breakaway duties, to tell a wheel that did not move at a duty well above
+        its breakaway (link, motor or wiring) from one below it.
 
     Returns
     -------
@@ -285,9 +294,11 @@ def find_steps(run: RunData, geometry: RobotGeometry) -> list[WheelStep]:
     Raises
     ------
     CalibrationError
-        A step whose wheel did not move (a duty below its breakaway), or that ended too soon.
+        A step whose wheel did not move, that ended too soon, or with frames missing (a gap
+        longer than :data:`MAX_GAP_PERIODS` telemetry periods).
     """
     out: list[tuple[int, WheelStep]] = []
+    period = float(np.median(np.diff(run.t_s))) if run.frames > 1 else math.inf
     for side in SIDES:
         duty = np.nan_to_num(run.duty_left if side == "left" else run.duty_right)
         counts = run.enc_left if side == "left" else run.enc_right
@@ -303,9 +314,23 @@ def find_steps(run: RunData, geometry: RobotGeometry) -> list[WheelStep]:
             label = f"run {run.name}: the {side} wheel's {direction} step at duty {abs(d):g}"
             if b - a < MIN_STEP_FRAMES:
                 raise CalibrationError(f"{label} lasts only {b - a} frames")
+            gap = float(np.max(np.diff(run.t_s[a : b + 1])))
+            if gap > MAX_GAP_PERIODS * period:
+                raise CalibrationError(
+                    f"{label} has {gap:.2f} s without a frame ({gap / period - 1:.0f} frames "
+                    "missing): the link lost them; run it again (a busy machine? another "
+                    "program on the port?)"
+                )
             sign = 1.0 if d > 0.0 else -1.0
             ticks = sign * (counts[a : b + 1] - counts[a])
             if ticks[-1] < MIN_STEP_TICKS:
+                d0 = breakaway.breakaway(side, direction) if breakaway is not None else None
+                if d0 is not None and abs(d) >= 1.5 * d0:
+                    raise CalibrationError(
+                        f"{label} turned it {int(ticks[-1])} ticks, well above its breakaway "
+                        f"duty {d0:g}: the wheel did not move (check the motor, its wiring and "
+                        "the driver's power) or its encoder does not count"
+                    )
                 raise CalibrationError(
                     f"{label} turned it {int(ticks[-1])} ticks: below its breakaway duty?"
                 )
@@ -699,6 +724,7 @@ def identify_steps(
     *,
     breakaway: DeadbandConfig | None = None,
     dead_time: bool = True,
+    expected: DeadbandConfig | None = None,
 ) -> StepIdentification:
     """Each wheel's first-order motor model per direction from duty-step runs (the motor model
     the paper did not identify).
@@ -718,6 +744,9 @@ def identify_steps(
         direction, which needs two or more duty levels.
     dead_time : bool
         Fit a dead time.
+    expected : DeadbandConfig or None
+        The breakaway duties the host believes, for messages only: a wheel that did not move
+        at a duty well above its breakaway is named as such (link, motor or wiring).
 
     Returns
     -------
@@ -727,13 +756,14 @@ def identify_steps(
     Raises
     ------
     CalibrationError
-        A wheel or direction without a step, or a step the wheel did not follow.
+        A wheel or direction without a step, a step the wheel did not follow or with frames
+        missing, or a fit whose residual exceeds :data:`MAX_RMS_TICKS` ticks RMS.
     """
     steps: dict[tuple[Side, Direction], list[WheelStep]] = {
         (side, direction): [] for side in SIDES for direction in DIRECTIONS
     }
     for run in runs:
-        for s in find_steps(run, geometry):
+        for s in find_steps(run, geometry, breakaway if breakaway is not None else expected):
             steps[(s.side, s.direction)].append(s)
     names = ", ".join(r.name for r in runs) or "(none)"
     models: dict[str, WheelModel] = {}
@@ -741,5 +771,15 @@ def identify_steps(
         if not found:
             raise CalibrationError(f"runs {names}: no {direction} step of the {side} wheel")
         d0 = breakaway.breakaway(side, direction) if breakaway is not None else None
-        models[f"{side}_{direction}"] = fit_wheel(found, breakaway_duty=d0, dead_time=dead_time)
+        model = fit_wheel(found, breakaway_duty=d0, dead_time=dead_time)
+        tpr = geometry.ticks_per_rev_left if side == "left" else geometry.ticks_per_rev_right
+        tick_rad = 2.0 * math.pi / tpr
+        if model.rms_residual_rad > MAX_RMS_TICKS * tick_rad:
+            raise CalibrationError(
+                f"runs {names}: the {side} wheel's {direction} steps do not follow a first-order "
+                f"motor (residual {model.rms_residual_rad / tick_rad:.1f} ticks RMS, at most "
+                f"{MAX_RMS_TICKS:g}): the wheel slipped or stalled, or frames were lost; "
+                "nothing was written, run it again"
+            )
+        models[f"{side}_{direction}"] = model
     return StepIdentification(**models)

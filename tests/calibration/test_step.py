@@ -332,3 +332,41 @@ def test_identified_gains_remove_the_cw_ccw_asymmetry(identified: Identified) ->
     assert ccw0 - cw0 > 0.2  # the weaker right wheel: wide CCW loops, tight CW ones
     assert abs(ccw1 - cw1) < 0.1 * abs(ccw0 - cw0)
     assert ccw1 == pytest.approx(1.0, abs=0.05) and cw1 == pytest.approx(1.0, abs=0.05)
+
+
+def test_a_stuck_wheel_well_above_its_breakaway_is_named_as_such() -> None:
+    run = model_run()
+    stuck = dataclasses.replace(run, enc_right=np.zeros_like(run.enc_right))
+    with pytest.raises(CalibrationError, match=r"well above its breakaway duty 0\.1: the wheel"):
+        identify_steps([stuck], GEOMETRY, expected=DeadbandConfig())
+
+
+def test_a_step_with_frames_missing_is_refused() -> None:
+    """Seconds without a frame inside a step (a link that lost them) are not fitted."""
+    run = model_run()
+    first = int(np.flatnonzero(run.duty_left != 0.0)[0])
+    keep = np.ones(run.frames, bool)
+    keep[first + 20 : first + 120] = False  # 0.5 s of the first step gone
+    cut = RunData(
+        name="cut",
+        t_s=run.t_s[keep],
+        enc_left=run.enc_left[keep],
+        enc_right=run.enc_right[keep],
+        gyro_rad_s=run.gyro_rad_s[keep],
+        accel_m_s2=run.accel_m_s2[keep],
+        duty_left=run.duty_left[keep],
+        duty_right=run.duty_right[keep],
+    )
+    with pytest.raises(CalibrationError, match=r"0\.5\d s without a frame \(100 frames missing\)"):
+        identify_steps([cut], GEOMETRY)
+
+
+def test_a_fit_that_does_not_follow_a_motor_is_refused() -> None:
+    """Counts that lag the model by a jump mid-step (a wheel that slipped, then caught up)
+    leave a residual of many ticks: an error, never a model."""
+    run = model_run()
+    first = int(np.flatnonzero(run.duty_left != 0.0)[0])
+    enc = run.enc_left.copy()
+    enc[first + 10 : first + 100] = enc[first + 10]  # stalled for 0.45 s, then the counts jump
+    with pytest.raises(CalibrationError, match=r"left wheel's forward steps do not follow a first"):
+        identify_steps([dataclasses.replace(run, enc_left=enc)], GEOMETRY)

@@ -260,7 +260,10 @@ def test_the_written_file_reads_back_through_the_host_config(tmp_path: Path) -> 
     assert cfg.deadband.gain("right", "reverse") == 0.9987
     _, data = read_yaml(path, "config")
     assert data["deadband"]["gain"]["right"] == {"forward": 1.0, "reverse": 0.9987}
-    assert "deadband.gain_reverse_right: null -> 0.9987" in result.changes
+    # each change is named by the YAML path the file spells (the path the caller gave)
+    assert "deadband.gain.right.reverse: 1.0 -> 0.9987" in result.changes
+    assert "robot.ticks_per_rev.left: 621 -> 617.2" in result.changes
+    assert {line.split(": ")[0] for line in result.changes} <= set(CALIBRATED)
 
 
 # ------------------------------------------------------------------------- bad input

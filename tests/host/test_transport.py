@@ -13,7 +13,10 @@ from collections.abc import Iterator
 import pytest
 
 from jackson.host.transport import LinkError, LinkEvent, SerialTransport
-from jackson.protocol import FrameDecoder, Hello, Telemetry, decode_message, encode_frame
+from jackson.protocol import FrameDecoder, Hello, Info, Telemetry, decode_message, encode_frame
+
+INFO = encode_frame(Info(), 200)
+"""The device's answer to HELLO: the session starts with it."""
 
 
 @pytest.fixture
@@ -63,9 +66,45 @@ def test_bytes_buffered_before_the_session_are_discarded(pty: tuple[int, str]) -
     t = SerialTransport(path)
     t.open()
     try:
-        os.write(master, encode_frame(Telemetry(t_us=2), 1))
+        os.write(master, INFO + encode_frame(Telemetry(t_us=2), 1))
+        _, frame = next_frame(t)  # type: ignore[misc]
+        assert isinstance(decode_message(frame), Info)
         _, frame = next_frame(t)  # type: ignore[misc]
         assert decode_message(frame) == Telemetry(t_us=2)
+        assert t.stale_frames == 0  # discarded with the input buffer, never decoded
+    finally:
+        t.close()
+
+
+@pytest.mark.parametrize("reader_thread", [False, True], ids=["inline", "reader-thread"])
+def test_frames_a_device_queued_before_the_hello_are_dropped_not_handed_on(
+    pty: tuple[int, str], reader_thread: bool
+) -> None:
+    """A device that streamed into an unread port still holds frames of that time (a USB CDC
+    transmit buffer) and sends them after the host opened the port: they are counted stale,
+    never handed on, and HELLO goes again until the INFO that starts the session."""
+    master, path = pty
+    t = SerialTransport(path)
+    t.silence_s = 0.2
+    t.open(reader_thread=reader_thread)
+    try:
+        assert [type(m) for m in device_reads(master, 1)] == [Hello]
+        stale = b"".join(encode_frame(Telemetry(t_us=k), k) for k in range(50))
+        os.write(master, stale)
+        got = _events_until(t, "silent")
+        assert not [g for g in got if isinstance(g, tuple)]  # nothing of it reached the caller
+        silent = got[-1]
+        assert isinstance(silent, LinkEvent)
+        assert re.fullmatch(
+            r"no answer to HELLO for \d+\.\d s; 50 frames from before it dropped", silent.detail
+        )
+        assert t.stale_frames == 50 and not t.in_session
+        assert any(isinstance(m, Hello) for m in device_reads(master, 1))  # asked again
+        os.write(master, INFO + encode_frame(Telemetry(t_us=99), 201))
+        handed = [g for g in _events_until(t, "never", timeout_s=1.0) if isinstance(g, tuple)]
+        assert [type(decode_message(f)) for _, f in handed] == [Info, Telemetry]
+        assert t.in_session and t.stale_frames == 50
+        assert t.decoder.counters.seq_lost == 0  # nobody was there to read them: not lost
     finally:
         t.close()
 
@@ -120,6 +159,8 @@ def test_without_the_reader_thread_get_reads_the_port_itself(pty: tuple[int, str
         up = t.get(1.0)
         assert isinstance(up, LinkEvent) and up.kind == "up"
         assert t.get(0.01) is None  # nothing sent yet: the wait ends empty
+        os.write(master, INFO)
+        assert isinstance(decode_message(t.get(10.0)[1]), Info)  # type: ignore[index]
         os.write(master, encode_frame(Telemetry(t_us=7), 0) + encode_frame(Telemetry(t_us=8), 1))
         got = [t.get(10.0), t.get(10.0)]
         assert [decode_message(item[1]) for item in got] == [  # type: ignore[index]
@@ -139,7 +180,7 @@ def test_without_the_reader_thread_silence_and_partial_frames_are_handled_in_get
     t.silence_s = 0.2
     t.open(reader_thread=False)
     try:
-        os.write(master, encode_frame(Telemetry(t_us=3), 0)[:20])  # cut short: nothing follows
+        os.write(master, INFO + encode_frame(Telemetry(t_us=3), 0)[:20])  # cut: nothing follows
         kinds: list[str] = []
         deadline = time.monotonic() + 10.0
         while ("silent" not in kinds or t.decoder.counters.timeouts == 0) and (
@@ -169,12 +210,10 @@ def test_time_the_caller_spends_on_a_frame_is_not_silence(
     t.open(reader_thread=reader_thread)
     try:
         assert [type(m) for m in device_reads(master, 1)] == [Hello]
+        os.write(master, INFO)
         for k in range(3):
             os.write(master, encode_frame(Telemetry(t_us=k), k))  # frame k, then the turn
-            item = t.get(10.0)  # is the host's
-            while isinstance(item, LinkEvent):
-                item = t.get(10.0)
-            assert item is not None
+            _first_telemetry(t)  # is the host's
             busy_until = time.monotonic() + 0.5  # the host's work on frame k: 2.5 silence_s
             while time.monotonic() < busy_until:
                 sum(range(1000))
@@ -189,6 +228,16 @@ def test_time_the_caller_spends_on_a_frame_is_not_silence(
         assert t.silences == 1 and t.hellos == 2
     finally:
         t.close()
+
+
+def _first_telemetry(t: SerialTransport) -> tuple[int, object]:
+    """get() until a telemetry frame is handed over (the INFO and link events before it)."""
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline:
+        item = t.get(0.05)
+        if isinstance(item, tuple) and item[1].type == Telemetry.TYPE:
+            return item
+    raise AssertionError("no telemetry frame")
 
 
 def _events_until(t: SerialTransport, kind: str, timeout_s: float = 10.0) -> list[object]:
@@ -216,11 +265,8 @@ def test_a_lockstep_device_that_stops_is_a_stall_reported_once(
     t.silence_s = 0.1  # HELLOs and INFO-less silence do not reset the stall's clock
     t.open(reader_thread=reader_thread)
     try:
-        os.write(master, encode_frame(Telemetry(t_us=1), 0))
-        item = t.get(10.0)
-        while isinstance(item, LinkEvent):
-            item = t.get(10.0)
-        assert item is not None
+        os.write(master, INFO + encode_frame(Telemetry(t_us=1), 0))
+        _first_telemetry(t)
         back = time.monotonic()  # the host waits for the next frame from here
         got = _events_until(t, "stalled")
         waited = time.monotonic() - back
@@ -246,6 +292,7 @@ def test_a_device_sending_slowly_is_not_a_stall(pty: tuple[int, str]) -> None:
     done = threading.Event()
 
     def device() -> None:
+        os.write(master, INFO)
         for k in range(10):
             if done.wait(0.3):  # the device's slowness under test
                 return
@@ -276,11 +323,8 @@ def test_a_host_slow_on_a_frame_or_a_peer_at_work_is_not_a_stall(pty: tuple[int,
     t.peer_waiting = lambda: peer_since[0]
     t.open(reader_thread=False)
     try:
-        os.write(master, encode_frame(Telemetry(t_us=1), 0))
-        item = t.get(10.0)
-        while isinstance(item, LinkEvent):
-            item = t.get(10.0)
-        assert item is not None and t.waiting_since is None  # at work on the frame
+        os.write(master, INFO + encode_frame(Telemetry(t_us=1), 0))
+        _first_telemetry(t) and t.waiting_since is None  # at work on the frame
         busy_until = time.monotonic() + 0.6  # the host's work: twice the limit
         while time.monotonic() < busy_until:
             sum(range(1000))
