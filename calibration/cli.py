@@ -232,10 +232,19 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=0.5,
         help="metres of position residual per radian of heading residual (0.5)",
     )
+    f.add_argument(
+        "--fit-radius",
+        action="store_true",
+        help="also fit and write the wheel radius; by default it is held, so that the distance "
+        "per count calibrate encoders measured against a tape stays as it is",
+    )
     p.set_defaults(func=run)
 
 
 # ------------------------------------------------------------------------- helpers
+
+
+TWIN_FIT_RADIUS_WARN = 0.01  # a held radius the trajectories contradict by more: say so
 
 
 def _config(args: argparse.Namespace) -> HostConfig:
@@ -775,16 +784,38 @@ def cmd_twin_fit(args: argparse.Namespace) -> int:
         for run, ref in zip(data, references, strict=True)
     ]
     r0 = 0.5 * (g.wheel_radius_left_m + g.wheel_radius_right_m)
-    fit = proc.fit_twin(
-        segments,
-        r0,
-        g.wheel_separation_m,
-        heading=args.heading,
-        yaw_weight_m_per_rad=args.yaw_weight,
-    )
+
+    def fit_with(fit_radius: bool) -> proc.TwinFit:
+        return proc.fit_twin(
+            segments,
+            r0,
+            g.wheel_separation_m,
+            heading=args.heading,
+            yaw_weight_m_per_rad=args.yaw_weight,
+            fit_radius=fit_radius,
+        )
+
+    free = fit_with(True)  # what the trajectories alone say of r: a check on the encoders
+    fit = free if args.fit_radius else fit_with(False)
     print(f"twin fit over {fit.samples} frames (heading from the {fit.heading}s)")
     sd = fit.sigma
-    print(f"  wheel radius     {fit.wheel_radius_m:.6f} m (+- {sd[0]:.1e}; V16/V17 0.031650)")
+    scale = free.wheel_radius_m / r0 - 1.0
+    if args.fit_radius:
+        print(f"  wheel radius     {fit.wheel_radius_m:.6f} m (+- {sd[0]:.1e}; V16/V17 0.031650)")
+        print(
+            f"    the distance per count changes by {scale * 100:+.2f} % from the config's "
+            "(the one calibrate encoders measured, if it ran)"
+        )
+    else:
+        print(
+            f"  wheel radius     {r0:.6f} m held (--fit-radius to fit it); the trajectories alone "
+            f"give {free.wheel_radius_m:.6f} m, {scale * 100:+.2f} % in distance per count"
+        )
+        if abs(scale) > TWIN_FIT_RADIUS_WARN:
+            print(
+                f"    more than {TWIN_FIT_RADIUS_WARN * 100:g} % apart: check the wheel radius "
+                "and run calibrate encoders again"
+            )
     print(f"  wheel separation {fit.wheel_separation_m:.6f} m (+- {sd[1]:.1e}; V16/V17 0.210481)")
     print(f"  IMU yaw scale    {fit.yaw_scale:.4f}     (+- {sd[2]:.1e}; V16/V17 0.6953)")
     print(
@@ -793,14 +824,13 @@ def cmd_twin_fit(args: argparse.Namespace) -> int:
         f"{math.degrees(fit.rms_yaw_wheel_rad):.2f} deg, gyro "
         f"{math.degrees(fit.rms_yaw_gyro_rad):.2f} deg"
     )
-    print("  (the host config has no IMU yaw scale: --write sets the radius and the separation)")
-    _write(
-        args,
-        {
-            "robot.wheel_radius_m": round(fit.wheel_radius_m, 6),
-            "robot.wheel_separation_m": round(fit.wheel_separation_m, 6),
-        },
-    )
+    updates: dict[str, float] = {"robot.wheel_separation_m": round(fit.wheel_separation_m, 6)}
+    if args.fit_radius:
+        updates["robot.wheel_radius_m"] = round(fit.wheel_radius_m, 6)
+        print("  (no IMU yaw scale in the host config: --write sets the radius and the separation)")
+    else:
+        print("  (no IMU yaw scale in the host config: --write sets the separation)")
+    _write(args, updates)
     return 0
 
 

@@ -247,6 +247,7 @@ def fit_twin(
     *,
     heading: Heading = "wheel",
     yaw_weight_m_per_rad: float = 0.5,
+    fit_radius: bool = True,
 ) -> TwinFit:
     """Effective r, B and IMU yaw scale by least squares against reference trajectories.
 
@@ -274,6 +275,10 @@ def fit_twin(
     yaw_weight_m_per_rad : float
         How many metres of position residual one radian of heading
         residual counts as.
+    fit_radius : bool
+        Fit r; False holds it at ``wheel_radius_m`` (the distance per count that
+        ``calibrate encoders`` measured against a tape stays as it is) and fits B and the
+        yaw scale only (r's sigma is then 0).
 
     Returns
     -------
@@ -297,25 +302,33 @@ def fit_twin(
             "the reference turns by less than 0.5 rad: B and the yaw scale need turning runs"
         )
 
-    def fun(p: FloatArray) -> FloatArray:
+    free = slice(0, 3) if fit_radius else slice(1, 3)  # the parameters fitted
+
+    def full(q: FloatArray) -> FloatArray:
+        return q if fit_radius else np.concatenate(([1.0], q))
+
+    def fun(q: FloatArray) -> FloatArray:
+        p = full(q)
         return _residuals(segments, p[0] * r0, p[1] * b0, p[2], heading, yaw_weight_m_per_rad)[0]
 
+    lo, hi = np.array([0.5, 0.5, 0.1]), np.array([2.0, 2.0, 10.0])
     p0 = np.array([1.0, 1.0, yaw_scale])
     sol = least_squares(
-        fun, p0, bounds=([0.5, 0.5, 0.1], [2.0, 2.0, 10.0]), x_scale=[1.0, 1.0, 1.0], method="trf"
+        fun, p0[free], bounds=(lo[free], hi[free]), x_scale=np.ones(3)[free], method="trf"
     )
-    p = sol.x
+    p = full(sol.x)
     res, rms_p, rms_w, rms_g = _residuals(
         segments, p[0] * r0, p[1] * b0, p[2], heading, yaw_weight_m_per_rad
     )
     _, rms_p0, _, _ = _residuals(segments, r0, b0, yaw_scale, heading, yaw_weight_m_per_rad)
     jac = np.asarray(sol.jac, dtype=np.float64)
-    dof = max(1, len(res) - 3)
+    dof = max(1, len(res) - jac.shape[1])
+    sd = np.zeros(3)
     try:
         cov = np.linalg.inv(jac.T @ jac) * float(res @ res) / dof
-        sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        sd[free] = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     except np.linalg.LinAlgError:
-        sd = np.full(3, np.nan)
+        sd[free] = np.nan
     return TwinFit(
         wheel_radius_m=float(p[0] * r0),
         wheel_separation_m=float(p[1] * b0),

@@ -277,7 +277,11 @@ def test_twin_fit_recovers_effective_radius_track_and_yaw_scale(tmp_path: Path) 
             w.writerow([repr(s.t_s), repr(s.x), repr(s.y), repr(s.yaw)])
     config = config_copy(tmp_path)
     argv = ["--runs", str(folder), "--reference", str(reference), "--write", str(config)]
+    # by default the radius is held (the encoders' distance per count) and the gap is named
     assert calibrate("twin-fit", *argv) == 0
+    assert load_config(config).robot.wheel_radius_left_m == 0.033
+    assert rel(load_config(config).robot.wheel_separation_m, 0.205 * 0.033 / 0.0325) < 0.02
+    assert calibrate("twin-fit", *argv, "--fit-radius") == 0  # the paper's V16/V17 fit
     segment = proc.fit_segment(runs.load_run(folder), runs.load_reference(reference), (621, 621))
     fit = proc.fit_twin([segment])
     errors = (

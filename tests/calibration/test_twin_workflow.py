@@ -130,6 +130,24 @@ def sim(tmp_path: Path) -> Iterator[Sim]:
     s.stop()
 
 
+DOC = Path(__file__).resolve().parents[2] / "docs" / "calibration.md"
+ORDER = ["imu", "encoders", "track", "deadband", "characterise", "step", "twin-fit"]
+
+
+def doc_recipe() -> list[tuple[str, list[str]]]:
+    """The ``jackson calibrate`` lines of docs/calibration.md's block for the twin, in order:
+    (procedure, its arguments after ``$P``)."""
+    text = DOC.read_text()
+    block = text.split("# terminal 2: the documented order", 1)[1].split("```", 1)[0]
+    out = []
+    for line in block.splitlines():
+        words = line.split("#", 1)[0].split()
+        if words[:2] == ["jackson", "calibrate"]:
+            assert words[3] == "$P", line
+            out.append((words[2], words[4:]))
+    return out
+
+
 def last_truth_us(path: Path) -> int:
     """The twin's clock [us] in the last complete row of its truth file."""
     with path.open("rb") as f:
@@ -159,7 +177,6 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
     # the owner measures the wheels first (calipers): the encoder resolution is relative to r
     update_config(config, {"robot.wheel_radius_m": TRUE_RADIUS_M})
     link = ["--port", sim.serial, "--i2c", sim.i2c]
-    truth = ["--twin-truth", str(sim.truth)]
     write = ["--write", str(config)]
     out = tmp_path / "runs"
     got: dict[str, tuple[float, float]] = {}  # calibrated value, hidden truth
@@ -175,11 +192,16 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
 
     started = False
 
-    def calibrate(procedure: str, *argv: str) -> HostConfig:
+    recipe = dict(doc_recipe())
+    assert [name for name, _ in doc_recipe()] == ORDER  # the documented order is this test's
+
+    def calibrate(procedure: str) -> HostConfig:
         nonlocal started
         if started:
             pause()
         started = True
+        # the doc's arguments, its truth.csv this twin's truth file
+        argv = [str(sim.truth) if a == "truth.csv" else a for a in recipe[procedure]]
         rc = main(["calibrate", procedure, *link, "--out", str(out / procedure), *argv, *write])
         captured = capsys.readouterr()
         assert rc == 0, f"calibrate {procedure}: {captured.err}"
@@ -193,11 +215,11 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
     got["gyro bias z [rad/s]"] = (cal.gyro_bias_rad_s[2], TRUE_GYRO_BIAS_Z)
     got["accel scale"] = (cal.accel_scale, 1.0 / TRUE_GRAVITY_SCALE)
 
-    cfg = calibrate("encoders", *truth)
+    cfg = calibrate("encoders")
     got["TPR left"] = (cfg.robot.ticks_per_rev_left, TRUE_TPR[0])
     got["TPR right"] = (cfg.robot.ticks_per_rev_right, TRUE_TPR[1])
 
-    cfg = calibrate("track", *truth)
+    cfg = calibrate("track")
     got["separation (track) [m]"] = (cfg.robot.wheel_separation_m, TRUE_SEPARATION_M)
 
     cfg = calibrate("deadband")
@@ -231,8 +253,14 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
         (1.0 - TRUE_DEADBAND[1]) * TRUE_RIGHT_GAIN / (1.0 - TRUE_DEADBAND[0]),
     )
 
-    cfg = calibrate("twin-fit", *truth)
-    got["radius (twin-fit) [m]"] = (cfg.robot.wheel_radius_left_m, TRUE_RADIUS_M)
+    cfg = calibrate("twin-fit")
+    # twin-fit holds the radius: the distance per count stays the one encoders measured
+    for side, tpr, true_tpr in (
+        ("left", cfg.robot.ticks_per_rev_left, TRUE_TPR[0]),
+        ("right", cfg.robot.ticks_per_rev_right, TRUE_TPR[1]),
+    ):
+        per_count = 2 * math.pi * cfg.robot.wheel_radius_left_m / tpr
+        got[f"distance per count {side} [m]"] = (per_count, 2 * math.pi * TRUE_RADIUS_M / true_tpr)
     got["separation (twin-fit) [m]"] = (cfg.robot.wheel_separation_m, TRUE_SEPARATION_M)
 
     errors = {k: rel(v, t) for k, (v, t) in got.items()}
