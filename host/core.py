@@ -93,6 +93,13 @@ def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> li
     return out
 
 
+
+UNCALIBRATED_HINT = (
+    "the host config holds no calibration (imu.calibration is unset): on a robot other than "
+    "the one it describes the sensors disagree with it and look faulty; calibrate this robot "
+    "first (jackson calibrate, docs/calibration.md)"
+)
+
 class DutySource(Protocol):
     """Raw wheel duties per telemetry frame, on MCU time and unwrapped counts: the command source
     of calibration's staircases and steps, which bypass the actuation chain."""
@@ -272,6 +279,7 @@ class HostCore:
         self.health = HealthMonitor(cfg.health, cfg.robot) if cfg.health.enabled else None
         self.verdict: Verdict | None = None
         self.sensors_lost: str | None = None  # the health policy's reason to brake
+        self._hinted = False  # the uncalibrated config's hint was given
         self._prev_raw: tuple[int, int] | None = None
         self._told = 0  # health transitions told
         self._last_seq: int | None = None  # SEQ of the last frame from the MCU
@@ -464,7 +472,9 @@ class HostCore:
             self.gyro_bias.reset()  # measured again over the next standstill
         if v.lost is not None and self.sensors_lost is None:
             self.sensors_lost = v.lost
-            self.event(f"health: braking: {v.lost}")
+            if self.cfg.imu.calibration is None:
+                self.sensors_lost = f"{v.lost} ({UNCALIBRATED_HINT})"
+            self.event(f"health: braking: {self.sensors_lost}")
         ekf.stationary = v.stationary
         if v.stationary:
             ekf.update_zero_velocity(t_s, self.cfg.health.zupt_variance)
@@ -490,11 +500,20 @@ class HostCore:
             ekf.update_yaw_rate(t_s, hm.model.true_rate(w_e, odo.v_m_s), v.wheel_yaw_variance)
 
     def _report_health(self, hm: HealthMonitor) -> None:
-        """Tell the operator and the listeners of the monitor's new transitions."""
+        """Tell the operator and the listeners of the monitor's new transitions; with a config
+        that holds no calibration, the first exclusion of a wheel or the gyro says so too."""
         for tr in hm.transitions[self._told :]:
             self.event(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
             for listener in self.listeners:
                 listener.on_health(tr)
+            if (
+                tr.new.value == "excluded"
+                and tr.sensor in ("imu", "encoder_left", "encoder_right")
+                and self.cfg.imu.calibration is None
+                and not self._hinted
+            ):
+                self._hinted = True
+                self.event(f"health: {UNCALIBRATED_HINT}")
         self._told = len(hm.transitions)
 
     def _take_scans(self, t_s: float) -> None:

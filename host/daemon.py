@@ -77,7 +77,7 @@ class _OperatorListener(CoreListener):
         )
 
     def on_event(self, host_time_ns: int, text: str) -> None:
-        if text.startswith("health: braking"):
+        if text.startswith(("health: braking", "health: the host config holds no calibration")):
             self.daemon._say(text)
 
 

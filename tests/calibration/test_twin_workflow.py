@@ -280,7 +280,7 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
         run = tmp_path / mission
         argv = ["run", mission, "--robot", str(tmp_path / "owners_robot.yaml"), "--out", str(run)]
         assert main([*argv, "--config", str(config)]) == 0
-        capsys.readouterr()
+        assert "holds no calibration" not in capsys.readouterr().out
         m = json.loads((run / "metrics.json").read_text())
         with capsys.disabled():
             print(
@@ -365,3 +365,19 @@ def test_jackson_sim_never_replaces_a_file_that_is_not_its_truth(tmp_path: Path)
     err = out.stderr.strip().splitlines()
     assert out.returncode == 2 and len(err) == 1 and "--truth" in err[0], out.stderr
     assert config.read_text() == DEFAULT_CONFIG.read_text()
+
+
+def test_the_shipped_config_on_a_new_robot_points_the_owner_to_calibrate(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Driven with the paper robot's config, the owner's robot disagrees with it: the first
+    sensor excluded comes with one line that says the config is uncalibrated and what to run."""
+    robot = tmp_path / "owners_robot.yaml"
+    robot.write_text(ROBOT_FILE)
+    main(["run", "square", "--robot", str(robot), "--out", str(tmp_path / "square")])
+    out = capsys.readouterr().out
+    excluded = [line for line in out.splitlines() if "-> excluded" in line]
+    assert excluded, out  # the disagreement is seen
+    hints = [line for line in out.splitlines() if "holds no calibration" in line]
+    assert len(hints) == 1 and "jackson calibrate" in hints[0], out
+    assert out.index(excluded[0]) < out.index(hints[0])
