@@ -157,15 +157,16 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         from jackson.host.lidar.rplidar import LidarError, RplidarDriver
 
         try:
-            lidar = RplidarDriver(args.lidar)
-            lidar.start()
+            lidar = RplidarDriver(args.lidar)  # checked and started once the daemon is ready
         except LidarError as exc:
             if lidar is not None:
                 lidar.close()
             raise HostCliError(str(exc)) from exc
     transport = SerialTransport(cfg.serial.port, cfg.serial.baudrate)
     try:
-        transport.open(reader_thread=False)
+        # HELLO once the daemon is set up (ROS discovery, the bag): a session that starts
+        # earlier streams into a port nobody reads, and a lockstep twin's clock runs off
+        transport.open(reader_thread=False, hello=False)
     except LinkError as exc:
         if lidar is not None:
             lidar.close()
@@ -224,6 +225,14 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         flush=True,
     )
     try:
+        if lidar is not None:
+            from jackson.host.lidar.rplidar import LidarError
+
+            try:
+                lidar.start()
+            except LidarError as exc:
+                raise DaemonError(str(exc)) from exc
+        transport.send_hello()
         status = daemon.run(args.max_seconds)
     except (ProtocolError, DaemonError) as exc:
         raise HostCliError(str(exc)) from exc

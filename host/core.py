@@ -93,12 +93,12 @@ def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> li
     return out
 
 
-
 UNCALIBRATED_HINT = (
     "the host config holds no calibration (imu.calibration is unset): on a robot other than "
     "the one it describes the sensors disagree with it and look faulty; calibrate this robot "
     "first (jackson calibrate, docs/calibration.md)"
 )
+
 
 class DutySource(Protocol):
     """Raw wheel duties per telemetry frame, on MCU time and unwrapped counts: the command source
@@ -472,7 +472,7 @@ class HostCore:
             self.gyro_bias.reset()  # measured again over the next standstill
         if v.lost is not None and self.sensors_lost is None:
             self.sensors_lost = v.lost
-            if self.cfg.imu.calibration is None:
+            if self._hinted:  # a wheel or the gyro was excluded on an uncalibrated config
                 self.sensors_lost = f"{v.lost} ({UNCALIBRATED_HINT})"
             self.event(f"health: braking: {self.sensors_lost}")
         ekf.stationary = v.stationary

@@ -224,6 +224,8 @@ class Daemon:
             from jackson.host.ros.bridge import RosBridge
 
             self.bridge = RosBridge(self.core, args=ros_args)
+            for note in self.bridge.notes:
+                self._say(note)
             if self.bridge.missing:
                 self._say(
                     "ROS: not published (message package missing): "

@@ -159,18 +159,22 @@ class SerialTransport:
 
     # ------------------------------------------------------------------ lifecycle
 
-    def open(self, reader_thread: bool = True) -> None:
+    def open(self, reader_thread: bool = True, hello: bool = True) -> None:
         """Open the port once (raises :class:`LinkError`) and send HELLO.
 
         Parameters
         ----------
+        hello : bool
+            Send HELLO now. False: the caller sends it (:meth:`send_hello`) once it is ready
+            to read, so that a device's session (and a lockstep twin's clock) does not start
+            while the host is still setting up.
         reader_thread : bool
             Start the reader thread, which reads, decodes and reconnects on its own and
             queues what it gets (:attr:`items`). False: the caller reads through :meth:`get`
             (the daemon's loop), with no thread and no hand-over between threads per frame;
             on a pty (the twin) :meth:`get` polls for :attr:`spin_s` before it blocks.
         """
-        self._connect()
+        self._connect(hello)
         if not reader_thread:
             self.spin_s = DEFAULT_SPIN_S if _is_pty(self.port_name) else 0.0
             return
@@ -191,7 +195,7 @@ class SerialTransport:
                 self._port.close()
                 self._port = None
 
-    def _connect(self) -> None:
+    def _connect(self, hello: bool = True) -> None:
         try:
             port = serial.Serial(
                 self.port_name,
@@ -216,12 +220,15 @@ class SerialTransport:
         self.in_session = False
         self._session_wait_s = self._last_rx_s
         self.items.put(LinkEvent("up", time.monotonic_ns()))
-        self.send_hello()
+        if hello:
+            self.send_hello()
 
     def send_hello(self) -> None:
         """HELLO: starts (or restarts) the device's session."""
         self.hellos += 1
         self._hello_s = time.monotonic()
+        if not self.in_session and self.hellos == 1:
+            self._session_wait_s = self._hello_s  # the wait for an answer starts here
         self.send(hello())
 
     def _drop(self, detail: str) -> None:

@@ -73,7 +73,7 @@ STALL_TIMEOUT_S = 10.0
 ``jackson --help`` does not load the physics)."""
 
 SCAN_HISTORY = 64
-"""Scans ``jackson sim`` keeps (8.6 s at 7.43 Hz): enough for the /scan publisher, which takes
+"""Scans ``jackson sim`` keeps (8.6 s at 7.43 Hz): enough for the /twin/scan publisher, which takes
 them after every advance of the clock, and a constant memory use however long it runs."""
 
 
@@ -113,7 +113,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--ros",
         action="store_true",
-        help="publish /scan, /ground_truth/odom and /clock (sim time) over ROS 2",
+        help="publish /twin/scan, /ground_truth/odom and /clock (sim time) over ROS 2",
     )
     p.add_argument(
         "--truth",
@@ -280,7 +280,7 @@ def run(args: argparse.Namespace) -> int:
 
     physics = "compiled physics" if SELECTION.compiled else "interpreted physics"
     if publisher is not None:
-        scan = ", /scan" if publisher.scan_pub is not None else ""
+        scan = ", /twin/scan" if publisher.scan_pub is not None else ""
         topics = f"/clock, /ground_truth/odom{scan}"
         print(f"ros: publishing {topics} on sim time", flush=True)
     print(

@@ -2,11 +2,13 @@
 
 | topic              | type                  | when                       | QoS            |
 |--------------------|-----------------------|----------------------------|----------------|
-| /scan              | sensor_msgs/LaserScan | every LiDAR scan (7.43 Hz) | best effort, 5 |
+| /twin/scan         | sensor_msgs/LaserScan | every LiDAR scan (7.43 Hz) | best effort, 5 |
 | /ground_truth/odom | nav_msgs/Odometry     | 20 Hz of sim time          | reliable, 10   |
 | /clock             | rosgraph_msgs/Clock   | every advance of sim time  | best effort, 1 |
 
-All volatile, keep last. ``/clock`` uses the profile of ``rclcpp::ClockQoS`` (best effort, depth
+All volatile, keep last. The twin's own scans go on ``/twin/scan``, not ``/scan``: the host
+daemon (``--lidar``) or Slamtec's sllidar_ros2 reads the emulated RPLIDAR's port and publishes
+``/scan`` from it, and one topic has one publisher. ``/clock`` uses the profile of ``rclcpp::ClockQoS`` (best effort, depth
 1), the one ROS 2's own time source subscribes with (rclpy's ``TimeSource`` and rclcpp's) and
 rosbag2's player publishes with; a subscriber that asks for reliable does not match it.
 
@@ -44,7 +46,8 @@ from jackson.sim.twin import Twin
 __all__ = ["GROUND_TRUTH_PERIOD_S", "TwinRosPublisher", "ros_available"]
 
 GROUND_TRUTH_PERIOD_S = 0.05  # [s] of sim time: /ground_truth/odom at 20 Hz
-SCAN_DEPTH = 5  # /scan: best effort, volatile (Appendix C)
+SCAN_DEPTH = 5  # /twin/scan: best effort, volatile (Appendix C)
+SCAN_TOPIC = "/twin/scan"  # /scan is the daemon's (or sllidar_ros2's), read from the LiDAR port
 ODOMETRY_DEPTH = 10  # /ground_truth/odom: reliable, volatile (as /wheel/odom)
 CLOCK_DEPTH = 1  # /clock: best effort, volatile (rclcpp::ClockQoS)
 
@@ -83,7 +86,7 @@ def _qos(depth: int, *, reliable: bool) -> Any:
 
 
 class TwinRosPublisher:
-    """Publishes /scan, /ground_truth/odom and /clock of one :class:`Twin`.
+    """Publishes /twin/scan, /ground_truth/odom and /clock of one :class:`Twin`.
 
     Call :meth:`on_advance` after every advance of the twin's clock (``TwinRunner``'s
     ``observer``); it publishes the scans taken since the previous call, the ground truth when
@@ -126,7 +129,7 @@ class TwinRosPublisher:
             self.node: Any = Node(node_name, namespace=namespace, context=self.context)
             self.scan_pub: Any = (
                 self.node.create_publisher(
-                    self._LaserScan, "/scan", _qos(SCAN_DEPTH, reliable=False)
+                    self._LaserScan, SCAN_TOPIC, _qos(SCAN_DEPTH, reliable=False)
                 )
                 if self.lidar_spec is not None
                 else None

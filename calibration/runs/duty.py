@@ -88,6 +88,7 @@ def duty_run(
     try:
         with _progress(link.console, label, script.total_s) as progress:
             daemon.core.listeners.append(_Progress(progress))
+            transport.send_hello()  # the session starts once the daemon is set up
             daemon.run(max_s=30.0 + 2.0 * script.total_s)
     finally:
         transport.close()

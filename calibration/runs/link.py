@@ -91,7 +91,7 @@ def _open_link(link: Link) -> tuple[SerialTransport, I2cBus | None, Pca9685 | No
     cfg = link.config
     transport = SerialTransport(link.port, cfg.serial.baudrate)
     try:
-        transport.open(reader_thread=False)
+        transport.open(reader_thread=False, hello=False)  # HELLO when the daemon runs
     except LinkError as exc:
         raise RunError(str(exc)) from exc
     if cfg.actuator != "pca9685":

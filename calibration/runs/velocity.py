@@ -205,6 +205,7 @@ def drive_run(
     try:
         with _progress(link.console, label, expected_s) as progress:
             mission.on_progress = progress
+            transport.send_hello()  # the session starts once the daemon is set up
             daemon.run(max_s=wall_limit_s)
     finally:
         transport.close()

@@ -160,6 +160,10 @@ INPUTS = ("cmd_vel", "goal_pose")  # topics the node receives: recorded, never p
 NOT_PUBLISHED = ("telemetry",)  # the raw frames are the bag's own record
 
 
+CLOCK_DISCOVERY_S = 3.0  # [s] the node looks this long for a /clock publisher at start
+CLOCK_ENDPOINTS_S = 1.0  # [s] after another node appeared, its /clock would be known
+
+
 class RosBridge:
     """The daemon's ROS 2 node: publishes the messages :class:`RosOutput` built, feeds the core
     /cmd_vel (and /goal_pose).
@@ -224,6 +228,18 @@ class RosBridge:
             self.settings = self.params = self._declare_parameters(core)
             self._declare_live_parameters(core)
             sim_time = bool(self.node.get_parameter("use_sim_time").value)
+            self.notes: list[str] = []  # what the operator should know of the node's set-up
+            given = any("use_sim_time" in str(a) for a in (args or ())) or (
+                "use_sim_time" in (parameter_overrides or {})
+            )
+            if not given and self._clock_published(CLOCK_DISCOVERY_S):
+                # a simulator (jackson sim --ros) runs the clock: one clock for every stamp
+                self.node.set_parameters([parameter("use_sim_time", value=True)])
+                sim_time = True
+                self.notes.append(
+                    "ROS: /clock is published (a simulator): stamping with it "
+                    "(use_sim_time true; give -p use_sim_time:=false to keep the system clock)"
+                )
             self.clock = StampClock(sim_time=sim_time)
             self._create_interfaces()
         except BaseException:
@@ -240,6 +256,25 @@ class RosBridge:
         self.received: deque[tuple[str, Any]] = deque()
 
     # ------------------------------------------------------------------ set-up
+
+    def _clock_published(self, wait_s: float) -> bool:
+        """Whether some node publishes /clock, looked for during up to ``wait_s`` of
+        discovery: found as soon as it is known; given up :data:`CLOCK_ENDPOINTS_S` after
+        the first other node appeared without it (its endpoints follow it within that), or at
+        ``wait_s`` when no other node appears at all."""
+        start = time.monotonic()
+        others_since: float | None = None
+        while True:
+            if self.node.count_publishers("/clock") > 0:
+                return True
+            now = time.monotonic()
+            if others_since is None and len(self.node.get_node_names()) > 1:
+                others_since = now
+            if now - start >= wait_s or (
+                others_since is not None and now - others_since >= CLOCK_ENDPOINTS_S
+            ):
+                return False
+            time.sleep(0.02)  # polls the ROS graph until the discovery deadline
 
     def _declare_parameters(self, core: CoreLike) -> RosSettings:
         defaults = RosSettings.for_config(core.cfg)
@@ -392,6 +427,8 @@ class RosBridge:
         pub = self.publishers.get(key)
         if pub is None or self._stop.is_set():
             return
+        if key == "tf_static" and not self.settings.publish_static_tf:
+            return  # robot_state_publisher publishes the URDF's (the bag still records them)
         data = bytes(self._store.serialize_cdr(msg, msg.__msgtype__))
         with self._lock:
             if self._stop.is_set():

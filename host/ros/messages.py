@@ -71,6 +71,9 @@ SCAN_PERIOD_S = 0.13465  # [s] the A1M8's turn (REFERENCE: LiDAR)
 SCAN_RANGE_M = (0.15, 8.0)  # [m] the A1M8's minimum and the robot's software cap
 CLOCK_WINDOW_S = 10.0  # [s] of MCU time over which the least transport delay is found
 CLOCK_SLEW = 0.1  # the offset in use moves at most this fraction of the MCU time passed
+SCAN_TIMER_WINDOW = 200  # revolutions the LiDAR's period is averaged over (about 27 s)
+SCAN_TIMER_MIN = 30  # revolutions before the average replaces the A1M8's nominal period: the
+# frames' 50 ms quantisation then errs by under 1.3 % of it
 
 # topic key -> (ROS type, QoS: "reliable" | "sensor" | "latched" | "map", depth)
 TOPIC_TYPES: dict[str, tuple[str, str, int]] = {
@@ -118,6 +121,10 @@ class RosSettings:
     publish_wheel_tf : bool
         Put base_link -> wheel links on /tf at every frame (false where robot_state_publisher
         turns /joint_states into them).
+    publish_static_tf : bool
+        Publish base_footprint -> base_link -> {imu_link, laser} on /tf_static (false where
+        robot_state_publisher publishes the URDF's fixed joints: one publisher per transform).
+        The run's bag records them either way.
     tf_source : str
         ``filtered`` (odom -> base_footprint from the EKF at 30 Hz) or ``wheel`` (every frame).
     base_link_offset_m, imu_offset_m, laser_offset_m : tuple of float
@@ -147,6 +154,7 @@ class RosSettings:
     wheel_separation_m: float = 0.198
     publish_tf: bool = True
     publish_wheel_tf: bool = True
+    publish_static_tf: bool = True
     tf_source: str = "filtered"
     base_link_offset_m: tuple[float, ...] = (0.0, 0.0, 0.033)
     imu_offset_m: tuple[float, ...] = (0.0, 0.0, 0.0)
@@ -297,6 +305,11 @@ class StampClock:
         self._at_s = max(self._at_s, t_s)
         self.jitter_s.append((off - target) / NS_PER_S)
 
+    @property
+    def ready(self) -> bool:
+        """Whether MCU time maps onto ROS time yet (always with ``sim_time``)."""
+        return self.sim_time or self._offset_ns is not None
+
     def ns(self, t_s: float) -> int:
         """The ROS time [ns] of MCU time ``t_s`` (0 before the first frame on the robot)."""
         mcu = max(0, round(t_s * NS_PER_S))
@@ -305,6 +318,55 @@ class StampClock:
         if self._offset_ns is None:
             return 0
         return mcu + round(self._offset_ns)
+
+
+class ScanTimer:
+    """When each LiDAR revolution was measured, on MCU time.
+
+    The host reads the LiDAR's port at each telemetry frame, so a revolution is known to have
+    ended between the previous frame and the one it arrived with; on the twin (lockstep or
+    not) and on the robot alike that window is all the arrival says. The revolutions of a
+    spinning LiDAR follow each other back to back, each lasting its samples times the
+    sample period, so their ends advance by a period that the arrivals average out:
+
+    - the period is the mean spacing of the arrival windows' ends per sample over the last
+      :data:`SCAN_TIMER_WINDOW` revolutions (the frames' quantisation averages out);
+    - each end is the previous end plus its duration, clamped into its arrival window: a
+      first guess at the window's end runs late, and every window that closes before the
+      prediction pulls it earlier, until it rides the true phase within a frame's jitter;
+    - a prediction a whole period before its window (revolutions lost) starts again at the
+      window's end.
+
+    The stamp (the LaserScan convention) is the revolution's first measurement: end less
+    its duration. Before :data:`SCAN_TIMER_MIN` revolutions the period is :data:`SCAN_PERIOD_S`.
+    """
+
+    def __init__(self) -> None:
+        self._arrivals: deque[tuple[float, int]] = deque(maxlen=SCAN_TIMER_WINDOW)
+        self._end_s: float | None = None
+
+    def sample_s(self) -> float:
+        """The sample period [s]: mean arrival spacing per sample over the window."""
+        a = self._arrivals
+        if len(a) < SCAN_TIMER_MIN:
+            return 0.0
+        samples = sum(n for _, n in list(a)[1:])
+        return (a[-1][0] - a[0][0]) / samples if samples else 0.0
+
+    def stamp(self, samples: int, arrived_s: float, since_s: float | None) -> tuple[float, float]:
+        """(start [s], duration [s]) of a revolution of ``samples`` that arrived with the frame
+        of MCU time ``arrived_s``, the previous frame being at ``since_s`` (None: unknown)."""
+        self._arrivals.append((arrived_s, samples))
+        per = self.sample_s()
+        duration = per * samples if per > 0.0 else SCAN_PERIOD_S
+        lo = since_s if since_s is not None and since_s < arrived_s else arrived_s - duration
+        end = arrived_s
+        if self._end_s is not None:
+            predicted = self._end_s + duration
+            if predicted >= lo - duration:  # else revolutions were lost: start again
+                end = min(max(predicted, lo), arrived_s)
+        self._end_s = end
+        return end - duration, duration
 
 
 def yaw_quaternion(yaw_rad: float) -> Quaternion:
@@ -513,17 +575,22 @@ class MessageBuilder:
             ]
         )
 
-    def scan(self, scan: Scan) -> Any:
-        """/scan in the laser frame: one revolution, evenly spread over its angles."""
+    def scan(
+        self, scan: Scan, start_s: float | None = None, period_s: float = SCAN_PERIOD_S
+    ) -> Any:
+        """/scan in the laser frame: one revolution, evenly spread over its angles, stamped
+        with its first measurement's MCU time ``start_s`` (the LaserScan convention; default:
+        one period before ``scan.t_s``) and timed by its revolution's ``period_s``."""
         n = len(scan.angles_rad)
         a0, a1 = float(scan.angles_rad[0]), float(scan.angles_rad[-1])
+        start = scan.t_s - period_s if start_s is None else start_s
         return LaserScan(
-            header=self.header(scan.t_s, self.settings.laser_frame),
+            header=self.header(start, self.settings.laser_frame),
             angle_min=a0,
             angle_max=a1,
             angle_increment=(a1 - a0) / (n - 1),
-            time_increment=SCAN_PERIOD_S / n,
-            scan_time=SCAN_PERIOD_S,
+            time_increment=period_s / n,
+            scan_time=period_s,
             range_min=SCAN_RANGE_M[0],
             range_max=SCAN_RANGE_M[1],
             ranges=np.asarray(scan.ranges_m, dtype=np.float32),
@@ -709,6 +776,9 @@ class RosOutput(CoreListener):
         self.received = received
         self._pending: list[bytes] = []
         self._static_sent = False
+        self._held_scans: list[Scan] = []  # scans before the first frame set the clock
+        self._frames = 0  # frames seen (on_result)
+        self.scan_timer = ScanTimer()
         self._plan_version = -1
         self._map_sent_s: float | None = None
         self._t_s = 0.0
@@ -735,8 +805,11 @@ class RosOutput(CoreListener):
     def on_result(self, core: HostCore, result: FrameResult) -> None:
         b, t_s, odo, t = self.builder, result.t_s, result.odometry, result.telemetry
         self._t_s = t_s
+        self._frames += 1
         b.clock.observe(t_s, time.time_ns())
         self._static(t_s)
+        while self._held_scans:  # the clock is set now
+            self._send_scan(self._held_scans.pop(0))
         while self.received:
             key, value = self.received.popleft()
             if key == "goal_pose":
@@ -767,8 +840,18 @@ class RosOutput(CoreListener):
             self.send("tf", t_s, b.odom_tf(t_s, state.x_m, state.y_m, state.yaw_rad))
 
     def on_scan(self, core: HostCore, scan: Scan) -> None:
-        if len(scan.angles_rad) >= 2:
-            self.send("scan", scan.t_s, self.builder.scan(scan))
+        if len(scan.angles_rad) < 2:
+            return
+        if not self.builder.clock.ready:  # no frame yet to map MCU time onto the ROS clock
+            self._held_scans.append(scan)
+            return
+        self._send_scan(scan)
+
+    def _send_scan(self, scan: Scan) -> None:
+        # called before this frame's on_result: self._t_s is still the previous frame's
+        since = self._t_s if self._frames else None
+        start_s, period_s = self.scan_timer.stamp(len(scan.angles_rad), scan.t_s, since)
+        self.send("scan", scan.t_s, self.builder.scan(scan, start_s, period_s))
 
     def diagnostics_due(self, t_s: float) -> bool:
         """Whether :meth:`diagnostics` would send at MCU time ``t_s`` (the daemon gathers the
@@ -808,10 +891,14 @@ class RosOutput(CoreListener):
         if replans != self._plan_version and len(nav.navigator.plan):
             self.send("plan", t_s, b.path(t_s, nav.navigator.plan))
         self._plan_version = replans
-        if len(nav.navigator.local_plan):
-            self.send("local_plan", t_s, b.path(t_s, nav.navigator.local_plan))
+        corr = nav.map_to_odom.compose(nav.config.start)  # odom starts at the start pose
+        local = nav.navigator.local_plan
+        if len(local):  # in odom, as Nav2's controller publishes it: map -> odom undone
+            c, s_ = math.cos(corr.yaw), math.sin(corr.yaw)
+            dx, dy = local[:, 0] - corr.x, local[:, 1] - corr.y
+            in_odom = np.column_stack((c * dx + s_ * dy, -s_ * dx + c * dy, local[:, 2] - corr.yaw))
+            self.send("local_plan", t_s, b.path(t_s, in_odom, b.settings.odom_frame))
         if b.settings.publish_tf:
-            corr = nav.map_to_odom.compose(nav.config.start)  # odom starts at the start pose
             msg = TFMessage(
                 transforms=[
                     b.transform(t_s, "map", b.settings.odom_frame, (corr.x, corr.y, 0.0), corr.yaw)

@@ -417,7 +417,7 @@ def test_write_prints_the_changes_and_the_diff_and_keeps_a_backup(
     out = capsys.readouterr().out
     (backup,) = tmp_path.glob("jackson.yaml.bak-*")
     assert f"wrote {config} (backup {backup}):" in out
-    assert "  robot.ticks_per_rev_left: 621 -> 622" in out
+    assert "  robot.ticks_per_rev.left: 621 -> 622.0" in out
     assert f"--- {config} (before)\n+++ {config}\n" in out
     assert "-  ticks_per_rev: 621           # [ticks/rev]" in out
     assert "+  ticks_per_rev: {left: 622.0, right: 624.1} # [ticks/rev]" in out

@@ -201,7 +201,7 @@ def test_update_config_writes_four_gains_keeping_the_comments(tmp_path: Path) ->
     text = path.read_text()
     assert "left: {forward: 0.9196, reverse: 0.9201}" in text
     assert "# one number for both directions, or {forward: g, reverse: g}" in text
-    assert "deadband.gain_reverse_left: null -> 0.9201" in result.changes
+    assert "deadband.gain.left.reverse: 1.0 -> 0.9201" in result.changes
     # every other line is untouched
     old = DEFAULT_CONFIG.read_text().splitlines()
     new = text.splitlines()

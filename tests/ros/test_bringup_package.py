@@ -23,6 +23,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
@@ -276,10 +277,41 @@ def test_sllidar_frame_is_laser_turned_by_pi() -> None:
 
 
 def test_urdf_parses_with_urdf_parser_py() -> None:
-    urdf = pytest.importorskip("urdf_parser_py.urdf")
+    from urdf_parser_py import urdf
+
     robot = urdf.URDF.from_xml_string(URDF.read_bytes())
     assert robot.get_root() == FRAMES.base_footprint
     assert {FRAMES.left_wheel_joint, FRAMES.right_wheel_joint} <= set(robot.joint_map)
+
+
+def test_urdf_has_what_a_physics_simulator_needs() -> None:
+    """Gazebo (sdformat's URDF import) drops a link without an inertial and with it its
+    geometry: every link that has geometry has collision geometry and a physical inertia
+    (mass > 0, a positive-definite tensor whose principal moments satisfy the triangle
+    inequality); the root has none (KDL warns of a root inertia); the masses add up to the
+    twin's 2.0 kg and the chassis turns like it about z (0.021 kg m^2)."""
+    from urdf_parser_py import urdf
+
+    robot = urdf.URDF.from_xml_string(URDF.read_bytes())
+    assert robot.link_map[robot.get_root()].inertial is None
+    total = 0.0
+    for link in robot.links:
+        if link.visual is None:
+            continue
+        assert link.collision is not None, link.name
+        inertial = link.inertial
+        assert inertial is not None and inertial.mass > 0.0, link.name
+        i = inertial.inertia
+        tensor = np.array(
+            [[i.ixx, i.ixy, i.ixz], [i.ixy, i.iyy, i.iyz], [i.ixz, i.iyz, i.izz]], np.float64
+        )
+        moments = np.linalg.eigvalsh(tensor)
+        assert moments.min() > 0.0, link.name
+        assert moments.max() <= moments.sum() - moments.max() + 1e-12, link.name
+        total += inertial.mass
+    assert total == pytest.approx(2.0)
+    chassis = robot.link_map[FRAMES.base_link].inertial.inertia
+    assert chassis.izz == pytest.approx(0.021, rel=0.05)
 
 
 def test_mounts_refuse_a_rotated_or_missing_joint() -> None:
@@ -383,6 +415,8 @@ def test_robot_defaults_drive_the_daemon_with_sllidar_on_the_system_clock() -> N
         "laser_offset_m:=[0.0, 0.0, 0.0]",
         "-p",
         "publish_wheel_tf:=false",  # robot_state_publisher's
+        "-p",
+        "publish_static_tf:=false",  # robot_state_publisher's: one publisher per transform
     ]
     params = bringup.sllidar_parameters(opts)
     assert params["frame_id"] == bringup.SLLIDAR_FRAME
@@ -419,7 +453,7 @@ def test_host_lidar_port_and_extra_daemon_arguments_reach_jackson_daemon(tmp_pat
 def test_twin_runs_on_its_clock_and_the_daemon_on_its_ports(tmp_path: Path) -> None:
     opts = _options(twin="true", world="square_room", twin_args="--seed 3")
     assert (opts.lidar, opts.twin_lidar, opts.use_sim_time, opts.clock) == (
-        "none",
+        "host",  # the daemon reads the twin's emulated RPLIDAR, as on the robot
         True,
         True,
         "twin",
@@ -432,6 +466,7 @@ def test_twin_runs_on_its_clock_and_the_daemon_on_its_ports(tmp_path: Path) -> N
     mounts = bringup.mounts_from_urdf(URDF.read_text(encoding="utf-8"))
     dargs = build_parser().parse_args(bringup.daemon_command(opts, mounts, ports)[1:])
     assert (dargs.port, dargs.i2c) == (str(ports.serial), f"unix:{ports.i2c}")
+    assert targs.lidar_link == str(ports.lidar) and dargs.lidar == str(ports.lidar)
     assert dargs.ros_args[:2] == ["-p", "use_sim_time:=true"]  # stamps = the twin's /clock
     no_lidar = _options(twin="true", lidar="none")
     assert "--no-lidar" in bringup.twin_command(no_lidar, ports)
@@ -443,7 +478,7 @@ def test_twin_runs_on_its_clock_and_the_daemon_on_its_ports(tmp_path: Path) -> N
     ("values", "message"),
     [
         ({"lidar": "rplidar"}, "lidar:='rplidar': give one of auto, sllidar, host, none"),
-        ({"twin": "true", "lidar": "sllidar"}, "the twin publishes /scan"),
+        ({"twin": "true", "lidar": "sllidar"}, "the daemon reads the twin's emulated RPLIDAR"),
         ({"twin": "true", "port": "/dev/ttyACM0"}, "port:= is the robot's"),
         ({"twin": "true", "use_sim_time": "false"}, "must run on it"),
         ({"slam": "yes", "map": "maze.yaml"}, "not both"),

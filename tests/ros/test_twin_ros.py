@@ -1,4 +1,4 @@
-"""The twin's own ROS 2 publisher (``jackson sim --ros``): /scan, /ground_truth/odom, /clock.
+"""The twin's own ROS 2 publisher (``jackson sim --ros``): /twin/scan, /ground_truth/odom, /clock.
 
 ``jackson sim --ros --realtime`` runs in a subprocess with a private ROS domain; the minimal
 test peer says HELLO (the twin's clock stands still until then) and drives forward, and
@@ -99,7 +99,7 @@ def test_sim_ros_publishes_scan_ground_truth_and_clock(
         lines = [sim.stdout.readline().strip() for _ in range(5)]
         assert lines[0].startswith("serial: "), (lines, sim.stderr and sim.stderr.read())
         assert lines[2].startswith("lidar: /dev/pts/"), lines
-        assert lines[3] == "ros: publishing /clock, /ground_truth/odom, /scan on sim time"
+        assert lines[3] == "ros: publishing /clock, /ground_truth/odom, /twin/scan on sim time"
         serial, i2c = lines[0].split(": ", 1)[1], lines[1].split(": ", 1)[1]
         host = HostThread(serial, i2c, duty=0.5)
         out = subprocess.run(

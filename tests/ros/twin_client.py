@@ -1,6 +1,6 @@
 """A ROS 2 client in its own process that listens to the twin (``jackson sim --ros``).
 
-Subscribes /scan (best effort, depth 5), /ground_truth/odom (reliable, depth 10) and /clock
+Subscribes /twin/scan (best effort, depth 5), /ground_truth/odom (reliable, depth 10) and /clock
 (best effort, depth 1, as ROS 2's time source does). Once every topic has arrived it listens for
 ``--listen-s`` more seconds, then prints one JSON object: the counts, the first LaserScan's
 geometry, the /clock range, whether /clock and the scan stamps never went back, and the largest
@@ -85,7 +85,7 @@ def main() -> int:
         counts["clock"] += 1
         clocks.append(seconds(msg.clock))
 
-    node.create_subscription(LaserScan, "/scan", on_scan, qos(5, False))
+    node.create_subscription(LaserScan, "/twin/scan", on_scan, qos(5, False))
     node.create_subscription(Odometry, "/ground_truth/odom", on_truth, qos(10, True))
     node.create_subscription(Clock, "/clock", on_clock, qos(1, False))
 

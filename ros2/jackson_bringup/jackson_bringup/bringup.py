@@ -14,7 +14,7 @@ Who owns what on the ROS graph:
 - the clock: with ``twin:=true`` the twin's /clock (MCU time, which the daemon then stamps
   with); on the robot the system clock, onto which the daemon maps its stamps, or with
   ``use_sim_time:=true`` the MCU time of each /joint_states that ``mcu_clock`` republishes;
-- /scan: sllidar_ros2 (``lidar:=sllidar``), the daemon (``lidar:=host``) or the twin;
+- /scan: sllidar_ros2 (``lidar:=sllidar``) or the daemon (``lidar:=host``, the twin's default);
 - map -> odom: slam_toolbox (``slam:=true``) or AMCL (``map:=FILE``);
 - /cmd_vel: Nav2 (``nav:=true``), or the user's teleop.
 """
@@ -66,7 +66,8 @@ ARGUMENTS = (
     Argument("port", "", "the MCU's serial port (default: serial.port of the config)"),
     Argument("i2c", "", "the PCA9685's I2C bus (default: pca9685.bus of the config)"),
     Argument("lidar", "auto", "who reads the RPLIDAR: sllidar (sllidar_ros2), host (the "
-             "daemon), none; auto: sllidar on the robot, the twin's own /scan with twin:=true"),
+             "daemon), none; auto: sllidar on the robot, host with twin:=true (the daemon "
+             "reads the twin's emulated RPLIDAR)"),
     Argument("lidar_port", "/dev/jackson-lidar", "the RPLIDAR's serial port"),
     Argument("slam", "false", "true: map with slam_toolbox (config/slam_toolbox.yaml)"),
     Argument("map", "", "a map_server YAML: localise on it with Nav2's map_server and AMCL"),
@@ -99,10 +100,10 @@ class Options:
     Attributes
     ----------
     lidar : str
-        ``sllidar``, ``host`` or ``none``; ``auto`` is resolved (``none`` with the twin, whose
-        own /scan is then on unless its LiDAR is off).
+        ``sllidar``, ``host`` or ``none``; ``auto`` is resolved (``host`` with the twin: the
+        daemon reads its emulated RPLIDAR and publishes /scan, as on the robot).
     twin_lidar : bool
-        With ``twin:=true``: whether the twin simulates its LiDAR (and publishes /scan).
+        With ``twin:=true``: whether the twin simulates its LiDAR.
     use_sim_time : bool
         The nodes (and the daemon's stamps) on /clock; ``auto`` is resolved (true with the
         twin).
@@ -209,16 +210,16 @@ def parse_options(
         raise BringupError(f"lidar:={lidar!r}: give one of {', '.join(LIDAR_CHOICES)}")
     twin_lidar = True
     if twin:
-        if lidar in ("sllidar", "host"):
+        if lidar == "sllidar":
             raise BringupError(
-                f"lidar:={lidar} reads a real RPLIDAR; with twin:=true the twin publishes /scan "
-                "(lidar:=auto) or has no LiDAR (lidar:=none)"
+                "lidar:=sllidar with twin:=true: the daemon reads the twin's emulated RPLIDAR "
+                "(lidar:=auto or host) or the twin has no LiDAR (lidar:=none)"
             )
         for name in ("port", "i2c"):
             if args[name].strip():
                 raise BringupError(f"{name}:= is the robot's; twin:=true connects to the twin")
         twin_lidar = lidar != "none"
-        lidar = "none"
+        lidar = "host" if twin_lidar else "none"
     elif lidar == "auto":
         lidar = "sllidar"
     slam = parse_bool("slam", args["slam"])
@@ -236,8 +237,8 @@ def parse_options(
     use_sim_time = twin if sim_time == "auto" else parse_bool("use_sim_time", sim_time)
     if twin and not use_sim_time:
         raise BringupError(
-            "use_sim_time:=false: the twin's /scan and /ground_truth/odom are stamped with its "
-            "/clock, so the nodes must run on it (use_sim_time:=auto or true)"
+            "use_sim_time:=false: the twin's /ground_truth/odom and the daemon's stamps are on "
+            "the twin's /clock, so the nodes must run on it (use_sim_time:=auto or true)"
         )
     initial_pose = parse_pose("initial_pose", args["initial_pose"])
     if initial_pose is not None and not map_yaml:
@@ -364,23 +365,27 @@ def mounts_from_urdf(urdf_xml: str) -> Mounts:
 
 @dataclass(frozen=True)
 class TwinPorts:
-    """Where the twin puts its MCU serial port and its I2C socket."""
+    """Where the twin puts its MCU serial port, its I2C socket and its RPLIDAR's port."""
 
     serial: Path
     i2c: Path
+    lidar: Path
 
     @classmethod
     def in_folder(cls, folder: Path) -> TwinPorts:
-        """The twin's serial link and I2C socket inside ``folder``."""
-        return cls(serial=folder / "mcu", i2c=folder / "i2c.sock")
+        """The twin's serial link, I2C socket and LiDAR link inside ``folder``."""
+        return cls(serial=folder / "mcu", i2c=folder / "i2c.sock", lidar=folder / "lidar")
 
 
 def twin_command(opts: Options, ports: TwinPorts) -> list[str]:
     """``jackson sim``: the twin in real time (Nav2 and RViz run on the wall clock's pace),
-    publishing /clock, /ground_truth/odom and /scan."""
+    publishing /clock, /ground_truth/odom and /twin/scan; its RPLIDAR's port at
+    ``ports.lidar`` for the daemon."""
     cmd = [opts.jackson, "sim", "--ros", "--realtime", "--world", opts.world]
     cmd += ["--link", str(ports.serial), "--i2c", str(ports.i2c)]
-    if not opts.twin_lidar:
+    if opts.twin_lidar:
+        cmd += ["--lidar-link", str(ports.lidar)]
+    else:
         cmd.append("--no-lidar")
     return cmd + list(opts.twin_args)
 
@@ -399,7 +404,8 @@ def daemon_command(opts: Options, mounts: Mounts, ports: TwinPorts | None = None
     opts : Options
         The launch arguments.
     mounts : Mounts
-        From :func:`mounts_from_urdf`: the daemon publishes the same /tf_static.
+        From :func:`mounts_from_urdf`: the daemon's offsets (its bag's /tf_static) are the
+        URDF's; live, robot_state_publisher alone publishes them.
     ports : TwinPorts, optional
         The twin's ports (``twin:=true``); else the robot's from ``port:=``/``i2c:=`` or the
         host configuration.
@@ -418,7 +424,7 @@ def daemon_command(opts: Options, mounts: Mounts, ports: TwinPorts | None = None
         cmd += ["--port", opts.port] if opts.port else []
         cmd += ["--i2c", opts.i2c] if opts.i2c else []
     if opts.lidar == "host":
-        cmd += ["--lidar", opts.lidar_port]
+        cmd += ["--lidar", str(ports.lidar) if ports is not None else opts.lidar_port]
     cmd += list(opts.daemon_args)
     cmd += ["--ros", "--ros-args"]
     if opts.use_sim_time:  # stamp with MCU time itself, the clock of /clock
@@ -429,8 +435,9 @@ def daemon_command(opts: Options, mounts: Mounts, ports: TwinPorts | None = None
         ("laser_offset_m", mounts.laser_m),
     ):
         cmd += ["-p", f"{name}:={_ros_list(value)}"]
-    # robot_state_publisher turns /joint_states into the wheels' transforms
-    cmd += ["-p", "publish_wheel_tf:=false"]
+    # robot_state_publisher turns /joint_states into the wheels' transforms and publishes the
+    # URDF's fixed joints on /tf_static: one publisher per transform
+    cmd += ["-p", "publish_wheel_tf:=false", "-p", "publish_static_tf:=false"]
     return cmd
 
 
