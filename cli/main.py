@@ -728,8 +728,21 @@ def _cmd_faults(args: argparse.Namespace) -> int:
     return 0 if all(r.passed for r in rows) else 1
 
 
+def _brake_parser() -> argparse.ArgumentParser:
+    """``jackson brake`` alone: the command systemd runs after a crash must brake within a
+    fraction of a second, not after importing every other command's modules."""
+    from jackson.host import brake as brake_cli
+
+    parser: argparse.ArgumentParser = OneLineParser(prog="jackson")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    brake_cli.add_parser(sub)
+    return parser
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    given = list(sys.argv[1:] if argv is None else argv)
+    brake = given[:1] == ["brake"] and not {"-h", "--help"} & set(given)
+    args = (_brake_parser() if brake else build_parser()).parse_args(given)
     try:
         rc: int = args.func(args)
     except (CliError, HostCliError, ConfigError) as exc:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -102,6 +103,7 @@ class CommandTracker:
         self.pending: dict[tuple[int, int, int], _Pending] = {}
         self.counters = CommandCounters()
         self._motor: dict[tuple[int, int, int], float] = {}
+        self._stray_nacks: deque[Nack] = deque(maxlen=8)  # NACKs that matched no command
 
     def send(self, msg: Message) -> bytes:
         """Send ``msg``; its answer is awaited (configuration) or only checked (MOTOR_PWM)."""
@@ -130,15 +132,25 @@ class CommandTracker:
         key = (answer.acked_type, answer.acked_seq, answer.acked_crc)
         p = self.pending.pop(key, None)
         motor = self._motor.pop(key, None) if p is None else None
+        echo = ""
+        if p is None and motor is None and isinstance(answer, Nack):
+            # a NACK that echoes a command's type and SEQ but another CRC (the device saw the
+            # frame damaged, or computes it otherwise): still that command's answer, quoted
+            near = [k for k in self.pending if k[:2] == key[:2]]
+            if len(near) == 1:
+                p = self.pending.pop(near[0])
+                echo = f" (the NACK echoed CRC {answer.acked_crc:#010x}, sent {near[0][2]:#010x})"
         if p is None and motor is None:
             self.counters.unmatched += 1
+            if isinstance(answer, Nack):
+                self._stray_nacks.append(answer)
             return
         if isinstance(answer, Ack):
             self.counters.acked += 1
             return
         self.counters.nacked += 1
         what = describe(p.msg) if p is not None else "MOTOR_PWM"
-        text = f"the device refused {what}: {nack_reason(answer.error)}"
+        text = f"the device refused {what}: NACK {nack_reason(answer.error)}{echo}"
         self.counters.errors.append(text)
         raise CommandError(text)
 
@@ -160,6 +172,13 @@ class CommandTracker:
                     f"the device never answered {describe(p.msg)} "
                     f"({p.tries} tries, {ANSWER_TIMEOUT_S:.2f} s each)"
                 )
+                stray = [n for n in self._stray_nacks if n.acked_type == key[0]]
+                if stray:  # it did answer something: quote it
+                    n = stray[-1]
+                    text += (
+                        f"; it sent NACK {nack_reason(n.error)} for a frame of that type "
+                        f"(SEQ {n.acked_seq}, CRC {n.acked_crc:#010x}) that matched no command"
+                    )
                 self.counters.errors.append(text)
                 raise CommandError(text)
             # the same frame again: same SEQ and CRC, so either answer matches it

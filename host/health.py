@@ -77,10 +77,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-# scipy.special, not scipy.stats: the same quantile functions (scipy.stats' chi2 and norm call
-# them), without the second of import time scipy.stats costs every jackson process
-from scipy.special import gammaincinv, ndtri
-
 from jackson.host.odometry import RobotGeometry
 
 POLICIES = ("continue", "stop")
@@ -301,11 +297,18 @@ class HealthConfig:
     @property
     def gate_nis(self) -> float:
         """The per-sample NIS threshold (chi-square(1) quantile)."""
+        # scipy.special, not scipy.stats (the same quantile functions without the second of
+        # import time), and imported here: `jackson brake` imports this module's config
+        # through the host's and must start in well under a second
+        from scipy.special import gammaincinv
+
         return 2.0 * float(gammaincinv(0.5, self.gate_probability))  # chi2(1).ppf
 
     @property
     def window_z(self) -> float:
         """The windowed test's threshold in standard deviations (two-sided normal quantile)."""
+        from scipy.special import ndtri
+
         return float(ndtri(0.5 + 0.5 * self.window_probability))  # norm.ppf
 
 

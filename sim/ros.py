@@ -8,9 +8,10 @@
 
 All volatile, keep last. The twin's own scans go on ``/twin/scan``, not ``/scan``: the host
 daemon (``--lidar``) or Slamtec's sllidar_ros2 reads the emulated RPLIDAR's port and publishes
-``/scan`` from it, and one topic has one publisher. ``/clock`` uses the profile of ``rclcpp::ClockQoS`` (best effort, depth
-1), the one ROS 2's own time source subscribes with (rclpy's ``TimeSource`` and rclcpp's) and
-rosbag2's player publishes with; a subscriber that asks for reliable does not match it.
+``/scan`` from it, and one topic has one publisher. ``/clock`` uses the profile of
+``rclcpp::ClockQoS`` (best effort, depth 1), the one ROS 2's own time source subscribes with
+(rclpy's ``TimeSource`` and rclcpp's) and rosbag2's player publishes with; a subscriber that
+asks for reliable does not match it.
 
 Every stamp is sim time, which is the MCU time the host runs on: the MCU stamps telemetry with
 the twin's microsecond clock (``Twin.t_us``, on the wire modulo 2^32, unwrapped by the host), so

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import pytest
 
 from jackson.host.commands import ANSWER_TIMEOUT_S, RETRIES, CommandError, CommandTracker
@@ -98,7 +100,7 @@ def test_a_nack_names_the_command_and_the_firmware_reason() -> None:
         error=NackError.BAD_VALUE,
         acked_crc=ack_of(frame).acked_crc,
     )
-    with pytest.raises(CommandError, match=r"refused SET_RATE\(rate_hz=0\): BAD_VALUE"):
+    with pytest.raises(CommandError, match=r"refused SET_RATE\(rate_hz=0\): NACK BAD_VALUE"):
         link.answer(nack)
 
 
@@ -113,3 +115,33 @@ def test_a_refused_motor_command_is_an_error_and_a_missing_ack_only_counts() -> 
     a = ack_of(frame)
     with pytest.raises(CommandError, match=r"MOTOR_PWM.*NOT_SUPPORTED"):
         link.answer(Nack(a.acked_type, a.acked_seq, NackError.NOT_SUPPORTED, a.acked_crc))
+
+
+def test_a_nack_with_another_crc_is_still_that_commands_answer_and_quoted() -> None:
+    """The device NACKs a frame it saw damaged: same TYPE and SEQ, another CRC. The operator
+    is told the device refused it (with the NACK), not that it never answered."""
+    link = Link()
+    frame = link.tracker.send(SetRate(rate_hz=0))
+    nack = Nack(acked_type=frame[3], acked_seq=frame[4], error=NackError.BAD_LENGTH, acked_crc=7)
+    with pytest.raises(
+        CommandError,
+        match=r"refused SET_RATE\(rate_hz=0\): NACK BAD_LENGTH.*echoed CRC 0x00000007",
+    ):
+        link.answer(nack)
+
+
+def test_a_command_never_answered_quotes_a_stray_nack_of_its_type() -> None:
+    link = Link()
+    frame = link.tracker.send(SetConfig(failsafe_ms=600))
+    other_seq = (frame[4] + 9) & 0xFF  # a NACK for a SET_CONFIG frame nobody sent
+    link.answer(
+        Nack(acked_type=frame[3], acked_seq=other_seq, error=NackError.BAD_VALUE, acked_crc=1)
+    )
+    assert link.tracker.counters.unmatched == 1
+    for _ in range(RETRIES + 1):
+        link.now += ANSWER_TIMEOUT_S
+        with contextlib.suppress(CommandError):
+            link.tracker.poll()
+    errors = link.tracker.counters.errors
+    assert errors and "never answered SET_CONFIG" in errors[-1]
+    assert "it sent NACK BAD_VALUE" in errors[-1] and f"SEQ {other_seq}" in errors[-1]
