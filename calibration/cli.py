@@ -33,12 +33,12 @@ from typing import TYPE_CHECKING
 
 from jackson.calibration.yaml_update import Updates, YamlUpdateError, update_config
 from jackson.common.args import (
+    float_upto,
     fraction,
     int_in,
     nonneg_float,
     nonzero_float,
     positive_float,
-    positive_int,
 )
 from jackson.host.config import DEFAULT_CONFIG, IDENTITY, ConfigError, HostConfig, load_config
 from jackson.protocol import ProtocolMismatchError
@@ -107,12 +107,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     _common(e, truth="each run's distance (instead of a tape measure)")
     e.add_argument(
-        "--count", type=positive_int, default=3, help="straight runs to record (default 3)"
+        "--count", type=int_in(1, 100), default=3, help="straight runs to record (default 3)"
     )
     e.add_argument(
-        "--length", type=positive_float, default=1.0, help="metres per run (default 1.0)"
+        "--length", type=float_upto(50.0), default=1.0, help="metres per run (default 1.0)"
     )
-    e.add_argument("--speed", type=positive_float, default=0.15, help="m/s (default 0.15)")
+    e.add_argument("--speed", type=float_upto(2.0), default=0.15, help="m/s (default 0.15)")
     e.add_argument(
         "--distance",
         type=positive_float,
@@ -129,12 +129,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "and asks how many turns it really made; B = r (dphi_R - dphi_L) / dtheta.",
     )
     _common(t, truth="each run's true rotation (instead of counting turns)")
-    t.add_argument("--count", type=positive_int, default=2, help="rotations to record (default 2)")
     t.add_argument(
-        "--turns", type=positive_float, default=2.0, help="turns per rotation (default 2)"
+        "--count", type=int_in(1, 100), default=2, help="rotations to record (default 2)"
     )
     t.add_argument(
-        "--rate", type=positive_float, default=1.0, help="turn rate [rad/s] (default 1.0)"
+        "--turns", type=float_upto(100.0), default=2.0, help="turns per rotation (default 2)"
+    )
+    t.add_argument(
+        "--rate", type=float_upto(20.0), default=1.0, help="turn rate [rad/s] (default 1.0)"
     )
     t.add_argument(
         "--true-turns",
@@ -152,8 +154,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "imu.calibration (rotation, gyro_bias_rad_s, accel_scale).",
     )
     _common(i)
-    i.add_argument("--still", type=positive_float, default=10.0, help="seconds standing still (10)")
-    i.add_argument("--spin", type=positive_float, default=4.0, help="seconds spinning CCW (4)")
+    i.add_argument(
+        "--still", type=float_upto(3600.0), default=10.0, help="seconds standing still (10)"
+    )
+    i.add_argument("--spin", type=float_upto(600.0), default=4.0, help="seconds spinning CCW (4)")
     i.add_argument(
         "--rotation",
         help="sensor-to-base rotation, 9 numbers row by row, comma separated (default identity)",
@@ -168,7 +172,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     _common(d)
     d.add_argument("--max-duty", type=fraction, default=0.6, help="give up above this duty (0.6)")
     d.add_argument(
-        "--persist", type=positive_int, default=3, help="frames a count change must persist (3)"
+        "--persist", type=int_in(1, 1000), default=3, help="frames a count change must persist (3)"
     )
 
     c = procs.add_parser(
@@ -180,7 +184,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     _common(c)
     c.add_argument("--duty", type=fraction, default=1.0, help="step duty (default 1.0)")
     c.add_argument(
-        "--seconds", type=positive_float, default=3.0, help="step length [s] (default 3)"
+        "--seconds", type=float_upto(600.0), default=3.0, help="step length [s] (default 3)"
     )
     c.add_argument(
         "--rate", type=int_in(1, 500), default=200, help="telemetry rate [Hz] while recording (200)"
@@ -198,7 +202,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     st.add_argument(
         "--duty", type=fraction, nargs="+", default=[0.35, 0.7], help="step duties (0.35 0.7)"
     )
-    st.add_argument("--seconds", type=positive_float, default=1.5, help="step length [s] (1.5)")
+    st.add_argument("--seconds", type=float_upto(600.0), default=1.5, help="step length [s] (1.5)")
     st.add_argument(
         "--single-wheel", action="store_true", help="one wheel at a time, the other braked"
     )

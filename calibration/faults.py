@@ -22,7 +22,9 @@ What each row reports, from the twin's side (ground truth, on MCU time) and the 
   after the fault, with the delay from the fault and the distance the robot travelled after it;
 - *host*: alive or not at the end, its exit status, and whether frames flowed again after the
   fault (reconnected);
-- *data*: the run folder's CSV rows and whether they end at the same frame (consistent);
+- *data*: the run folder's CSV rows and whether its files agree (consistent): the CSVs end at
+  the same frame, and the bag's last message (flushed with them, on MCU time) within a second
+  and a frame of it;
 - *told*: what the daemon said to the operator (its ``daemon:`` lines, health.json problems).
 
 A row passes when the motors stopped driving within ``failsafe + one period`` of the fault
@@ -52,6 +54,7 @@ FAULT_AT_S = 6.0  # [s] MCU time: the robot drives the square's first side
 WINDOW_S = 4.0  # [s] MCU time watched after the fault
 FAILSAFE_S = 0.6  # [s] the MCU's heartbeat failsafe (and the interlock)
 PERIOD_S = 0.05  # [s] one telemetry period at 20 Hz
+FLUSH_S = 1.0  # [s] MCU time between the run folder's joint flushes (recording.FLUSH_PERIOD_S)
 STOP_WALL_S = 2.5  # [s] SIGSTOP lasts this long (the twin waits 1 s before it runs on alone)
 UNPLUG_WALL_S = 0.3  # [s] the port is gone this long at each unplug
 ACTUATION_LATENCY_S = 0.05  # [s] the twin robot's command-to-motor latency (robots/jackson.yaml)
@@ -485,7 +488,29 @@ def _run_folder(run_dir: Path) -> tuple[dict[str, int], bool]:
             ekf <= 0 or odo == 0 or abs(last["odometry.csv"] - last["ekf.csv"]) <= PERIOD_S + 1 / 30
         )
     )
+    bag_s = _bag_end_s(run_dir)
+    rows["bag_end_ms"] = -1 if bag_s is None else round(1e3 * bag_s)
+    if bag_s is not None and odo > 0:
+        consistent = consistent and abs(bag_s - last["odometry.csv"]) <= FLUSH_S + PERIOD_S
     return rows, consistent
+
+
+def _bag_end_s(run_dir: Path) -> float | None:
+    """MCU time [s] of the last message that reached the disk in the run's bag (None without
+    one): what a killed daemon's bag holds, read as its repair reads it."""
+    from mcap.records import Message as McapMessage
+
+    from jackson.host.ros.bag import BagError, whole_records
+
+    last: int | None = None
+    for file in sorted((run_dir / "bag").glob("*.mcap")):
+        try:
+            for record in whole_records(file):
+                if isinstance(record, McapMessage):
+                    last = record.log_time if last is None else max(last, record.log_time)
+        except BagError:
+            continue
+    return None if last is None else last / 1e9
 
 
 def run_matrix(

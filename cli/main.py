@@ -17,12 +17,15 @@ from typing import Any, BinaryIO
 
 from jackson import __version__
 from jackson.common.args import (
+    MAX_HOURS,
+    MAX_TRIALS,
+    MAX_WORKERS,
     OneLineParser,
-    nonneg_float,
+    int_in,
     nonneg_int,
+    nonneg_upto,
     one_line,
     output_folder,
-    positive_int,
 )
 from jackson.common.fields import ConfigError
 from jackson.host.cli import HostCliError
@@ -606,13 +609,13 @@ def build_parser() -> argparse.ArgumentParser:
         if name == "campaign":
             p.add_argument(
                 "--trials",
-                type=positive_int,
+                type=int_in(1, MAX_TRIALS),
                 help="trials (per variant for ofat and robustness, per case for faults; default "
                 "10, ofat/robustness 15)",
             )
             p.add_argument(
                 "--workers",
-                type=positive_int,
+                type=int_in(1, MAX_WORKERS),
                 default=2,
                 help="worker processes (2); with --cluster local, the Ray instance's CPUs",
             )
@@ -632,7 +635,7 @@ def build_parser() -> argparse.ArgumentParser:
             )
             p.add_argument(
                 "--clean-hours",
-                type=nonneg_float,
+                type=nonneg_upto(MAX_HOURS),
                 metavar="H",
                 help="faults: hours of driving without faults for the false alarms (default 1)",
             )

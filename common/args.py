@@ -46,6 +46,23 @@ fraction = _number("a number in (0, 1]", float, lambda v: 0 < v <= 1)
 nonzero_float = _number("a finite number other than 0", float, lambda v: v != 0)
 
 
+def float_upto(hi: float, lo_open: float = 0.0) -> Callable[[str], float]:
+    """A number type for argparse that accepts (``lo_open``, ``hi``]: a duration or an amount
+    bounded by what can run (``--clean-hours 1e300`` is refused, not run until killed)."""
+    return _number(f"a number in ({lo_open:g}, {hi:g}]", float, lambda v: lo_open < v <= hi)
+
+
+def nonneg_upto(hi: float) -> Callable[[str], float]:
+    """A number type for argparse that accepts [0, ``hi``]."""
+    return _number(f"a number in [0, {hi:g}]", float, lambda v: 0 <= v <= hi)
+
+
+MAX_TRIALS = 100_000  # a campaign's trials: about a month of the twin's time at 30 s each
+MAX_WORKERS = 1024
+MAX_HOURS = 1000.0  # [h] of driving a campaign may ask for
+MAX_SECONDS = 1e7  # [s] about 116 days: the longest run, limit or timeout anything takes
+
+
 def _int(text: str) -> float:
     return float(int(text, 0))
 

@@ -10,7 +10,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from jackson.common.args import output_folder, positive_float, positive_int
+from jackson.common.args import (
+    MAX_SECONDS,
+    float_upto,
+    output_folder,
+    positive_float,
+    positive_int,
+)
 
 
 class HostCliError(Exception):
@@ -56,7 +62,9 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     )
     p.add_argument("--run-dir", type=Path, help="run folder (default: RECORDING/<time>-<mission>)")
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
-    p.add_argument("--max-seconds", type=positive_float, help="stop after this much wall time")
+    p.add_argument(
+        "--max-seconds", type=float_upto(MAX_SECONDS), help="stop after this much wall time"
+    )
     p.add_argument(
         "--stall-timeout",
         type=positive_float,
@@ -66,7 +74,7 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     )
     p.add_argument(
         "--mission-timeout",
-        type=positive_float,
+        type=float_upto(MAX_SECONDS),
         help="abort the mission after this many seconds of MCU time "
         "(default: square 150, figure8 300)",
     )
@@ -86,7 +94,7 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p = sub.add_parser("monitor", help="live view of the link: rate, errors, counts, IMU, health")
     p.add_argument("--port", required=True, help="serial port (the robot's or the twin's)")
     p.add_argument("--baudrate", type=positive_int, default=921600)
-    p.add_argument("--duration", type=positive_float, help="stop after this many seconds")
+    p.add_argument("--duration", type=float_upto(MAX_SECONDS), help="stop after this many seconds")
     p.set_defaults(func=cmd_monitor)
 
     p = sub.add_parser("replay", help="feed a run folder back through the host, offline")
@@ -157,7 +165,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         from jackson.host.lidar.rplidar import LidarError, RplidarDriver
 
         try:
-            lidar = RplidarDriver(args.lidar)  # checked and started once the daemon is ready
+            lidar = RplidarDriver(args.lidar)
+            lidar.start()
         except LidarError as exc:
             if lidar is not None:
                 lidar.close()
@@ -225,13 +234,6 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         flush=True,
     )
     try:
-        if lidar is not None:
-            from jackson.host.lidar.rplidar import LidarError
-
-            try:
-                lidar.start()
-            except LidarError as exc:
-                raise DaemonError(str(exc)) from exc
         transport.send_hello()
         status = daemon.run(args.max_seconds)
     except (ProtocolError, DaemonError) as exc:

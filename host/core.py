@@ -233,7 +233,7 @@ class RunFolderListener(CoreListener):
             rec.odometry,
             (r.t_s, odo.x_m, odo.y_m, odo.yaw_rad, odo.v_m_s, odo.w_rad_s, t.enc_left, t.enc_right),
         )
-        rec.frame_done()
+        rec.frame_done(r.t_s)
 
 
 class HostCore:

@@ -214,6 +214,8 @@ class Daemon:
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         self.events: list[str] = []  # what the operator was told, in order
         self._hello_retries = 0  # HELLOs re-sent before the first INFO
+        self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
+        self._i2c_failing = False  # an I2C outage was told and has not ended
         self._repairer: threading.Thread | None = None
         self.bag: Any = None
         self.bridge: Any = None
@@ -247,7 +249,10 @@ class Daemon:
                 odometry=cfg.odometry,
                 clock=self.bridge.clock if self.bridge is not None else None,
                 max_bytes=max_bytes,
+                flush_interval_s=None,  # flushed with the run folder's files, on MCU time
             )
+            if self.recorder is not None:
+                self.recorder.flush_with.append(self.bag)
         sinks = [x for x in (self.bag, self.bridge) if x is not None]
         if sinks:
             builder = (
@@ -372,6 +377,20 @@ class Daemon:
         so the MCU drops the interlock line and the bridge brakes without the bus."""
         h = self.output.health() if hasattr(self.output, "health") else None
         up = not getattr(h, "bus_down", False)
+        errors, reinits = getattr(h, "i2c_errors", 0), getattr(h, "reinits", 0)
+        if errors > self._i2c_told[0] and not self._i2c_failing:
+            # the first failed write of an outage: say it at once, not only in health.json
+            self._i2c_failing = True
+            self.tell(
+                f"I2C: PCA9685 write failed ({getattr(h, 'last_error', '')}): retrying; the "
+                "MCU interlock brakes if it lasts 0.5 s"
+            )
+        if reinits > self._i2c_told[1] and self._i2c_failing:
+            self._i2c_failing = False
+            self.tell(
+                f"I2C: PCA9685 back and re-initialised ({errors - self._i2c_told[0]} failed writes)"
+            )
+            self._i2c_told = (errors, reinits)
         if up != was_up:
             if up:
                 self.core.host_state = HostState.ACTIVE

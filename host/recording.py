@@ -63,8 +63,7 @@ EKF_COLUMNS = (
     "p_xyaw",
     "p_yyaw",
 )
-FLUSH_PERIOD_S = 1.0  # [s] wall time between flushes of the whole run folder
-FLUSH_FRAMES = 100  # ... or this many frames (lockstep runs many per second)
+FLUSH_PERIOD_S = 1.0  # [s] of MCU time between flushes of the whole run folder (and its bag)
 BUFFER_BYTES = 4 << 20  # [B] per file: never filled between two flushes, so never auto-flushed
 COMMAND_COLUMNS = ("t_s", "v_cmd", "w_cmd", "duty_left", "duty_right", "braked")
 HEALTH_COLUMNS = (
@@ -99,9 +98,11 @@ def _fmt(row: tuple[Any, ...]) -> list[str]:
 
 
 class RunRecorder:
-    """Writes one run folder. All files are flushed together at a telemetry frame's end, at
-    least once a second (:meth:`frame_done`): a killed daemon leaves files that agree with each
-    other up to the last flushed frame, at most about a second before the kill."""
+    """Writes one run folder. All files are flushed together at a telemetry frame's end, once
+    per :data:`FLUSH_PERIOD_S` of MCU time (:meth:`frame_done`), with whatever else holds the
+    run (:attr:`flush_with`: the daemon's bag): a killed daemon leaves files that agree with
+    each other up to the last flushed frame (the bag up to the frame before it), at most a
+    second of MCU time before the kill, whatever the pace (lockstep or real time)."""
 
     def __init__(self, folder: Path, meta: dict[str, Any]) -> None:
         self.folder = folder
@@ -117,8 +118,8 @@ class RunRecorder:
         self.ekf = self._csv("ekf.csv", EKF_COLUMNS)
         self.commands = self._csv("commands.csv", COMMAND_COLUMNS)
         self.health = self._csv("health.csv", HEALTH_COLUMNS)
-        self._flushed_s = time.monotonic()
-        self._frames = 0
+        self._flushed_s: float | None = None  # MCU time of the last flush
+        self.flush_with: list[Any] = []  # flushed together with the files (the bag)
 
     def _csv(self, name: str, columns: tuple[str, ...]) -> Any:
         f = open(self.folder / name, "w", newline="", encoding="utf-8", buffering=BUFFER_BYTES)  # noqa: SIM115
@@ -149,20 +150,20 @@ class RunRecorder:
     def row(self, writer: Any, values: tuple[Any, ...]) -> None:
         writer.writerow(_fmt(values))
 
-    def frame_done(self) -> None:
-        """Every row of one telemetry frame is written: flush all files together, at most once
-        a second, so a killed run's files end at the same frame."""
-        self._frames += 1
-        now = time.monotonic()
-        if now - self._flushed_s >= FLUSH_PERIOD_S or self._frames >= FLUSH_FRAMES:
-            self._flushed_s = now
-            self._frames = 0
+    def frame_done(self, t_s: float) -> None:
+        """Every row of the telemetry frame of MCU time ``t_s`` is written: flush all files
+        together once per :data:`FLUSH_PERIOD_S` of MCU time, so a killed run's files end at
+        the same frame."""
+        if self._flushed_s is None or not 0.0 <= t_s - self._flushed_s < FLUSH_PERIOD_S:
+            self._flushed_s = t_s  # (a clock that went back, an MCU reset: flush and restart)
             self.flush()
 
     def flush(self) -> None:
         self._log.flush()
         for f in self._files:
             f.flush()
+        for other in self.flush_with:
+            other.flush()
 
     def close(self) -> None:
         self.record(KIND_END, time.monotonic_ns(), b"")

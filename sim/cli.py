@@ -25,6 +25,8 @@ from pathlib import Path
 from types import FrameType
 
 from jackson.common.args import (
+    MAX_SECONDS,
+    float_upto,
     int_in,
     nonneg_float,
     nonneg_int,
@@ -125,7 +127,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--fault", type=fault_arg, action="append", default=[], metavar="SPEC", help=FAULT_HELP
     )
-    p.add_argument("--duration", type=positive_float, help="stop after this many simulated seconds")
+    p.add_argument(
+        "--duration", type=float_upto(MAX_SECONDS), help="stop after this many simulated seconds"
+    )
     p.add_argument(
         "--heartbeat-timeout",
         type=positive_float,

@@ -13,7 +13,7 @@ import numpy as np
 
 from jackson.calibration.procedures import CalibrationError, Reference, RunData
 from jackson.host.odometry import tick_delta
-from jackson.host.recording import KIND_RX, KIND_TX, RecordingError, read_log
+from jackson.host.recording import KIND_END, KIND_RX, KIND_TX, RecordingError, read_log
 from jackson.protocol import (
     FrameDecoder,
     Info,
@@ -145,7 +145,8 @@ def load_run(folder: str | Path) -> RunData:
     Raises
     ------
     CalibrationError
-        The folder is missing, not a run, or holds no telemetry.
+        The folder is missing, not a run, cut short (no end record: a killed recording), or
+        holds no telemetry.
     """
     path = Path(folder)
     if not path.is_dir():
@@ -160,8 +161,10 @@ def load_run(folder: str | Path) -> RunData:
     nan3 = np.full(3, np.nan)
     device = _DeviceImu()
     raw_left = raw_right = 0
+    ended = False
     try:
         for rec in read_log(path):
+            ended = rec.kind == KIND_END
             if rec.kind == KIND_TX:
                 for frame in FrameDecoder().feed(rec.payload):
                     msg = decode_message(frame)
@@ -206,6 +209,13 @@ def load_run(folder: str | Path) -> RunData:
             accel.append(a)
     except RecordingError as exc:
         raise CalibrationError(str(exc)) from exc
+    if not ended:
+        # a killed recording (or a file cut short in a copy) holds part of the run: a fit on it
+        # would be wrong, not an error (half the travel against the whole tape measurement)
+        raise CalibrationError(
+            f"run {path.name}: log.jrec ends without its end record (the recording was killed "
+            f"or the file cut short, {len(t_s)} frames read): record the run again"
+        )
     if not t_s:
         raise CalibrationError(f"run {path.name}: no telemetry frames in log.jrec")
     duty_left, duty_right = _read_duties(path, t_s)

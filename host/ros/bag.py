@@ -497,6 +497,7 @@ class BagRecorder:
             return
         try:
             self._flush_chunk()
+            self._rotate_if_full()  # split here as the interval's own flush would
         finally:
             self._release()
 
@@ -883,7 +884,7 @@ def _split_index(file: Path) -> tuple[int, str]:
 _CUT = (McapError, EOFError, ValueError, struct.error, RuntimeError)
 
 
-def _whole_records(file: Path) -> Iterator[object]:
+def whole_records(file: Path) -> Iterator[object]:
     """Every whole record of ``file`` in order, chunks opened, read with the mcap library's
     stream reader: it stops at the first record cut by the kill; a chunk that is whole but
     damaged (a power loss can leave zeros where data should be) fails its CRC and is skipped.
@@ -954,7 +955,7 @@ def _repair_file(file: Path) -> tuple[BagFile, list[BagTopic]]:
     tmp = file.with_name(f"{file.name}.repair")
     try:
         with tmp.open("wb") as f:
-            found = _rewrite(_whole_records(file), f)
+            found = _rewrite(whole_records(file), f)
             f.flush()
             os.fsync(f.fileno())
     except BaseException:

@@ -1,8 +1,8 @@
 """The run's bag against the live topics of the same run, and the time policy on the twin.
 
-`jackson sim --ros` (the twin: /scan and /clock on sim time) and `jackson daemon --ros` with
+`jackson sim --ros` (the twin: /twin/scan and /clock on sim time) and `jackson daemon --ros` with
 ``use_sim_time`` drive the square; ``record_client.py`` in a third process keeps every message
-of the daemon's topics and the twin's /scan as delivered. Every live message is in the run's
+of the daemon's topics and the twin's /twin/scan as delivered. Every live message is in the run's
 bag, byte for byte once both are serialised alike, and the twin's scans and the daemon's
 odometry carry stamps of one clock (within one scan period).
 """
@@ -91,7 +91,7 @@ def test_the_bag_holds_every_live_message_and_the_twins_scans_line_up(
         )
         topics = [
             f"{settings.topic(k)}={settings.topic_type(k)}:{TOPIC_TYPES[k][1]}" for k in OURS
-        ] + ["/scan=sensor_msgs/msg/LaserScan:sensor"]
+        ] + ["/twin/scan=sensor_msgs/msg/LaserScan:sensor"]
         live_file = tmp_path / "live.jsonl"
         out = subprocess.run(
             [sys.executable, str(CLIENT), "--listen-s", "4", "--out", str(live_file)]
@@ -111,7 +111,7 @@ def test_the_bag_holds_every_live_message_and_the_twins_scans_line_up(
 
     store = get_typestore(Stores.ROS2_JAZZY)
     types = {settings.topic(k): settings.topic_type(k) for k in OURS}
-    types["/scan"] = "sensor_msgs/msg/LaserScan"
+    types["/twin/scan"] = "sensor_msgs/msg/LaserScan"
 
     def canonical(ros_type: str, data: bytes) -> bytes:
         return bytes(store.serialize_cdr(store.deserialize_cdr(data, ros_type), ros_type))
@@ -142,7 +142,7 @@ def test_the_bag_holds_every_live_message_and_the_twins_scans_line_up(
 
     # one clock: each of the twin's scans has odometry within one scan period of its stamp
     odom = sorted(_stamp(m) for _, m, _ in live[settings.filtered_topic])
-    scans = [_stamp(m) for _, m, _ in live["/scan"] if odom[0] <= _stamp(m) <= odom[-1]]
+    scans = [_stamp(m) for _, m, _ in live["/twin/scan"] if odom[0] <= _stamp(m) <= odom[-1]]
     assert len(scans) >= 10
     for s in scans:
         assert min(abs(s - o) for o in odom) <= SCAN_PERIOD_S, s
