@@ -112,6 +112,7 @@ def matrix(short: bool) -> list[Fault]:
         Fault("IMU death", "pca9685"),  # excluded: the square goes on, wheel-only yaw
         Fault("5 % frames lost", "pca9685"),
         Fault("5 % frames corrupted", "pca9685"),
+        Fault("mute device", "mcu"),  # a port with no firmware behind it: nothing to drive
     ]
 
 
@@ -171,8 +172,100 @@ def _config(folder: Path, actuator: str) -> Path:
     return path
 
 
+MUTE_WALL_S = 5.0  # [s] the daemon runs this long against a mute device
+MUTE_TOLD_S = 2.0  # [s] from its first HELLO: the operator is told by then
+
+
+def _mute_row(fault: Fault, folder: Path) -> FaultRow:
+    """A port with no firmware behind it (a pty that never answers): the daemon must say so in
+    one line within :data:`MUTE_TOLD_S` of its first HELLO, and keep asking (visible retries).
+    The row's ``brake_delay_s`` is that delay, on the wall clock."""
+    import tty
+
+    from jackson.protocol import FrameDecoder, Hello
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    run_dir = folder / "run"
+    proc = subprocess.Popen(
+        [
+            JACKSON,
+            "daemon",
+            "--config",
+            str(_config(folder, fault.actuator)),
+            "--port",
+            os.ttyname(slave),
+            "--mission",
+            "square",
+            "--run-dir",
+            str(run_dir),
+            "--max-seconds",
+            str(MUTE_WALL_S),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    lines: list[tuple[float, str]] = []
+
+    def read_lines() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            lines.append((time.monotonic(), line.rstrip("\n")))
+
+    reader = threading.Thread(target=read_lines, daemon=True)
+    reader.start()
+    hellos: list[float] = []
+    decoder = FrameDecoder()
+    os.set_blocking(master, False)
+    try:
+        while proc.poll() is None:
+            try:
+                data = os.read(master, 4096)
+            except BlockingIOError:
+                data = b""
+            now = time.monotonic()
+            hellos += [now for f in decoder.feed(data) if f.type == Hello.TYPE]
+            threading.Event().wait(0.01)  # polls the pty and the process until it ends
+        reader.join(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+        os.close(master)
+        os.close(slave)
+    told_at = next((t for t, line in lines if "no answer on" in line), None)
+    delay = None if told_at is None or not hellos else told_at - hellos[0]
+    told = [line.removeprefix("daemon: ") for _, line in lines if line.startswith("daemon:")]
+    row = FaultRow(
+        fault=fault.name,
+        actuator=fault.actuator,
+        repeat=fault.repeat,
+        braked=True,  # nothing was ever driven
+        brake_delay_s=None if delay is None else round(delay, 3),
+        distance_after_m=0.0,
+        host_alive=False,
+        exit_status=proc.returncode,
+        reconnected=False,
+        rows={"hellos": len(hellos)},
+        consistent=True,
+        told=told,
+    )
+    row.passed = bool(delay is not None and delay <= MUTE_TOLD_S and len(hellos) >= 3)
+    row.note = (
+        ""
+        if row.passed
+        else (f"told after {delay} s" if delay is not None else "the operator was not told")
+        + f", {len(hellos)} HELLOs"
+    )
+    return row
+
+
 def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
     """Run one row in ``folder`` (twin thread + daemon process) and measure it."""
+    if fault.name == "mute device":
+        folder.mkdir(parents=True, exist_ok=True)
+        return _mute_row(fault, folder)
     from jackson.sim.config import load_robot, load_world
     from jackson.sim.i2c_server import I2cSocketServer
     from jackson.sim.mcu import SensorSample

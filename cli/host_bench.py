@@ -18,6 +18,12 @@
   3x: no tail of ours), and the wall-time p99 over the median for information (on a busy
   machine it is the scheduler's: the one-byte write shows the same tail).
 
+- ``jackson brake`` (systemd's ``ExecStopPost``): wall time from starting the command to its
+  exit after the brake was written and read back, against an emulated PCA9685 on a Unix
+  socket; the best and the worst of 5 starts as shares of 0.5 s (the time the MCU's 0.6 s
+  interlock leaves it; target 1), the bare interpreter's start (``python -c pass``, the same
+  venv) for reference.
+
 Five passes, each a fresh host and EKF over the same frames followed by 200 (quick) or 1000
 commands (after 20 untimed ones: the first command of a pass found cold caches and was in the
 tail of every pass); each median and p99 is the best over the passes.
@@ -232,6 +238,49 @@ def _p(values: list[float], q: float) -> float:
     return s[min(len(s) - 1, int(q * len(s)))]
 
 
+BRAKE_BUDGET_S = 0.5  # [s] jackson brake must have braked this soon after its start
+
+
+def brake_start_s(starts: int) -> tuple[list[float], float]:
+    """Wall times [s] of ``starts`` runs of ``jackson brake`` against an emulated PCA9685 on a
+    Unix socket (start to exit, the brake written and read back), and the best start of the
+    bare interpreter (``python -c pass``) in the same run."""
+    import subprocess
+    import sys
+
+    jackson = str(Path(sys.executable).parent / "jackson")
+    times: list[float] = []
+    bare = float("inf")
+    with tempfile.TemporaryDirectory(prefix="jb-") as tmp:
+        sock = Path(tmp) / "i2c.sock"
+        server = I2cSocketServer(sock)
+        stop = threading.Event()
+
+        def serve() -> None:
+            while not stop.is_set():
+                server.service(0.01)
+
+        thread = threading.Thread(target=serve, daemon=True)
+        thread.start()
+        try:
+            for _ in range(starts):
+                t0 = time.perf_counter()
+                subprocess.run([sys.executable, "-c", "pass"], check=True)
+                bare = min(bare, time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                done = subprocess.run(
+                    [jackson, "brake", "--i2c", f"unix:{sock}"], capture_output=True, text=True
+                )
+                times.append(time.perf_counter() - t0)
+                if done.returncode != 0 or "braked" not in done.stdout:
+                    raise RuntimeError(f"jackson brake failed: {done.stdout}{done.stderr}")
+        finally:
+            stop.set()
+            thread.join(timeout=5)
+            server.close()
+    return times, bare
+
+
 def run(quick: bool = False) -> list[BenchResult]:
     """The host's figures for ``jackson bench``.
 
@@ -287,7 +336,24 @@ def run(quick: bool = False) -> list[BenchResult]:
         )
 
     period = "the 5 ms frame period at 200 Hz"
-    return [
+    brake_s, python_s = brake_start_s(3 if quick else 5)
+    brake = [
+        BenchResult(
+            f"host.brake_command_{which}_share",
+            value / BRAKE_BUDGET_S,
+            "of 0.5 s",
+            1.0,
+            "lower",
+            f"0.5 s from the start of jackson brake to the brake written and read back "
+            f"({which} of the starts; reference: the bare interpreter's start)",
+            value * 1e3,
+            "ms",
+            python_s * 1e3,
+            loop_us,
+        )
+        for which, value in (("best", min(brake_s)), ("worst", max(brake_s)))
+    ]
+    results = [
         fig(
             "host.cpu_per_frame_p50_share",
             cpu_p50 / period_us,
@@ -393,3 +459,4 @@ def run(quick: bool = False) -> list[BenchResult]:
             floor_p99,
         ),
     ]
+    return [*brake, *results]

@@ -12,6 +12,8 @@ def test_a_killed_host_on_the_pca9685_path_is_braked_by_the_interlock(tmp_path: 
     assert row.braked and row.brake_delay_s is not None
     assert row.brake_delay_s <= BRAKE_LIMIT_S
     assert row.consistent, row.rows  # files flushed together: they end at the same frame
+    # and the bag (flushed with them on MCU time) ends within a second and a frame of them
+    assert row.rows["bag_end_ms"] > 0, row.rows
     before = [v for t, v in row.trace if t < 0]
     stopped = [v for t, v in row.trace if t > BRAKE_LIMIT_S + 0.5]
     assert before and max(before) > 0.05  # driving at the fault
@@ -32,3 +34,19 @@ def test_the_daemon_survives_an_i2c_server_restart(tmp_path: Path) -> None:
     row = run_row(Fault("I2C server restart", "pca9685", repeat=2), tmp_path)
     assert row.host_alive or row.exit_status in (0, 1)
     assert row.reconnected
+    # the operator hears of each outage and of its end on stdout, not only in health.json
+    failed = [t for t in row.told if t.startswith("daemon: I2C: PCA9685 write failed")]
+    back = [t for t in row.told if t.startswith("daemon: I2C: PCA9685 back and re-initialised")]
+    assert failed, row.told
+    assert len(back) >= len(failed) - 1, row.told  # the last may still be on when the run ends
+
+
+def test_a_mute_device_is_one_line_within_two_seconds_and_hello_is_retried(
+    tmp_path: Path,
+) -> None:
+    row = run_row(Fault("mute device", "mcu"), tmp_path)
+    assert row.passed, (row.note, row.told)
+    assert row.brake_delay_s is not None and row.brake_delay_s <= 2.0  # from the first HELLO
+    assert row.rows["hellos"] >= 3  # visible retries
+    first = next(t for t in row.told if "no answer on" in t)
+    assert "is the firmware flashed? (make flash)" in first
