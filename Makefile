@@ -8,12 +8,13 @@ NATIVE := build/native
 JOBS   ?= 2
 
 .PHONY: help setup test lint typecheck generated native native-test pytest bench demo clean \
-        firmware flash firmware-test
+        firmware flash firmware-test docs-check
 
 help:
 	@echo "make demo    set up, then drive the 1 m square and Stage 3's maze on the twin with the real host"
 	@echo "make test    set up, then ruff, mypy, generated-code check, C++ tests (ASan+UBSan), pytest"
 	@echo "make bench   benchmarks: table on screen, JSON in build/bench.json"
+	@echo "make docs-check  re-run the commands behind the figures the docs quote (docs/figures.yaml)"
 	@echo "make setup   only install what is missing (.venv, Debian packages)"
 	@echo "make firmware        build the ESP32-S3 firmware (PlatformIO)"
 	@echo "make flash PORT=...  build and flash it (default PORT=/dev/ttyACM0)"
@@ -55,6 +56,11 @@ pytest:
 
 bench: setup
 	$(BIN)/jackson bench
+
+# The figures the docs quote, made again by the commands the docs name (about 2 minutes);
+# ALL=1 also runs the long ones.
+docs-check: setup
+	$(BIN)/python tools/docs_check.py $(if $(ALL),--all,)
 
 # The newcomer's first command: the twin and the real host daemon over a pty drive the paper's
 # 1 m square, then Stage 3: the host maps the maze with the twin's RPLIDAR and navigates around
