@@ -18,8 +18,8 @@ from pathlib import Path
 from jackson.common.args import int_in
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
+from jackson.host.actuation.settings import DEFAULT_CONFIG, Pca9685Settings, load_motor_settings
 from jackson.host.actuation.tb6612 import bridge_duties
-from jackson.host.config import Pca9685Settings
 from jackson.host.i2c import SOCKET_PREFIX, I2cError, I2cSpecError, check_bus_spec, open_bus
 
 ATTEMPTS = 4
@@ -131,19 +131,22 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 def cmd_brake(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from jackson.host.cli import HostCliError, _load
-    from jackson.host.config import HostConfig
+    from jackson.common.fields import ConfigError
+    from jackson.host.cli import HostCliError
 
-    cfg = _load(args.config)
-    assert isinstance(cfg, HostConfig)
-    p = cfg.pca9685
+    # only the motor output's sections: no estimator to import, and a broken section elsewhere
+    # in the file does not keep the robot from braking
+    try:
+        actuator, p = load_motor_settings(args.config or DEFAULT_CONFIG)
+    except ConfigError as exc:
+        raise HostCliError(str(exc)) from exc
     if args.i2c:
         p = dataclasses.replace(p, bus=args.i2c)
     if args.address is not None:
         p = dataclasses.replace(p, address=args.address)
-    if cfg.actuator != "pca9685" and not args.i2c:
+    if actuator != "pca9685" and not args.i2c:
         raise HostCliError(
-            f"actuator is {cfg.actuator}: the MCU drives the motors and brakes them itself; "
+            f"actuator is {actuator}: the MCU drives the motors and brakes them itself; "
             "give --i2c to brake a PCA9685 anyway"
         )
     try:

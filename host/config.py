@@ -15,17 +15,23 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
 from jackson.host.actuation.deadband import DeadbandConfig
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.actuation.tb6612 import BridgeChannels
+from jackson.host.actuation.settings import ACTUATORS as ACTUATORS  # re-exported
+from jackson.host.actuation.settings import DEFAULT_CONFIG as DEFAULT_CONFIG
+from jackson.host.actuation.settings import LEFT_CHANNELS as LEFT_CHANNELS
+from jackson.host.actuation.settings import PWM_FREQUENCY_RANGE_HZ as PWM_FREQUENCY_RANGE_HZ
+from jackson.host.actuation.settings import RIGHT_CHANNELS as RIGHT_CHANNELS
+from jackson.host.actuation.settings import Actuator as Actuator
+from jackson.host.actuation.settings import Pca9685Settings as Pca9685Settings
+from jackson.host.actuation.settings import parse_actuator, parse_pca9685
 from jackson.host.actuation.wheel_pi import WheelPiConfig
 from jackson.host.ekf import EkfConfig, ProcessNoise
 from jackson.host.health import POLICIES, HealthConfig
-from jackson.host.i2c import I2cSpecError, check_bus_spec
 from jackson.host.odometry import OdometryCovariance, RobotGeometry
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
@@ -34,38 +40,18 @@ from jackson.protocol.messages import (
     TELEMETRY_RATE_HZ_RANGE,
 )
 
-DEFAULT_CONFIG = Path(__file__).resolve().parent / "config" / "jackson.yaml"
-
-Actuator = Literal["pca9685", "mcu"]
-ACTUATORS: dict[str, Actuator] = {"pca9685": "pca9685", "mcu": "mcu"}
-
 MAX_DEADBAND_DUTY = 0.9  # a breakaway duty at or above this leaves no range to control
 MAX_GAIN = 2.0  # a deadband gain trim above this hides a miswired or stalled motor
-PWM_FREQUENCY_RANGE_HZ = (24.0, 1526.0)  # PCA9685 PRE_SCALE 253..3 (datasheet eq. 1)
 MAX_TELEMETRY_RATE_HZ = TELEMETRY_RATE_HZ_RANGE[1]  # SET_RATE limit (protocol/schema.yaml)
 WATCHDOG_RANGE_S = (FAILSAFE_MS_RANGE[0] / 1000.0, FAILSAFE_MS_RANGE[1] / 1000.0)
 ROTATION_TOLERANCE = 1e-3  # the firmware's test for a proper rotation
 MAX_GYRO_BIAS_RAD_S = GYRO_BIAS_RAD_S_RANGE[1]  # the firmware refuses a bias of this or more
 
-LEFT_CHANNELS = BridgeChannels(pwm=0, in1=1, in2=2)  # PWMA, AIN1, AIN2 (the common motor HAT)
-RIGHT_CHANNELS = BridgeChannels(pwm=5, in1=3, in2=4)  # PWMB, BIN1, BIN2
 Rotation = tuple[float, float, float, float, float, float, float, float, float]  # row-major 3x3
 IDENTITY: Rotation = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
 # ------------------------------------------------------------------------- the configuration
-
-
-@dataclass(frozen=True)
-class Pca9685Settings:
-    """The PCA9685 and the TB6612FNG inputs wired to its outputs."""
-
-    bus: str = "/dev/i2c-7"  # or "unix:/path/to.sock" for the twin
-    address: int = 0x40
-    frequency_hz: float = 1000.0
-    left: BridgeChannels = LEFT_CHANNELS
-    right: BridgeChannels = RIGHT_CHANNELS
-    stby_channel: int | None = None  # None: STBY tied high
 
 
 @dataclass(frozen=True)
@@ -162,8 +148,8 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         deadband=_deadband(top.section("deadband")),
         wheel_pi=_wheel_pi(top.section("wheel_pi")),
         health=_health(top.section("health")),
-        actuator=_actuator(top),
-        pca9685=_pca9685(top.section("pca9685")),
+        actuator=parse_actuator(top),
+        pca9685=parse_pca9685(top.section("pca9685")),
         imu=_imu(top.section("imu")),
         serial=_serial(top.section("serial")),
         watchdog_s=top.number("watchdog_s", DEFAULTS.watchdog_s, *WATCHDOG_RANGE_S),
@@ -318,58 +304,6 @@ def _health(s: Fields) -> HealthConfig:
     except ValueError as exc:  # "HealthConfig.<field> must be ..."
         key, _, problem = str(exc).removeprefix("HealthConfig.").partition(" ")
         raise s.fail(key, problem) from None
-
-
-def _actuator(s: Fields) -> Actuator:
-    s.used.add("actuator")
-    v = s.data.get("actuator", "pca9685")
-    if not isinstance(v, str) or v not in ACTUATORS:
-        raise s.fail("actuator", f"expected pca9685 or mcu, got {show(v)}")
-    return ACTUATORS[v]
-
-
-def _pca9685(s: Fields) -> Pca9685Settings:
-    d = Pca9685Settings()
-    bus = s.text("bus", d.bus)
-    try:
-        check_bus_spec(bus)
-    except I2cSpecError as exc:
-        raise s.fail("bus", f"expected /dev/i2c-N or unix:/path/to.sock, got {show(bus)}") from exc
-    frequency = s.number("frequency_hz", d.frequency_hz, *PWM_FREQUENCY_RANGE_HZ)
-    channels = s.section("channels")
-    used: dict[int, str] = {}  # channel -> the field that took it
-
-    def claim(section: Fields, key: str, value: int) -> None:
-        if value in used:
-            raise section.fail(key, f"channel {value} is already used by {used[value]}")
-        used[value] = f"{section.prefix}{key}"
-
-    def bridge(key: str, default: BridgeChannels) -> BridgeChannels:
-        b = channels.section(key)
-        values = []
-        for name in ("pwm", "in1", "in2"):
-            value = b.integer(name, getattr(default, name), 0, 15)
-            claim(b, name, value)
-            values.append(value)
-        b.finish()
-        return BridgeChannels(*values)
-
-    left = bridge("left", d.left)
-    right = bridge("right", d.right)
-    channels.finish()
-    stby = s.optional_integer("stby_channel", 0, 15)
-    if stby is not None:
-        claim(s, "stby_channel", stby)
-    out = Pca9685Settings(
-        bus=bus,
-        address=s.integer("address", d.address, 0x03, 0x77, hexadecimal=True),
-        frequency_hz=frequency,
-        left=left,
-        right=right,
-        stby_channel=stby,
-    )
-    s.finish()
-    return out
 
 
 def _imu(s: Fields) -> ImuSettings:

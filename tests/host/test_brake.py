@@ -74,6 +74,31 @@ def test_brake_leaves_both_bridges_in_short_brake(
     assert modes(server) == (BridgeMode.SHORT_BRAKE, BridgeMode.SHORT_BRAKE)
 
 
+def test_a_config_broken_outside_the_motor_sections_still_brakes(
+    bus: tuple[I2cSocketServer, str], tmp_path: Path
+) -> None:
+    """The brake reads only ``actuator`` and ``pca9685``: an EKF section someone broke does not
+    keep the robot from braking (the daemon itself refuses that file)."""
+    from jackson.host.config import DEFAULT_CONFIG
+
+    server, spec = bus
+    drive(spec)
+    config = tmp_path / "broken.yaml"
+    text = DEFAULT_CONFIG.read_text()
+    config.write_text(text.replace("  frequency_hz: 30 ", "  frequency_hz: .nan ", 1))
+    out = subprocess.run(
+        [JACKSON, "brake", "--config", str(config), "--i2c", spec], capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert modes(server) == (BridgeMode.SHORT_BRAKE, BridgeMode.SHORT_BRAKE)
+    daemon = subprocess.run(
+        [JACKSON, "daemon", "--config", str(config), "--port", "nowhere"],
+        capture_output=True,
+        text=True,
+    )
+    assert daemon.returncode == 2 and "ekf.frequency_hz" in daemon.stderr
+
+
 def test_unreachable_bus_is_one_line_and_exit_1(tmp_path: Path) -> None:
     out = subprocess.run(
         [JACKSON, "brake", "--i2c", f"unix:{tmp_path / 'gone.sock'}"],
