@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import itertools
 import json
 import math
 import statistics
@@ -116,8 +117,13 @@ CASES = (
     FaultCase("lidar_noise", "maze", "lidar_noise@4:sigma_m=0.05", LIDAR),
     FaultCase("lidar_dropout", "maze", "lidar_dropout@4:probability=0.3", LIDAR),
     FaultCase("lidar_dead", "maze", "lidar_dropout@4:probability=1", LIDAR),
+    FaultCase("lidar_garbage", "maze", "lidar_garbage@4", LIDAR),
+    FaultCase("lidar_closed", "maze", "lidar_closed@4", LIDAR),
 )
 """Every case, in the report's order."""
+BLIND_CASES = frozenset({"lidar_dead", "lidar_garbage", "lidar_closed"})
+"""Cases whose LiDAR goes blind: the robot must stand within :data:`BLIND_LIMIT_M`."""
+BLIND_LIMIT_M = 0.1  # [m] the farthest a navigating robot may drive on its last scans
 CASE_NAMES = tuple(c.name for c in CASES)
 
 
@@ -176,6 +182,9 @@ class RunRecord:
         elsewhere or when no cylinder dropped.
     scans : int or None
         The maze: LiDAR revolutions the host decoded, None elsewhere.
+    after_onset_m : float or None
+        Ground-truth path length from the fault's onset to the end of the run [m] (for a
+        LiDAR that goes blind: how far the robot drove on its last scans before it stood).
     """
 
     case: str
@@ -198,6 +207,7 @@ class RunRecord:
     failure: str | None = None
     collisions: int = 0
     d_min_m: float | None = None
+    after_onset_m: float | None = None
     scans: int | None = None
 
     @property
@@ -339,6 +349,10 @@ class CaseSummary:
         was excluded, or that did not end, and ``what`` happened.
     navigation_with_monitor, navigation_without_monitor : NavOutcome or None
         A maze case's navigation outcomes (None for the other missions).
+    after_onset_max_m : float or None
+        A LiDAR that goes blind (``lidar_dead``, ``lidar_garbage``, ``lidar_closed``): the
+        farthest a monitored run drove after the onset, to standstill (target
+        :data:`BLIND_LIMIT_M`); None for the other cases.
     """
 
     name: str
@@ -370,6 +384,7 @@ class CaseSummary:
     runs_to_look_at: list[dict[str, str]] = field(default_factory=list)
     navigation_with_monitor: NavOutcome | None = None
     navigation_without_monitor: NavOutcome | None = None
+    after_onset_max_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -617,7 +632,21 @@ def load_run(
         collisions=int(metrics.get("collisions", 0)),
         d_min_m=_number(metrics.get("d_min_m")),
         scans=int(metrics["scans"]) if "scans" in metrics else None,
+        after_onset_m=None if onset is None else _path_after(folder, float(onset)),
     )
+
+
+def _path_after(folder: Path, onset_s: float) -> float | None:
+    """Ground-truth path length [m] from ``onset_s`` to the end (``ground_truth.csv``)."""
+    import csv
+
+    try:
+        with (folder / "ground_truth.csv").open(newline="") as f:
+            rows = [(float(r["t_s"]), float(r["x_m"]), float(r["y_m"])) for r in csv.DictReader(f)]
+    except (OSError, KeyError, ValueError):
+        return None
+    after = [(x, y) for t, x, y in rows if t >= onset_s - 1e-9]
+    return sum(math.dist(a, b) for a, b in itertools.pairwise(after)) if after else 0.0
 
 
 def _read_json(path: Path) -> dict[str, Any]:
@@ -722,6 +751,12 @@ def summarise_case(
     missed = []
     if rate < DETECTION_TARGET:
         missed.append(f"detected {detected}/{n} (target {DETECTION_TARGET:.0%})")
+    blind = None
+    if case.name in BLIND_CASES:
+        drove = [r.after_onset_m for r in with_monitor if r.after_onset_m is not None]
+        blind = max(drove) if drove else None
+        if blind is None or blind > BLIND_LIMIT_M:
+            missed.append(f"drove {blind} m blind (target {BLIND_LIMIT_M:g} m)")
     for label, o in (("with", on), ("without", off)):
         if o.not_ended:
             missed.append(f"{o.not_ended}/{o.runs} runs {label} the monitor did not end")
@@ -773,6 +808,7 @@ def summarise_case(
         runs_to_look_at=look,
         navigation_with_monitor=nav_outcome(with_monitor) if case.mission == "maze" else None,
         navigation_without_monitor=nav_outcome(without_monitor) if case.mission == "maze" else None,
+        after_onset_max_m=blind,
     )
 
 
@@ -1329,6 +1365,12 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             lines.append(
                 f"\n{c['name']}: {c['gated']} samples gated for {c['spikes']} spikes injected "
                 f"over {c['trials']} runs."
+            )
+    for c in summary["cases"]:
+        if c.get("after_onset_max_m") is not None:
+            lines.append(
+                f"\n{c['name']}: the robot stood at most {c['after_onset_max_m'] * 100:.1f} cm "
+                f"(ground truth) after the LiDAR went blind (target {BLIND_LIMIT_M * 100:.0f} cm)."
             )
     early = sum(c["pre_onset_alarms"] for c in summary["cases"])
     lines.append(f"\nTransitions before the onset in the monitored runs: {early}.")

@@ -314,6 +314,8 @@ class HostCore:
         # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded here
         self.lidar = RevolutionAssembler(streaming=True)
         self._revolutions: list[Revolution] = []
+        self._lidar_received = 0  # LiDAR bytes read since the last frame
+        self._lidar_skipped_at: int | None = None  # the decoder's malformed bytes then
         self.scans = 0
         self.last_scan: Scan | None = None
 
@@ -364,7 +366,20 @@ class HostCore:
             return
         for listener in self.listeners:
             listener.on_lidar(data, host_time_ns)
+        self._lidar_received += len(data)
         self._revolutions += self.lidar.feed(data)
+
+    def lidar_gone(self, reason: str) -> None:
+        """The LiDAR's port failed: the monitor excludes it at once, and a mission that
+        navigates by it is aborted (braked) now, not after a silence."""
+        t_s = self.t_s if self.t_s is not None else 0.0
+        hm = self.health
+        if hm is not None:
+            hm.lidar_gone(t_s, reason)
+            self._report_health(hm)
+        if isinstance(self.mission, ScanMission) and not self.mission.done:
+            self.abort(f"LiDAR lost: {reason}")
+            self.brake()
 
     def event(self, text: str) -> None:
         """Something the operator should know, in the run's log (a link record)."""
@@ -519,6 +534,13 @@ class HostCore:
     def _take_scans(self, t_s: float) -> None:
         revolutions, self._revolutions = self._revolutions, []
         hm = self.health
+        if hm is not None and (self._lidar_received or self._lidar_skipped_at is not None):
+            skipped = self.lidar.decoder.malformed_bytes
+            if self._lidar_skipped_at is None:
+                self._lidar_skipped_at = 0
+            hm.lidar_bytes(t_s, self._lidar_received, skipped - self._lidar_skipped_at)
+            self._lidar_skipped_at = skipped
+            self._lidar_received = 0
         navigating = isinstance(self.mission, ScanMission)
         if hm is not None:
             hm.lidar_needed = navigating and self.mission is not None and not self.mission.done
@@ -528,7 +550,7 @@ class HostCore:
             self.last_scan = scan
             # a scan too noisy to trust, or from an excluded LiDAR, is published (the
             # listeners) but not navigated by
-            use = hm.scan(t_s, rev.ranges_m) if hm is not None else True
+            use = hm.scan(t_s, rev.ranges_m, rev.angles_rad) if hm is not None else True
             if navigating and use:
                 assert isinstance(self.mission, ScanMission)
                 self.mission.on_scan(scan, self.nav_state())

@@ -22,7 +22,6 @@ from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS, Mission
-from jackson.host.control.base import ScanMission
 from jackson.host.core import CoreListener, DutySource, HostCore
 from jackson.host.health import Transition
 from jackson.host.recording import RunRecorder, run_in_progress
@@ -518,8 +517,7 @@ class Daemon:
         except LidarError as exc:
             self.lidar = None
             self.tell(f"LiDAR lost: {exc}")
-            if isinstance(self.core.mission, ScanMission):
-                self.core.abort(f"LiDAR lost: {exc}")
+            self.core.lidar_gone(str(exc))  # excluded; a navigation is braked and aborted now
             return
         self.core.on_lidar(data, time.monotonic_ns())
 

@@ -88,6 +88,11 @@ SPEED_WITNESS_FRAMES = 5  # frames averaged for the speed witness's two levels
 SPEED_WITNESS_BIAS_S = 1.5  # [s] over which the forward accelerometer's bias is measured
 LIDAR_LEARN_SCANS = 20  # the revolution period is learned over the first scans
 LIDAR_MIN_TRIPLETS = 30  # neighbouring returns needed to judge a scan's noise
+LIDAR_SILENCE_PERIODS = 1.8  # a silence shorter than this many revolutions is the stream's own
+# spacing (a revolution every 0.135 s, read at 50 ms frames: gaps up to about 0.19 s)
+LIDAR_PERIOD_S = 0.13465  # the A1M8's revolution, until the monitor has learned the sensor's
+LIDAR_MIN_SPAN_RAD = math.pi  # a revolution covering less than this is not a turn (garbage)
+LIDAR_JUNK_TURNS = 3  # that many such revolutions within lidar_garbage_s: garbage on the line
 SPIKE_AFTERMATH = 0.25  # a spike ends with a residual below half the gate's (NIS a quarter)
 WITNESS_Z = 3.0  # the accelerometer must tell the two hypotheses apart by this many sigma
 UNLEARNED_SCALE_TOLERANCE = 0.15  # kappa before s is learned: scrub of up to 15 % in turns
@@ -186,7 +191,16 @@ class HealthConfig:
     lidar_rough_scans : int
         Useless scans in a row that exclude the LiDAR.
     lidar_silence_s : float
-        No scan for this long, once scans came, excludes the LiDAR (dead or unplugged) [s].
+        No scan for this long, once scans came, excludes the LiDAR (dead or unplugged) [s];
+        sooner while the robot drives (``lidar_blind_m``).
+    lidar_blind_m : float
+        While driving at v, a silence longer than ``lidar_blind_m / |v|`` (at least
+        :data:`LIDAR_SILENCE_PERIODS` revolution periods) excludes the LiDAR: the robot drives
+        at most this far on its last scan before it brakes [m].
+    lidar_garbage_fraction, lidar_garbage_s : float
+        More than this fraction of the LiDAR's bytes malformed (check bits or start flags
+        wrong) over ``lidar_garbage_s`` makes it ``suspect`` and its scans unused; garbage that
+        lasts twice that long excludes it [-, s].
     lidar_window_s, lidar_loss_fraction : float
         More than this fraction of the revolutions missing over the window makes the LiDAR
         ``suspect`` [s, -].
@@ -229,6 +243,9 @@ class HealthConfig:
     lidar_useless_m: float = 0.10
     lidar_rough_scans: int = 3
     lidar_silence_s: float = 1.0
+    lidar_blind_m: float = 0.08
+    lidar_garbage_fraction: float = 0.2
+    lidar_garbage_s: float = 0.5
     lidar_window_s: float = 5.0
     lidar_loss_fraction: float = 0.1
     lidar_lost: str = "stop"
@@ -253,6 +270,8 @@ class HealthConfig:
             "lidar_rough_factor",
             "lidar_useless_m",
             "lidar_silence_s",
+            "lidar_blind_m",
+            "lidar_garbage_s",
             "lidar_window_s",
             "model_bound_sigmas",
         ):
@@ -273,6 +292,11 @@ class HealthConfig:
             v = getattr(self, name)
             if not 0.0 <= v < math.inf:
                 raise ValueError(f"HealthConfig.{name} must be finite and >= 0, got {v}")
+        if not 0.0 < self.lidar_garbage_fraction < 1.0:
+            raise ValueError(
+                "HealthConfig.lidar_garbage_fraction must be in (0, 1), got "
+                f"{self.lidar_garbage_fraction}"
+            )
         if not 0.0 < self.lidar_loss_fraction < 1.0:
             raise ValueError(
                 "HealthConfig.lidar_loss_fraction must be in (0, 1), got "
@@ -753,6 +777,11 @@ class HealthMonitor:
         self._lidar_period_s: float | None = None  # learned over the first scans
         self._lidar_times: deque[float] = deque()
         self._lidar_useless = 0  # useless scans in a row
+        self._lidar_bytes: deque[tuple[float, int, int]] = deque()  # (t, bytes, malformed)
+        self._lidar_garbage_since: float | None = None  # garbage on the line since
+        self._lidar_junk: deque[float] = deque()  # when revolutions that are not a turn came
+        self._lidar_used_s: float | None = None  # the last scan that could be used
+        self._speed_m_s = 0.0  # the wheels' forward speed at the last frame
 
     @property
     def sensors(self) -> dict[str, Health]:
@@ -1028,6 +1057,10 @@ class HealthMonitor:
             else:
                 e.pass_(t, cfg, out)
 
+        r = self.robot
+        self._speed_m_s = 0.5 * (
+            r.wheel_radius_left_m * h.wheel_rad_s[0] + r.wheel_radius_right_m * h.wheel_rad_s[1]
+        )
         self._lidar_silence(t, out)
         hold = self._ambiguous_since is not None and imu.state is not Health.EXCLUDED
         self.transitions += out
@@ -1047,7 +1080,49 @@ class HealthMonitor:
             hold_yaw=hold,
         )
 
-    def scan(self, t_s: float, ranges_m: npt.NDArray[np.float64]) -> bool:
+    def lidar_bytes(self, t_s: float, received: int, malformed: int) -> None:
+        """The LiDAR's bytes read before the frame of MCU time ``t_s``: ``received`` in all,
+        ``malformed`` of them skipped by its decoder (check bits or start flags wrong).
+
+        More than ``lidar_garbage_fraction`` malformed over ``lidar_garbage_s`` makes the LiDAR
+        ``suspect`` (its scans unused); garbage that lasts twice as long excludes it.
+        """
+        cfg, st = self.cfg, self._s["lidar"]
+        window = self._lidar_bytes
+        window.append((t_s, received, malformed))
+        while window and window[0][0] <= t_s - cfg.lidar_garbage_s + 1e-9:
+            window.popleft()
+        total = sum(b for _, b, _ in window)
+        bad = sum(m for _, _, m in window)
+        out: list[Transition] = []
+        junk = self._lidar_junk
+        while junk and junk[0] <= t_s - cfg.lidar_garbage_s + 1e-9:
+            junk.popleft()
+        # garbage: too many bytes failing the node checks, or "revolutions" decoded from random
+        # bytes that pass them (a real sensor sends none that cover less than half a turn)
+        many_junk = len(junk) >= LIDAR_JUNK_TURNS
+        if (total >= 50 and bad > cfg.lidar_garbage_fraction * total) or many_junk:
+            if self._lidar_garbage_since is None:
+                self._lidar_garbage_since = t_s
+            lasted = t_s - self._lidar_garbage_since
+            exclude = lasted >= cfg.lidar_garbage_s - 1e-9
+            why = (
+                f"{bad} of its {total} bytes malformed and {len(junk)} revolutions that are not "
+                f"a turn in {cfg.lidar_garbage_s:g} s: garbage on the line (a loose cable, another "
+                "baud rate, another device?)"
+            )
+            st.fail(t_s, exclude, why, out)
+        elif not junk and (total < 50 or bad <= 0.5 * cfg.lidar_garbage_fraction * total):
+            self._lidar_garbage_since = None
+        self.transitions += out
+        self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
+
+    def scan(
+        self,
+        t_s: float,
+        ranges_m: npt.NDArray[np.float64],
+        angles_rad: npt.NDArray[np.float64] | None = None,
+    ) -> bool:
         """Judge one LiDAR revolution; whether the scan may be used (mapping, localisation,
         the costmaps). New transitions are appended to :attr:`transitions`.
 
@@ -1058,13 +1133,29 @@ class HealthMonitor:
         ranges_m : ndarray of float
             Its ranges in the order measured [m]; ``inf`` (or 0) where there was no return.
 
+        angles_rad : ndarray of float or None
+            Its angles [rad]: a revolution spanning less than half a turn is not a turn
+            (decoded garbage) and is not used.
+
         Returns
         -------
         bool
-            False for a scan too noisy to trust, and while the LiDAR is excluded.
+            False for a scan too noisy to trust or not a turn, while garbage arrives, and
+            while the LiDAR is excluded.
         """
         cfg, st = self.cfg, self._s["lidar"]
         out: list[Transition] = []
+        if angles_rad is not None and len(angles_rad) > 1:
+            a = np.mod(np.asarray(angles_rad, dtype=float), 2.0 * math.pi)
+            gaps = np.diff(np.sort(a))
+            span = 2.0 * math.pi - max(float(gaps.max()), 2.0 * math.pi - float(a.max() - a.min()))
+            if span < LIDAR_MIN_SPAN_RAD:
+                self._lidar_junk.append(t_s)
+                self.lidar_counts["unused"] += 1
+                why = f"a revolution spanning {math.degrees(span):.0f} deg: not a turn"
+                st.fail(t_s, False, why, out)
+                self.transitions += out
+                return False
         self.lidar_counts["scans"] += 1
         # spacing: revolutions the window should hold against those that came
         if self._lidar_first_s is None:
@@ -1130,19 +1221,53 @@ class HealthMonitor:
                     smooth = False  # hysteresis
         if smooth and spacing_ok:
             st.pass_(t_s, cfg, out)
-        if st.state is Health.EXCLUDED:
+        if st.state is Health.EXCLUDED or self._lidar_garbage_since is not None:
             use = False
         if not use:
             self.lidar_counts["unused"] += 1
+        else:
+            self._lidar_used_s = t_s
         self.transitions += out
         self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
         return use
 
+    def lidar_gone(self, t_s: float, why: str) -> None:
+        """The LiDAR's port failed (a read error: unplugged): excluded at once."""
+        out: list[Transition] = []
+        self._s["lidar"].fail(t_s, True, why, out)
+        self.transitions += out
+        self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
+
+    def lidar_silence_limit_s(self) -> float:
+        """How long the LiDAR may be silent now [s]: ``lidar_silence_s``, shorter while the
+        robot drives, so that it covers at most ``lidar_blind_m`` on its last scan (never
+        under :data:`LIDAR_SILENCE_PERIODS` revolutions, the stream's own spacing)."""
+        cfg = self.cfg
+        period = self._lidar_period_s or LIDAR_PERIOD_S
+        floor = LIDAR_SILENCE_PERIODS * period
+        speed = abs(self._speed_m_s)
+        blind = cfg.lidar_blind_m / speed if speed > 1e-6 else math.inf
+        return max(floor, min(cfg.lidar_silence_s, blind))
+
     def _lidar_silence(self, t_s: float, out: list[Transition]) -> None:
-        """A LiDAR that scanned and stopped: dead, unplugged, or its motor stalled."""
+        """A LiDAR that scanned and stopped: dead, unplugged, or its motor stalled; and, while
+        a mission navigates by it, one whose scans cannot be used (garbage, noise): either
+        way the robot would drive blind."""
         last = self._lidar_last_s
-        if last is not None and t_s - last >= self.cfg.lidar_silence_s - 1e-9:
-            why = f"no scan for {t_s - last:.2f} s (dead, unplugged or its motor stopped)"
+        limit = self.lidar_silence_limit_s()
+        if last is not None and t_s - last >= limit - 1e-9:
+            why = (
+                f"no scan for {t_s - last:.2f} s at {abs(self._speed_m_s):.2f} m/s "
+                "(dead, unplugged or its motor stopped)"
+            )
+            self._s["lidar"].fail(t_s, True, why, out)
+            return
+        used = self._lidar_used_s
+        if self.lidar_needed and used is not None and t_s - used >= limit - 1e-9:
+            why = (
+                f"no usable scan for {t_s - used:.2f} s at {abs(self._speed_m_s):.2f} m/s "
+                f"(the last: {self._s['lidar'].reason or 'unusable'})"
+            )
             self._s["lidar"].fail(t_s, True, why, out)
 
     def _expected_ticks(self, i: int, h: HealthInput, wz: float) -> float:

@@ -66,6 +66,8 @@ FAULT_KINDS = (
     "corrupt_bytes",
     "lidar_noise",
     "lidar_dropout",
+    "lidar_garbage",
+    "lidar_closed",
 )
 """Every fault the twin can inject."""
 
@@ -74,7 +76,9 @@ SIDED_KINDS = frozenset({"encoder_dropout", "wheel_slip"})
 """Kinds that act on one wheel and need ``side``."""
 LINK_KINDS = frozenset({"frame_loss", "corrupt_bytes"})
 """Kinds on the line between the MCU and its pty (the emulated MCU only)."""
-LIDAR_KINDS = frozenset({"lidar_noise", "lidar_dropout"})
+LIDAR_KINDS = frozenset({"lidar_noise", "lidar_dropout", "lidar_garbage", "lidar_closed"})
+LIDAR_LINE_KINDS = frozenset({"lidar_garbage", "lidar_closed"})
+"""Kinds on the RPLIDAR's line (its pty) rather than in its scans."""
 DEFAULT_DURATION_S = {"wheel_slip": 2.0}  # [s] the others last to the end of the run
 FAULT_STREAM = 0x6661_756C  # keys the faults' streams apart from the twin's other streams
 TIME_EPS_S = 1e-9  # [s] an instant this close to a window's edge counts as at the edge
@@ -118,6 +122,10 @@ PARAMS: dict[str, dict[str, _Param]] = {
     "corrupt_bytes": {"probability": _Param(0.05, 0.0, 1.0)},  # per telemetry frame
     "lidar_noise": {"sigma_m": _Param(0.05, 0.0)},  # [m] extra Gaussian range noise
     "lidar_dropout": {"probability": _Param(0.3, 0.0, 1.0)},  # per revolution
+    # random bytes on the line, this many per revolution's bytes, before each revolution (a
+    # loose cable, a wrong baud rate, another device's chatter)
+    "lidar_garbage": {"ratio": _Param(1.0, 0.0, 10.0, lo_open=True)},
+    "lidar_closed": {},  # the LiDAR's port disappears (its USB cable pulled)
 }
 """Each kind's parameters with their defaults and ranges."""
 
@@ -470,10 +478,16 @@ class FaultInjector:
         self._slip = of("wheel_slip")
         self._link = of("frame_loss", "corrupt_bytes")
         self._lidar = of("lidar_noise", "lidar_dropout")
+        self._lidar_line = of("lidar_garbage", "lidar_closed")
         self._last: SensorSample | None = None  # the previous reading, as the MCU read it
         self._stuck: SensorSample | None = None  # the registers a stuck IMU repeats
         self._held: list[int | None] = [None, None]  # a cut encoder's count, per wheel
         self._missed = [0, 0]  # counts a cut encoder lost, per wheel
+
+    @property
+    def lidar_line_faults(self) -> bool:
+        """Whether any fault acts on the LiDAR's line (garbage, a closed port)."""
+        return bool(self._lidar_line)
 
     @property
     def link(self) -> bool:
@@ -696,6 +710,31 @@ class FaultInjector:
                     a.count += 1
                 lost = True
         return None if lost else out
+
+    def lidar_line(self, t_s: float, revolution_bytes: int) -> tuple[bytes, bool]:
+        """What the LiDAR's line carries at simulation time ``t_s`` besides its revolutions:
+        (random bytes to put before the next revolution, whether the port is gone).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time [s].
+        revolution_bytes : int
+            The size of one revolution on the line (``lidar_garbage``'s ratio is of it).
+        """
+        garbage = b""
+        closed = False
+        for a in self._lidar_line:
+            if not a.active(t_s):
+                continue
+            a.acted(t_s)
+            if a.spec.kind == "lidar_garbage":
+                n = max(1, round(a.spec.params["ratio"] * revolution_bytes))
+                garbage += a.rng.integers(0, 256, n, dtype=np.uint8).tobytes()
+                a.count += 1
+            else:
+                closed = True
+        return garbage, closed
 
     # ------------------------------------------------------------------ the record
 

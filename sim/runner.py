@@ -483,9 +483,25 @@ class TwinRunner:
 
     def _advance_lidar(self) -> None:
         """Write the LiDAR revolutions that ended by now (before the MCU acts at this
-        instant, so they reach the host ahead of this instant's telemetry frame)."""
-        if self.lidar is not None:
-            self.lidar.advance(self.twin.t_s, self._scan_for)
+        instant, so they reach the host ahead of this instant's telemetry frame). A
+        ``lidar_garbage`` fault puts random bytes before each; ``lidar_closed`` closes the
+        LiDAR's port for good (its pty gone, as a pulled USB cable)."""
+        lidar = self.lidar
+        if lidar is None:
+            return
+        faults = self.twin.faults
+        if faults is not None and faults.lidar_line_faults:
+            due = lidar.next_revolution_end_s()
+            if due is not None and due <= self.twin.t_s + 1e-9:
+                garbage, closed = faults.lidar_line(self.twin.t_s, 5 * lidar.spec.beams)
+                if closed:
+                    self._sel.unregister(lidar)
+                    lidar.close()
+                    self.lidar = None
+                    return
+                if garbage:
+                    lidar.inject(garbage)
+        lidar.advance(self.twin.t_s, self._scan_for)
 
     def _service_side(self) -> None:
         """Serve the I2C bus and the LiDAR's requests without blocking (the compiled

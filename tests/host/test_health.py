@@ -411,6 +411,63 @@ def test_lost_revolutions_make_the_lidar_suspect_and_silence_excludes_it() -> No
     assert mon.state("lidar") is Health.RECOVERED and used[-1]
 
 
+def test_a_silent_lidar_is_excluded_sooner_the_faster_the_robot_drives() -> None:
+    """At 0.28 m/s the robot covers lidar_blind_m (8 cm) on its last scan in 0.29 s: the
+    silence excludes the LiDAR then, not after the standing robot's 1 s; never sooner than
+    1.8 revolution periods, the stream's own spacing."""
+    for v, limit in ((0.28, 0.08 / 0.28), (0.0, 1.0), (2.0, 1.8 * 0.13465)):
+        mon, rng = monitor(), np.random.default_rng(33)
+        t, _ = scans(mon, rng, 0.0, 5.0)
+        robot = Robot(33)
+        robot.t = t
+        drive(mon, robot, 0.5, v, 0.0)  # no scan from t on
+        assert mon.lidar_silence_limit_s() == pytest.approx(limit, rel=0.05, abs=0.01)
+        mon2, rng2 = monitor(), np.random.default_rng(34)
+        t2, _ = scans(mon2, rng2, 0.0, 5.0)
+        robot2 = Robot(34)
+        robot2.t = t2
+        drive(mon2, robot2, 1.5, v, 0.0)
+        assert mon2.state("lidar") is Health.EXCLUDED, mon2.transitions
+        excluded = next(x for x in mon2.transitions if x.sensor == "lidar")
+        assert excluded.t_s - t2 <= limit + 2 * DT, (v, excluded.t_s - t2)
+
+
+def test_garbage_on_the_lidar_line_is_suspect_within_half_a_second_then_excluded() -> None:
+    mon, rng = monitor(), np.random.default_rng(35)
+    t, _ = scans(mon, rng, 0.0, 5.0)
+    for k in range(40):  # clean bytes: 5 per node, 1080 nodes every 0.135 s, read per frame
+        mon.lidar_bytes(t + k * DT, 2000, 0)
+    t += 40 * DT
+    assert mon.state("lidar") is Health.OK
+    onset = t
+    for k in range(30):  # half of every frame's bytes malformed
+        mon.lidar_bytes(t + k * DT, 2000, 1000)
+    t += 30 * DT
+    first = [x for x in mon.transitions if x.sensor == "lidar"]
+    assert first[0].new is Health.SUSPECT and first[0].t_s - onset <= 0.5
+    assert "malformed" in first[0].reason
+    assert mon.state("lidar") is Health.EXCLUDED  # it lasted
+    assert not mon.scan(t, room_scan(rng, 0.01))  # a scan decoded meanwhile is not used
+
+
+def test_a_revolution_that_is_not_a_turn_is_not_used() -> None:
+    mon, rng = monitor(), np.random.default_rng(36)
+    t, _ = scans(mon, rng, 0.0, 2.0)
+    angles = np.linspace(0.0, 0.5, 40)  # a few random nodes decoded as a "revolution"
+    assert not mon.scan(t + DT, np.full(40, 1.0), angles)
+    assert mon.state("lidar") is Health.SUSPECT and "not a turn" in mon.reason("lidar")
+    whole = np.linspace(0.0, 2.0 * np.pi, BEAMS, endpoint=False)
+    assert mon.scan(t + 3 * DT, room_scan(rng, 0.01), whole)
+
+
+def test_a_lidar_port_that_fails_is_excluded_at_once() -> None:
+    mon = monitor()
+    mon.lidar_needed = True
+    mon.lidar_gone(4.2, "LiDAR port /dev/pts/9 went away (Input/output error)")
+    assert mon.state("lidar") is Health.EXCLUDED
+    assert mon.transitions[-1].t_s == 4.2
+
+
 # ----------------------------------------------------------------- the wheel yaw model
 
 
