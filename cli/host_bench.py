@@ -31,11 +31,12 @@ tail of every pass); each median and p99 is the best over the passes.
 
 from __future__ import annotations
 
+import contextlib
 import statistics
 import tempfile
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from jackson.common.bench import BenchResult, reference_loop_us
@@ -179,14 +180,8 @@ def command_latency(samples: int) -> tuple[list[float], list[float], list[float]
     tmp = tempfile.TemporaryDirectory()
     path = Path(tmp.name) / "i2c.sock"
     server = I2cSocketServer(path)
-    stop = threading.Event()
-
-    def serve() -> None:
-        while not stop.is_set():
-            server.service(0.01)
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
+    stack = contextlib.ExitStack()
+    stack.enter_context(serving(server))
     cfg = HostConfig()
     bus = SocketI2cBus(path)
     pca = Pca9685(bus, cfg.pca9685.address)
@@ -211,8 +206,7 @@ def command_latency(samples: int) -> tuple[list[float], list[float], list[float]
                 floor.append(t3 - t2)
     finally:
         settled.restore()
-        stop.set()
-        thread.join()
+        stack.close()
         server.close()
         tmp.cleanup()
     return out, floor, cpu
@@ -241,6 +235,24 @@ def _p(values: list[float], q: float) -> float:
 BRAKE_BUDGET_S = 0.5  # [s] jackson brake must have braked this soon after its start
 
 
+@contextlib.contextmanager
+def serving(server: I2cSocketServer) -> Iterator[None]:
+    """The socket bus's server answering in a thread of its own while the block runs."""
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            server.service(0.01)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(timeout=5)
+
+
 def brake_start_s(starts: int) -> tuple[list[float], float]:
     """Wall times [s] of ``starts`` runs of ``jackson brake`` against an emulated PCA9685 on a
     Unix socket (start to exit, the brake written and read back), and the best start of the
@@ -254,29 +266,22 @@ def brake_start_s(starts: int) -> tuple[list[float], float]:
     with tempfile.TemporaryDirectory(prefix="jb-") as tmp:
         sock = Path(tmp) / "i2c.sock"
         server = I2cSocketServer(sock)
-        stop = threading.Event()
-
-        def serve() -> None:
-            while not stop.is_set():
-                server.service(0.01)
-
-        thread = threading.Thread(target=serve, daemon=True)
-        thread.start()
         try:
-            for _ in range(starts):
-                t0 = time.perf_counter()
-                subprocess.run([sys.executable, "-c", "pass"], check=True)
-                bare = min(bare, time.perf_counter() - t0)
-                t0 = time.perf_counter()
-                done = subprocess.run(
-                    [jackson, "brake", "--i2c", f"unix:{sock}"], capture_output=True, text=True
-                )
-                times.append(time.perf_counter() - t0)
-                if done.returncode != 0 or "braked" not in done.stdout:
-                    raise RuntimeError(f"jackson brake failed: {done.stdout}{done.stderr}")
+            with serving(server):
+                for _ in range(starts):
+                    t0 = time.perf_counter()
+                    subprocess.run([sys.executable, "-c", "pass"], check=True)
+                    bare = min(bare, time.perf_counter() - t0)
+                    t0 = time.perf_counter()
+                    done = subprocess.run(
+                        [jackson, "brake", "--i2c", f"unix:{sock}"],
+                        capture_output=True,
+                        text=True,
+                    )
+                    times.append(time.perf_counter() - t0)
+                    if done.returncode != 0 or "braked" not in done.stdout:
+                        raise RuntimeError(f"jackson brake failed: {done.stdout}{done.stderr}")
         finally:
-            stop.set()
-            thread.join(timeout=5)
             server.close()
     return times, bare
 
