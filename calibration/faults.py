@@ -172,6 +172,13 @@ def _config(folder: Path, actuator: str) -> Path:
     return path
 
 
+def _daemon_argv(folder: Path, fault: Fault, port: str, run_dir: Path, *more: str) -> list[str]:
+    """``jackson daemon`` driving the square on ``port`` with the row's actuator."""
+    config = str(_config(folder, fault.actuator))
+    square = ["--mission", "square", "--run-dir", str(run_dir)]
+    return [JACKSON, "daemon", "--config", config, "--port", port, *square, *more]
+
+
 MUTE_WALL_S = 5.0  # [s] the daemon runs this long against a mute device
 MUTE_TOLD_S = 2.0  # [s] from its first HELLO: the operator is told by then
 
@@ -188,20 +195,7 @@ def _mute_row(fault: Fault, folder: Path) -> FaultRow:
     tty.setraw(slave)
     run_dir = folder / "run"
     proc = subprocess.Popen(
-        [
-            JACKSON,
-            "daemon",
-            "--config",
-            str(_config(folder, fault.actuator)),
-            "--port",
-            os.ttyname(slave),
-            "--mission",
-            "square",
-            "--run-dir",
-            str(run_dir),
-            "--max-seconds",
-            str(MUTE_WALL_S),
-        ],
+        _daemon_argv(folder, fault, os.ttyname(slave), run_dir, "--max-seconds", str(MUTE_WALL_S)),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
@@ -290,20 +284,7 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
     thread.start()
     run_dir = folder / "run"
     proc = subprocess.Popen(
-        [
-            JACKSON,
-            "daemon",
-            "--config",
-            str(_config(folder, fault.actuator)),
-            "--port",
-            str(link),
-            "--i2c",
-            f"unix:{sock}",
-            "--mission",
-            "square",
-            "--run-dir",
-            str(run_dir),
-        ],
+        _daemon_argv(folder, fault, str(link), run_dir, "--i2c", f"unix:{sock}"),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,

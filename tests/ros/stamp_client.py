@@ -15,21 +15,12 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from nav_client import qos  # the same QoS profiles (this folder is on the path)
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as NavPath
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, LaserScan
 from tf2_msgs.msg import TFMessage
-
-
-def qos(depth: int, reliable: bool) -> QoSProfile:
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.VOLATILE,
-    )
 
 
 def ns(stamp: Any) -> int:
