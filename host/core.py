@@ -516,7 +516,8 @@ class HostCore:
 
     def _report_health(self, hm: HealthMonitor) -> None:
         """Tell the operator and the listeners of the monitor's new transitions; with a config
-        that holds no calibration, the first exclusion of a wheel or the gyro says so too."""
+        that holds no calibration, the first exclusion of a wheel or the gyro for disagreeing
+        with the other (not a dead or stuck sensor) says so too."""
         for tr in hm.transitions[self._told :]:
             self.event(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
             for listener in self.listeners:
@@ -524,6 +525,7 @@ class HostCore:
             if (
                 tr.new.value == "excluded"
                 and tr.sensor in ("imu", "encoder_left", "encoder_right")
+                and "disagree" in tr.reason  # the wheels and the gyro against the config's robot
                 and self.cfg.imu.calibration is None
                 and not self._hinted
             ):
