@@ -617,6 +617,8 @@ class HostCore:
             if not bias_known:
                 return 0.0, 0.0, True  # stand still until the gyro bias is known
             v, w = self.mission.command(self.nav_state())
+            if self.health is not None and self.health.lidar_blind and not self.mission.done:
+                return 0.0, 0.0, True  # no usable scan for too long: braked until one comes
             return v, w, self.mission.done
         if self.watchdog.expired(t_s) or self.sensors_lost is not None:
             return 0.0, 0.0, True

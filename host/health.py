@@ -88,8 +88,8 @@ SPEED_WITNESS_FRAMES = 5  # frames averaged for the speed witness's two levels
 SPEED_WITNESS_BIAS_S = 1.5  # [s] over which the forward accelerometer's bias is measured
 LIDAR_LEARN_SCANS = 20  # the revolution period is learned over the first scans
 LIDAR_MIN_TRIPLETS = 30  # neighbouring returns needed to judge a scan's noise
-LIDAR_SILENCE_PERIODS = 1.8  # a silence shorter than this many revolutions is the stream's own
-# spacing (a revolution every 0.135 s, read at 50 ms frames: gaps up to about 0.19 s)
+LIDAR_SILENCE_PERIODS = 1.5  # a silence shorter than this many revolutions is the stream's own
+# spacing (a revolution every 0.135 s, read at 50 ms frames: gaps of 0.10 and 0.15 s)
 LIDAR_PERIOD_S = 0.13465  # the A1M8's revolution, until the monitor has learned the sensor's
 LIDAR_MIN_SPAN_RAD = math.pi  # a revolution covering less than this is not a turn (garbage)
 LIDAR_JUNK_TURNS = 3  # that many such revolutions within lidar_garbage_s: garbage on the line
@@ -194,9 +194,10 @@ class HealthConfig:
         No scan for this long, once scans came, excludes the LiDAR (dead or unplugged) [s];
         sooner while the robot drives (``lidar_blind_m``).
     lidar_blind_m : float
-        While driving at v, a silence longer than ``lidar_blind_m / |v|`` (at least
-        :data:`LIDAR_SILENCE_PERIODS` revolution periods) excludes the LiDAR: the robot drives
-        at most this far on its last scan before it brakes [m].
+        While a mission navigates at v, no usable scan for ``lidar_blind_m / |v|`` (at least
+        :data:`LIDAR_SILENCE_PERIODS` revolution periods) holds the robot, braked, until one
+        comes (:attr:`HealthMonitor.lidar_blind`): it drives at most this far on its last scan
+        [m].
     lidar_garbage_fraction, lidar_garbage_s : float
         More than this fraction of the LiDAR's bytes malformed (check bits or start flags
         wrong) over ``lidar_garbage_s`` makes it ``suspect`` and its scans unused; garbage that
@@ -243,7 +244,7 @@ class HealthConfig:
     lidar_useless_m: float = 0.10
     lidar_rough_scans: int = 3
     lidar_silence_s: float = 1.0
-    lidar_blind_m: float = 0.08
+    lidar_blind_m: float = 0.06
     lidar_garbage_fraction: float = 0.2
     lidar_garbage_s: float = 0.5
     lidar_window_s: float = 5.0
@@ -781,6 +782,7 @@ class HealthMonitor:
         self._lidar_garbage_since: float | None = None  # garbage on the line since
         self._lidar_junk: deque[float] = deque()  # when revolutions that are not a turn came
         self._lidar_used_s: float | None = None  # the last scan that could be used
+        self.lidar_blind = False  # navigating without a usable scan too long: hold the robot
         self._speed_m_s = 0.0  # the wheels' forward speed at the last frame
 
     @property
@@ -1227,6 +1229,7 @@ class HealthMonitor:
             self.lidar_counts["unused"] += 1
         else:
             self._lidar_used_s = t_s
+            self.lidar_blind = False
         self.transitions += out
         self.counts["excluded"] += sum(1 for x in out if x.new is Health.EXCLUDED)
         return use
@@ -1250,25 +1253,28 @@ class HealthMonitor:
         return max(floor, min(cfg.lidar_silence_s, blind))
 
     def _lidar_silence(self, t_s: float, out: list[Transition]) -> None:
-        """A LiDAR that scanned and stopped: dead, unplugged, or its motor stalled; and, while
-        a mission navigates by it, one whose scans cannot be used (garbage, noise): either
-        way the robot would drive blind."""
+        """A LiDAR that scanned and stopped (dead, unplugged, its motor stalled) is excluded
+        after ``lidar_silence_s``. Sooner, while a mission navigates by it, no usable scan
+        (silence, garbage, noise) for the time the robot needs to cover ``lidar_blind_m``
+        at its speed makes it blind: :attr:`lidar_blind` holds the robot (braked) until a
+        usable scan comes, without ending the mission."""
         last = self._lidar_last_s
-        limit = self.lidar_silence_limit_s()
-        if last is not None and t_s - last >= limit - 1e-9:
-            why = (
-                f"no scan for {t_s - last:.2f} s at {abs(self._speed_m_s):.2f} m/s "
-                "(dead, unplugged or its motor stopped)"
-            )
+        if last is not None and t_s - last >= self.cfg.lidar_silence_s - 1e-9:
+            why = f"no scan for {t_s - last:.2f} s (dead, unplugged or its motor stopped)"
             self._s["lidar"].fail(t_s, True, why, out)
             return
-        used = self._lidar_used_s
-        if self.lidar_needed and used is not None and t_s - used >= limit - 1e-9:
+        used = self._lidar_used_s if self._lidar_used_s is not None else last
+        if not self.lidar_needed or used is None or self.lidar_blind:
+            return
+        limit = self.lidar_silence_limit_s()
+        if t_s - used >= limit - 1e-9:
+            self.lidar_blind = True
+            self.counts["blind"] = self.counts.get("blind", 0) + 1
             why = (
-                f"no usable scan for {t_s - used:.2f} s at {abs(self._speed_m_s):.2f} m/s "
-                f"(the last: {self._s['lidar'].reason or 'unusable'})"
+                f"no usable scan for {t_s - used:.2f} s at {abs(self._speed_m_s):.2f} m/s: "
+                f"braked until one comes ({self._s['lidar'].reason or 'silence'})"
             )
-            self._s["lidar"].fail(t_s, True, why, out)
+            self._s["lidar"].fail(t_s, False, why, out)
 
     def _expected_ticks(self, i: int, h: HealthInput, wz: float) -> float:
         """Counts wheel i should have made over the frame, by the other wheel and the gyro."""

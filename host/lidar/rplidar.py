@@ -284,7 +284,7 @@ class RplidarDriver:
     def _read_available(self) -> bytes:
         """Everything the port holds now: reads until it would block (a tty hands out at
         most its line discipline's buffer per read), at most ``MAX_READ_BYTES``."""
-        chunks = []
+        chunks: list[bytes] = []
         total = 0
         while total < MAX_READ_BYTES:
             try:
@@ -295,11 +295,22 @@ class RplidarDriver:
                 raise LidarError(
                     f"LiDAR port {self.port_name} went away ({exc.strerror}): is it unplugged?"
                 ) from exc
-            if not data:
+            if not data:  # nothing now (the port reads with VMIN 0), or the other end hung up
+                if not chunks and self._hung_up():
+                    raise LidarError(
+                        f"LiDAR port {self.port_name} went away (hung up): is it unplugged?"
+                    )
                 break
             chunks.append(data)
             total += len(data)
         return b"".join(chunks)
+
+    def _hung_up(self) -> bool:
+        """Whether the port reports a hang-up (a pty whose other end closed, a USB adapter
+        gone): a read then returns nothing rather than failing."""
+        poller = select.poll()
+        poller.register(self._fd, select.POLLIN)
+        return any(ev & (select.POLLHUP | select.POLLERR) for _, ev in poller.poll(0))
 
     def _wait_readable(self, timeout_s: float) -> bool:
         return bool(select.select([self._fd], [], [], max(0.0, timeout_s))[0])
