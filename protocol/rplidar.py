@@ -1,4 +1,4 @@
-"""Slamtec's RPLIDAR serial protocol (A1 series, standard scan mode), both directions, no I/O.
+"""Slamtec's RPLIDAR serial protocol (A1 series, protocol v2.x), both directions, no I/O.
 
 The packaged RPLIDAR libraries (``rplidar``, ``pyrplidar``, ``adafruit-circuitpython-rplidar``)
 own the serial port and read it in blocking loops, so they can neither be fed bytes by the
@@ -32,7 +32,22 @@ GET_HEALTH      0x52   A5 5A 03 00 00 00 06   single   3      status u8 (0 good,
                                                                error code u16 LE
 GET_SAMPLERATE  0x59   A5 5A 04 00 00 00 15   single   4      T standard u16 LE [us],
                                                                T express u16 LE [us]
+FORCE_SCAN      0x21   A5 5A 05 00 00 40 81   multiple 5      as SCAN
+EXPRESS_SCAN    0x82   by the mode's answer   multiple 84/132 capsules (below); request
+                       type: 0x82, 0x84, 0x85                  payload: working mode u8,
+                                                               working flags u16 LE,
+                                                               param u16 LE
+GET_LIDAR_CONF  0x84   A5 5A n 00 00 00 20    single   4 + k  entry type u32 LE, value
+                                                               (k bytes); request payload:
+                                                               entry type u32 LE, then the
+                                                               scan mode id u16 LE for the
+                                                               per-mode entries
 =============== ====== ====================== ======== ====== ==========================
+
+GET_LIDAR_CONF (firmware 1.24 and later, :class:`ConfType`) describes the scan modes a device
+offers (:class:`ScanMode`); EXPRESS_SCAN with a mode's id as working mode starts it, and the
+mode's answer type names the capsule format of its stream (:class:`CapsuleFormat`, and the
+section "Express scans" below).
 
 A standard measurement node is 5 bytes::
 
@@ -64,39 +79,66 @@ import numpy.typing as npt
 from jackson.protocol.errors import EncodeError
 
 __all__ = [
+    "CAPSULED",
+    "CAPSULE_FORMATS",
+    "DENSE_CAPSULED",
     "DESCRIPTOR_BYTES",
     "HEALTH_DESCRIPTOR",
     "INFO_DESCRIPTOR",
     "NODE_BYTES",
     "SAMPLERATE_DESCRIPTOR",
     "SCAN_DESCRIPTOR",
+    "ULTRA_CAPSULED",
+    "CapsuleDecoder",
+    "CapsuleFormat",
     "Command",
+    "ConfType",
     "DataType",
     "Descriptor",
     "DeviceHealth",
     "DeviceInfo",
+    "ExpressScanRequest",
     "HealthStatus",
+    "LidarConf",
+    "LidarConfQuery",
     "MeasurementNode",
     "NodeBatch",
     "Request",
     "RequestDecoder",
     "ResponseDecoder",
+    "SampleBatch",
     "SampleRate",
+    "ScanMode",
     "SendMode",
     "decode_descriptor",
+    "decode_express_scan",
     "decode_health",
     "decode_info",
+    "decode_lidar_conf",
+    "decode_lidar_conf_query",
     "decode_node",
     "decode_nodes",
     "decode_samplerate",
+    "encode_capsule",
+    "encode_dense_capsule",
     "encode_descriptor",
+    "encode_express_scan",
     "encode_health",
     "encode_info",
+    "encode_lidar_conf",
+    "encode_lidar_conf_query",
     "encode_node",
     "encode_nodes",
     "encode_request",
     "encode_samplerate",
+    "encode_ultra_cabins",
+    "encode_ultra_capsule",
+    "lidar_conf_response",
     "response",
+    "scan_mode_conf",
+    "ultra_angle_offset_q16",
+    "varbitscale_decode",
+    "varbitscale_encode",
 ]
 
 SYNC_BYTE = 0xA5
@@ -125,6 +167,9 @@ class Command(IntEnum):
     GET_INFO = 0x50
     GET_HEALTH = 0x52
     GET_SAMPLERATE = 0x59
+    FORCE_SCAN = 0x21  # SCAN whether or not the motor has reached its speed
+    EXPRESS_SCAN = 0x82  # payload: working mode, flags, param (firmware 1.17 and later)
+    GET_LIDAR_CONF = 0x84  # payload: entry type, argument (firmware 1.24 and later)
 
 
 class SendMode(IntEnum):
@@ -135,12 +180,16 @@ class SendMode(IntEnum):
 
 
 class DataType(IntEnum):
-    """Descriptor data types of the responses this codec decodes."""
+    """Descriptor data types (answer types) of the responses this codec encodes and decodes."""
 
     DEVICE_INFO = 0x04
     DEVICE_HEALTH = 0x06
     SAMPLE_RATE = 0x15
+    LIDAR_CONF = 0x20
     MEASUREMENT = 0x81
+    MEASUREMENT_CAPSULED = 0x82  # express scan, legacy capsules
+    MEASUREMENT_ULTRA_CAPSULED = 0x84  # boost, sensitivity and stability modes
+    MEASUREMENT_DENSE_CAPSULED = 0x85  # dense capsules (S1's DenseBoost; not the A1's)
 
 
 class HealthStatus(IntEnum):
@@ -450,7 +499,9 @@ KNOWN_RESPONSES: dict[int, tuple[int, int]] = {
     DataType.SAMPLE_RATE: (_SAMPLERATE.size, SendMode.SINGLE),
     DataType.MEASUREMENT: (NODE_BYTES, SendMode.MULTIPLE),
 }
-"""(length, send mode) of each data type this codec decodes."""
+"""(length, send mode) of each data type :class:`ResponseDecoder` decodes: the standard scan's.
+Capsule streams (EXPRESS_SCAN) go to :class:`CapsuleDecoder`, and GET_LIDAR_CONF answers (of
+variable length) to :func:`decode_lidar_conf`."""
 
 
 def encode_descriptor(d: Descriptor) -> bytes:
@@ -805,3 +856,716 @@ class ResponseDecoder:
         if data_type == DataType.DEVICE_HEALTH:
             return decode_health(payload)
         return decode_samplerate(payload)
+
+
+# ----------------------------------------------------------------------------- configuration
+
+
+class ConfType(IntEnum):
+    """GET_LIDAR_CONF entry types about scan modes (protocol v2.x, firmware 1.24 and later)."""
+
+    SCAN_MODE_COUNT = 0x70  # u16: the modes, ids 0 .. count - 1
+    SCAN_MODE_US_PER_SAMPLE = 0x71  # u32, Q8 [us]: time of one sample, per mode
+    SCAN_MODE_MAX_DISTANCE = 0x74  # u32, Q8 [m], per mode
+    SCAN_MODE_ANS_TYPE = 0x75  # u8: the answer type (DataType) of the mode's stream, per mode
+    SCAN_MODE_TYPICAL = 0x7C  # u16: id of the mode Slamtec recommends for the model
+    SCAN_MODE_NAME = 0x7F  # ASCII, NUL-terminated, per mode
+
+
+PER_MODE_CONF_TYPES = frozenset(
+    {
+        ConfType.SCAN_MODE_US_PER_SAMPLE,
+        ConfType.SCAN_MODE_MAX_DISTANCE,
+        ConfType.SCAN_MODE_ANS_TYPE,
+        ConfType.SCAN_MODE_NAME,
+    }
+)
+"""Entry types whose request names a scan mode (its id, u16 LE, after the entry type)."""
+
+Q8 = 256
+"""Scale of the Q8 fixed-point values of GET_LIDAR_CONF (value * 256)."""
+_U16 = struct.Struct("<H")
+_U32 = struct.Struct("<I")
+
+
+@dataclass(frozen=True)
+class ScanMode:
+    """One scan mode as GET_LIDAR_CONF describes it.
+
+    Attributes
+    ----------
+    id : int
+        The mode's id: GET_LIDAR_CONF's argument and EXPRESS_SCAN's working mode.
+    name : str
+        Slamtec's name (``Standard``, ``Express``, ``Boost``, ``Sensitivity``, ``Stability``).
+    us_per_sample_q8 : int
+        Time of one sample [us] * 256.
+    max_distance_q8 : int
+        Longest distance the mode measures [m] * 256.
+    answer_type : int
+        :class:`DataType` of the mode's stream: 0x81 standard nodes (SCAN), else a capsule
+        format (EXPRESS_SCAN, :data:`CAPSULE_FORMATS`).
+    """
+
+    id: int
+    name: str
+    us_per_sample_q8: int
+    max_distance_q8: int
+    answer_type: int
+
+    @property
+    def us_per_sample(self) -> float:
+        """Time of one sample [us]."""
+        return self.us_per_sample_q8 / Q8
+
+    @property
+    def samples_per_s(self) -> float:
+        """Samples a second (the SDK's "sample rate")."""
+        return 1e6 / self.us_per_sample
+
+    @property
+    def max_distance_m(self) -> float:
+        """Longest distance [m]."""
+        return self.max_distance_q8 / Q8
+
+
+@dataclass(frozen=True)
+class LidarConfQuery:
+    """A GET_LIDAR_CONF request's payload.
+
+    Attributes
+    ----------
+    conf_type : int
+        The entry asked for (:class:`ConfType`, u32).
+    argument : bytes
+        What follows the type: the scan mode id (u16 LE) for a per-mode entry. Hosts may send
+        more (SDK 2.0 pads it to 32 bytes); only the first two count.
+    """
+
+    conf_type: int
+    argument: bytes = b""
+
+    @property
+    def mode_id(self) -> int | None:
+        """The scan mode named by the argument; None when it is shorter than 2 bytes."""
+        if len(self.argument) < _U16.size:
+            return None
+        return int(_U16.unpack_from(self.argument)[0])
+
+
+def encode_lidar_conf_query(conf_type: int, mode_id: int | None = None) -> bytes:
+    """The payload of a GET_LIDAR_CONF request: the entry type, then the mode id if given.
+
+    Raises
+    ------
+    EncodeError
+        A type out of 32 bits or a mode id out of 16.
+    """
+    out = _U32.pack(_byte(conf_type, "conf type", 0xFFFFFFFF))
+    if mode_id is not None:
+        out += _U16.pack(_byte(mode_id, "scan mode id", 0xFFFF))
+    return out
+
+
+def decode_lidar_conf_query(payload: bytes) -> LidarConfQuery | None:
+    """A GET_LIDAR_CONF request's payload; None when it is shorter than the 4-byte type."""
+    if len(payload) < _U32.size:
+        return None
+    return LidarConfQuery(int(_U32.unpack_from(payload)[0]), bytes(payload[_U32.size :]))
+
+
+@dataclass(frozen=True)
+class LidarConf:
+    """A GET_LIDAR_CONF answer: the entry type (repeated from the request) and its value.
+
+    Attributes
+    ----------
+    conf_type : int
+        :class:`ConfType` (u32).
+    value : bytes
+        The value, little-endian: u8, u16, u32 (Q8 for times and distances) or text.
+    """
+
+    conf_type: int
+    value: bytes
+
+    @property
+    def u8(self) -> int:
+        return self.value[0]
+
+    @property
+    def u16(self) -> int:
+        return int(_U16.unpack_from(self.value)[0])
+
+    @property
+    def u32(self) -> int:
+        return int(_U32.unpack_from(self.value)[0])
+
+    @property
+    def text(self) -> str:
+        """The value as text, up to its NUL."""
+        return self.value.split(b"\x00", 1)[0].decode("ascii", "replace")
+
+
+def encode_lidar_conf(conf: LidarConf) -> bytes:
+    """The payload of a GET_LIDAR_CONF answer: the type (u32 LE), then the value."""
+    return _U32.pack(_byte(conf.conf_type, "conf type", 0xFFFFFFFF)) + bytes(conf.value)
+
+
+def decode_lidar_conf(payload: bytes) -> LidarConf:
+    """A GET_LIDAR_CONF answer's payload (at least the 4-byte type).
+
+    Raises
+    ------
+    ValueError
+        A payload shorter than 4 bytes.
+    """
+    if len(payload) < _U32.size:
+        raise ValueError(f"a GET_LIDAR_CONF answer is at least 4 bytes, got {len(payload)}")
+    return LidarConf(int(_U32.unpack_from(payload)[0]), bytes(payload[_U32.size :]))
+
+
+def lidar_conf_response(conf: LidarConf) -> bytes:
+    """Descriptor (single, type 0x20, length 4 + value) and payload of a GET_LIDAR_CONF answer."""
+    payload = encode_lidar_conf(conf)
+    descriptor = Descriptor(len(payload), SendMode.SINGLE, DataType.LIDAR_CONF)
+    return encode_descriptor(descriptor) + payload
+
+
+def scan_mode_conf(
+    query: LidarConfQuery, modes: tuple[ScanMode, ...], typical_id: int
+) -> LidarConf | None:
+    """What a device offering ``modes`` answers to ``query``.
+
+    Parameters
+    ----------
+    query : LidarConfQuery
+        The request's payload.
+    modes : tuple of ScanMode
+        The device's modes, ``modes[i].id == i``.
+    typical_id : int
+        The id of its typical mode.
+
+    Returns
+    -------
+    LidarConf or None
+        The answer; None for an entry type these facts do not cover, or a per-mode entry
+        without a mode id or with one the device does not have.
+    """
+    t = query.conf_type
+    if t == ConfType.SCAN_MODE_COUNT:
+        return LidarConf(t, _U16.pack(len(modes)))
+    if t == ConfType.SCAN_MODE_TYPICAL:
+        return LidarConf(t, _U16.pack(typical_id))
+    if t not in PER_MODE_CONF_TYPES:
+        return None
+    i = query.mode_id
+    if i is None or not 0 <= i < len(modes):
+        return None
+    mode = modes[i]
+    if t == ConfType.SCAN_MODE_US_PER_SAMPLE:
+        return LidarConf(t, _U32.pack(mode.us_per_sample_q8))
+    if t == ConfType.SCAN_MODE_MAX_DISTANCE:
+        return LidarConf(t, _U32.pack(mode.max_distance_q8))
+    if t == ConfType.SCAN_MODE_ANS_TYPE:
+        return LidarConf(t, bytes((mode.answer_type,)))
+    return LidarConf(t, mode.name.encode("ascii") + b"\x00")
+
+
+# ----------------------------------------------------------------------------- express scans
+
+_EXPRESS_SCAN = struct.Struct("<BHH")
+
+
+@dataclass(frozen=True)
+class ExpressScanRequest:
+    """The 5-byte payload of EXPRESS_SCAN.
+
+    Attributes
+    ----------
+    working_mode : int
+        0: the legacy express scan (capsules, 0x82); else the id of the scan mode to run.
+    working_flags : int
+        u16 (boost, sunlight rejection on some models); 0 from Slamtec's SDK.
+    param : int
+        u16, reserved: 0.
+    """
+
+    working_mode: int = 0
+    working_flags: int = 0
+    param: int = 0
+
+
+def encode_express_scan(request: ExpressScanRequest) -> bytes:
+    """The 5-byte payload of an EXPRESS_SCAN request.
+
+    Raises
+    ------
+    EncodeError
+        A field out of its width.
+    """
+    return _EXPRESS_SCAN.pack(
+        _byte(request.working_mode, "working mode"),
+        _byte(request.working_flags, "working flags", 0xFFFF),
+        _byte(request.param, "param", 0xFFFF),
+    )
+
+
+def decode_express_scan(payload: bytes) -> ExpressScanRequest:
+    """An EXPRESS_SCAN payload; a shorter one is read as if padded with zeros."""
+    working_mode, flags, param = _EXPRESS_SCAN.unpack(
+        bytes(payload[: _EXPRESS_SCAN.size]).ljust(_EXPRESS_SCAN.size, b"\x00")
+    )
+    return ExpressScanRequest(working_mode, flags, param)
+
+
+CAPSULE_SYNC_1 = 0xA
+"""High nibble of a capsule's byte 0 (its low nibble: checksum bits 0-3)."""
+CAPSULE_SYNC_2 = 0x5
+"""High nibble of a capsule's byte 1 (its low nibble: checksum bits 4-7)."""
+CAPSULE_START_BIT = 0x8000
+"""Bit 15 of a capsule's start angle word: the first capsule of a stream (after EXPRESS_SCAN,
+or after a gap): a decoder drops the capsule it holds and starts afresh."""
+CAPSULE_HEADER_BYTES = 4
+ANGLE_Q6_TURN = 360 * 64
+"""A turn in angle_q6 units."""
+ANGLE_Q16_TURN = 360 << 16
+CAPSULE_DISTANCE_MM_MAX = 0x3FFF  # 14 bits in a legacy capsule
+CAPSULE_DTHETA_Q3_MAX = 0x3F  # 6 bits, 1/8 deg
+
+
+@dataclass(frozen=True)
+class CapsuleFormat:
+    """One capsule format of EXPRESS_SCAN streams.
+
+    Every capsule is ``sync/checksum (2 bytes), start angle (u16 LE: angle_q6 | S << 15),
+    samples``; the checksum is the XOR of every byte after the first two, its low nibble in
+    byte 0 and its high nibble in byte 1 (under the sync nibbles 0xA and 0x5). A capsule's
+    samples are spread evenly from its start angle to the next capsule's, so a decoder
+    turns a capsule into samples when the next one arrives.
+
+    Attributes
+    ----------
+    answer_type : int
+        :class:`DataType` of the descriptor and of GET_LIDAR_CONF's SCAN_MODE_ANS_TYPE.
+    capsule_bytes : int
+        Bytes of one capsule (the descriptor's length).
+    samples : int
+        Samples in one capsule.
+    """
+
+    answer_type: int
+    capsule_bytes: int
+    samples: int
+
+    @property
+    def descriptor(self) -> bytes:
+        """The response descriptor of EXPRESS_SCAN in this format (multiple)."""
+        return encode_descriptor(
+            Descriptor(self.capsule_bytes, SendMode.MULTIPLE, self.answer_type)
+        )
+
+
+CAPSULED = CapsuleFormat(DataType.MEASUREMENT_CAPSULED, 84, 32)
+"""Legacy express capsules: 16 cabins of 5 bytes, two samples each: distance [mm] u14 and an
+angle correction dtheta [1/8 deg] u6 (``A5 5A 54 00 00 40 82``)."""
+ULTRA_CAPSULED = CapsuleFormat(DataType.MEASUREMENT_ULTRA_CAPSULED, 132, 96)
+"""Ultra capsules: 32 cabins of a u32, three samples each: a major distance (12-bit
+variable-bit-scale code) and two 10-bit signed predictions (``A5 5A 84 00 00 40 84``)."""
+DENSE_CAPSULED = CapsuleFormat(DataType.MEASUREMENT_DENSE_CAPSULED, 84, 40)
+"""Dense capsules: 40 distances [mm] u16 (``A5 5A 54 00 00 40 85``)."""
+CAPSULE_FORMATS: dict[int, CapsuleFormat] = {
+    f.answer_type: f for f in (CAPSULED, ULTRA_CAPSULED, DENSE_CAPSULED)
+}
+
+I64Array = npt.NDArray[np.int64]
+
+
+def _xor(data: bytes) -> int:
+    return int(np.bitwise_xor.reduce(np.frombuffer(data, dtype=np.uint8))) if data else 0
+
+
+def _pack_capsule(start_angle_q6: int, start: bool, body: bytes) -> bytes:
+    word = _byte(start_angle_q6, "capsule start angle_q6", ANGLE_Q6_MAX) | (
+        CAPSULE_START_BIT if start else 0
+    )
+    rest = _U16.pack(word) + body
+    checksum = _xor(rest)
+    return (
+        bytes(((CAPSULE_SYNC_1 << 4) | (checksum & 0xF), (CAPSULE_SYNC_2 << 4) | (checksum >> 4)))
+        + rest
+    )
+
+
+def _samples(values: npt.ArrayLike, n: int, top: int, what: str) -> I64Array:
+    a = np.broadcast_to(np.asarray(values, dtype=np.int64), (n,))
+    if a.min() < 0 or a.max() > top:
+        raise EncodeError(f"RPLIDAR capsule {what} must be in 0..{top}")
+    return np.ascontiguousarray(a)
+
+
+def encode_capsule(
+    start_angle_q6: int, start: bool, distance_mm: npt.ArrayLike, dtheta_q3: npt.ArrayLike = 0
+) -> bytes:
+    """A legacy express capsule (84 bytes, answer type 0x82).
+
+    Cabin ``j`` carries samples ``2j`` and ``2j + 1``: two u16 words ``distance_mm << 2 |
+    dtheta bits 4-5`` and a byte ``dtheta_2j bits 0-3 | dtheta_2j+1 bits 0-3 << 4``. A
+    decoder places sample ``k`` at ``start + k (next_start - start) / 32 - dtheta_k / 8``
+    [deg].
+
+    Parameters
+    ----------
+    start_angle_q6 : int
+        Angle of sample 0 before its correction [deg] * 64.
+    start : bool
+        S: the first capsule of the stream.
+    distance_mm : array_like of int
+        32 distances [mm], 0..16383 (0: no return).
+    dtheta_q3 : array_like of int
+        32 angle corrections [deg] * 8, 0..63 (broadcast).
+
+    Raises
+    ------
+    EncodeError
+        A value out of its field.
+    """
+    n = CAPSULED.samples
+    d = _samples(distance_mm, n, CAPSULE_DISTANCE_MM_MAX, "distance_mm")
+    t = _samples(dtheta_q3, n, CAPSULE_DTHETA_Q3_MAX, "dtheta_q3")
+    w1 = (d[0::2] << 2) | (t[0::2] >> 4)
+    w2 = (d[1::2] << 2) | (t[1::2] >> 4)
+    cabins = np.empty((n // 2, 5), dtype=np.uint8)
+    cabins[:, 0], cabins[:, 1] = w1 & 0xFF, w1 >> 8
+    cabins[:, 2], cabins[:, 3] = w2 & 0xFF, w2 >> 8
+    cabins[:, 4] = (t[0::2] & 0xF) | ((t[1::2] & 0xF) << 4)
+    return _pack_capsule(start_angle_q6, start, cabins.tobytes())
+
+
+# the variable bit scale of ultra capsules' 12-bit major distances:
+# (first code, distance [mm] of that code, log2 of the step [mm]), from the far end down
+_VBS_LEVELS = ((3328, 1 << 14, 4), (1792, 1 << 12, 3), (1280, 1 << 11, 2), (512, 1 << 9, 1))
+VBS_CODE_MAX = 0xFFF
+PREDICT_NONE = 0x1FF
+"""A 10-bit prediction meaning "no return" (0x200, i.e. -512, means the same)."""
+PREDICT_MIN, PREDICT_MAX = -511, 510  # the predictions that carry a distance
+
+
+def varbitscale_decode(code: npt.ArrayLike) -> tuple[I64Array, I64Array]:
+    """Distances [mm] and scale levels of 12-bit variable-bit-scale codes.
+
+    Codes 0-511 are millimetres; above, each range of codes steps 2, 4, 8, 16 mm from 512,
+    2048, 4096 and 16384 mm (codes 512, 1280, 1792, 3328): the largest, 4095, is 28656 mm.
+    """
+    c = np.asarray(code, dtype=np.int64)
+    distance = c.copy()
+    level = np.zeros_like(c)
+    done = np.zeros(c.shape, dtype=bool)
+    for first, base_mm, lvl in _VBS_LEVELS:
+        here = ~done & (c >= first)
+        distance[here] = base_mm + ((c[here] - first) << lvl)
+        level[here] = lvl
+        done |= here
+    return distance, level
+
+
+def varbitscale_encode(distance_mm: npt.ArrayLike) -> I64Array:
+    """The 12-bit variable-bit-scale codes nearest to distances [mm] (beyond 28656 mm: 4095)."""
+    d = np.asarray(distance_mm, dtype=np.int64)
+    code = d.copy()
+    done = np.zeros(d.shape, dtype=bool)
+    for first, base_mm, lvl in _VBS_LEVELS:
+        here = ~done & (d >= base_mm)
+        code[here] = first + ((d[here] - base_mm + (1 << (lvl - 1))) >> lvl)
+        done |= here
+    out: I64Array = np.clip(code, 0, VBS_CODE_MAX)
+    return out
+
+
+def _predict(target_mm: I64Array, base_mm: I64Array, level: I64Array) -> tuple[I64Array, I64Array]:
+    """10-bit predictions of ``target`` from ``base`` in steps of ``2**level`` mm, and the
+    distances a decoder gets back (0 where the target is no return or out of reach)."""
+    step = np.left_shift(1, level)
+    p = np.floor_divide(target_mm - base_mm + (step >> 1), step)
+    ok = (target_mm > 0) & (p >= PREDICT_MIN) & (p <= PREDICT_MAX)
+    return np.where(ok, p, PREDICT_NONE), np.where(ok, base_mm + p * step, 0)
+
+
+def encode_ultra_cabins(distance_mm: npt.ArrayLike) -> tuple[npt.NDArray[np.uint32], I64Array]:
+    """The 32 cabins of an ultra capsule, and the 96 distances a decoder gets back.
+
+    Cabin ``j`` carries samples ``3j .. 3j + 2`` in a u32: bits 0-11 the major, sample ``3j``
+    as a variable-bit-scale code (:func:`varbitscale_decode`); bits 12-21 and 22-31 signed
+    predictions ``p`` of samples ``3j + 1`` and ``3j + 2``, which decode as ``base + p <<
+    level``, the base being the major of cabin ``j`` (of cabin ``j + 1`` if cabin ``j``'s is 0
+    and the next one's is not) for the first and the major of cabin ``j + 1`` for the second,
+    each with its scale level. The last cabin's second prediction uses the next capsule's
+    first major, hence the 97th distance. A sample the prediction cannot reach (a jump past
+    511 steps) decodes as no return, as does one with no return.
+
+    Parameters
+    ----------
+    distance_mm : array_like of int
+        97 distances [mm]: this capsule's 96 samples, then the next capsule's first.
+
+    Returns
+    -------
+    words : ndarray of uint32
+        The 32 cabins.
+    decoded_mm : ndarray of int64
+        The 96 distances [mm] they decode to (quantised; 0 for no return).
+    """
+    n = ULTRA_CAPSULED.samples
+    d = np.asarray(distance_mm, dtype=np.int64)
+    if d.shape != (n + 1,):
+        raise ValueError(f"an ultra capsule needs {n + 1} distances, got shape {d.shape}")
+    if d.min() < 0:
+        raise EncodeError("RPLIDAR capsule distance_mm must be >= 0")
+    codes = varbitscale_encode(d[0::3])  # 33 majors: this capsule's 32 and the next one's
+    major_mm, level = varbitscale_decode(codes)
+    this_mm, this_lvl, next_mm, next_lvl = major_mm[:-1], level[:-1], major_mm[1:], level[1:]
+    borrow = (this_mm == 0) & (next_mm != 0)
+    p1, got1 = _predict(
+        d[1:n:3], np.where(borrow, next_mm, this_mm), np.where(borrow, next_lvl, this_lvl)
+    )
+    p2, got2 = _predict(d[2:n:3], next_mm, next_lvl)
+    words = codes[:-1] | ((p1 & 0x3FF) << 12) | ((p2 & 0x3FF) << 22)
+    decoded: I64Array = np.stack((this_mm, got1, got2), axis=1).ravel()
+    return words.astype(np.uint32), decoded
+
+
+def encode_ultra_capsule(start_angle_q6: int, start: bool, distance_mm: npt.ArrayLike) -> bytes:
+    """An ultra capsule (132 bytes, answer type 0x84) from 97 distances [mm]: this capsule's 96
+    and the next one's first (:func:`encode_ultra_cabins`).
+
+    Raises
+    ------
+    EncodeError
+        A start angle out of 15 bits or a negative distance.
+    """
+    words, _ = encode_ultra_cabins(distance_mm)
+    return _pack_capsule(start_angle_q6, start, words.astype("<u4").tobytes())
+
+
+def encode_dense_capsule(start_angle_q6: int, start: bool, distance_mm: npt.ArrayLike) -> bytes:
+    """A dense capsule (84 bytes, answer type 0x85): 40 distances [mm] u16 LE, no corrections.
+
+    Raises
+    ------
+    EncodeError
+        A value out of its field.
+    """
+    d = _samples(distance_mm, DENSE_CAPSULED.samples, 0xFFFF, "distance_mm")
+    return _pack_capsule(start_angle_q6, start, d.astype("<u2").tobytes())
+
+
+ULTRA_OFFSET_NEAR_RAD_Q16 = 8578  # 7.5 deg [rad] * 2**16, below 50 mm
+ULTRA_OFFSET_FAR_RAD_Q16 = 9150  # 8 deg [rad] * 2**16
+ULTRA_OFFSET_NEAR_Q2 = 200  # 50 mm * 4
+ULTRA_OFFSET_K1 = 98361
+ULTRA_OFFSET_K3 = 98304
+ULTRA_OFFSET_PI = 3.14159265  # the pi of the radian-to-degree conversion (bit-exact decoding)
+
+
+def ultra_angle_offset_q16(distance_q2: npt.ArrayLike) -> I64Array:
+    """The angle a decoder subtracts from an ultra-capsuled sample [deg * 2**16].
+
+    Ultra capsules carry no per-sample correction: the decoder models the parallax of the
+    A-series' triangulating head from the distance alone, as Slamtec's SDK (and pyrplidar)
+    do: with ``k = 98361 // distance_q2``, ``8 deg - (k << 6) - k**3 // 98304`` [rad * 2**16]
+    from 50 mm on and 7.5 deg below, turned into degrees with pi = 3.14159265 and truncated.
+    About 7.3 deg at 2 m, 7.9 deg at 12 m.
+    """
+    q = np.asarray(distance_q2, dtype=np.int64)
+    k = ULTRA_OFFSET_K1 // np.maximum(q, 1)
+    rad_q16 = np.where(
+        q >= ULTRA_OFFSET_NEAR_Q2,
+        ULTRA_OFFSET_FAR_RAD_Q16 - (k << 6) - (k * k * k) // ULTRA_OFFSET_K3,
+        ULTRA_OFFSET_NEAR_RAD_Q16,
+    )
+    out: I64Array = (rad_q16 * 180 / ULTRA_OFFSET_PI).astype(np.int64)  # toward zero, as C's
+    return out
+
+
+@dataclass(frozen=True)
+class SampleBatch:
+    """Samples decoded from capsules, as Slamtec's SDK hands them out (its HQ nodes).
+
+    Attributes
+    ----------
+    start : ndarray of bool
+        The SDK's sync flag, on the last sample before the raw angle passes 0 deg: the SDK
+        starts a new turn with it, so a turn runs from one flagged sample to the next.
+    angle_q6 : ndarray of int64
+        Headings [deg] * 64, clockwise, in [0, 23040).
+    distance_q2 : ndarray of int64
+        Distances [mm] * 4; 0 is no return.
+    """
+
+    start: BoolArray
+    angle_q6: I64Array
+    distance_q2: I64Array
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+    @property
+    def angle_deg(self) -> npt.NDArray[np.float64]:
+        out: npt.NDArray[np.float64] = self.angle_q6 / 64.0
+        return out
+
+    @property
+    def distance_mm(self) -> npt.NDArray[np.float64]:
+        out: npt.NDArray[np.float64] = self.distance_q2 / 4.0
+        return out
+
+    @staticmethod
+    def concat(batches: list[SampleBatch]) -> SampleBatch:
+        """The batches back to back (an empty batch for none)."""
+        if not batches:
+            return SampleBatch(
+                np.zeros(0, dtype=np.bool_), np.zeros(0, np.int64), np.zeros(0, np.int64)
+            )
+        return SampleBatch(
+            np.concatenate([b.start for b in batches]),
+            np.concatenate([b.angle_q6 for b in batches]),
+            np.concatenate([b.distance_q2 for b in batches]),
+        )
+
+
+def _signed10(x: I64Array) -> I64Array:
+    out: I64Array = np.where(x >= 0x200, x - 0x400, x)
+    return out
+
+
+class CapsuleDecoder:
+    """The host's side of an EXPRESS_SCAN stream (the bytes after its descriptor).
+
+    A capsule is recognised by its sync nibbles and checksum; bytes that start none are skipped
+    one at a time and counted. Each capsule becomes samples when the next arrives, reconstructed
+    with Slamtec's SDK's fixed-point arithmetic (so both agree to the bit): sample ``k`` of
+    ``N`` at raw angle ``start + k * diff / N`` (``diff`` the start angles' difference, wrapped
+    into [0, 360) deg, in Q16 with the SDK's truncations), less ``dtheta`` (legacy capsules) or
+    :func:`ultra_angle_offset_q16` (ultra capsules); dense capsules carry no correction. A
+    capsule with the S bit drops the one held (a new stream).
+
+    Parameters
+    ----------
+    answer_type : int
+        The descriptor's data type: 0x82, 0x84 or 0x85.
+
+    Attributes
+    ----------
+    capsules : int
+        Capsules received whole (checksum good).
+    starts : int
+        Capsules with the S bit.
+    malformed_bytes : int
+        Bytes skipped.
+    """
+
+    def __init__(self, answer_type: int) -> None:
+        if answer_type not in CAPSULE_FORMATS:
+            raise ValueError(f"no capsule format has answer type {answer_type:#04x}")
+        self.format = CAPSULE_FORMATS[answer_type]
+        self._buf = bytearray()
+        self._held: bytes | None = None
+        self._last_sync = False  # dense capsules: a sync flag is raised once per turn
+        self.capsules = 0
+        self.starts = 0
+        self.malformed_bytes = 0
+
+    def feed(self, data: bytes) -> SampleBatch:
+        """Decode what ``data`` completes; a partial capsule waits for the next chunk.
+
+        Returns
+        -------
+        SampleBatch
+            The samples of every capsule that the next one completed, in stream order.
+        """
+        buf = self._buf
+        buf += data
+        n = self.format.capsule_bytes
+        out: list[SampleBatch] = []
+        pos, end = 0, len(buf)
+        while pos < end:
+            if buf[pos] >> 4 != CAPSULE_SYNC_1 or (
+                end - pos > 1 and buf[pos + 1] >> 4 != CAPSULE_SYNC_2
+            ):
+                self.malformed_bytes += 1
+                pos += 1
+                continue
+            if end - pos < n:
+                break
+            capsule = bytes(buf[pos : pos + n])
+            if _xor(capsule[2:]) != (capsule[0] & 0xF) | ((capsule[1] & 0xF) << 4):
+                self.malformed_bytes += 1
+                pos += 1
+                continue
+            pos += n
+            self.capsules += 1
+            if _U16.unpack_from(capsule, 2)[0] & CAPSULE_START_BIT:
+                self.starts += 1
+                self._held = None
+            if self._held is not None:
+                out.append(self._decode(self._held, capsule))
+            self._held = capsule
+        del buf[:pos]
+        return SampleBatch.concat(out)
+
+    def _decode(self, held: bytes, following: bytes) -> SampleBatch:
+        fmt = self.format
+        first_q8 = (_U16.unpack_from(held, 2)[0] & ANGLE_Q6_MAX) << 2
+        next_q8 = (_U16.unpack_from(following, 2)[0] & ANGLE_Q6_MAX) << 2
+        diff_q8 = next_q8 - first_q8 + ((360 << 8) if first_q8 > next_q8 else 0)
+        if fmt is CAPSULED:
+            inc_q16 = diff_q8 << 3
+        elif fmt is ULTRA_CAPSULED:
+            inc_q16 = (diff_q8 << 3) // 3
+        else:
+            inc_q16 = (diff_q8 << 8) // 40
+        raw_q16 = (first_q8 << 8) + np.arange(fmt.samples, dtype=np.int64) * inc_q16
+        wrapped = (raw_q16 + inc_q16) % ANGLE_Q16_TURN
+        dist_q2: I64Array
+        angle_q6: I64Array
+        body = held[CAPSULE_HEADER_BYTES:]
+        if fmt is CAPSULED:
+            cab = np.frombuffer(body, dtype=np.uint8).reshape(-1, 5).astype(np.int64)
+            w1, w2 = cab[:, 0] | (cab[:, 1] << 8), cab[:, 2] | (cab[:, 3] << 8)
+            dist_q2 = np.stack((w1 & 0xFFFC, w2 & 0xFFFC), axis=1).ravel()
+            dtheta_q3 = np.stack(
+                ((cab[:, 4] & 0xF) | ((w1 & 3) << 4), (cab[:, 4] >> 4) | ((w2 & 3) << 4)), axis=1
+            ).ravel()
+            angle_q6 = (raw_q16 - (dtheta_q3 << 13)) >> 10
+            sync = wrapped < inc_q16
+        elif fmt is ULTRA_CAPSULED:
+            words = np.frombuffer(body, dtype="<u4").astype(np.int64)
+            next_major = int(_U32.unpack_from(following, CAPSULE_HEADER_BYTES)[0]) & 0xFFF
+            major_mm, level = varbitscale_decode(np.append(words & 0xFFF, next_major))
+            this_mm, this_lvl, next_mm, next_lvl = (
+                major_mm[:-1],
+                level[:-1],
+                major_mm[1:],
+                level[1:],
+            )
+            borrow = (this_mm == 0) & (next_mm != 0)
+            base1 = np.where(borrow, next_mm, this_mm)
+            lvl1 = np.where(borrow, next_lvl, this_lvl)
+            p1, p2 = _signed10((words >> 12) & 0x3FF), _signed10((words >> 22) & 0x3FF)
+            none1 = (p1 == -512) | (p1 == PREDICT_NONE)
+            none2 = (p2 == -512) | (p2 == PREDICT_NONE)
+            d1 = np.where(none1, 0, (p1 << lvl1) + base1)
+            d2 = np.where(none2, 0, (p2 << next_lvl) + next_mm)
+            dist_q2 = np.stack((this_mm, d1, d2), axis=1).ravel() << 2
+            angle_q6 = (raw_q16 - ultra_angle_offset_q16(dist_q2)) >> 10
+            sync = wrapped < inc_q16
+        else:
+            dist_q2 = np.frombuffer(body, dtype="<u2").astype(np.int64) << 2
+            angle_q6 = raw_q16 >> 10
+            sync = np.zeros(fmt.samples, dtype=bool)
+            for k, near in enumerate(wrapped < 2 * inc_q16):
+                sync[k] = bool(near) and not self._last_sync
+                self._last_sync = bool(sync[k])
+        angle_q6 = np.where(angle_q6 < 0, angle_q6 + ANGLE_Q6_TURN, angle_q6)
+        angle_q6 = np.where(angle_q6 >= ANGLE_Q6_TURN, angle_q6 - ANGLE_Q6_TURN, angle_q6)
+        return SampleBatch(np.asarray(sync, dtype=np.bool_), angle_q6, dist_q2)

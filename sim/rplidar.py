@@ -1,33 +1,62 @@
-"""The twin's RPLIDAR A1M8: Slamtec's serial protocol on a pty of its own, byte for byte.
+"""The twin's RPLIDAR A1M8 (firmware 1.29): Slamtec's serial protocol on a pty of its own.
 
 The host opens the pty as it opens ``/dev/jackson-lidar`` on the robot and drives it with the
-same requests (docs/lidar.md). :meth:`RplidarEmulator.serve` answers them: GET_HEALTH good,
-GET_INFO with the twin's identity (:data:`TWIN_INFO`), GET_SAMPLERATE, SCAN with its
-descriptor; STOP and RESET end a scan and send nothing (the real A1 prints a boot banner after
-RESET, the twin does not). As on the device, any request ends a running scan first.
+same requests (docs/lidar.md). :meth:`RplidarEmulator.serve` answers them as an A1M8 with
+firmware 1.29 does: GET_HEALTH good, GET_INFO with the twin's identity (:data:`TWIN_INFO`),
+GET_SAMPLERATE, GET_LIDAR_CONF for the scan-mode entries (:data:`A1M8_SCAN_MODES`, typical
+mode Sensitivity), SCAN and FORCE_SCAN with their descriptor and nodes, EXPRESS_SCAN in the
+capsule format of the mode asked for; STOP and RESET end a scan and send nothing (the real A1
+prints a boot banner after RESET, the twin does not). As on the device, any request ends a
+running scan first. A GET_LIDAR_CONF entry the A1 does not describe (the SDK asks for the
+motor's desired speed, 0x01) gets no answer, and neither does a command the twin does not know.
 
-While scanning, :meth:`RplidarEmulator.advance` writes one revolution per
-``scan_period_s`` of simulation time (0.13465 s, 7.43 Hz), revolution ``k`` ending at
-``k * scan_period_s``: 1080 standard measurement nodes in the order the head meets them
-(heading clockwise from 0°, S flag on the first), quality 47 for a return and 0 with distance
-0 for none. Each revolution goes out whole at the instant it ends, together with the S node
-of the next one, which the head measures at that same instant; so a host sees a revolution
-complete as soon as it has ended, before the telemetry frame the twin writes next (lockstep
-stays deterministic). The ranges come from the caller, one array per revolution in the
-twin's beam order (:class:`~jackson.sim.lidar.LidarSpec`: ``angle_min + i * increment``,
-counter-clockwise, ``inf`` for no return); the node for beam ``i`` has the heading
-``-angle_i`` wrapped to [0°, 360°) (docs/lidar.md, "Frames").
+The motor needs no DTR: on the A1's USB adapter DTR switches MOTOCTL, but a pty has no modem
+lines, so the twin's head always turns and a scan starts on its request alone.
 
-The real A1M8 delivers about 2000 standard nodes a second at 115200 baud (a pty has no baud
-rate): the twin's 8000 a second are the paper's 1080-beam scans, which the device reaches in
-its Boost mode.
+While scanning, :meth:`RplidarEmulator.advance` writes one revolution per ``scan_period_s``
+of simulation time (0.13465 s, 7.43 Hz), revolution ``k`` ending at ``k * scan_period_s``, the
+head at heading 0 (clockwise) at each of these instants. The ranges come from the caller, one
+array per revolution in the twin's beam order (:class:`~jackson.sim.lidar.LidarSpec`:
+``angle_min + i * increment``, counter-clockwise, ``inf`` for no return); beam ``i`` has the
+heading ``-angle_i`` wrapped to [0°, 360°) (docs/lidar.md, "Frames").
+
+**SCAN and FORCE_SCAN** send the twin's own beams by default: ``spec.beams`` standard nodes per
+revolution (the paper's 1080, 8000 a second), in the order the head meets them, quality 47
+for a return and 0 with distance 0 for none, S on the first; GET_LIDAR_CONF and
+GET_SAMPLERATE then report Standard's sample time as ``scan_period_s / beams`` (124.7 us), so
+what the device says and sends agree. Each revolution goes out whole at the instant it ends,
+together with the S node of the next one, which the head measures at that same instant; so a
+host sees a revolution complete as soon as it has ended, before the telemetry frame the twin
+writes next (lockstep stays deterministic). With ``device_standard_scan`` SCAN runs at the
+A1's own 508 us a sample instead (265 nodes a revolution), as the express modes do.
+
+**EXPRESS_SCAN** runs the mode named by its working mode (0: the legacy express scan, as
+Express) at the mode's sample time: sample ``n`` is taken at ``t0 + n * us_per_sample`` with
+the head at ``360° * frac(t / scan_period_s)``, its distance read off that revolution's ranges
+at that heading (:func:`ranges_at`: the twin casts its 1080 beams, the emulator interpolates
+between the two around each sample), so revolutions hold a non-integer number of samples and
+their headings drift from one turn to the next, as on the device (Sensitivity, 127 us: 1060.2
+a revolution). The samples are cut into the mode's capsules in stream order (32, 96 or 40 a
+capsule), each stamped with its first sample's raw angle; a revolution's capsules go out at
+its end (a capsule waits for the next revolution when it is not full, an ultra capsule also
+for the next capsule's first sample, which its last prediction needs). The first capsule of a
+stream, and the first after a gap, carries the S bit. Legacy capsules carry ``dtheta = 0``
+(the twin's head has no parallax: the raw angle is the heading). Ultra capsules carry no
+correction and every decoder (Slamtec's SDK, pyrplidar,
+:class:`~jackson.protocol.rplidar.CapsuleDecoder`) subtracts the A-series' parallax model
+(:func:`~jackson.protocol.rplidar.ultra_angle_offset_q16`, about 7.3° at 2 m) from the raw
+angle; the emulator therefore ranges each ultra sample at ``raw - offset(distance)``, found by
+a fixed-point iteration, so the decoded heading is where the distance was measured.
 
 Writes never block the twin: a revolution that does not fit the pty's buffer (nobody reads)
-is dropped whole and counted, and the next one then carries its own S node again.
+is dropped whole and counted; in SCAN the next one then carries its own S node again, in
+EXPRESS_SCAN the next capsule carries the S bit.
 
 A revolution the twin lost (a ``lidar_dropout`` fault, :mod:`jackson.sim.faults`) puts nothing
-on the line: its nodes and the next turn's S node never come, so the S node already sent
-(measured as the lost turn began) starts the next revolution the host sees, one period later.
+on the line: in SCAN its nodes and the next turn's S node never come, so the S node already
+sent (measured as the lost turn began) starts the next revolution the host sees, one period
+later; in EXPRESS_SCAN its samples are never taken and the capsule after the gap carries the
+S bit.
 """
 
 from __future__ import annotations
@@ -40,21 +69,52 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.protocol.rplidar import (
+    ANGLE_Q6_TURN,
+    CAPSULE_DISTANCE_MM_MAX,
+    CAPSULE_FORMATS,
+    CAPSULED,
+    DENSE_CAPSULED,
     NODE_BYTES,
+    Q8,
     SCAN_DESCRIPTOR,
+    ULTRA_CAPSULED,
+    CapsuleFormat,
     Command,
+    DataType,
     DeviceHealth,
     DeviceInfo,
     HealthStatus,
+    Request,
     RequestDecoder,
     SampleRate,
+    ScanMode,
+    decode_express_scan,
+    decode_lidar_conf_query,
+    encode_capsule,
+    encode_dense_capsule,
     encode_nodes,
+    encode_ultra_cabins,
+    encode_ultra_capsule,
+    lidar_conf_response,
     response,
+    scan_mode_conf,
+    ultra_angle_offset_q16,
+    varbitscale_decode,
+    varbitscale_encode,
 )
 from jackson.sim.lidar import LidarSpec
 from jackson.sim.link import PtyLink
 
-__all__ = ["QUALITY_RETURN", "TWIN_HEALTH", "TWIN_INFO", "RplidarEmulator"]
+__all__ = [
+    "A1M8_SAMPLE_RATE",
+    "A1M8_SCAN_MODES",
+    "A1M8_TYPICAL_MODE",
+    "QUALITY_RETURN",
+    "TWIN_HEALTH",
+    "TWIN_INFO",
+    "RplidarEmulator",
+    "ranges_at",
+]
 
 QUALITY_RETURN = 47
 """Quality of a node with a return (a typical A1 value; 0 for no return)."""
@@ -72,14 +132,186 @@ TWIN_INFO = DeviceInfo(
 TWIN_HEALTH = DeviceHealth(HealthStatus.GOOD, 0)
 """What the twin's GET_HEALTH answers: good, no error."""
 
+A1M8_MAX_DISTANCE_Q8 = 12 * Q8  # 12 m, every mode
+A1M8_SCAN_MODES = (
+    ScanMode(0, "Standard", 508 * Q8, A1M8_MAX_DISTANCE_Q8, DataType.MEASUREMENT),
+    ScanMode(1, "Express", 254 * Q8, A1M8_MAX_DISTANCE_Q8, DataType.MEASUREMENT_CAPSULED),
+    ScanMode(2, "Boost", 127 * Q8, A1M8_MAX_DISTANCE_Q8, DataType.MEASUREMENT_ULTRA_CAPSULED),
+    ScanMode(3, "Sensitivity", 127 * Q8, A1M8_MAX_DISTANCE_Q8, DataType.MEASUREMENT_ULTRA_CAPSULED),
+    ScanMode(4, "Stability", 201 * Q8, A1M8_MAX_DISTANCE_Q8, DataType.MEASUREMENT_ULTRA_CAPSULED),
+)
+"""The scan modes an A1M8 with firmware 1.29 (hardware 7) reports through GET_LIDAR_CONF, as
+dumped from real units (docs/lidar.md, "Scan modes"): 508, 254, 127, 127 and 201 us a sample,
+12 m, answer types 0x81, 0x82, 0x84, 0x84, 0x84."""
+A1M8_TYPICAL_MODE = 3
+"""Its typical mode: Sensitivity."""
+A1M8_SAMPLE_RATE = SampleRate(508, 254)
+"""Its GET_SAMPLERATE answer [us]: Standard's and Express's sample times."""
+
 KNOWN_COMMANDS = frozenset(int(c) for c in Command)
 TIME_TOLERANCE_S = 1e-9  # a revolution ending this close after t_s counts as ended at t_s
+EDGE_FRACTION = 0.1
+"""Two neighbouring beams that differ by more than this fraction of the nearer one are an edge:
+a sample between them takes the nearer beam's range instead of interpolating."""
+PARALLAX_ITERATIONS = 3
+ULTRA_OFFSET_START_DEG = 7.5  # the parallax model's offset below 50 mm: where iterating starts
+RECENT_REQUESTS = 256
 
 RangesFn = Callable[[float], npt.ArrayLike | None]
+F64Array = npt.NDArray[np.float64]
+I64Array = npt.NDArray[np.int64]
+
+
+def ranges_at(spec: LidarSpec, ranges_m: F64Array, heading_deg: F64Array) -> F64Array:
+    """A revolution's ranges [m] at clockwise headings [deg], from its beams.
+
+    Each heading falls between two beams (the last and the first bridge the gap of an
+    incomplete turn); the range is linear between theirs unless they differ by more than
+    :data:`EDGE_FRACTION` of the nearer or one has no return, and then it is the nearer beam's
+    (an edge stays an edge, a no return stays one).
+
+    Parameters
+    ----------
+    spec : LidarSpec
+        The beams' geometry.
+    ranges_m : ndarray
+        The revolution's ``spec.beams`` ranges [m] in beam order; ``inf``, NaN or <= 0 for no
+        return.
+    heading_deg : ndarray
+        Headings [deg], clockwise seen from above, any value (wrapped).
+
+    Returns
+    -------
+    ndarray
+        Ranges [m], ``inf`` for no return.
+    """
+    beams, inc = spec.beams, spec.angle_increment_rad
+    r = np.where(np.isfinite(ranges_m) & (ranges_m > 0.0), ranges_m, np.inf)
+    alpha = np.mod(-np.radians(heading_deg) - spec.angle_min_rad, 2.0 * math.pi)
+    i0 = np.minimum(np.floor(alpha / inc).astype(np.int64), beams - 1)
+    gap = max(2.0 * math.pi - (beams - 1) * inc, inc)  # last beam to the first, one turn on
+    width = np.where(i0 == beams - 1, gap, inc)
+    f = np.clip((alpha - i0 * inc) / width, 0.0, 1.0)
+    r0, r1 = r[i0], r[(i0 + 1) % beams]
+    with np.errstate(invalid="ignore"):
+        smooth = np.isfinite(r0) & np.isfinite(r1)
+        smooth &= np.abs(r1 - r0) <= EDGE_FRACTION * np.minimum(r0, r1)
+        lin = r0 + f * (r1 - r0)
+    out: F64Array = np.where(smooth, lin, np.where(f < 0.5, r0, r1))
+    return out
+
+
+def _millimetres(ranges_m: F64Array, top: int) -> I64Array:
+    """Ranges [m] as whole millimetres for the wire, 0 for no return."""
+    ok = np.isfinite(ranges_m) & (ranges_m > 0.0)
+    mm = np.zeros(len(ranges_m), dtype=np.int64)
+    mm[ok] = np.clip(np.rint(ranges_m[ok] * 1000.0), 1, top)
+    return mm
+
+
+class _SampleStream:
+    """A running scan at a mode's own sample time: which samples each revolution holds, their
+    distances, and the wire units (standard nodes or capsules) they fill."""
+
+    def __init__(self, spec: LidarSpec, mode: ScanMode, t0_s: float) -> None:
+        self.spec = spec
+        self.format: CapsuleFormat | None = CAPSULE_FORMATS.get(mode.answer_type)
+        self.dt_s = mode.us_per_sample * 1e-6
+        self.t0_s = t0_s  # sample 0, at heading 0
+        self.next_n = 0  # the next sample to take
+        self.heading_deg: F64Array = np.zeros(0)  # raw angles of samples not yet in a capsule
+        self.distance_mm: I64Array = np.zeros(0, dtype=np.int64)
+        self.start_bit = True  # the next capsule starts a stream
+        self.samples = 0
+        self.edge_dropouts = 0  # ultra samples at an edge sent as no return
+
+    def _sample_range(self, end_s: float) -> tuple[int, int]:
+        """Samples ``[n0, n1)``: those of the revolution ending at ``end_s``."""
+        n1 = max(self.next_n, math.ceil((end_s - self.t0_s) / self.dt_s - TIME_TOLERANCE_S))
+        return self.next_n, n1
+
+    def lose(self, end_s: float) -> None:
+        """The revolution ending at ``end_s`` was lost: its samples are never taken."""
+        self.next_n = self._sample_range(end_s)[1]
+        self.heading_deg = np.zeros(0)
+        self.distance_mm = np.zeros(0, dtype=np.int64)
+        self.start_bit = True
+
+    def restart(self) -> None:
+        """What was sent did not reach the line: the next capsule starts a stream."""
+        self.start_bit = True
+
+    def revolution(self, end_s: float, ranges_m: F64Array) -> bytes:
+        """Take the samples of the revolution ending at ``end_s``; the wire bytes they complete."""
+        n0, n1 = self._sample_range(end_s)
+        self.next_n = n1
+        self.samples += n1 - n0
+        period = self.spec.scan_period_s
+        t = self.t0_s + np.arange(n0, n1) * self.dt_s
+        heading = 360.0 * np.mod((t - (end_s - period)) / period, 1.0)
+        if self.format is None:
+            return self._nodes(heading, ranges_at(self.spec, ranges_m, heading))
+        mm: I64Array
+        if self.format is ULTRA_CAPSULED:
+            mm = self._parallax_ranged(ranges_m, heading)
+        else:
+            top = CAPSULE_DISTANCE_MM_MAX if self.format is CAPSULED else 0xFFFF
+            mm = _millimetres(ranges_at(self.spec, ranges_m, heading), top)
+        self.heading_deg = np.concatenate((self.heading_deg, heading))
+        self.distance_mm = np.concatenate((self.distance_mm, mm))
+        return self._capsules()
+
+    def _nodes(self, heading: F64Array, ranges: F64Array) -> bytes:
+        distance_q2 = 4 * _millimetres(ranges, 0xFFFF // 4)
+        start = np.zeros(len(heading), dtype=bool)
+        start[:1] = True  # the head passed 0 deg just before the revolution's first sample
+        angle_q6 = np.mod(np.rint(heading * 64.0).astype(np.int64), ANGLE_Q6_TURN)
+        quality = np.where(distance_q2 > 0, QUALITY_RETURN, 0)
+        return encode_nodes(start, quality, angle_q6, distance_q2)
+
+    def _parallax_ranged(self, ranges_m: F64Array, raw_deg: F64Array) -> I64Array:
+        """Distances [mm] of ultra samples, each ranged where a decoder will place it: its raw
+        angle less the parallax model's offset for the distance it will decode (quantised
+        as the variable bit scale quantises it), found by iterating from the offset below 50 mm.
+        Next to an edge the near side's offset is the smaller, and a raw angle between the
+        two sides' offsets has no such distance: that sample is sent as no return."""
+        heading: F64Array = raw_deg - ULTRA_OFFSET_START_DEG
+        for _ in range(PARALLAX_ITERATIONS):
+            mm = _millimetres(ranges_at(self.spec, ranges_m, heading), 0xFFFF)
+            decoded_mm, _ = varbitscale_decode(varbitscale_encode(mm))
+            heading = raw_deg - ultra_angle_offset_q16(4 * decoded_mm) / 65536.0
+        there = _millimetres(ranges_at(self.spec, ranges_m, heading), 0xFFFF)
+        consistent = np.abs(there - mm) <= EDGE_FRACTION * np.minimum(there, mm)
+        self.edge_dropouts += int(np.count_nonzero(~consistent & (mm > 0)))
+        out: I64Array = np.where(consistent, mm, 0)
+        return out
+
+    def _capsules(self) -> bytes:
+        fmt = self.format
+        assert fmt is not None
+        n = fmt.samples
+        need = n + 1 if fmt is ULTRA_CAPSULED else n
+        count = max(0, (len(self.distance_mm) - need) // n + 1)
+        out = []
+        for c in range(count):
+            d = self.distance_mm[c * n : c * n + need]
+            start_q6 = int(np.rint(self.heading_deg[c * n] * 64.0)) % ANGLE_Q6_TURN
+            if fmt is CAPSULED:
+                out.append(encode_capsule(start_q6, self.start_bit, d))
+            elif fmt is DENSE_CAPSULED:
+                out.append(encode_dense_capsule(start_q6, self.start_bit, d))
+            else:
+                out.append(encode_ultra_capsule(start_q6, self.start_bit, d))
+                _, decoded_mm = encode_ultra_cabins(d)
+                self.edge_dropouts += int(np.count_nonzero((decoded_mm == 0) & (d[:n] > 0)))
+            self.start_bit = False
+        self.heading_deg = self.heading_deg[count * n :]
+        self.distance_mm = self.distance_mm[count * n :]
+        return b"".join(out)
 
 
 class RplidarEmulator:
-    """An RPLIDAR A1M8 behind a pty, driven by the twin's loop in simulation time.
+    """An RPLIDAR A1M8 (firmware 1.29) behind a pty, driven by the twin's loop in simulation time.
 
     Parameters
     ----------
@@ -91,15 +323,32 @@ class RplidarEmulator:
         The GET_INFO answer.
     health : DeviceHealth
         The GET_HEALTH answer.
+    modes : tuple of ScanMode
+        The scan modes GET_LIDAR_CONF describes and EXPRESS_SCAN runs (ids 0, 1, ...;
+        mode 0 is SCAN's).
+    typical_mode : int
+        The id GET_LIDAR_CONF's SCAN_MODE_TYPICAL answers.
+    device_standard_scan : bool
+        SCAN at mode 0's own sample time (508 us on the A1M8) instead of the twin's
+        ``spec.beams`` per revolution.
 
     Attributes
     ----------
     path : str
         The pty the host opens.
+    modes : tuple of ScanMode
+        The modes as answered (mode 0 at the twin's beam time unless ``device_standard_scan``).
+    sample_rate : SampleRate
+        The GET_SAMPLERATE answer: mode 0's and the legacy express scan's sample times [us].
     scanning : bool
-        Whether a SCAN is running.
+        Whether a scan is running.
+    scan_mode : ScanMode or None
+        The mode of the running (or last) scan.
     requests, ignored_requests : int
-        Requests received, and those of commands it does not know (ignored).
+        Requests received, and those left unanswered: commands the twin does not know,
+        GET_LIDAR_CONF entries it does not describe, EXPRESS_SCAN of a mode it does not have.
+    recent_requests : deque of Request
+        The last 256 requests, oldest first.
     revolutions_written, revolutions_dropped : int
         Revolutions sent, and those dropped because the pty was full.
     revolutions_lost : int
@@ -113,15 +362,29 @@ class RplidarEmulator:
         *,
         info: DeviceInfo = TWIN_INFO,
         health: DeviceHealth = TWIN_HEALTH,
+        modes: tuple[ScanMode, ...] = A1M8_SCAN_MODES,
+        typical_mode: int = A1M8_TYPICAL_MODE,
+        device_standard_scan: bool = False,
     ) -> None:
         self.spec = spec if spec is not None else LidarSpec()
         self.info = info
         self.health = health
+        if not modes or any(m.id != i for i, m in enumerate(modes)):
+            raise ValueError("scan modes need ids 0, 1, ... in order")
+        if not 0 <= typical_mode < len(modes):
+            raise ValueError(f"typical mode {typical_mode} is not one of the {len(modes)} modes")
+        spec = self.spec
+        self.device_standard_scan = device_standard_scan
+        if not device_standard_scan:
+            beam_q8 = round(spec.time_increment_s * 1e6 * Q8)
+            m0 = modes[0]
+            modes = (ScanMode(0, m0.name, beam_q8, m0.max_distance_q8, m0.answer_type), *modes[1:])
+        self.modes = modes
+        self.typical_mode = typical_mode
         self.link = PtyLink(link)
         self.path = self.link.path
         self._requests = RequestDecoder()
         # node j of a turn is beam _order[j]: headings clockwise from 0 deg, ascending
-        spec = self.spec
         angles = spec.angle_min_rad + np.arange(spec.beams) * spec.angle_increment_rad
         heading_rad = np.mod(-angles, 2.0 * math.pi)
         self._order = np.argsort(heading_rad, kind="stable")
@@ -129,15 +392,21 @@ class RplidarEmulator:
         self._angle_q6 = np.mod(q6, 360 * 64)
         self._start = np.zeros(spec.beams, dtype=bool)
         self._start[0] = True
+        express = next((m for m in modes if m.answer_type == DataType.MEASUREMENT_CAPSULED), None)
+        self._legacy_express = express
         self.sample_rate = SampleRate(
-            round(spec.time_increment_s * 1e6), round(spec.time_increment_s * 1e6)
+            round(modes[0].us_per_sample),
+            round((express or modes[0]).us_per_sample),
         )
         self.scanning = False
+        self.scan_mode: ScanMode | None = None
+        self._stream: _SampleStream | None = None  # None: SCAN with the twin's beams
         self._next_turn = 0  # index k of the next revolution to end, at k * scan_period_s
         self._own_start_node = True  # the next revolution must carry its own S node
         self._inject: deque[bytes] = deque()
         self.requests = 0
         self.ignored_requests = 0
+        self.recent_requests: deque[Request] = deque(maxlen=RECENT_REQUESTS)
         self.revolutions_written = 0
         self.revolutions_dropped = 0
         self.revolutions_lost = 0
@@ -154,7 +423,7 @@ class RplidarEmulator:
         Parameters
         ----------
         t_s : float
-            Simulation time now [s]: a SCAN starts with the first revolution that begins at
+            Simulation time now [s]: a scan starts with the first revolution that begins at
             or after it.
 
         Returns
@@ -167,11 +436,13 @@ class RplidarEmulator:
             return 0
         requests = self._requests.feed(data)
         for req in requests:
-            self._handle(req.command, t_s)
+            self.recent_requests.append(req)
+            self._handle(req, t_s)
         self.requests += len(requests)
         return len(requests)
 
-    def _handle(self, command: int, t_s: float) -> None:
+    def _handle(self, req: Request, t_s: float) -> None:
+        command = req.command
         if command not in KNOWN_COMMANDS:
             self.ignored_requests += 1
             return
@@ -182,17 +453,54 @@ class RplidarEmulator:
             self.link.write(response(self.info))
         elif command == Command.GET_SAMPLERATE:
             self.link.write(response(self.sample_rate))
-        elif command == Command.SCAN:
-            self.link.write(SCAN_DESCRIPTOR)
-            self.scanning = True
-            period = self.spec.scan_period_s
-            self._next_turn = math.ceil(t_s / period - TIME_TOLERANCE_S) + 1
-            self._own_start_node = True
+        elif command == Command.GET_LIDAR_CONF:
+            query = decode_lidar_conf_query(req.payload)
+            conf = None if query is None else scan_mode_conf(query, self.modes, self.typical_mode)
+            if conf is None:
+                self.ignored_requests += 1
+            else:
+                self.link.write(lidar_conf_response(conf))
+        elif command in (Command.SCAN, Command.FORCE_SCAN):
+            self._start_scan(self.modes[0], t_s)
+        elif command == Command.EXPRESS_SCAN:
+            working_mode = decode_express_scan(req.payload).working_mode
+            mode = self._legacy_express if working_mode == 0 else None
+            if 0 < working_mode < len(self.modes):
+                mode = self.modes[working_mode]
+            if mode is None or mode.answer_type not in CAPSULE_FORMATS:
+                self.ignored_requests += 1
+                return
+            self._start_scan(mode, t_s)
+
+    def _start_scan(self, mode: ScanMode, t_s: float) -> None:
+        fmt = CAPSULE_FORMATS.get(mode.answer_type)
+        self.link.write(SCAN_DESCRIPTOR if fmt is None else fmt.descriptor)
+        self.scanning = True
+        self.scan_mode = mode
+        period = self.spec.scan_period_s
+        self._next_turn = math.ceil(t_s / period - TIME_TOLERANCE_S) + 1
+        self._own_start_node = True
+        device_rate = fmt is not None or self.device_standard_scan
+        t0_s = (self._next_turn - 1) * period
+        self._stream = _SampleStream(self.spec, mode, t0_s) if device_rate else None
 
     @property
     def malformed_request_bytes(self) -> int:
         """Bytes from the host that were no request (skipped)."""
         return self._requests.malformed_bytes
+
+    @property
+    def samples(self) -> int:
+        """Samples the running scan took at its mode's own rate (0 for SCAN with the twin's
+        beams, which sends ``spec.beams`` nodes a revolution)."""
+        return 0 if self._stream is None else self._stream.samples
+
+    @property
+    def edge_dropouts(self) -> int:
+        """Samples of the running ultra-capsuled scan sent as no return at an edge: the
+        parallax model gives them no consistent heading, or their jump in distance is past a
+        prediction's reach (511 steps of the major's scale)."""
+        return 0 if self._stream is None else self._stream.edge_dropouts
 
     # ------------------------------------------------------------------ revolutions
 
@@ -231,17 +539,23 @@ class RplidarEmulator:
             ranges = ranges_for_revolution(end_s)
             if ranges is None:
                 self.revolutions_lost += 1
+                if self._stream is not None:
+                    self._stream.lose(end_s)
             else:
-                self._write_turn(np.asarray(ranges, dtype=np.float64))
+                r = np.asarray(ranges, dtype=np.float64)
+                if r.shape != (self.spec.beams,):
+                    raise ValueError(
+                        f"a revolution needs {self.spec.beams} ranges, got shape {r.shape}"
+                    )
+                if self._stream is None:
+                    self._write_turn(r)
+                else:
+                    self._write_stream(self._stream.revolution(end_s, r))
             self._next_turn += 1
             ended += 1
         return ended
 
-    def _write_turn(self, ranges_m: npt.NDArray[np.float64]) -> None:
-        if ranges_m.shape != (self.spec.beams,):
-            raise ValueError(
-                f"a revolution needs {self.spec.beams} ranges, got shape {ranges_m.shape}"
-            )
+    def _write_turn(self, ranges_m: F64Array) -> None:
         r = ranges_m[self._order]
         ok = np.isfinite(r) & (r > 0.0)
         distance_q2 = np.zeros(len(r), dtype=np.int64)
@@ -259,6 +573,16 @@ class RplidarEmulator:
         else:
             self.revolutions_dropped += 1
             self._own_start_node = True
+
+    def _write_stream(self, data: bytes) -> None:
+        assert self._stream is not None
+        while self._inject:
+            self.link.write(self._inject.popleft())
+        if self.link.write(data):
+            self.revolutions_written += 1
+        else:
+            self.revolutions_dropped += 1
+            self._stream.restart()
 
     def close(self) -> None:
         """Close the pty (and remove the link)."""

@@ -17,18 +17,43 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 from jackson.host.lidar.rplidar import LidarError, Revolution, RplidarDriver, open_error
 from jackson.protocol.rplidar import (
+    CapsuleDecoder,
     Command,
+    ConfType,
+    DataType,
+    Descriptor,
     DeviceHealth,
+    ExpressScanRequest,
     HealthStatus,
+    LidarConf,
+    LidarConfQuery,
     ResponseDecoder,
+    decode_descriptor,
+    decode_express_scan,
+    decode_lidar_conf,
+    decode_lidar_conf_query,
+    decode_nodes,
+    encode_capsule,
+    encode_dense_capsule,
+    encode_descriptor,
+    encode_express_scan,
+    encode_lidar_conf_query,
     encode_request,
+    encode_ultra_cabins,
+    encode_ultra_capsule,
+    lidar_conf_response,
+    scan_mode_conf,
+    ultra_angle_offset_q16,
+    varbitscale_decode,
+    varbitscale_encode,
 )
 from jackson.sim.config import load_robot, load_world
-from jackson.sim.lidar import LidarSpec
-from jackson.sim.rplidar import TWIN_INFO, RplidarEmulator
+from jackson.sim.lidar import Lidar, LidarSpec, Obstacles, cast
+from jackson.sim.rplidar import A1M8_SCAN_MODES, A1M8_TYPICAL_MODE, TWIN_INFO, RplidarEmulator
 from jackson.sim.runner import RunnerStats, TwinRunner
 from jackson.sim.twin import Twin
 
@@ -248,8 +273,10 @@ def test_each_request_is_answered_byte_exactly() -> None:
         expected = {
             Command.GET_HEALTH: bytes.fromhex("a55a0300000006 000000"),
             Command.GET_INFO: bytes.fromhex("a55a1400000004 181d0107") + b"JACKSON TWIN A1\x00",
-            Command.GET_SAMPLERATE: bytes.fromhex("a55a0400000015 7d007d00"),  # 125 us
+            # standard: the twin's beams, 0.13465 s / 1080 = 125 us; express: the A1's 254 us
+            Command.GET_SAMPLERATE: bytes.fromhex("a55a0400000015 7d00fe00"),
             Command.SCAN: bytes.fromhex("a55a0500004081"),
+            Command.FORCE_SCAN: bytes.fromhex("a55a0500004081"),
         }
         for command, answer in expected.items():
             os.write(fd, encode_request(command))
@@ -267,6 +294,358 @@ def test_each_request_is_answered_byte_exactly() -> None:
     finally:
         os.close(fd)
         emulator.close()
+
+
+def _ask(emulator: RplidarEmulator, fd: int, packet: bytes, answer_bytes: int) -> bytes:
+    """Write a request, let the emulator serve it, read ``answer_bytes`` back (or what came
+    before the line went quiet)."""
+    os.write(fd, packet)
+    select.select([emulator.fileno()], [], [], 5.0)
+    assert emulator.serve(0.0) >= 1
+    got = b""
+    while len(got) < answer_bytes and select.select([fd], [], [], 0.5)[0]:
+        got += os.read(fd, 4096)
+    return got
+
+
+# GET_LIDAR_CONF as an A1M8 with firmware 1.29 answers it: request payload = entry type u32 LE
+# (+ mode id u16 LE); answer = descriptor (single, type 0x20, length 4 + value) + type + value
+CONF_ANSWERS = [
+    # entry, mode, answer
+    (ConfType.SCAN_MODE_COUNT, None, "a55a0600000020 70000000 0500"),  # 5 modes
+    (ConfType.SCAN_MODE_TYPICAL, None, "a55a0600000020 7c000000 0300"),  # Sensitivity
+    # Q8 [us]: Sensitivity 127 * 256 = 0x7f00, Express 254 * 256 = 0xfe00, Stability 0xc900
+    (ConfType.SCAN_MODE_US_PER_SAMPLE, 3, "a55a0800000020 71000000 007f0000"),
+    (ConfType.SCAN_MODE_US_PER_SAMPLE, 1, "a55a0800000020 71000000 00fe0000"),
+    (ConfType.SCAN_MODE_US_PER_SAMPLE, 4, "a55a0800000020 71000000 00c90000"),
+    # Standard at the twin's beams: 0.13465 s / 1080 * 256 = 31917 = 0x7cad
+    (ConfType.SCAN_MODE_US_PER_SAMPLE, 0, "a55a0800000020 71000000 ad7c0000"),
+    (ConfType.SCAN_MODE_MAX_DISTANCE, 3, "a55a0800000020 74000000 000c0000"),  # 12 m * 256
+    (ConfType.SCAN_MODE_ANS_TYPE, 0, "a55a0500000020 75000000 81"),
+    (ConfType.SCAN_MODE_ANS_TYPE, 1, "a55a0500000020 75000000 82"),
+    (ConfType.SCAN_MODE_ANS_TYPE, 3, "a55a0500000020 75000000 84"),
+    (ConfType.SCAN_MODE_NAME, 3, "a55a1000000020 7f000000" + b"Sensitivity\x00".hex()),
+    (ConfType.SCAN_MODE_NAME, 2, "a55a0a00000020 7f000000" + b"Boost\x00".hex()),
+]
+
+
+@pytest.mark.parametrize(("entry", "mode", "golden"), CONF_ANSWERS)
+def test_get_lidar_conf_describes_the_a1m8s_five_scan_modes(
+    entry: ConfType, mode: int | None, golden: str
+) -> None:
+    emulator = RplidarEmulator(LidarSpec())
+    fd = _slave(emulator)
+    try:
+        answer = bytes.fromhex(golden)
+        packet = encode_request(Command.GET_LIDAR_CONF, encode_lidar_conf_query(entry, mode))
+        assert _ask(emulator, fd, packet, len(answer)) == answer
+        assert decode_lidar_conf(answer[7:]) == scan_mode_conf(
+            LidarConfQuery(entry, b"" if mode is None else mode.to_bytes(2, "little")),
+            A1M8_SCAN_MODES if mode else emulator.modes,
+            A1M8_TYPICAL_MODE,
+        )
+    finally:
+        os.close(fd)
+        emulator.close()
+
+
+def test_with_device_standard_scan_standard_is_the_a1s_508_us() -> None:
+    emulator = RplidarEmulator(LidarSpec(), device_standard_scan=True)
+    fd = _slave(emulator)
+    try:
+        rate = _ask(emulator, fd, encode_request(Command.GET_SAMPLERATE), 11)
+        assert rate == bytes.fromhex("a55a0400000015 fc01fe00")  # 508 us, 254 us
+        query = encode_lidar_conf_query(ConfType.SCAN_MODE_US_PER_SAMPLE, 0)
+        conf = _ask(emulator, fd, encode_request(Command.GET_LIDAR_CONF, query), 15)
+        assert conf == bytes.fromhex("a55a0800000020 71000000 00fc0100")  # 508 * 256
+        assert emulator.modes == A1M8_SCAN_MODES
+    finally:
+        os.close(fd)
+        emulator.close()
+
+
+def test_what_the_a1_does_not_describe_gets_no_answer() -> None:
+    """The SDK asks for the motor's desired speed (entry 0x01) before every scan; the A1 has
+    no such entry. Nor a mode 9, nor a per-mode entry without a mode, nor EXPRESS_SCAN of the
+    standard mode or of a mode it lacks: all silent, counted, and the next request answered."""
+    emulator = RplidarEmulator(LidarSpec())
+    fd = _slave(emulator)
+    try:
+        silent = [
+            encode_request(Command.GET_LIDAR_CONF, encode_lidar_conf_query(0x01)),
+            encode_request(Command.GET_LIDAR_CONF, encode_lidar_conf_query(0x71, 9)),
+            encode_request(Command.GET_LIDAR_CONF, encode_lidar_conf_query(0x75)),
+            encode_request(Command.EXPRESS_SCAN, encode_express_scan(ExpressScanRequest(5))),
+            encode_request(0xF0, bytes.fromhex("9402")),  # SET_MOTOR_PWM: A2/A3 only
+        ]
+        health = bytes.fromhex("a55a0300000006 000000")
+        got = _ask(emulator, fd, b"".join(silent) + encode_request(Command.GET_HEALTH), 20)
+        assert got == health
+        assert emulator.ignored_requests == 5 and not emulator.scanning
+        assert [r.command for r in emulator.recent_requests] == [0x84, 0x84, 0x84, 0x82, 0xF0, 0x52]
+    finally:
+        os.close(fd)
+        emulator.close()
+
+
+# ------------------------------------------------------------------ each scan mode's stream
+
+BOX = [
+    [2.0, -1.5, 2.0, 1.5],
+    [-1.0, 1.5, 2.0, 1.5],
+    [-1.0, -1.5, -1.0, 1.5],
+    [-1.0, -1.5, 2.0, -1.5],
+]
+PILLAR = (1.0, 0.5, 0.2)  # a cylinder in the box: two edges a turn
+
+
+def _room() -> Obstacles:
+    room = Obstacles(BOX)
+    room.add_circle(*PILLAR)
+    return room
+
+
+def _exact(heading_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    return cast((0.0, 0.0), -np.radians(heading_deg), _room(), 12.0)
+
+
+@dataclass
+class Stream:
+    descriptor: Descriptor
+    start: NDArray[np.bool_]
+    heading_deg: NDArray[np.float64]
+    range_m: NDArray[np.float64]
+    emulator: RplidarEmulator
+
+
+def _stream(
+    packet: bytes,
+    turns: int,
+    *,
+    device_standard_scan: bool = False,
+    lost: frozenset[int] = frozenset(),
+) -> Stream:
+    """Start a scan with ``packet``, advance ``turns`` revolutions of the pillar room (noise
+    free), and decode what came as Slamtec's SDK does; turns in ``lost`` the twin lost."""
+    spec = LidarSpec(noise_sigma_m=0.0)
+    ranges = Lidar(spec, np.random.default_rng(0)).true_ranges(0.0, 0.0, 0.0, _room())
+    emulator = RplidarEmulator(spec, device_standard_scan=device_standard_scan)
+    fd = _slave(emulator)
+    data = b""
+    try:
+        data = _ask(emulator, fd, packet, 7)
+        for k in range(1, turns + 1):
+            turn = None if k in lost else ranges
+            emulator.advance(k * spec.scan_period_s, lambda end_s, turn=turn: turn)
+            emulator.link.flush()
+            while select.select([fd], [], [], 0.05)[0]:
+                data += os.read(fd, 65536)
+    finally:
+        os.close(fd)
+        emulator.close()
+    descriptor = decode_descriptor(data)
+    assert descriptor is not None
+    body = data[7:]
+    if descriptor.data_type == DataType.MEASUREMENT:
+        nodes = decode_nodes(body[: len(body) // 5 * 5])
+        return Stream(
+            descriptor, nodes.start, nodes.angle_q6 / 64.0, nodes.distance_q2 / 4000.0, emulator
+        )
+    samples = CapsuleDecoder(descriptor.data_type).feed(body)
+    return Stream(
+        descriptor, samples.start, samples.angle_deg, samples.distance_mm / 1000.0, emulator
+    )
+
+
+MODE_STREAMS = [
+    # request, device standard scan, descriptor, us a sample
+    (encode_request(Command.SCAN), True, "a55a0500004081", 508.0),
+    (encode_request(Command.FORCE_SCAN), True, "a55a0500004081", 508.0),
+    (encode_request(Command.EXPRESS_SCAN, bytes(5)), False, "a55a5400004082", 254.0),
+    (encode_request(Command.EXPRESS_SCAN, bytes((1, 0, 0, 0, 0))), False, "a55a5400004082", 254.0),
+    (encode_request(Command.EXPRESS_SCAN, bytes((2, 0, 0, 0, 0))), False, "a55a8400004084", 127.0),
+    (encode_request(Command.EXPRESS_SCAN, bytes((3, 0, 0, 0, 0))), False, "a55a8400004084", 127.0),
+    (encode_request(Command.EXPRESS_SCAN, bytes((4, 0, 0, 0, 0))), False, "a55a8400004084", 201.0),
+]
+
+
+@pytest.mark.parametrize(
+    ("packet", "device_standard_scan", "descriptor", "us"),
+    MODE_STREAMS,
+    ids=["scan", "force_scan", "legacy_express", "express", "boost", "sensitivity", "stability"],
+)
+def test_each_scan_mode_samples_at_its_own_rate_where_the_decoder_places_them(
+    packet: bytes, device_standard_scan: bool, descriptor: str, us: float
+) -> None:
+    s = _stream(packet, 12, device_standard_scan=device_standard_scan)
+    assert encode_descriptor(s.descriptor) == bytes.fromhex(descriptor)
+    # whole turns between start flags: 0.13465 s / us samples, 7.43 turns a second
+    per_turn = PERIOD_S / (us * 1e-6)
+    turns = np.diff(np.flatnonzero(s.start))
+    assert len(turns) >= 10
+    assert set(turns.tolist()) <= {math.floor(per_turn), math.ceil(per_turn)}
+    assert s.emulator.samples == pytest.approx(12 * per_turn, abs=1)
+    assert s.emulator.revolutions_written == 12
+    # every range is the room's at the heading the decoder gives it, to 1 cm, but for a
+    # sample within a beam of an edge (the twin casts 1080 beams; between two beams across an
+    # edge the sample takes the nearer one's range) and ultra predictions out of reach
+    near = np.stack([_exact(s.heading_deg + d) for d in (-0.34, 0.0, 0.34)])
+    edge = np.ptp(near, axis=0) > 0.1 * near.min(axis=0)
+    sent = s.range_m > 0
+    error = np.abs(s.range_m - near[1])
+    assert error[sent & ~edge].max() < 0.01
+    assert (sent & edge).sum() <= 4 * 12  # two edges a turn, both sides
+    assert (~sent).sum() <= s.emulator.edge_dropouts <= 4 * 12  # (the last few not yet sent)
+
+
+def test_express_headings_drift_from_turn_to_turn_as_the_clock_runs() -> None:
+    """Sensitivity's 127 us do not divide the turn: a turn holds 1060 or 1061 samples and the
+    first sample after 0 deg falls elsewhere each turn."""
+    s = _stream(encode_request(Command.EXPRESS_SCAN, bytes((3, 0, 0, 0, 0))), 8)
+    firsts = s.heading_deg[np.flatnonzero(s.start)[1:] - 0]
+    assert len(set(np.round(firsts, 2).tolist())) > 1
+
+
+def test_a_lost_revolution_restarts_the_capsule_stream() -> None:
+    s = _stream(
+        encode_request(Command.EXPRESS_SCAN, bytes((3, 0, 0, 0, 0))), 10, lost=frozenset({4})
+    )
+    assert s.emulator.revolutions_lost == 1 and s.emulator.revolutions_written == 9
+    # nothing spans the gap: every sample decoded is still where the room says
+    near = np.stack([_exact(s.heading_deg + d) for d in (-0.34, 0.0, 0.34)])
+    edge = np.ptp(near, axis=0) > 0.1 * near.min(axis=0)
+    sent = s.range_m > 0
+    assert np.abs(s.range_m - near[1])[sent & ~edge].max() < 0.01
+    assert s.emulator.samples == pytest.approx(9 * PERIOD_S / 127e-6, abs=2)
+
+
+# ------------------------------------------------------------------ the codec's express answers
+
+
+def test_requests_for_the_express_scan_and_the_configuration_golden_bytes() -> None:
+    # a5 ^ 82 ^ 05 ^ 03 = 0x21: EXPRESS_SCAN, working mode 3 (Sensitivity), flags 0, param 0
+    express = encode_request(Command.EXPRESS_SCAN, encode_express_scan(ExpressScanRequest(3)))
+    assert express == bytes.fromhex("a5 82 05 03 00 00 00 00 21")
+    assert decode_express_scan(bytes.fromhex("03 00 00 00 00")) == ExpressScanRequest(3)
+    assert decode_express_scan(b"") == ExpressScanRequest(0)  # a short payload reads as zeros
+    # a5 ^ 84 ^ 06 ^ 71 ^ 03 = 0x55: GET_LIDAR_CONF, us per sample of mode 3
+    conf = encode_request(
+        Command.GET_LIDAR_CONF, encode_lidar_conf_query(ConfType.SCAN_MODE_US_PER_SAMPLE, 3)
+    )
+    assert conf == bytes.fromhex("a5 84 06 71 00 00 00 03 00 55")
+    query = decode_lidar_conf_query(bytes.fromhex("71 00 00 00 03 00") + bytes(30))  # SDK 2.0
+    assert query == LidarConfQuery(0x71, bytes.fromhex("0300") + bytes(30))
+    assert query.mode_id == 3
+    assert decode_lidar_conf_query(b"\x71") is None
+
+
+def test_a_lidar_conf_answer_is_its_type_then_its_value() -> None:
+    conf = LidarConf(ConfType.SCAN_MODE_NAME, b"Boost\x00")
+    golden = bytes.fromhex("a5 5a 0a 00 00 00 20 7f 00 00 00") + b"Boost\x00"
+    assert lidar_conf_response(conf) == golden
+    assert decode_lidar_conf(golden[7:]) == conf and conf.text == "Boost"
+    assert LidarConf(0x71, bytes.fromhex("007f0000")).u32 == 127 * 256
+    assert LidarConf(0x7C, bytes.fromhex("0300")).u16 == 3
+    with pytest.raises(ValueError, match="at least 4 bytes"):
+        decode_lidar_conf(b"\x7f\x00")
+
+
+def test_a_legacy_capsule_is_sync_checksum_start_angle_and_16_cabins() -> None:
+    # start 90 deg = 5760 = 0x1680, S set: 0x9680 -> 80 96. 1000 mm << 2 = 0x0fa0 -> a0 0f.
+    # Checksum: XOR of bytes 2..83 = 80 ^ 96 (16 equal cabins cancel) = 0x16: a6 51.
+    plain = encode_capsule(5760, True, 1000)
+    assert plain == bytes.fromhex("a6 51 80 96") + bytes.fromhex("a0 0f a0 0f 00") * 16
+    # cabin 0: sample 0 1000 mm, dtheta 0x25 (4.625 deg): word 0x0fa0 | 0x25 >> 4 = 0x0fa2;
+    # sample 1 2000 mm, dtheta 3: word 0x1f40; byte 0x5 | 0x3 << 4 = 0x35.
+    # Checksum 80 ^ 96 ^ a2 ^ 0f ^ 40 ^ 1f ^ 35 = 0xd1: a1 5d.
+    distance = np.full(32, 1000)
+    distance[1] = 2000
+    dtheta = np.zeros(32, dtype=np.int64)
+    dtheta[:2] = (0x25, 3)
+    first = encode_capsule(5760, True, distance, dtheta)
+    assert first[:9] == bytes.fromhex("a1 5d 80 96 a2 0f 40 1f 35")
+    # the next capsule starts 16 deg on (0x1a80): sample k at 90 + k / 2 deg - dtheta / 8
+    decoder = CapsuleDecoder(DataType.MEASUREMENT_CAPSULED)
+    assert len(decoder.feed(first)) == 0  # held until the next one
+    samples = decoder.feed(encode_capsule(6784, False, 1000))
+    assert len(samples) == 32 and decoder.capsules == 2 and decoder.starts == 1
+    assert samples.angle_q6[:3].tolist() == [5464, 5768, 5824]  # 85.375, 90.125, 91 deg
+    assert samples.distance_mm[:3].tolist() == [1000.0, 2000.0, 1000.0]
+    assert not samples.start.any()
+
+
+def test_an_ultra_capsule_carries_a_major_and_two_predictions_a_cabin() -> None:
+    # cabin 0 = 3000, 3012, 2992 mm; the rest, and the next capsule's first, 3020 mm.
+    # Majors in the 4 mm step (codes 1280.. from 2048 mm): 3000 -> 1518 = 0x5ee, 3020 -> 0x5f3.
+    # Predictions: (3012 - 3000) / 4 = 3; (2992 - 3020) / 4 = -7 = 0x3f9 (10 bits).
+    # Word 0 = 0x5ee | 3 << 12 | 0x3f9 << 22 = 0xfe4035ee; the others 0x000005f3.
+    # Start angle 0 with S: 00 80. Checksum 80 ^ ee ^ 35 ^ 40 ^ fe ^ f3 ^ 05 = 0x13: a3 51.
+    distance = np.full(97, 3020)
+    distance[:3] = (3000, 3012, 2992)
+    capsule = encode_ultra_capsule(0, True, distance)
+    assert capsule[:12] == bytes.fromhex("a3 51 00 80 ee 35 40 fe f3 05 00 00")
+    assert capsule[8:] == bytes.fromhex("f3 05 00 00") * 31
+    words, decoded = encode_ultra_cabins(distance)
+    assert words[0] == 0xFE4035EE and decoded[:4].tolist() == [3000, 3012, 2992, 3020]
+    # decoded: samples 32.5 deg / 96 apart from 0 deg, less the parallax model's offset
+    decoder = CapsuleDecoder(DataType.MEASUREMENT_ULTRA_CAPSULED)
+    decoder.feed(capsule)
+    samples = decoder.feed(encode_ultra_capsule(2080, False, np.full(97, 3020)))
+    assert samples.distance_mm[:4].tolist() == [3000.0, 3012.0, 2992.0, 3020.0]
+    raw_q16 = (np.arange(96) * ((2080 * 4 << 3) // 3)).astype(np.int64)
+    expected = np.mod((raw_q16 - ultra_angle_offset_q16(samples.distance_q2)) >> 10, 23040)
+    assert samples.angle_q6.tolist() == expected.tolist()
+    assert samples.angle_deg[0] == pytest.approx(360 - 7.55, abs=0.02)  # 3 m: 7.55 deg
+
+
+def test_an_ultra_prediction_out_of_reach_is_sent_as_no_return() -> None:
+    distance = np.full(97, 1000)
+    distance[1] = 1000 + 2 * 511  # 511 steps of 2 mm from the major: past the reach (510)
+    distance[4] = 0  # no return
+    _, decoded = encode_ultra_cabins(distance)
+    assert decoded[1] == 0 and decoded[4] == 0 and decoded[2] == 1000
+    distance[1] = 1000 + 2 * 510
+    assert encode_ultra_cabins(distance)[1][1] == 2020
+
+
+def test_a_dense_capsule_is_forty_millimetre_distances() -> None:
+    # 1000 mm = e8 03; 40 equal u16 cancel in the checksum: a0 50, start 0 without S
+    capsule = encode_dense_capsule(0, False, 1000)
+    assert capsule == bytes.fromhex("a0 50 00 00") + bytes.fromhex("e8 03") * 40
+    decoder = CapsuleDecoder(DataType.MEASUREMENT_DENSE_CAPSULED)
+    decoder.feed(capsule)
+    samples = decoder.feed(encode_dense_capsule(640, False, 2000))  # 10 deg on
+    assert samples.distance_mm.tolist() == [1000.0] * 40
+    assert samples.angle_q6[:3].tolist() == [0, 16, 32]  # 0.25 deg apart, no correction
+
+
+def test_the_variable_bit_scale_steps_1_2_4_8_16_mm() -> None:
+    codes = [0, 511, 512, 1279, 1280, 1791, 1792, 3327, 3328, 4095]
+    millimetres = [0, 511, 512, 2046, 2048, 4092, 4096, 16376, 16384, 28656]
+    assert varbitscale_decode(codes)[0].tolist() == millimetres
+    assert varbitscale_decode(codes)[1].tolist() == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]
+    assert varbitscale_encode(millimetres).tolist() == codes
+    d = np.arange(0, 28657)
+    error = varbitscale_decode(varbitscale_encode(d))[0] - d
+    assert np.abs(error).max() == 8  # half of the 16 mm step
+
+
+def test_the_parallax_model_of_ultra_capsules() -> None:
+    # 2 m: k = 98361 // 8000 = 12; 9150 - 12 << 6 = 8382 rad / 2**16 -> 480253 deg / 2**16
+    # below 50 mm: 7.5 deg = 8578 -> 491483
+    assert ultra_angle_offset_q16([8000, 100]).tolist() == [480253, 491483]
+
+
+def test_the_capsule_decoder_skips_garbage_and_bad_checksums() -> None:
+    capsules = [encode_capsule(i * 1000, i == 0, 1500) for i in range(4)]
+    bad = bytearray(capsules[2])
+    bad[10] ^= 0x01
+    decoder = CapsuleDecoder(DataType.MEASUREMENT_CAPSULED)
+    samples = decoder.feed(b"\x00\xa5\x5a" + capsules[0] + capsules[1] + bytes(bad) + capsules[3])
+    assert decoder.capsules == 3 and decoder.malformed_bytes == 3 + len(bad)
+    assert len(samples) == 64 and (samples.distance_mm == 1500.0).all()  # 0 by 1, 1 by 3
+    with pytest.raises(ValueError, match="no capsule format"):
+        CapsuleDecoder(0x81)
 
 
 # ------------------------------------------------------------------ the driver's errors
