@@ -215,6 +215,7 @@ class Daemon:
         self._hello_retries = 0  # HELLOs re-sent before the first INFO
         self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
         self._i2c_failing = False  # an I2C outage was told and has not ended
+        self._lidar_lost: str | None = None  # the LiDAR's port failed before this frame
         self._repairer: threading.Thread | None = None
         self.bag: Any = None
         self.bridge: Any = None
@@ -465,6 +466,9 @@ class Daemon:
                     raise DaemonError(str(exc)) from exc
                 resets = core.mcu_resets
                 core.on_frame(frame, rx_ns)
+                if self._lidar_lost is not None:
+                    core.lidar_gone(self._lidar_lost)
+                    self._lidar_lost = None
                 if core.mcu_resets != resets:
                     self.tell(
                         "the MCU was reset: odometry and time re-anchored, device set up again"
@@ -517,7 +521,9 @@ class Daemon:
         except LidarError as exc:
             self.lidar = None
             self.tell(f"LiDAR lost: {exc}")
-            self.core.lidar_gone(str(exc))  # excluded; a navigation is braked and aborted now
+            # excluded, and a navigation braked and aborted, right after this frame (on its
+            # MCU time: the port failed before it)
+            self._lidar_lost = str(exc)
             return
         self.core.on_lidar(data, time.monotonic_ns())
 

@@ -1106,6 +1106,8 @@ class HealthMonitor:
         if (total >= 50 and bad > cfg.lidar_garbage_fraction * total) or many_junk:
             if self._lidar_garbage_since is None:
                 self._lidar_garbage_since = t_s
+            if self.lidar_needed:
+                self.lidar_blind = True  # its scans cannot be trusted: hold until clean ones come
             lasted = t_s - self._lidar_garbage_since
             exclude = lasted >= cfg.lidar_garbage_s - 1e-9
             why = (
