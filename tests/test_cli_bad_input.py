@@ -199,6 +199,7 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     w("configs/syntax.yaml", "serial: {port: \n")
     w("configs/nan.yaml", "robot:\n  wheel_radius_m: .nan\n")
     w("configs/unknown.yaml", "robto:\n  wheel_radius_m: 0.033\n")
+    w("configs/pca_address.yaml", "pca9685:\n  address: 0x99\n")
     # captures
     w("captures/garbage.bin", os.urandom(4096))
     w("captures/empty.bin", b"")
@@ -445,7 +446,9 @@ CASES: dict[str, Case] = {
     # brake
     "brake_address": c("brake --address 0x99", "--address"),
     "brake_config_missing": c(f"brake --config {MISSING}", "missing.yaml"),
-    "brake_config_nan": c("brake --config configs/nan.yaml", "wheel_radius_m"),
+    # the brake reads only the motor output's sections (a broken estimator section still
+    # brakes: tests/host/test_brake.py); a broken PCA9685 section is refused
+    "brake_config_pca": c("brake --config configs/pca_address.yaml", "pca9685.address"),
     # faults
     "faults_out_file": c("faults --short --out a_file", "a_file"),
     # calibrate
