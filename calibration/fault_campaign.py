@@ -1614,32 +1614,38 @@ def _plot_closure(ax2: Any, cases: Sequence[Mapping[str, Any]], names: Sequence[
 
 def _plot_navigation(ax: Any, cases: Sequence[Mapping[str, Any]], names: Sequence[str]) -> None:
     """The maze cases: d_min to the dropped cylinder with and without the monitor (error bars
-    one SD), each bar labelled with the goals reached."""
+    one SD), each bar labelled with the goals reached (inside a tall bar, above a short one)
+    and, for a LiDAR that went blind, how far the monitored robot drove after the onset."""
     import numpy as np
 
     x = np.arange(len(cases))
-    for k, (side, text, color) in enumerate(
-        (
-            ("navigation_with_monitor", "monitor", "C0"),
-            ("navigation_without_monitor", "no monitor", "C1"),
-        )
-    ):
+    sides = (
+        ("navigation_with_monitor", "monitor", "C0"),
+        ("navigation_without_monitor", "no monitor", "C1"),
+    )
+    tallest = max(
+        (c[side]["d_min_cm"]["mean"] or 0.0 for c in cases for side, _, _ in sides), default=0.0
+    )
+    for k, (side, text, color) in enumerate(sides):
         xs = x + (k - 0.5) * 0.36
         d = [c[side]["d_min_cm"] for c in cases]
         mean = np.array([s["mean"] if s["mean"] is not None else np.nan for s in d], dtype=float)
         sd = np.array([s["sd"] or 0.0 for s in d], dtype=float)
         ax.bar(xs, mean, 0.36, yerr=sd, color=color, capsize=3, label=f"d_min, {text}")
-        for xi, c in zip(xs, cases, strict=True):
+        for xi, c, m, e in zip(xs, cases, mean, sd, strict=True):
             o = c[side]
+            label = f"goal {o['reached']}/{o['runs']}\naborted {o['aborted']}"
+            if k == 0 and c.get("after_onset_max_m") is not None:
+                label += f"\nstood \u2264 {c['after_onset_max_m'] * 100:.1f} cm"
+            inside = bool(np.isfinite(m)) and m >= 0.35 * tallest  # room for the text
             ax.text(
                 xi,
-                0.02,
-                f"goal {o['reached']}/{o['runs']}\naborted {o['aborted']}",
+                0.02 * tallest if inside else (m + e if np.isfinite(m) else 0.0) + 0.02 * tallest,
+                label,
                 fontsize=6,
                 ha="center",
                 va="bottom",
-                color="white" if o["d_min_cm"]["n"] else "k",
-                transform=ax.get_xaxis_transform(),
+                color="white" if inside else "k",
             )
     ax.set_ylabel("d_min to the dropped cylinder [cm]")
     ax.set_xticks(x, names, fontsize=7)
