@@ -315,7 +315,7 @@ class HostCore:
         self.lidar = RevolutionAssembler(streaming=True)
         self._revolutions: list[Revolution] = []
         self._lidar_received = 0  # LiDAR bytes read since the last frame
-        self._lidar_skipped_at: int | None = None  # the decoder's malformed bytes then
+        self._lidar_skipped = 0  # the LiDAR decoder's malformed bytes at the last frame
         self.scans = 0
         self.last_scan: Scan | None = None
 
@@ -536,12 +536,10 @@ class HostCore:
     def _take_scans(self, t_s: float) -> None:
         revolutions, self._revolutions = self._revolutions, []
         hm = self.health
-        if hm is not None and (self._lidar_received or self._lidar_skipped_at is not None):
+        if hm is not None and self._lidar_received:
             skipped = self.lidar.decoder.malformed_bytes
-            if self._lidar_skipped_at is None:
-                self._lidar_skipped_at = 0
-            hm.lidar_bytes(t_s, self._lidar_received, skipped - self._lidar_skipped_at)
-            self._lidar_skipped_at = skipped
+            hm.lidar_bytes(t_s, self._lidar_received, skipped - self._lidar_skipped)
+            self._lidar_skipped = skipped
             self._lidar_received = 0
         navigating = isinstance(self.mission, ScanMission)
         if hm is not None:
