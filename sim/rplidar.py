@@ -474,7 +474,7 @@ class RplidarEmulator:
 
     def _start_scan(self, mode: ScanMode, t_s: float) -> None:
         fmt = CAPSULE_FORMATS.get(mode.answer_type)
-        self.link.write(SCAN_DESCRIPTOR if fmt is None else fmt.descriptor)
+        # in scan state before the descriptor leaves: a host that has read it sees the mode
         self.scanning = True
         self.scan_mode = mode
         period = self.spec.scan_period_s
@@ -483,6 +483,7 @@ class RplidarEmulator:
         device_rate = fmt is not None or self.device_standard_scan
         t0_s = (self._next_turn - 1) * period
         self._stream = _SampleStream(self.spec, mode, t0_s) if device_rate else None
+        self.link.write(SCAN_DESCRIPTOR if fmt is None else fmt.descriptor)
 
     @property
     def malformed_request_bytes(self) -> int:

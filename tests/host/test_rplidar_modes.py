@@ -166,10 +166,11 @@ def test_standard_still_reads_the_twins_1080_beams(twin: RplidarEmulator) -> Non
         assert driver.mode is not None and driver.mode.name == "Standard"
         assert driver.answer_type == DataType.MEASUREMENT
         assert driver.samples_per_revolution_expected == pytest.approx(BEAMS, abs=0.5)
-        assert twin.scan_mode is not None and twin.scan_mode.id == 0
         for _, rev in wait_for(driver.poll, 3):
             assert rev.nodes == BEAMS
             check_box(rev)
+        # the emulator's thread has served the request once its revolutions arrive
+        assert twin.scan_mode is not None and twin.scan_mode.id == 0
         driver.start(mode="Sensitivity")  # a restart changes the mode
         assert driver.answer_type == DataType.MEASUREMENT_ULTRA_CAPSULED
         for _, rev in wait_for(driver.poll, 2):
