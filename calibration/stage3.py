@@ -191,6 +191,9 @@ class NavTrialSpec:
     stall_s : float
         Wall seconds both ends of the lockstep may wait for each other before the run is cut
         as stalled (:func:`jackson.calibration.trial.twin_session`).
+    lidar_mode : str or None
+        The RPLIDAR scan mode the host starts (None: the densest, as the daemon does;
+        ``"standard"``, ``"Express"``...).
     """
 
     index: int
@@ -205,6 +208,7 @@ class NavTrialSpec:
     static_only: bool = False
     faults: tuple[FaultSpec, ...] = ()
     stall_s: float = STALL_S
+    lidar_mode: str | None = None
 
 
 def world_extent(world: WorldSpec, margin_m: float = 0.5) -> tuple[float, float, float, float]:
@@ -243,7 +247,9 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
     if grid is not None:
         grid.save(run_dir / f"{MAP_NAME}.yaml")  # the replay localises on the same map
     wall0 = time.perf_counter()
-    with twin_session(twin, cfg, lidar=True, stall_s=spec.stall_s) as session:
+    with twin_session(
+        twin, cfg, lidar=True, stall_s=spec.stall_s, lidar_mode=spec.lidar_mode
+    ) as session:
         cfg = session.cfg
         (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
         meta = {
@@ -459,12 +465,14 @@ def run_stage3_campaign(
     map_yaml: Path | None = None,
     progress: bool = True,
     cluster: str | None = None,
+    lidar_mode: str | None = None,
 ) -> list[dict[str, Any]]:
     """Every variant of campaign ``name`` ``trials`` times, in worker processes (or on a Ray
     ``cluster``: ``local``, ``auto``, ``ray://HOST:PORT``, see
     :func:`jackson.calibration.cluster.map_trials`; the paths are then made absolute); the map
     is built once first (unless given); writes ``runs.csv``, ``runs.json``, ``summary.md`` and
-    plots into ``out``."""
+    plots into ``out``. ``lidar_mode``: the RPLIDAR scan mode the host starts (None: the
+    densest)."""
     from rich.progress import Progress
 
     from jackson.calibration.cluster import map_trials
@@ -478,7 +486,8 @@ def run_stage3_campaign(
     wall0 = time.perf_counter()
     cpu0 = time.process_time()
     if map_yaml is None:
-        mapping = run_nav_trial(mapping_spec(robot, world, seed, out / "map", config))
+        survey = mapping_spec(robot, world, seed, out / "map", config)
+        mapping = run_nav_trial(dataclasses.replace(survey, lidar_mode=lidar_mode))
         if not mapping["completed"]:
             raise RuntimeError(f"the mapping run failed: {mapping['failure']}")
         map_yaml = out / "map" / "built_map.yaml"
@@ -494,6 +503,7 @@ def run_stage3_campaign(
             goals=goals,
             variant=v,
             config=config,
+            lidar_mode=lidar_mode,
         )
         for k, v in enumerate(variants)
         for i in range(trials)
@@ -518,6 +528,7 @@ def run_stage3_campaign(
         # this process's (the mapping run) and every trial's, in whichever worker it ran
         "cpu_s": time.process_time() - cpu0 + sum(float(r["cpu_s"]) for r in results),
         "map": str(map_yaml),
+        "lidar_mode": lidar_mode or "densest",
     }
     write_stage3_report(out, name, results, meta)
     return results

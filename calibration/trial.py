@@ -132,7 +132,12 @@ class TwinSession:
 
 @contextmanager
 def twin_session(
-    twin: Any, cfg: HostConfig, *, lidar: bool = False, stall_s: float = STALL_S
+    twin: Any,
+    cfg: HostConfig,
+    *,
+    lidar: bool = False,
+    stall_s: float = STALL_S,
+    lidar_mode: str | None = None,
 ) -> Iterator[TwinSession]:
     """Run ``twin`` in lockstep in a thread and open the host's links to it; all closed at the
     end (the twin stops). The twin's faults (``Twin(..., faults=...)`` and its robot file's)
@@ -150,7 +155,10 @@ def twin_session(
     ``SerialTransport.peer_waiting``), so a slow or starved end is never taken for a stopped
     one. The twin then gives up (``runner.stalled``) and keeps serving the links without moving
     its clock, and the daemon (which takes the transport's ``stall_s``) aborts on the stall:
-    it brakes through the PCA9685 and says SHUTDOWN, and exits 1."""
+    it brakes through the PCA9685 and says SHUTDOWN, and exits 1.
+
+    With ``lidar``, the host's driver starts ``lidar_mode`` (None: the densest, as the daemon
+    does; :meth:`~jackson.host.lidar.rplidar.RplidarDriver.start`)."""
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.sim.runner import TwinRunner
 
@@ -179,7 +187,7 @@ def twin_session(
             if lidar:
                 assert runner.lidar_path is not None
                 driver = RplidarDriver(runner.lidar_path)
-                driver.start()
+                driver.start(lidar_mode)
             transport.open(reader_thread=False)
             yield TwinSession(runner, cfg, transport, driver, pca)
         finally:

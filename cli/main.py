@@ -248,7 +248,8 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = _out(args.out or Path("runs") / f"{stamp}-maze")
     if map_yaml is None:
-        m = run_nav_trial(mapping_spec(args.robot, world, args.seed, out / "map", config))
+        survey = mapping_spec(args.robot, world, args.seed, out / "map", config)
+        m = run_nav_trial(dataclasses.replace(survey, lidar_mode=_lidar_mode(args)))
         if not m["completed"]:
             print(f"jackson run maze: the mapping run stopped: {m['failure']}")
             return 1
@@ -260,7 +261,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     spec = NavTrialSpec(
         0, args.seed, args.robot, world, out / "nav", map_yaml, config=config, faults=faults
     )
-    spec = dataclasses.replace(spec, goals=goals)
+    spec = dataclasses.replace(spec, goals=goals, lidar_mode=_lidar_mode(args))
     r = run_nav_trial(spec)
     r["run"] = "nav"
     plot_stage3(out / "maze.png", out, [r])
@@ -318,6 +319,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise CliError(f"{args.mission} is a campaign: jackson campaign {args.mission}")
     if args.map is not None or args.goal:
         raise CliError("--map and --goal are for the maze")
+    if _lidar_mode(args) is not None:
+        raise CliError("--lidar-mode is for the maze (the square and figure-eight use no LiDAR)")
     world = args.world or ("square_room" if args.mission == "square" else "open_floor")
     _check_twin_files(args.robot, world)
     config = _host_config(args.config)
@@ -363,6 +366,18 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
         return 1
 
 
+def _lidar_mode_arg(text: str) -> str:
+    """A scan mode the twin's A1M8 has (any case), ``densest`` or ``standard``."""
+    from jackson.sim.rplidar import A1M8_SCAN_MODES
+
+    names = ["densest", "standard", *(m.name.lower() for m in A1M8_SCAN_MODES[1:])]
+    if text.lower() not in names:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is no scan mode of the twin's RPLIDAR (one of: {', '.join(names)})"
+        )
+    return text.lower()
+
+
 def _cluster_arg(text: str) -> str:
     from jackson.calibration.cluster import parse_cluster
 
@@ -391,6 +406,8 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
             raise CliError(f"{option} is for jackson campaign faults")
     if args.mission in STAGE3:
         return _cmd_campaign_stage3(args)
+    if _lidar_mode(args) is not None:
+        raise CliError("--lidar-mode is for the Stage 3 campaigns (maze, ofat, robustness)")
     if args.map is not None:
         raise CliError(
             "--map is for the Stage 3 campaigns (maze, ofat, robustness) and the fault "
@@ -512,6 +529,12 @@ def _cmd_campaign_faults(args: argparse.Namespace) -> int:
     return 0 if summary["all_met"] else 1
 
 
+def _lidar_mode(args: argparse.Namespace) -> str | None:
+    """The RPLIDAR scan mode ``--lidar-mode`` names (None: the densest)."""
+    mode: str = args.lidar_mode
+    return None if mode.lower() == "densest" else mode
+
+
 def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
     import datetime as dt
 
@@ -536,6 +559,7 @@ def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
         cluster=args.cluster,
         config=config,
         map_yaml=map_yaml,
+        lidar_mode=_lidar_mode(args),
     )
     done = sum(1 for r in results if r["completed"])
     print((out / "summary.md").read_text())
@@ -655,6 +679,15 @@ def build_parser() -> argparse.ArgumentParser:
             "--world",
             help="world (default: square_room / open_floor / maze; campaign worlds: a comma "
             "list, default all six of its worlds)",
+        )
+        p.add_argument(
+            "--lidar-mode",
+            type=_lidar_mode_arg,
+            default="densest",
+            metavar="MODE",
+            help="maze, ofat, robustness: the twin's RPLIDAR scan mode the host reads: densest "
+            "(the default, as the daemon: Sensitivity), standard, express, boost, stability, "
+            "sensitivity",
         )
         p.add_argument("--seed", type=nonneg_int, default=0, help="noise seed (deterministic)")
         p.add_argument(

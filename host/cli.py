@@ -44,6 +44,13 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         "navigate (docs/stage3.md)",
     )
     p.add_argument(
+        "--lidar-mode",
+        metavar="MODE",
+        default="densest",
+        help="the RPLIDAR's scan mode: densest (the default: Sensitivity on an A1M8), standard, "
+        "or a mode's name as the device reports it (Express, Boost, Stability...; docs/lidar.md)",
+    )
+    p.add_argument(
         "--goal",
         action="append",
         metavar="X,Y[,YAW]",
@@ -166,7 +173,12 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
         try:
             lidar = RplidarDriver(args.lidar)
-            lidar.start()
+            lidar.start(None if args.lidar_mode.lower() == "densest" else args.lidar_mode)
+            print(
+                f"daemon: LiDAR on {args.lidar}: {lidar.mode.name if lidar.mode else '?'} scan, "
+                f"{lidar.samples_per_revolution_expected or 0:.0f} samples a turn",
+                flush=True,
+            )
         except LidarError as exc:
             if lidar is not None:
                 lidar.close()
@@ -286,6 +298,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
 def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
     """The navigation mission --goal asks for (None without), checked before anything opens."""
+    if args.lidar_mode.lower() != "densest" and not args.lidar:
+        raise HostCliError("--lidar-mode needs --lidar PORT (the RPLIDAR's port)")
     if not args.goal:
         for name in ("map", "lidar"):
             if name == "map" and getattr(args, name) is not None:

@@ -192,7 +192,8 @@ class Daemon:
         self.stalled: str | None = None  # the stall line, when a lockstep stall ended the run
         self.wall_limit_hit = False  # run(max_s) ended on its wall-clock limit
         self.run_folder = run_folder
-        self.recorder = RunRecorder(run_folder, meta or {}) if run_folder is not None else None
+        meta = {**(meta or {}), **lidar_meta(lidar)}
+        self.recorder = RunRecorder(run_folder, meta) if run_folder is not None else None
         self.commands = CommandTracker(transport.encode, self._send_frame)
         if mission is None and mission_name:
             mission = MISSIONS[mission_name]()
@@ -208,6 +209,8 @@ class Daemon:
             duty_source=duty_source,
             imu_calibration=imu_calibration,
         )
+        if lidar is not None:  # the core decodes the stream of the mode the driver started
+            self.core.lidar.expect(lidar.answer_type)
         self.notifier = notifier  # systemd sd_notify (host/sdnotify.py), or None
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
@@ -574,6 +577,26 @@ class Daemon:
             (self.run_folder / "health.json").write_text(json.dumps(doc, indent=2) + "\n")
         except OSError as exc:
             print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
+
+
+def lidar_meta(lidar: Any) -> dict[str, Any]:
+    """What a run folder's meta.json records of a started RPLIDAR driver (none without one):
+    the device, its scan mode and the stream's answer type, which a replay decodes the logged
+    bytes as (docs/recording.md)."""
+    if lidar is None or lidar.mode is None:
+        return {}
+    info = lidar.info
+    return {
+        "lidar": {
+            "device": None
+            if info is None
+            else f"{info.model_name} firmware {info.firmware_major}.{info.firmware_minor:02d} "
+            f"hardware {info.hardware}",
+            "mode": lidar.mode.name,
+            "answer_type": int(lidar.answer_type),
+            "us_per_sample": float(lidar.mode.us_per_sample),
+        }
+    }
 
 
 def with_port(cfg: HostConfig, port: str | None) -> HostConfig:

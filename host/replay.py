@@ -32,6 +32,7 @@ from jackson.host.recording import (
     unpack_command,
 )
 from jackson.protocol import Frame
+from jackson.protocol.rplidar import DataType
 
 COMPARED = ("odometry.csv", "ekf.csv", "commands.csv", "health.csv")
 STALL_RECORD = "lockstep stalled: "  # the daemon's link record when a stall ended the run
@@ -57,6 +58,23 @@ class ReplayResult:
         if self.t0_s is None or self.t1_s is None:
             return "no telemetry"
         return f"MCU time {self.t0_s:.3f}-{self.t1_s:.3f} s"
+
+
+def _lidar_answer_type(meta: dict[str, object], run: Path) -> int:
+    """The answer type the run's LiDAR bytes are in: ``meta.json``'s ``lidar.answer_type``
+    (0x81, standard nodes, in a run folder from before the daemon recorded it)."""
+    from jackson.host.lidar.rplidar import DECODED_ANSWER_TYPES
+
+    lidar = meta.get("lidar")
+    if lidar is None:
+        return int(DataType.MEASUREMENT)
+    answer_type = lidar.get("answer_type") if isinstance(lidar, dict) else None
+    if not isinstance(answer_type, int) or answer_type not in DECODED_ANSWER_TYPES:
+        raise RecordingError(
+            f"{run / 'meta.json'}: lidar.answer_type {answer_type!r} is not a scan answer type "
+            "the host decodes (0x81, 0x82, 0x84, 0x85)"
+        )
+    return answer_type
 
 
 def _meta(run: Path) -> tuple[dict[str, object], str | None]:
@@ -165,6 +183,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     elif mission:
         the_mission = MISSIONS[mission]()
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
+    core.lidar.expect(_lidar_answer_type(meta, run))
     for t_ns, item in records:
         if isinstance(item, bytes):
             core.on_lidar(item, t_ns)

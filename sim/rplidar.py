@@ -20,15 +20,16 @@ array per revolution in the twin's beam order (:class:`~jackson.sim.lidar.LidarS
 ``angle_min + i * increment``, counter-clockwise, ``inf`` for no return); beam ``i`` has the
 heading ``-angle_i`` wrapped to [0°, 360°) (docs/lidar.md, "Frames").
 
-**SCAN and FORCE_SCAN** send the twin's own beams by default: ``spec.beams`` standard nodes per
-revolution (the paper's 1080, 8000 a second), in the order the head meets them, quality 47
-for a return and 0 with distance 0 for none, S on the first; GET_LIDAR_CONF and
-GET_SAMPLERATE then report Standard's sample time as ``scan_period_s / beams`` (124.7 us), so
-what the device says and sends agree. Each revolution goes out whole at the instant it ends,
-together with the S node of the next one, which the head measures at that same instant; so a
-host sees a revolution complete as soon as it has ended, before the telemetry frame the twin
-writes next (lockstep stays deterministic). With ``device_standard_scan`` SCAN runs at the
-A1's own 508 us a sample instead (265 nodes a revolution), as the express modes do.
+**SCAN and FORCE_SCAN** run Standard as the A1M8 does, at 508 us a sample (265 nodes a
+revolution, about 2 k samples/s), sampled from the twin's beams as the express modes are (below).
+With ``device_standard_scan=False`` they send the twin's own beams instead: ``spec.beams``
+standard nodes per revolution (the paper's 1080, 8000 a second), in the order the head meets
+them, quality 47 for a return and 0 with distance 0 for none, S on the first; GET_LIDAR_CONF
+and GET_SAMPLERATE then report Standard's sample time as ``scan_period_s / beams`` (124.7 us),
+so what the device says and sends agree. Each revolution goes out whole at the instant it
+ends, together with the S node of the next one, which the head measures at that same instant;
+so a host sees a revolution complete as soon as it has ended, before the telemetry frame the
+twin writes next (lockstep stays deterministic).
 
 **EXPRESS_SCAN** runs the mode named by its working mode (0: the legacy express scan, as
 Express) at the mode's sample time: sample ``n`` is taken at ``t0 + n * us_per_sample`` with
@@ -241,16 +242,38 @@ class _SampleStream:
         """What was sent did not reach the line: the next capsule starts a stream."""
         self.start_bit = True
 
+    @property
+    def lookahead(self) -> int:
+        """Samples past a revolution's end sent with it: what a host needs to see the turn end
+        as soon as a device streaming them would show it. Nodes: the next turn's first (its
+        S flag ends the turn). Capsules: a decoder places a capsule's samples when the next
+        capsule arrives, so the capsule holding the next turn's first sample and the one
+        after it (an ultra capsule also the first sample of the capsule after that, which
+        its last prediction needs): 24.5 ms of samples in Sensitivity, 16 ms in Express."""
+        fmt = self.format
+        if fmt is None:
+            return 1
+        return 2 * fmt.samples + (1 if fmt is ULTRA_CAPSULED else 0)
+
     def revolution(self, end_s: float, ranges_m: F64Array) -> bytes:
-        """Take the samples of the revolution ending at ``end_s``; the wire bytes they complete."""
+        """Take the samples of the revolution ending at ``end_s``, and the :attr:`lookahead`
+        samples of the next one (ranged on this revolution's cast: the twin casts a turn at
+        one instant, and these follow its end by at most 25 ms); the wire bytes they
+        complete."""
         n0, n1 = self._sample_range(end_s)
+        n1 = max(n0, n1 + self.lookahead)
         self.next_n = n1
         self.samples += n1 - n0
         period = self.spec.scan_period_s
-        t = self.t0_s + np.arange(n0, n1) * self.dt_s
+        n = np.arange(n0, n1)
+        t = self.t0_s + n * self.dt_s
         heading = 360.0 * np.mod((t - (end_s - period)) / period, 1.0)
         if self.format is None:
-            return self._nodes(heading, ranges_at(self.spec, ranges_m, heading))
+            # S on the first sample of each turn: the first at or after a turn boundary
+            turn = np.floor((t - self.t0_s) / period + TIME_TOLERANCE_S)
+            before = np.floor((t - self.dt_s - self.t0_s) / period + TIME_TOLERANCE_S)
+            start = (turn > before) | (n == 0)
+            return self._nodes(heading, ranges_at(self.spec, ranges_m, heading), start)
         mm: I64Array
         if self.format is ULTRA_CAPSULED:
             mm = self._parallax_ranged(ranges_m, heading)
@@ -261,10 +284,8 @@ class _SampleStream:
         self.distance_mm = np.concatenate((self.distance_mm, mm))
         return self._capsules()
 
-    def _nodes(self, heading: F64Array, ranges: F64Array) -> bytes:
+    def _nodes(self, heading: F64Array, ranges: F64Array, start: npt.NDArray[np.bool_]) -> bytes:
         distance_q2 = 4 * _millimetres(ranges, 0xFFFF // 4)
-        start = np.zeros(len(heading), dtype=bool)
-        start[:1] = True  # the head passed 0 deg just before the revolution's first sample
         angle_q6 = np.mod(np.rint(heading * 64.0).astype(np.int64), ANGLE_Q6_TURN)
         quality = np.where(distance_q2 > 0, QUALITY_RETURN, 0)
         return encode_nodes(start, quality, angle_q6, distance_q2)
@@ -329,8 +350,8 @@ class RplidarEmulator:
     typical_mode : int
         The id GET_LIDAR_CONF's SCAN_MODE_TYPICAL answers.
     device_standard_scan : bool
-        SCAN at mode 0's own sample time (508 us on the A1M8) instead of the twin's
-        ``spec.beams`` per revolution.
+        SCAN at mode 0's own sample time (508 us on the A1M8; the default, as the robot's
+        device) or, with False, the twin's ``spec.beams`` per revolution.
 
     Attributes
     ----------
@@ -364,7 +385,7 @@ class RplidarEmulator:
         health: DeviceHealth = TWIN_HEALTH,
         modes: tuple[ScanMode, ...] = A1M8_SCAN_MODES,
         typical_mode: int = A1M8_TYPICAL_MODE,
-        device_standard_scan: bool = False,
+        device_standard_scan: bool = True,
     ) -> None:
         self.spec = spec if spec is not None else LidarSpec()
         self.info = info

@@ -261,6 +261,7 @@ class TwinRunner:
         boot_id: int | None = None,
         lidar: bool = True,
         lidar_link: str | None = None,
+        lidar_twin_beams: bool = False,
         truth: str | Path | None = None,
         stall_s: float | None = STALL_S,
         host_waiting: Callable[[], float | None] | None = None,
@@ -350,7 +351,11 @@ class TwinRunner:
         self.lidar_scans_missing = 0  # revolutions with no scan of the twin's (sent empty)
         if lidar and twin._lidar is not None:
             try:
-                self.lidar = RplidarEmulator(twin._lidar.spec, lidar_link)
+                # an A1M8's SCAN at 508 us a sample; lidar_twin_beams: the twin's exact 1080
+                # beams instead (RplidarEmulator's device_standard_scan=False)
+                self.lidar = RplidarEmulator(
+                    twin._lidar.spec, lidar_link, device_standard_scan=not lidar_twin_beams
+                )
             except OSError:
                 self.close()
                 raise

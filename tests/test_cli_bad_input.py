@@ -221,6 +221,7 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
         "meta_list": lambda p: (p / "meta.json").write_text("[1, 2]"),
         "meta_mission": lambda p: (p / "meta.json").write_text('{"mission": "zigzag"}'),
         "meta_mission_type": lambda p: (p / "meta.json").write_text('{"mission": 7}'),
+        "meta_lidar": lambda p: (p / "meta.json").write_text('{"lidar": {"answer_type": 153}}'),
         "no_log": lambda p: (p / "log.jrec").unlink(),
         "log_magic": lambda p: (p / "log.jrec").write_bytes(b"NOTAJREC" + b"\0" * 64),
         "log_empty": lambda p: (p / "log.jrec").write_bytes(b""),
@@ -303,6 +304,8 @@ CASES: dict[str, Case] = {
     "run_out_file": c("run square --out a_file", "a_file"),
     "run_out_in_file": c("run square --out a_file/run", "a_file"),
     "run_out_not_empty": c("run square --out runs/good", "runs/good"),
+    "run_lidar_mode": c("run maze --lidar-mode turbo", "--lidar-mode: 'turbo'"),
+    "run_square_lidar_mode": c("run square --lidar-mode express", "--lidar-mode is for the maze"),
     # campaign
     "campaign_trials_zero": c("campaign square --trials 0", "--trials"),
     "campaign_trials_negative": c("campaign square --trials -3", "--trials"),
@@ -323,6 +326,7 @@ CASES: dict[str, Case] = {
     "replay_meta_list": c("replay runs/meta_list", "meta.json"),
     "replay_meta_mission": c("replay runs/meta_mission", "zigzag"),
     "replay_meta_mission_type": c("replay runs/meta_mission_type", "mission"),
+    "replay_meta_lidar": c("replay runs/meta_lidar", "lidar.answer_type 153"),
     "replay_no_log": c("replay runs/no_log", "log.jrec"),
     "replay_log_magic": c("replay runs/log_magic", "log.jrec"),
     "replay_log_empty": c("replay runs/log_empty", "log.jrec"),
@@ -355,6 +359,7 @@ CASES: dict[str, Case] = {
     "daemon_timeout_inf": c("daemon --mission-timeout inf --no-record", "--mission-timeout"),
     "daemon_mission": c("daemon --mission zigzag", "zigzag"),
     "daemon_goal_no_lidar": c("daemon --goal 1,0 --no-record", "--lidar"),
+    "daemon_lidar_mode_no_lidar": c("daemon --lidar-mode express --no-record", "--lidar PORT"),
     "daemon_goal_text": c("daemon --goal one,two --lidar robot_tty --no-record", "--goal"),
     "daemon_goal_nan": c("daemon --goal nan,0 --lidar robot_tty --no-record", "--goal"),
     "daemon_goal_and_mission": c(

@@ -367,6 +367,7 @@ class RplidarDriver:
         self._raw = bytearray()  # answers during start(), not yet taken
         self._skipped = 0  # bytes start() found no answer in
         self._ready: list[Revolution] = []  # completed, not yet handed out
+        self._tail = b""  # scan bytes read with the scan's descriptor, not yet handed out
 
     # ------------------------------------------------------------------ counters
 
@@ -623,16 +624,17 @@ class RplidarDriver:
                 )
         return chosen if chosen is not None else self._standard_without_conf()
 
-    def start(self, mode: str | None = STANDARD) -> None:
+    def start(self, mode: str | None = None) -> None:
         """Stop whatever the device was doing, check it, choose a scan mode and start it.
 
         Parameters
         ----------
         mode : str or None
-            ``"standard"`` (the default, for now: the daemon's core decodes nodes until it is
-            told the stream's answer type): SCAN, standard nodes. None: the densest mode the
-            host decodes (:func:`choose_mode`; Sensitivity on an A1M8 with firmware 1.29). A
-            mode's name (``"Boost"``, ``"Express"``, any case): that mode.
+            None (the default): the densest mode the host decodes (:func:`choose_mode`;
+            Sensitivity on an A1M8 with firmware 1.29, SCAN on a device that does not answer
+            GET_LIDAR_CONF). ``"standard"``: SCAN, standard nodes. A mode's name
+            (``"Boost"``, ``"Express"``, any case): that mode. A caller that decodes the raw
+            bytes itself (:meth:`read`) tells its assembler :attr:`answer_type`.
 
         Raises
         ------
@@ -675,7 +677,7 @@ class RplidarDriver:
         self.assembler.expect(chosen.answer_type)
         self.mode = chosen
         self.scanning = True
-        self._consume(scan[1])
+        self._tail = bytes(scan[1])  # the stream's first bytes: read() and poll() give them
 
     def stop(self) -> None:
         """STOP the scan and the motor (the port stays open; :meth:`start` scans again)."""
@@ -716,6 +718,7 @@ class RplidarDriver:
 
     def _reset_turn(self) -> None:
         self._ready.clear()
+        self._tail = b""
         self.assembler.reset_turn()
         self.assembler.answers.clear()
 
@@ -734,7 +737,8 @@ class RplidarDriver:
         LidarError
             The port went away (the USB cable was pulled).
         """
-        return self._read_available()
+        data, self._tail = self._tail + self._read_available(), b""
+        return data
 
     def poll(self) -> list[Revolution]:
         """The revolutions completed since the last call, from the bytes available now.
@@ -752,7 +756,7 @@ class RplidarDriver:
         LidarError
             The port went away (the USB cable was pulled).
         """
-        data = self._read_available()
+        data, self._tail = self._tail + self._read_available(), b""
         if data:
             self._consume(data)
             self.assembler.answers.clear()  # answers outside start(): none asked, none kept

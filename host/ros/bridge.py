@@ -160,8 +160,9 @@ INPUTS = ("cmd_vel", "goal_pose")  # topics the node receives: recorded, never p
 NOT_PUBLISHED = ("telemetry",)  # the raw frames are the bag's own record
 
 
-CLOCK_DISCOVERY_S = 3.0  # [s] the node looks this long for a /clock publisher at start
-CLOCK_ENDPOINTS_S = 1.0  # [s] after another node appeared, its /clock would be known
+CLOCK_DISCOVERY_S = 3.0  # [s] the node looks this long for a /clock publisher with no other node
+CLOCK_ENDPOINTS_S = 1.0  # [s] the other nodes' publishers known and unchanged this long: no /clock
+CLOCK_DISCOVERY_MAX_S = 15.0  # [s] the longest the search lasts while other nodes are found
 
 
 class RosBridge:
@@ -258,23 +259,44 @@ class RosBridge:
     # ------------------------------------------------------------------ set-up
 
     def _clock_published(self, wait_s: float) -> bool:
-        """Whether some node publishes /clock, looked for during up to ``wait_s`` of
-        discovery: found as soon as it is known; given up :data:`CLOCK_ENDPOINTS_S` after
-        the first other node appeared without it (its endpoints follow it within that), or at
-        ``wait_s`` when no other node appears at all."""
+        """Whether some node publishes /clock, looked for during discovery: found as soon as
+        it is known. Given up at ``wait_s`` when no other node appears at all; when others
+        do, once every one of them has its publishers known (a node has at least /rosout and
+        /parameter_events) and none was added for :data:`CLOCK_ENDPOINTS_S`, or at
+        :data:`CLOCK_DISCOVERY_MAX_S` (a loaded machine discovers slowly: a simulator found
+        late would leave the stamps on the wrong clock)."""
         start = time.monotonic()
-        others_since: float | None = None
+        own = (self.node.get_name(), self.node.get_namespace())
+        settled_since: float | None = None
+        known: set[tuple[str, str]] = set()
         while True:
             if self.node.count_publishers("/clock") > 0:
                 return True
             now = time.monotonic()
-            if others_since is None and len(self.node.get_node_names()) > 1:
-                others_since = now
-            if now - start >= wait_s or (
-                others_since is not None and now - others_since >= CLOCK_ENDPOINTS_S
-            ):
-                return False
+            others = {n for n in self.node.get_node_names_and_namespaces() if n != own}
+            if not others:
+                if now - start >= wait_s:
+                    return False
+            else:
+                ready = {n for n in others if self._publishers_known(*n)}
+                if ready != others or ready != known:
+                    settled_since = None  # a node still being discovered, or a new one
+                elif settled_since is None:
+                    settled_since = now
+                known = ready
+                if settled_since is not None and now - settled_since >= CLOCK_ENDPOINTS_S:
+                    return False
+                if now - start >= CLOCK_DISCOVERY_MAX_S:
+                    return False
             time.sleep(0.02)  # polls the ROS graph until the discovery deadline
+
+    def _publishers_known(self, name: str, namespace: str) -> bool:
+        """Whether discovery has brought the node's publishers (a node that vanished has
+        none, and so keeps the search going until the deadline)."""
+        try:
+            return bool(self.node.get_publisher_names_and_types_by_node(name, namespace))
+        except Exception:  # rclpy raises NodeNameNonExistentError and others
+            return False
 
     def _declare_parameters(self, core: CoreLike) -> RosSettings:
         defaults = RosSettings.for_config(core.cfg)

@@ -11,7 +11,7 @@ step); then that YAML drives the robot's square and figure-eight within twice
 jackson_physical's closures.
 
 The owner types the commands at a person's pace: between two commands the twin streams into
-a port nobody reads for ``JACKSON_IDLE_S`` seconds of its clock (5 by default; 10-20 s is a
+a port nobody reads for ``JACKSON_IDLE_S`` seconds of its clock (2 by default; 10-20 s is a
 person reading the output, e.g. ``JACKSON_IDLE_S=15``), and a CPU-bound process runs beside
 the whole recipe. Each command must start clean: the frames the twin queued while idle are
 not taken as the new session's, and no health line reports frames lost.
@@ -46,7 +46,7 @@ from jackson.sim.runner import TruthTrack, read_truth
 from ..sil.harness import TwinThread, wait_for
 
 JACKSON = str(Path(sys.executable).parent / "jackson")
-IDLE_S = float(os.environ.get("JACKSON_IDLE_S", "5"))  # [s] of twin time between commands
+IDLE_S = float(os.environ.get("JACKSON_IDLE_S", "2"))  # [s] of twin time between commands
 
 TRUE_RADIUS_M = 0.040
 TRUE_SEPARATION_M = 0.25

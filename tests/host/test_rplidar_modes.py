@@ -78,14 +78,15 @@ def _run(emulator: RplidarEmulator) -> Iterator[RplidarEmulator]:
 
 @pytest.fixture
 def twin() -> Iterator[RplidarEmulator]:
-    """The twin's A1M8 (firmware 1.29) as ``jackson sim`` runs it: SCAN sends the twin's 1080
-    beams, and GET_LIDAR_CONF reports Standard at their 124.7 us a sample."""
-    yield from _run(RplidarEmulator(LidarSpec(noise_sigma_m=0.0)))
+    """The twin's A1M8 (firmware 1.29) with ``device_standard_scan=False``: SCAN sends the
+    twin's 1080 beams, and GET_LIDAR_CONF reports Standard at their 124.7 us a sample."""
+    yield from _run(RplidarEmulator(LidarSpec(noise_sigma_m=0.0), device_standard_scan=False))
 
 
 @pytest.fixture
 def device() -> Iterator[RplidarEmulator]:
-    """The twin's A1M8 with SCAN at the A1's own 508 us a sample: the robot's unit."""
+    """The twin's A1M8 as ``jackson sim`` runs it, SCAN at the A1's own 508 us a sample: the
+    robot's unit."""
     yield from _run(RplidarEmulator(LidarSpec(noise_sigma_m=0.0), device_standard_scan=True))
 
 
@@ -160,6 +161,24 @@ def test_each_mode_asked_by_name_reads_whole_revolutions(
             check_box(rev)
 
 
+@pytest.mark.parametrize("mode", [None, "standard", "Express"])
+def test_the_raw_bytes_a_daemon_reads_decode_as_the_started_mode(
+    device: RplidarEmulator, mode: str | None
+) -> None:
+    """The daemon's path: read() hands out every byte after the scan's descriptor (those that
+    came with it too), and an assembler told the driver's answer type makes whole turns."""
+    with RplidarDriver(device.path) as driver:
+        driver.start(mode)
+        assembler = RevolutionAssembler(streaming=True)
+        assembler.expect(driver.answer_type)
+        expected = driver.samples_per_revolution_expected
+        assert expected is not None
+        for _, rev in wait_for(lambda: assembler.feed(driver.read()), 3):
+            assert abs(rev.nodes - expected) <= 1.5
+            check_box(rev)
+        assert assembler.decoder.malformed_bytes == 0
+
+
 def test_standard_still_reads_the_twins_1080_beams(twin: RplidarEmulator) -> None:
     with RplidarDriver(twin.path) as driver:
         driver.start(mode="standard")
@@ -195,9 +214,9 @@ def test_a_device_without_get_lidar_conf_gets_the_standard_scan(old_twin: Rplida
         assert driver.modes == () and driver.typical_mode is None
         assert driver.mode is not None and driver.mode.name == "Standard"
         assert driver.answer_type == DataType.MEASUREMENT
-        assert driver.mode.us_per_sample == 125.0  # GET_SAMPLERATE's standard time
+        assert driver.mode.us_per_sample == 508.0  # GET_SAMPLERATE's standard time
         for _, rev in wait_for(driver.poll, 3):
-            assert rev.nodes == BEAMS
+            assert 264 <= rev.nodes <= 266
             check_box(rev)
         with pytest.raises(LidarError, match=r"no scan mode .Boost. .*standard scan only"):
             driver.start(mode="Boost")

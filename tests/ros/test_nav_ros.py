@@ -83,5 +83,6 @@ def test_the_daemon_publishes_nav2s_topics_while_it_navigates(
     assert report["map_size"][2] == 0.05, seen
     assert report["plan"] >= 3 and report["plan_points"] > 10, seen  # 1 Hz and when blocked
     assert report["local_plan"] >= 10, seen
-    assert report["scan"] >= 10 and report["scan_beams"] == 1080, seen
+    # the densest mode of the twin's A1M8: Sensitivity, 1060 or 1061 samples a turn
+    assert report["scan"] >= 10 and 1059 <= report["scan_beams"] <= 1061, seen
     assert "daemon:" in d_out, d_out + d_err

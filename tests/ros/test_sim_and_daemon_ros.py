@@ -133,7 +133,11 @@ def test_sim_and_daemon_on_ros_navigate_on_one_clock(
     gaps = np.diff(stamps["/scan"]) / 1e9
     periods = np.round(gaps / LIDAR_PERIOD_S)
     assert np.all(periods >= 1)
-    assert np.max(np.abs(gaps - periods * LIDAR_PERIOD_S)) < 0.012, gaps
+    error = np.abs(gaps - periods * LIDAR_PERIOD_S)
+    # the first revolution's end is known to within the frame it arrived with (50 ms); the
+    # timer then pulls the phase in as the windows close (ScanTimer), within three turns
+    assert np.max(error[:3]) < 0.05, gaps
+    assert np.max(error[3:]) < 0.012, gaps
     timing = np.array(report["scan_timing"])
     assert np.allclose(timing[:, 1], LIDAR_PERIOD_S, rtol=0.02)  # scan_time
     assert np.allclose(timing[:, 0] * timing[:, 2], timing[:, 1])  # time_increment x beams

@@ -3,6 +3,7 @@ emulated RPLIDAR), mapping the maze, then navigating it around the dropped cylin
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +53,10 @@ def test_the_host_navigates_around_the_dropped_cylinder_and_replays_bit_for_bit(
     assert r["goal_error_m"] < 0.30  # xy goal tolerance 0.25 m, judged on the estimate
     assert 1.7 < r["path_length_m"] < 2.8
     assert r["localisation_error_max_cm"] < 8.0
+    # the host read the densest mode of the twin's A1M8: Sensitivity's ultra capsules
+    lidar = json.loads((run / "meta.json").read_text())["lidar"]
+    assert lidar["mode"] == "Sensitivity" and lidar["answer_type"] == 0x84
+    assert lidar["device"] == "A1M8 firmware 1.29 hardware 7"
     result = replay(run, tmp_path / "replay")  # the scans come back from the logged bytes
     assert result.complete and not result.differ, result.differ
     assert result.frames > 100

@@ -347,7 +347,7 @@ def test_lidar_noise_and_dropout_act_on_the_scans() -> None:
 
 def test_a_lost_revolution_puts_nothing_on_the_lidar_line() -> None:
     spec = LidarSpec()
-    emulator = RplidarEmulator(spec)
+    emulator = RplidarEmulator(spec, device_standard_scan=False)
     fd = os.open(emulator.path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
     try:
         os.write(fd, encode_request(Command.SCAN))

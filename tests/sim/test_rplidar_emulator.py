@@ -101,6 +101,7 @@ def session(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Session]
         twin,
         i2c_path=sock,
         lidar_link=str(tmp_path / "lidar"),
+        lidar_twin_beams=True,  # SCAN sends the twin's own beams: exact ranges, beam order
         heartbeat_timeout_s=30.0,
         firmware=getattr(request, "param", False),
     )
@@ -239,7 +240,7 @@ def _slave(emulator: RplidarEmulator) -> int:
 
 
 def test_a_pty_nobody_reads_never_blocks_the_twin() -> None:
-    emulator = RplidarEmulator(LidarSpec())
+    emulator = RplidarEmulator(LidarSpec(), device_standard_scan=False)
     fd = _slave(emulator)
     try:
         os.write(fd, encode_request(Command.SCAN))
@@ -267,7 +268,7 @@ def test_a_pty_nobody_reads_never_blocks_the_twin() -> None:
 
 
 def test_each_request_is_answered_byte_exactly() -> None:
-    emulator = RplidarEmulator(LidarSpec())
+    emulator = RplidarEmulator(LidarSpec(), device_standard_scan=False)
     fd = _slave(emulator)
     try:
         expected = {
@@ -333,7 +334,7 @@ CONF_ANSWERS = [
 def test_get_lidar_conf_describes_the_a1m8s_five_scan_modes(
     entry: ConfType, mode: int | None, golden: str
 ) -> None:
-    emulator = RplidarEmulator(LidarSpec())
+    emulator = RplidarEmulator(LidarSpec(), device_standard_scan=False)
     fd = _slave(emulator)
     try:
         answer = bytes.fromhex(golden)
@@ -368,7 +369,7 @@ def test_what_the_a1_does_not_describe_gets_no_answer() -> None:
     """The SDK asks for the motor's desired speed (entry 0x01) before every scan; the A1 has
     no such entry. Nor a mode 9, nor a per-mode entry without a mode, nor EXPRESS_SCAN of the
     standard mode or of a mode it lacks: all silent, counted, and the next request answered."""
-    emulator = RplidarEmulator(LidarSpec())
+    emulator = RplidarEmulator(LidarSpec(), device_standard_scan=False)
     fd = _slave(emulator)
     try:
         silent = [
@@ -484,7 +485,8 @@ def test_each_scan_mode_samples_at_its_own_rate_where_the_decoder_places_them(
     turns = np.diff(np.flatnonzero(s.start))
     assert len(turns) >= 10
     assert set(turns.tolist()) <= {math.floor(per_turn), math.ceil(per_turn)}
-    assert s.emulator.samples == pytest.approx(12 * per_turn, abs=1)
+    lookahead = 0 if s.emulator._stream is None else s.emulator._stream.lookahead
+    assert s.emulator.samples == pytest.approx(12 * per_turn + lookahead, abs=1)
     assert s.emulator.revolutions_written == 12
     # every range is the room's at the heading the decoder gives it, to 1 cm, but for a
     # sample within a beam of an edge (the twin casts 1080 beams; between two beams across an
@@ -516,7 +518,11 @@ def test_a_lost_revolution_restarts_the_capsule_stream() -> None:
     edge = np.ptp(near, axis=0) > 0.1 * near.min(axis=0)
     sent = s.range_m > 0
     assert np.abs(s.range_m - near[1])[sent & ~edge].max() < 0.01
-    assert s.emulator.samples == pytest.approx(9 * PERIOD_S / 127e-6, abs=2)
+    # nine turns, and the lookahead past the last before the gap and past the last one
+    stream = s.emulator._stream
+    assert stream is not None
+    expected = 9 * PERIOD_S / 127e-6 + 2 * stream.lookahead
+    assert s.emulator.samples == pytest.approx(expected, abs=2)
 
 
 # ------------------------------------------------------------------ the codec's express answers

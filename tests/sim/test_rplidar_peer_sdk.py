@@ -119,13 +119,13 @@ def _start(*args: str) -> Iterator[Device]:
 
 @pytest.fixture
 def device() -> Iterator[Device]:
-    """The twin's A1M8 as the robot runs it (SCAN sends the twin's 1080 beams)."""
+    """The twin's A1M8 with SCAN sending the twin's 1080 beams (``device_standard_scan=False``)."""
     yield from _start()
 
 
 @pytest.fixture
 def device_standard() -> Iterator[Device]:
-    """The twin's A1M8 with SCAN at the A1's own 508 us a sample."""
+    """The twin's A1M8 as `jackson sim` runs it: SCAN at the A1's own 508 us a sample."""
     yield from _start("--device-standard-scan")
 
 
