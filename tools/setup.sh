@@ -63,7 +63,9 @@ deps_key=$( (cat pyproject.toml tools/constraints.txt; echo "$extras$cluster") |
 # is rebuilt when a Python file is added or removed.
 files_key=$( (echo "$deps_key"; find cli common protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
 
-pip=("$VENV/bin/python" -m pip install -q --disable-pip-version-check)
+# --no-compile: the .pyc of a module are written when it is first imported, not for every module
+# of every package at install time (about 45 s of a fresh set-up, most of it Ray and SciPy)
+pip=("$VENV/bin/python" -m pip install -q --disable-pip-version-check --no-compile)
 if [ "$(cat "$VENV/.deps-key" 2>/dev/null)" != "$deps_key" ]; then
   say "installing Python dependencies (pinned)"
   "${pip[@]}" -c tools/constraints.txt setuptools wheel
