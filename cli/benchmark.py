@@ -26,6 +26,7 @@ SUITES: dict[str, str] = {
     "lidar": "jackson.sim.bench_lidar",
     "lockstep": "jackson.lockstep_bench",
     "host": "jackson.host_bench",
+    "daemon": "jackson.daemon_bench",
     "campaign": "jackson.calibration.bench",
     "stage3": "jackson.calibration.bench_stage3",
     "ros": "jackson.ros_bench",

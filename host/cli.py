@@ -259,6 +259,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             if built is not None:
                 built.save(run_dir / "built_map.yaml")
                 print(f"map: {run_dir / 'built_map.yaml'}", flush=True)
+    if daemon.cpu.frames > 1:
+        print(daemon.cpu.line(), flush=True)
     core = daemon.core
     e = core.ekf
     if core.abort_reason is not None:

@@ -23,6 +23,7 @@ from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS, Mission
 from jackson.host.core import CoreListener, DutySource, HostCore
+from jackson.host.cpu import CpuMeter
 from jackson.host.health import Transition
 from jackson.host.recording import RunRecorder, run_in_progress
 from jackson.protocol import (
@@ -215,6 +216,7 @@ class Daemon:
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         self.events: list[str] = []  # what the operator was told, in order
+        self.cpu = CpuMeter()  # the daemon's own CPU per robot-second and per frame
         self._hello_retries = 0  # HELLOs re-sent before the first INFO
         self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
         self._i2c_failing = False  # an I2C outage was told and has not ended
@@ -461,6 +463,7 @@ class Daemon:
                         self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     continue
                 rx_ns, frame = item
+                cpu0 = time.thread_time_ns()
                 if self.lidar is not None and frame.type == Telemetry.TYPE:
                     self._read_lidar()
                 try:
@@ -489,6 +492,9 @@ class Daemon:
                     self.ros.diagnostics(
                         diagnostic_values(core, core.last_telemetry, link=self.health())
                     )
+                if frame.type == Telemetry.TYPE:
+                    self.cpu.frame((time.thread_time_ns() - cpu0) / 1e3)
+                    self.cpu.robot_time(core.t_s)
                 if core.mission is not None and core.mission.done and core.braked:
                     break
                 if core.duty_source is not None and core.duty_source.done:
@@ -566,6 +572,7 @@ class Daemon:
             "abort_reason": self.core.abort_reason,
             "sensors": self._sensor_health(),
             "events": self.events,
+            "cpu": self.cpu.report(1.0 / self.cfg.serial.telemetry_rate_hz),
             "commands": {
                 "acked": self.commands.counters.acked,
                 "nacked": self.commands.counters.nacked,

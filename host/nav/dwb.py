@@ -423,6 +423,37 @@ def densify(path: FloatArray, spacing_m: float) -> FloatArray:
     return np.vstack((path[idx] + frac[:, None] * seg[idx], path[-1:]))
 
 
+def own_granularity(trajectory: FloatArray, linear_m: float, angular_rad: float) -> FloatArray:
+    """The poses of a roll-out at its own granularity, as Nav2's DWB publishes its chosen
+    trajectory: ``K = ceil(max(length / linear_m, |turn| / angular_rad))`` steps (at least
+    one), evenly through the roll-out's poses, first and last kept. The roll-outs share the
+    step count of the most demanding one (136 poses for a 2 rad/s target over 1.7 s); a nearly
+    straight trajectory at 0.26 m/s needs 9.
+
+    Parameters
+    ----------
+    trajectory : ndarray, shape (K, 3)
+        x, y [m], yaw [rad] at equal time steps.
+    linear_m, angular_rad : float
+        :class:`DwbConfig`'s ``linear_granularity_m`` and ``angular_granularity_rad``.
+
+    Returns
+    -------
+    ndarray, shape (J, 3)
+        J <= K poses of ``trajectory``.
+    """
+    k = len(trajectory)
+    if k <= 2:
+        return trajectory.copy()
+    length = float(np.hypot(*np.diff(trajectory[:, :2], axis=0).T).sum())
+    turn = float(np.abs(np.diff(np.unwrap(trajectory[:, 2]))).sum())
+    steps = max(1, math.ceil(max(length / linear_m, turn / angular_rad) - 1e-9))
+    if steps >= k - 1:
+        return trajectory.copy()
+    idx = np.unique(np.rint(np.linspace(0, k - 1, steps + 1)).astype(np.intp))
+    return np.asarray(trajectory[idx], np.float64)
+
+
 def prune_path(path: FloatArray, x_m: float, y_m: float) -> FloatArray:
     """The path from its point nearest (x, y) onwards.
 

@@ -88,7 +88,7 @@ from jackson.host.nav.costmap import (
     Costmap,
     CostmapConfig,
 )
-from jackson.host.nav.dwb import Command, DwbConfig, DwbPlanner, prune_path
+from jackson.host.nav.dwb import Command, DwbConfig, DwbPlanner, own_granularity, prune_path
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
 
@@ -421,8 +421,15 @@ class Navigator:
 
     @property
     def local_plan(self) -> FloatArray:
-        """The trajectory DWB chose last (/local_plan), shape (K, 3): x, y [m], yaw [rad]."""
+        """The trajectory DWB chose last, shape (K, 3): x, y [m], yaw [rad]."""
         return self._local_plan.copy()
+
+    @property
+    def published_local_plan(self) -> FloatArray:
+        """/local_plan: :attr:`local_plan` at its own granularity, as Nav2 publishes it
+        (:func:`~jackson.host.nav.dwb.own_granularity`)."""
+        c = self.config.dwb
+        return own_granularity(self._local_plan, c.linear_granularity_m, c.angular_granularity_rad)
 
     # ------------------------------------------------------------------ the tick
 

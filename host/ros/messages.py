@@ -892,7 +892,7 @@ class RosOutput(CoreListener):
             self.send("plan", t_s, b.path(t_s, nav.navigator.plan))
         self._plan_version = replans
         corr = nav.map_to_odom.compose(nav.config.start)  # odom starts at the start pose
-        local = nav.navigator.local_plan
+        local = nav.navigator.published_local_plan
         if len(local):  # in odom, as Nav2's controller publishes it: map -> odom undone
             c, s_ = math.cos(corr.yaw), math.sin(corr.yaw)
             dx, dy = local[:, 0] - corr.x, local[:, 1] - corr.y

@@ -21,7 +21,14 @@ from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.nav import astar as astar_module
 from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, path_cost
 from jackson.host.nav.costmap import Costmap, CostmapConfig
-from jackson.host.nav.dwb import CRITICS, DwbConfig, DwbPlanner, densify, velocity_profile
+from jackson.host.nav.dwb import (
+    CRITICS,
+    DwbConfig,
+    DwbPlanner,
+    densify,
+    own_granularity,
+    velocity_profile,
+)
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.navigator import Navigator, NavigatorConfig, NavState
 from jackson.host.nav.types import Pose2D
@@ -884,6 +891,23 @@ def test_with_a_yaw_tolerance_the_robot_turns_to_the_goal_yaw_in_place(goal_yaw_
     window = np.hypot(run.poses[:, 0] - goal.x, run.poses[:, 1] - goal.y) < nav.goal_window_m
     turning = run.poses[window]
     assert np.ptp(turning[:, 0]) < 0.05  # it stopped, then turned in place
+
+
+def test_local_plan_is_published_at_its_own_granularity_as_nav2_does() -> None:
+    """DWB rolls every target out with the step count of the most demanding one; the chosen
+    trajectory goes out at its own: one step per 5 cm or per 0.025 rad."""
+    t = np.linspace(0.0, 1.7, 137)
+    straight = np.column_stack((0.26 * t, np.zeros_like(t), np.zeros_like(t)))
+    thin = own_granularity(straight, 0.05, 0.025)
+    assert len(thin) == 10  # 0.442 m / 0.05 m: 9 steps
+    assert np.array_equal(thin[0], straight[0]) and np.array_equal(thin[-1], straight[-1])
+    assert np.all(np.diff(thin[:, 0]) <= 0.05 + 0.26 * 1.7 / 136)
+    # a turn in place: the angle sets the count (1.7 rad / 0.025 = 68 steps)
+    spin = np.column_stack((np.zeros_like(t), np.zeros_like(t), 1.0 * t))
+    assert len(own_granularity(spin, 0.05, 0.025)) == 69
+    # never more poses than the roll-out, and a pose or two kept as they are
+    assert len(own_granularity(np.column_stack((t, t, 30 * t)), 0.05, 0.025)) == len(t)
+    assert own_granularity(straight[:1], 0.05, 0.025).shape == (1, 3)
 
 
 def test_the_path_is_replanned_as_soon_as_an_obstacle_blocks_it() -> None:

@@ -115,6 +115,11 @@ def test_sim_and_daemon_on_ros_navigate_on_one_clock(
     assert daemon.returncode == 0, said
     assert "navigation reached the goal" in said, said
     assert "ROS: /clock is published (a simulator): stamping with it" in said, said
+    # the daemon's own CPU, said at the end and kept in health.json (docs/host.md, CPU)
+    assert "daemon: CPU " in said and "% of a core" in said, said
+    cpu = json.loads((tmp_path / "run" / "health.json").read_text())["cpu"]
+    assert cpu["frames"] > 100 and cpu["robot_s"] > 5.0
+    assert 0.0 < cpu["share_of_core"] < 4.0 and cpu["frame_us"]["median"] > 0.0
     assert client.returncode == 0, c_err
     report: dict[str, Any] = json.loads(c_out.strip().splitlines()[-1])
     clock = np.array(report["clock"], np.int64)

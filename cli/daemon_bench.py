@@ -1,0 +1,150 @@
+"""``jackson bench`` suite ``daemon``: the CPU of the process a user runs, ``jackson daemon``.
+
+The daemon runs as users run it: its own process, on the pty of a ``jackson sim`` process
+(lockstep), the PCA9685 on the twin's I2C socket, recording on (CSVs, log.jrec, the bag),
+once driving the paper's square (no LiDAR) and once navigating the maze with the twin's
+RPLIDAR in its densest mode on a map of the maze. Its figures come from the run's own
+``health.json`` (:class:`jackson.host.cpu.CpuMeter`): the process's CPU over the robot's time
+from the first telemetry frame to the last, as a share of one core (every thread: the bag,
+ROS, the LiDAR), and the CPU per frame on the daemon's thread, median and p99, over the 50 ms
+telemetry period. These are ratios to the robot's own clock, which a slower machine cannot
+stretch: a regression anywhere in the frame path raises them.
+
+Targets: with navigation and recording, 5 % of a core (about 15 % of a Jetson-class core),
+the p99 frame within half the period; the square, 2 % of a core.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from jackson.common.bench import BenchResult, reference_loop_us
+
+TELEMETRY_HZ = 20.0
+NAV_SHARE_TARGET = 0.05  # of one core, navigating and recording
+SQUARE_SHARE_TARGET = 0.02  # of one core, the square and recording
+P99_TARGET = 0.5  # of the telemetry period
+RUN_TIMEOUT_S = 600.0
+GOAL = "1.2091,-0.0364"
+START = "-0.6909,-0.0364,0"
+
+
+def _jackson() -> str:
+    return str(Path(sys.executable).parent / "jackson")
+
+
+def _maze_map(folder: Path) -> Path:
+    """A map of the maze from the twin's world file (no survey needed), map_server YAML."""
+    import numpy as np
+
+    from jackson.host.nav.grid import OccupancyGrid
+    from jackson.sim.config import load_world
+    from jackson.sim.raster import raster
+
+    occupied, ox, oy = raster(load_world("maze"), 0.05)
+    grid = OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), 0.05, ox, oy)
+    path = folder / "maze.yaml"
+    grid.save(path)
+    return path
+
+
+def _ports(sim: subprocess.Popen[str], lidar: bool) -> dict[str, str]:
+    """The ``name: path`` lines ``jackson sim`` prints before it serves."""
+    assert sim.stdout is not None
+    wanted = {"serial", "i2c", "lidar"} if lidar else {"serial", "i2c"}
+    ports: dict[str, str] = {}
+    while not wanted <= ports.keys():
+        line = sim.stdout.readline()
+        if not line:
+            raise RuntimeError("daemon bench: jackson sim ended before it printed its ports")
+        name, _, value = line.strip().partition(": ")
+        if name in wanted:
+            ports[name] = value
+    return ports
+
+
+def daemon_run(world: str, daemon_args: list[str], folder: Path) -> dict[str, Any]:
+    """``jackson sim --world WORLD`` and ``jackson daemon`` on it with ``daemon_args``;
+    the run's ``health.json`` ``cpu`` entry."""
+    lidar = "--lidar" in daemon_args
+    sim_argv = [_jackson(), "sim", "--world", world, *([] if lidar else ["--no-lidar"])]
+    sim = subprocess.Popen(sim_argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        ports = _ports(sim, lidar)
+        argv = [_jackson(), "daemon", "--port", ports["serial"], "--i2c", ports["i2c"]]
+        argv += [ports["lidar"] if a == "LIDAR" else a for a in daemon_args]
+        run = folder / "run"
+        done = subprocess.run(
+            [*argv, "--run-dir", str(run)],
+            capture_output=True,
+            text=True,
+            timeout=RUN_TIMEOUT_S,
+        )
+        if done.returncode != 0:
+            raise RuntimeError(f"daemon bench: jackson daemon failed: {done.stdout}{done.stderr}")
+        cpu: dict[str, Any] = json.loads((run / "health.json").read_text())["cpu"]
+        return cpu
+    finally:
+        sim.terminate()
+        sim.wait(timeout=30)
+
+
+def _results(
+    label: str, cpu: dict[str, Any], share_target: float, loop_us: float
+) -> list[BenchResult]:
+    period_ms = 1e3 / TELEMETRY_HZ
+    return [
+        BenchResult(
+            f"daemon.cpu_share_{label}",
+            float(cpu["share_of_core"]),
+            "of one core",
+            share_target,
+            "lower",
+            f"the robot's time: the jackson daemon process's CPU (every thread) from the first "
+            f"telemetry frame to the last over the MCU time between them ({label}, recording "
+            f"on, 20 Hz telemetry, against jackson sim over a pty)",
+            float(cpu["process_s"]),
+            "s (CPU; reference: robot time)",
+            float(cpu["robot_s"]),
+            loop_us,
+        ),
+        BenchResult(
+            f"daemon.frame_p99_{label}",
+            float(cpu["frame_share_of_period"]["p99"]),
+            "of the 50 ms frame period",
+            P99_TARGET,
+            "lower",
+            f"the telemetry period: the 99th percentile of the daemon thread's CPU per frame "
+            f"({label}; median {cpu['frame_us']['median'] / 1e3:.2f} ms, "
+            f"{cpu['frames']} frames)",
+            float(cpu["frame_us"]["p99"]) / 1e3,
+            "ms",
+            period_ms,
+            loop_us,
+        ),
+    ]
+
+
+def run(quick: bool = False) -> list[BenchResult]:
+    """The daemon's CPU, navigating the maze and driving the square (one run each; the
+    figures are ratios to the robot's clock, which load does not stretch)."""
+    loop_us = reference_loop_us()
+    with tempfile.TemporaryDirectory(prefix="jackson-daemon-bench-") as tmp:
+        folder = Path(tmp)
+        nav = folder / "nav"
+        nav.mkdir()
+        map_yaml = _maze_map(folder)
+        nav_args = ["--lidar", "LIDAR", "--map", str(map_yaml), f"--start={START}"]
+        nav_cpu = daemon_run("maze", [*nav_args, f"--goal={GOAL}"], nav)
+        results = _results("navigating", nav_cpu, NAV_SHARE_TARGET, loop_us)
+        if not quick:
+            square = folder / "square"
+            square.mkdir()
+            sq_cpu = daemon_run("square_room", ["--mission", "square"], square)
+            results += _results("square", sq_cpu, SQUARE_SHARE_TARGET, loop_us)
+    return results
