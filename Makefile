@@ -23,8 +23,11 @@ help:
 setup:
 	@PYTHON=$(PYTHON) bash tools/setup.sh
 
+# The checks before pytest run side by side (mypy is one process, the C++ build two jobs);
+# each one's output is printed whole when it ends.
 test: setup
-	@$(MAKE) --no-print-directory lint typecheck generated native-test pytest
+	@$(MAKE) --no-print-directory -j 2 --output-sync=target lint typecheck generated native-test
+	@$(MAKE) --no-print-directory pytest
 	@echo "make test: all passed"
 
 lint:

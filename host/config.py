@@ -100,7 +100,11 @@ class HostConfig:
     watchdog_s: float = 0.6  # velocity commands older than this brake the motors
     recording_folder: Path = Path("runs")
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
+    bag_compression: str = "zstd"  # the bag's MCAP chunk compression: zstd, lz4 or none
 
+
+BAG_COMPRESSIONS = ("zstd", "lz4", "none")
+"""``recording.bag_compression``: the MCAP chunk compressions a run's bag may use."""
 
 DEFAULTS = HostConfig()
 """Every field's default: the parser reads them from here, never from a second literal."""
@@ -381,7 +385,13 @@ def _recording(s: Fields) -> dict[str, Any]:
     out = {
         "recording_folder": Path(s.text("folder", str(DEFAULTS.recording_folder))),
         "bag_max_mb": s.number("bag_max_mb", DEFAULTS.bag_max_mb, 0.0),
+        "bag_compression": s.text("bag_compression", DEFAULTS.bag_compression),
     }
+    if out["bag_compression"] not in BAG_COMPRESSIONS:
+        raise s.fail(
+            "bag_compression",
+            f"{out['bag_compression']!r} is not one of {', '.join(BAG_COMPRESSIONS)}",
+        )
     s.finish()
     return out
 
@@ -461,7 +471,11 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
         },
         "serial": {f.name: getattr(cfg.serial, f.name) for f in fields(SerialSettings)},
         "watchdog_s": cfg.watchdog_s,
-        "recording": {"folder": str(cfg.recording_folder), "bag_max_mb": cfg.bag_max_mb},
+        "recording": {
+            "folder": str(cfg.recording_folder),
+            "bag_max_mb": cfg.bag_max_mb,
+            "bag_compression": cfg.bag_compression,
+        },
     }
     if imu.calibration is not None:
         out["imu"]["calibration"] = {

@@ -254,6 +254,7 @@ class Daemon:
                 odometry=cfg.odometry,
                 clock=self.bridge.clock if self.bridge is not None else None,
                 max_bytes=max_bytes,
+                compression=cfg.bag_compression,
                 flush_interval_s=None,  # flushed with the run folder's files, on MCU time
             )
             if self.recorder is not None:

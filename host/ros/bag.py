@@ -85,6 +85,7 @@ from rosbags.rosbag2.metadata import dump_qos_v9, parse_qos
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
+from zstandard import ZstdError
 
 from jackson.host.odometry import OdometryCovariance
 from jackson.host.ros.messages import (
@@ -99,6 +100,11 @@ from jackson.host.ros.messages import (
 DiagnosticArray = jazzy.diagnostic_msgs__msg__DiagnosticArray
 
 BAG_VERSION: Literal[9] = 9  # rosbag2 metadata version of ROS 2 Jazzy
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
 DEFAULT_FLUSH_INTERVAL_S = 1.0  # [s] of message time between chunk flushes
 
 _LEVEL_TEXT = ("OK", "WARN", "ERROR", "STALE")
@@ -202,6 +208,7 @@ class BagRecorder:
         flush_interval_s: float | None = DEFAULT_FLUSH_INTERVAL_S,
         hardware_id: str = "jackson",
         max_bytes: int | None = None,
+        compression: str = "zstd",
     ) -> None:
         """Create the bag folder ``path`` and register every topic.
 
@@ -227,6 +234,10 @@ class BagRecorder:
             Start the next file once the open one exceeds this size [bytes]
             (checked at each chunk flush): ``<name>_0.mcap``, ``<name>_1.mcap``... in
             the same folder. None: one file.
+        compression : str
+            The MCAP chunk compression: ``"zstd"`` (the default, as rosbag2's MCAP storage
+            writes; a navigating run's bag about a third the size), ``"lz4"`` or ``"none"``.
+            Readers decompress chunks themselves (the mcap library, rosbags, ``ros2 bag``).
 
         Raises
         ------
@@ -250,6 +261,9 @@ class BagRecorder:
         self._names = {key: name for key, (name, _) in specs.items()}
         self._topics = _bag_topics({name: spec for name, spec in specs.values()}, self._store)
         self.max_bytes = max_bytes
+        if compression not in _COMPRESSION:
+            raise ValueError(f"bag compression {compression!r}: one of {', '.join(_COMPRESSION)}")
+        self.compression = _COMPRESSION[compression]
         self.files: list[Path] = []  # every MCAP file written, in order
         self._file: BinaryIO | None = None
         self._done: list[BagFile] = []  # the finished files
@@ -270,7 +284,7 @@ class BagRecorder:
         file = self.path / f"{self.path.name}_{len(self.files)}.mcap"
         try:
             self._file = file.open("xb")
-            self._writer = McapFileWriter(self._file, compression=CompressionType.NONE)
+            self._writer = McapFileWriter(self._file, compression=self.compression)
             self._writer.start(profile="ros2", library="jackson")
             schema_ids: dict[str, int] = {}
             self._channels: dict[str, int] = {}
@@ -882,12 +896,15 @@ def _split_index(file: Path) -> tuple[int, str]:
 
 # what the mcap readers raise where a file ends inside a record or holds garbage
 _CUT = (McapError, EOFError, ValueError, struct.error, RuntimeError)
+# and what a damaged compressed chunk raises when it is opened (lz4's errors are RuntimeErrors)
+_DAMAGED_CHUNK = (*_CUT, ZstdError)
 
 
 def whole_records(file: Path) -> Iterator[object]:
     """Every whole record of ``file`` in order, chunks opened, read with the mcap library's
     stream reader: it stops at the first record cut by the kill; a chunk that is whole but
-    damaged (a power loss can leave zeros where data should be) fails its CRC and is skipped.
+    damaged (a power loss can leave zeros where data should be) fails its CRC, or its
+    decompression, and is skipped.
 
     Raises
     ------
@@ -908,7 +925,7 @@ def whole_records(file: Path) -> Iterator[object]:
             if isinstance(record, McapChunk):
                 try:
                     yield from breakup_chunk(record, validate_crc=True)
-                except _CUT:
+                except _DAMAGED_CHUNK:
                     continue
             else:
                 yield record
@@ -971,7 +988,7 @@ def _rewrite(
 ) -> tuple[dict[str, int], tuple[int, int], list[BagTopic]]:
     """Copy schemas, channels and messages to ``out`` as a finished MCAP file, one record at
     a time; the messages per topic, their span ((0, 0) without any) and the topics kept."""
-    writer = McapFileWriter(out, compression=CompressionType.NONE)
+    writer = McapFileWriter(out, compression=CompressionType.ZSTD)
     writer.start(profile="ros2", library="jackson")
     schemas: dict[int, tuple[int, McapSchema]] = {}  # old id -> new id, record
     channels: dict[int, tuple[int, str]] = {}  # old id -> new id, topic

@@ -429,6 +429,25 @@ def _recorded_bag(path: Path, seconds: float = 6.0) -> None:
             bag.imu(t, (0.1, -0.2, 9.81), (0.001, -0.002, 0.3))
 
 
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_the_bags_chunks_are_compressed_as_configured_and_read_back(
+    tmp_path: Path, compression: str
+) -> None:
+    with BagRecorder(tmp_path / "bag", flush_interval_s=0.25, compression=compression) as bag:
+        for k in range(100):
+            bag.wheel_odom(k * 0.05, k * 0.01, 0, 0, 0.2, 0)
+    file = next((tmp_path / "bag").glob("*.mcap"))
+    with file.open("rb") as f:
+        chunks = [r for r in StreamReader(f, emit_chunks=True).records if isinstance(r, Chunk)]
+    assert chunks and {c.compression for c in chunks} == {
+        "" if compression == "none" else compression
+    }
+    odom = [m for m in _raw_messages(tmp_path / "bag") if m[0] == "/wheel/odom"]
+    assert len(odom) == 100  # rosbags decompresses them
+    with pytest.raises(ValueError, match="bag compression 'gzip'"):
+        BagRecorder(tmp_path / "other", compression="gzip")
+
+
 def _chunk_ends(file: Path) -> list[tuple[int, list[tuple[str, int, bytes]]]]:
     """(end offset, messages) of every chunk of a finished file, read with mcap's reader."""
     out = []
@@ -485,10 +504,12 @@ def test_zeros_where_the_tail_should_be_are_a_cut(tmp_path: Path) -> None:
     should be (the size was on disk, the data was not): repaired like a cut there."""
     _recorded_bag(tmp_path / "full")
     full = _raw_messages(tmp_path / "full")
-    data = bytearray(next((tmp_path / "full").glob("*.mcap")).read_bytes())
+    file = next((tmp_path / "full").glob("*.mcap"))
+    data = bytearray(file.read_bytes())
     bag = tmp_path / "zeros"
     bag.mkdir()
-    start = len(data) * 2 // 3
+    chunks = _chunk_ends(file)
+    start = chunks[len(chunks) * 2 // 3][0] - 10  # inside a chunk two thirds of the way
     data[start:] = bytes(len(data) - start)
     (bag / "zeros.mcap").write_bytes(bytes(data))
     n = repair_bag(bag)

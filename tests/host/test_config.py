@@ -259,6 +259,10 @@ def test_top_level_must_be_a_mapping(tmp_path: Path) -> None:
         ({"serial": {"baudrate": 9600.5}}, "serial.baudrate: expected an integer"),
         ({"watchdog_s": 0}, "watchdog_s: expected a number in [0.05, 10], got 0"),
         ({"recording": {"folder": 3}}, "recording.folder: expected a non-empty text, got 3"),
+        (
+            {"recording": {"bag_compression": "gzip"}},
+            "recording.bag_compression: 'gzip' is not one of zstd, lz4, none",
+        ),
     ],
 )
 def test_each_bad_field_gives_one_line_naming_it(
