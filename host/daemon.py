@@ -415,6 +415,8 @@ class Daemon:
         deadline = None if max_s is None else started + max_s
         bus_up = True
         if self.bridge is not None:
+            if self.bridge.late_clock():  # before the first frame is stamped
+                self._say(self.bridge.notes[-1])
             self.bridge.start()
         if self.notifier is not None:
             self.notifier.ready()

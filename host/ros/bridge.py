@@ -161,7 +161,7 @@ NOT_PUBLISHED = ("telemetry",)  # the raw frames are the bag's own record
 
 
 CLOCK_DISCOVERY_S = 3.0  # [s] the node looks this long for a /clock publisher with no other node
-CLOCK_ENDPOINTS_S = 1.0  # [s] the other nodes' publishers known and unchanged this long: no /clock
+CLOCK_ENDPOINTS_S = 2.0  # [s] the other nodes' publishers known and unchanged this long: no /clock
 CLOCK_DISCOVERY_MAX_S = 15.0  # [s] the longest the search lasts while other nodes are found
 
 
@@ -233,6 +233,8 @@ class RosBridge:
             given = any("use_sim_time" in str(a) for a in (args or ())) or (
                 "use_sim_time" in (parameter_overrides or {})
             )
+            self.discovery = ""  # what the /clock search saw (the operator's note without one)
+            self._clock_given = given
             if not given and self._clock_published(CLOCK_DISCOVERY_S):
                 # a simulator (jackson sim --ros) runs the clock: one clock for every stamp
                 self.node.set_parameters([parameter("use_sim_time", value=True)])
@@ -241,6 +243,8 @@ class RosBridge:
                     "ROS: /clock is published (a simulator): stamping with it "
                     "(use_sim_time true; give -p use_sim_time:=false to keep the system clock)"
                 )
+            elif not given and self.discovery:
+                self.notes.append(f"ROS: no /clock publisher: {self.discovery}")
             self.clock = StampClock(sim_time=sim_time)
             self._create_interfaces()
         except BaseException:
@@ -268,7 +272,7 @@ class RosBridge:
         start = time.monotonic()
         own = (self.node.get_name(), self.node.get_namespace())
         settled_since: float | None = None
-        known: set[tuple[str, str]] = set()
+        known: dict[tuple[str, str], int] = {}
         while True:
             if self.node.count_publishers("/clock") > 0:
                 return True
@@ -278,25 +282,31 @@ class RosBridge:
                 if now - start >= wait_s:
                     return False
             else:
-                ready = {n for n in others if self._publishers_known(*n)}
-                if ready != others or ready != known:
-                    settled_since = None  # a node still being discovered, or a new one
+                # every other node with its publishers known (at least /rosout), their count
+                # unchanged for CLOCK_ENDPOINTS_S: discovery has settled without a /clock
+                seen = {n: self._publishers_known(*n) for n in others}
+                if not all(seen.values()) or seen != known:
+                    settled_since = None
                 elif settled_since is None:
                     settled_since = now
-                known = ready
-                if settled_since is not None and now - settled_since >= CLOCK_ENDPOINTS_S:
-                    return False
-                if now - start >= CLOCK_DISCOVERY_MAX_S:
+                known = seen
+                ended = settled_since is not None and now - settled_since >= CLOCK_ENDPOINTS_S
+                if ended or now - start >= CLOCK_DISCOVERY_MAX_S:
+                    names = ", ".join(sorted(f"{ns.rstrip('/')}/{n}" for n, ns in others))
+                    self.discovery = (
+                        f"{len(others)} other node(s) ({names}) found in {now - start:.1f} s "
+                        "of discovery, none publishing it: stamping with the system clock"
+                    )
                     return False
             time.sleep(0.02)  # polls the ROS graph until the discovery deadline
 
-    def _publishers_known(self, name: str, namespace: str) -> bool:
-        """Whether discovery has brought the node's publishers (a node that vanished has
-        none, and so keeps the search going until the deadline)."""
+    def _publishers_known(self, name: str, namespace: str) -> int:
+        """How many publishers discovery has brought of the node (0 for one that vanished,
+        which keeps the search going until the deadline)."""
         try:
-            return bool(self.node.get_publisher_names_and_types_by_node(name, namespace))
+            return len(self.node.get_publisher_names_and_types_by_node(name, namespace))
         except Exception:  # rclpy raises NodeNameNonExistentError and others
-            return False
+            return 0
 
     def _declare_parameters(self, core: CoreLike) -> RosSettings:
         defaults = RosSettings.for_config(core.cfg)
@@ -389,6 +399,25 @@ class RosBridge:
         )
 
     # ------------------------------------------------------------------ lifecycle
+
+    def late_clock(self) -> bool:
+        """A second look for /clock just before the first frame is stamped (the daemon calls
+        it once it is set up, when discovery has had the set-up's time too): a simulator found
+        now still gives every stamp its clock. True when it switched to it."""
+        if self._clock_given or self.clock.sim_time:
+            return False
+        if self.node.count_publishers("/clock") == 0:
+            return False
+        from rclpy.parameter import Parameter
+
+        parameter: Any = Parameter  # untyped in some rclpy releases
+        self.node.set_parameters([parameter("use_sim_time", value=True)])
+        self.clock.sim_time = True
+        self.notes.append(
+            "ROS: /clock is published (a simulator): stamping with it (found at a second look; "
+            "use_sim_time true; give -p use_sim_time:=false to keep the system clock)"
+        )
+        return True
 
     def start(self) -> None:
         """Spin the executor (the subscriptions' callbacks) in a background thread."""
