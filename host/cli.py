@@ -353,7 +353,8 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
     from jackson.host.nav.navigator import RouteError
 
     try:
-        return NavigateMission(config, cfg.limits, grid)
+        # a daemon runs for hours: its navigation keeps only its recent control ticks
+        return NavigateMission(config, cfg.limits, grid, keep_samples=False)
     except RouteError as exc:
         raise HostCliError(f"{exc} (--map {args.map})") from exc
 

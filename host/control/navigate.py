@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -103,6 +104,10 @@ class NavigateConfig:
             raise ValueError(f"NavigateConfig.extent must be x0 < x1, y0 < y1, got {self.extent}")
 
 
+RECENT_SAMPLES = 200
+"""Control ticks a daemon's navigation keeps (10 s at 20 Hz) when it does not keep them all."""
+
+
 @dataclass(frozen=True)
 class NavSample:
     """One control tick of the mission, for the run folder (``nav.csv``)."""
@@ -129,6 +134,10 @@ class NavigateMission:
         The daemon's velocity and acceleration limits (the local planner samples within them).
     static_map : OccupancyGrid or None
         The known map (``amcl``); None in ``slam`` mode.
+    keep_samples : bool
+        Keep every control tick in :attr:`samples` (a trial's metrics and ``nav.csv``); the
+        long-running daemon keeps only the last :data:`RECENT_SAMPLES`, so its memory stays
+        flat (a tick kept is about 0.3 kB: 20 MB per robot-hour at 20 Hz).
 
     Raises
     ------
@@ -142,8 +151,8 @@ class NavigateMission:
         The last goal was reached, or navigation failed (see :attr:`failure`).
     failure : str or None
         Why navigation gave up (the navigator's reason), or None.
-    samples : list of NavSample
-        Every control tick.
+    samples : list or deque of NavSample
+        Every control tick (``keep_samples``), else the last :data:`RECENT_SAMPLES`.
     t_start_s, t_goal_s : float or None
         MCU time of the first command above 0.01 m/s, and of reaching the last goal.
     scans : int
@@ -157,11 +166,15 @@ class NavigateMission:
         config: NavigateConfig,
         limits: LimiterConfig,
         static_map: OccupancyGrid | None = None,
+        *,
+        keep_samples: bool = True,
     ) -> None:
         self.config = config
         self.done = False
         self.failure: str | None = None
-        self.samples: list[NavSample] = []
+        self.samples: list[NavSample] | deque[NavSample] = (
+            [] if keep_samples else deque(maxlen=RECENT_SAMPLES)
+        )
         self.t_start_s: float | None = None
         self.t_goal_s: float | None = None
         self.scans = 0
