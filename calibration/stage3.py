@@ -547,6 +547,15 @@ def mapping_spec(
     )
 
 
+def world_grid(world: WorldSpec, resolution_m: float = 0.05) -> OccupancyGrid:
+    """The world's walls and cylinders as an occupancy grid (100 occupied, 0 free): the map
+    a survey would ideally build."""
+    from jackson.sim.raster import raster
+
+    occupied, ox, oy = raster(world, resolution_m)
+    return OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), resolution_m, ox, oy)
+
+
 def check_world_route(world: WorldSpec, goals: tuple[Pose2D, ...]) -> None:
     """Refuse goals the twin's world rules out (in or beside a wall or cylinder, outside the
     world, shut off from the start), before a mapping run drives anywhere.
@@ -556,10 +565,7 @@ def check_world_route(world: WorldSpec, goals: tuple[Pose2D, ...]) -> None:
     RouteError
         As :func:`jackson.host.nav.navigator.check_route` on the world's own raster.
     """
-    from jackson.sim.raster import raster
-
-    occupied, ox, oy = raster(world, 0.05)
-    grid = OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), 0.05, ox, oy)
+    grid = world_grid(world)
     check_route(grid, Pose2D(*world.start_pose), goals, NavigatorConfig())
 
 

@@ -40,16 +40,11 @@ def _jackson() -> str:
 
 def _maze_map(folder: Path) -> Path:
     """A map of the maze from the twin's world file (no survey needed), map_server YAML."""
-    import numpy as np
-
-    from jackson.host.nav.grid import OccupancyGrid
+    from jackson.calibration.stage3 import world_grid
     from jackson.sim.config import load_world
-    from jackson.sim.raster import raster
 
-    occupied, ox, oy = raster(load_world("maze"), 0.05)
-    grid = OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), 0.05, ox, oy)
     path = folder / "maze.yaml"
-    grid.save(path)
+    world_grid(load_world("maze")).save(path)
     return path
 
 

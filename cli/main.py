@@ -531,8 +531,9 @@ def _cmd_campaign_faults(args: argparse.Namespace) -> int:
 
 def _lidar_mode(args: argparse.Namespace) -> str | None:
     """The RPLIDAR scan mode ``--lidar-mode`` names (None: the densest)."""
-    mode: str = args.lidar_mode
-    return None if mode.lower() == "densest" else mode
+    from jackson.host.lidar.rplidar import start_mode
+
+    return start_mode(args.lidar_mode)
 
 
 def _cmd_campaign_stage3(args: argparse.Namespace) -> int:

@@ -169,11 +169,11 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             raise HostCliError(str(exc)) from exc
     lidar = None
     if args.lidar:
-        from jackson.host.lidar.rplidar import LidarError, RplidarDriver
+        from jackson.host.lidar.rplidar import LidarError, RplidarDriver, start_mode
 
         try:
             lidar = RplidarDriver(args.lidar)
-            lidar.start(None if args.lidar_mode.lower() == "densest" else args.lidar_mode)
+            lidar.start(start_mode(args.lidar_mode))
             print(
                 f"daemon: LiDAR on {args.lidar}: {lidar.mode.name if lidar.mode else '?'} scan, "
                 f"{lidar.samples_per_revolution_expected or 0:.0f} samples a turn",
@@ -300,7 +300,9 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
 def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
     """The navigation mission --goal asks for (None without), checked before anything opens."""
-    if args.lidar_mode.lower() != "densest" and not args.lidar:
+    from jackson.host.lidar.rplidar import start_mode
+
+    if start_mode(args.lidar_mode) is not None and not args.lidar:
         raise HostCliError("--lidar-mode needs --lidar PORT (the RPLIDAR's port)")
     if not args.goal:
         for name in ("map", "lidar"):

@@ -37,7 +37,6 @@ class CpuMeter:
     def __init__(self) -> None:
         self._counts = np.zeros(BINS_PER_DECADE * DECADES + 1, dtype=np.int64)
         self.frames = 0
-        self.total_us = 0.0
         self.max_us = 0.0
         self._first: tuple[float, float] | None = None  # (MCU time [s], process CPU [s])
         self._last: tuple[float, float] | None = None
@@ -45,7 +44,6 @@ class CpuMeter:
     def frame(self, cpu_us: float) -> None:
         """One frame's handling took ``cpu_us`` of the daemon thread's CPU."""
         self.frames += 1
-        self.total_us += cpu_us
         self.max_us = max(self.max_us, cpu_us)
         k = math.floor(math.log10(max(cpu_us, LOWEST_US) / LOWEST_US) * BINS_PER_DECADE)
         self._counts[min(k, len(self._counts) - 1)] += 1

@@ -70,12 +70,14 @@ from jackson.protocol.rplidar import (
 
 __all__ = [
     "DECODED_ANSWER_TYPES",
+    "DENSEST",
     "STANDARD",
     "LidarError",
     "Revolution",
     "RevolutionAssembler",
     "RplidarDriver",
     "choose_mode",
+    "start_mode",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -95,6 +97,15 @@ MAX_ANSWER_BYTES = 255  # a single answer longer than this is a damaged descript
 SYNC = bytes((0xA5, 0x5A))  # the start of every response descriptor
 STANDARD = "standard"
 """The ``mode`` of :meth:`RplidarDriver.start` that runs SCAN (standard nodes)."""
+DENSEST = "densest"
+"""``--lidar-mode``'s word for :meth:`RplidarDriver.start`'s None: the densest mode."""
+
+
+def start_mode(option: str) -> str | None:
+    """:meth:`RplidarDriver.start`'s ``mode`` for a ``--lidar-mode`` value (``densest``: None)."""
+    return None if option.lower() == DENSEST else option
+
+
 DECODED_ANSWER_TYPES = frozenset({int(DataType.MEASUREMENT), *CAPSULE_FORMATS})
 """The scan answer types :class:`RevolutionAssembler` decodes: 0x81 nodes and the capsules."""
 
