@@ -1,4 +1,6 @@
-"""Compile the twin's per-step model, ``sim/physics.py``, with mypyc (run by ``make setup``).
+"""Compile the twin's per-step model, ``sim/physics.py``, with mypyc, and the costmap's collision
+tests, ``host/nav/native/collide.cpp`` (:func:`build_nav`), with the C++ compiler (run by
+``make setup``).
 
 The build is ``build/compiled/<digest>/jackson_sim_physics<EXT_SUFFIX>``, named by the digest
 of the source it was compiled from (:mod:`jackson.sim.compiled` loads it only while
@@ -143,6 +145,64 @@ def build(force: bool) -> Path | None:
     return target
 
 
+def build_nav(force: bool) -> Path | None:
+    """Build the costmap's compiled collision tests (``host/nav/native/collide.cpp``) into
+    ``build/compiled-nav/<digest>/libjackson_nav.so`` unless that build exists.
+
+    A shared library loaded with ctypes (:mod:`jackson.host.nav.native`): it needs a C++17
+    compiler, not Python's headers.
+
+    Returns
+    -------
+    Path or None
+        The new build (None: it existed).
+
+    Raises
+    ------
+    BuildError
+        It cannot be made.
+    """
+    from jackson.host.nav import native
+
+    source = native.source_path()
+    text = source.read_bytes()
+    digest = native.source_digest(text)
+    builds = native.builds_dir(source)
+    target = native.build_path(builds, digest)
+    if target.is_file() and not force:
+        return None
+    cxx = (os.environ.get("CXX") or "c++").split()
+    if shutil.which(cxx[0]) is None:
+        raise BuildError(f"no C++ compiler ({cxx[0]} not found)")
+    builds.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=builds))
+    try:
+        (scratch / source.name).write_bytes(text)
+        built = scratch / target.name
+        flags = ["-std=c++17", "-O2", "-ffp-contract=off", "-fPIC", "-shared", "-Wall"]
+        out = subprocess.run(
+            [*cxx, *flags, source.name, "-o", built.name],
+            cwd=scratch,
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
+        if out.returncode != 0 or not built.is_file():
+            raise BuildError(f"{cxx[0]} failed: {_last_error(out.stdout + out.stderr)}")
+        try:
+            native.load_library(built)
+        except OSError as e:
+            raise BuildError(f"the build does not load: {e}") from e
+        target.parent.mkdir(exist_ok=True)
+        os.replace(built, target)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    for old in builds.iterdir():
+        if old.is_dir() and old.name != digest and not _in_progress(old):
+            shutil.rmtree(old, ignore_errors=True)
+    return target
+
+
 def _in_progress(folder: Path) -> bool:
     """A scratch folder another build may still be using (younger than its timeout)."""
     return folder.name.startswith(".scratch-") and time.time() - folder.stat().st_mtime < TIMEOUT_S
@@ -162,18 +222,24 @@ def main() -> int:
     t0 = time.monotonic()
     try:
         target = build(args.force)
-    except BuildError as e:
-        print(f"setup: compiled physics not built, the twin runs interpreted: {e}", file=sys.stderr)
-        return 0
+        if target is not None:
+            print(f"setup: compiled sim/physics.py with mypyc ({time.monotonic() - t0:.0f} s)")
     except Exception as e:  # never break make setup
+        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
         print(
-            f"setup: compiled physics not built, the twin runs interpreted: "
-            f"{type(e).__name__}: {e}",
+            f"setup: compiled physics not built, the twin runs interpreted: {why}", file=sys.stderr
+        )
+    t0 = time.monotonic()
+    try:
+        nav = build_nav(args.force)
+        if nav is not None:
+            print(f"setup: compiled host/nav/native/collide.cpp ({time.monotonic() - t0:.0f} s)")
+    except Exception as e:  # never break make setup
+        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
+        print(
+            f"setup: compiled collision tests not built, the costmap uses numpy: {why}",
             file=sys.stderr,
         )
-        return 0
-    if target is not None:
-        print(f"setup: compiled sim/physics.py with mypyc ({time.monotonic() - t0:.0f} s)")
     return 0
 
 

@@ -46,6 +46,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
+from jackson.host.nav import native
 from jackson.host.nav.grid import OccupancyGrid
 
 FREE_SPACE = 0
@@ -267,6 +268,7 @@ class Costmap:
         self.origin_y_m = float(origin_y_m)
         self._rolling = rolling
         self._collision_checks = collision_checks
+        self._native: native.Obstacles | None = None  # the compiled tests, when built
         self._static_map = static_map
         self._unknown = NO_INFORMATION if config.track_unknown_space else FREE_SPACE
         self._obstacle = np.full((rows, cols), self._unknown, np.uint8)
@@ -697,6 +699,16 @@ class Costmap:
         dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
         disc = np.hypot(dr, dc) * res <= self._near_m
         self._neighbour_offsets = (dr[disc] * (cols + 2 * k) + dc[disc]).astype(np.intp)
+        self._native = (
+            native.Obstacles(
+                ids, ids.shape, k, self._neighbour_offsets, pts, radius,
+                (self.origin_x_m, self.origin_y_m, res),
+                (cfg.robot_radius_m, cfg.circumscribed_radius_m, *cfg.footprint_x_m,
+                 *cfg.footprint_y_m),
+            )
+            if native.LIB is not None
+            else None
+        )  # fmt: skip
 
     @property
     def max_margin_m(self) -> float:
@@ -822,13 +834,16 @@ class Costmap:
             raise ValueError(f"margin_m: one value or one per trajectory, got {margins.shape}")
         if not np.all((margins >= 0.0) & (margins <= self.max_margin_m + 1e-12)):
             raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m, got {margin_m}")
-        idx = self._padded_index(x_m, y_m)
-        cls = np.take(self._class_padded, idx)
-        m = cls.shape[0]
+        m = x_m.shape[0]
+        start_cls = (
+            int(self._class_padded[self._padded_index(x_m.flat[0], y_m.flat[0])])
+            if x_m.size
+            else _CLEAR
+        )
         # escape: per distinct margin, the start pose's overlaps and clearance
         allowed: IntArray = np.zeros(m, np.int_)
         floor_m: FloatArray = np.full(m, -math.inf)
-        if escape and m and _NEAR <= cls.flat[0] <= _DEEP:
+        if escape and m and _NEAR <= start_cls <= _DEEP:
             values, which = np.unique(np.broadcast_to(margins, (m,)), return_inverse=True)
             count0, clear0 = self._footprint_hits(
                 np.repeat(x_m.flat[0], len(values)), np.repeat(y_m.flat[0], len(values)),
@@ -836,6 +851,12 @@ class Costmap:
             )  # fmt: skip
             allowed = count0[which]
             floor_m = np.where(allowed > 0, clear0[which] - 1e-9, -math.inf)
+        if self._native is not None:
+            return self._native.trajectories_collide(
+                x_m, y_m, yaw_rad, np.broadcast_to(margins, (m,)), allowed, floor_m,
+                self._class_padded, self.shape,
+            )  # fmt: skip
+        cls = np.take(self._class_padded, self._padded_index(x_m, y_m))
         escaping = allowed > 0
         any_escaping = bool(np.any(escaping))
         if not any_escaping:
@@ -897,6 +918,8 @@ class Costmap:
         tuple of ndarray
             (overlap count (P,), clearance [m] (P,)).
         """
+        if self._native is not None:
+            return self._native.footprint_hits(x, y, yaw, with_clearance, margin_m)
         clearance = np.full(x.shape, math.inf)
         n = x.size
         if n == 0:

@@ -14,6 +14,7 @@ from jackson.calibration.stage3 import (
     mapping_spec,
     run_nav_trial,
 )
+from jackson.host.nav import native
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.replay import replay
 
@@ -38,7 +39,7 @@ def test_the_host_maps_the_maze_while_it_drives(mapped: tuple[Path, dict[str, An
 
 
 def test_the_host_navigates_around_the_dropped_cylinder_and_replays_bit_for_bit(
-    mapped: tuple[Path, dict[str, Any]], tmp_path: Path
+    mapped: tuple[Path, dict[str, Any]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     map_dir, m = mapped
     assert m["completed"]
@@ -60,3 +61,8 @@ def test_the_host_navigates_around_the_dropped_cylinder_and_replays_bit_for_bit(
     result = replay(run, tmp_path / "replay")  # the scans come back from the logged bytes
     assert result.complete and not result.differ, result.differ
     assert result.frames > 100
+    # the costmap's collision tests in numpy instead of compiled: the same run, bit for bit
+    if native.LIB is not None:
+        monkeypatch.setattr(native, "LIB", None)
+        again = replay(run, tmp_path / "replay-numpy")
+        assert again.complete and not again.differ, again.differ

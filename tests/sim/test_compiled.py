@@ -179,11 +179,13 @@ def test_a_build_that_cannot_be_made_is_one_line_and_setup_goes_on(tmp_path: Pat
         [sys.executable, str(ROOT / "tools" / "build_compiled.py"), "--force"],
         capture_output=True,
         text=True,
-        env={**os.environ, "CC": str(tmp_path / "no-such-cc")},
+        env={**os.environ, "CC": str(tmp_path / "no-such-cc"), "CXX": str(tmp_path / "no-c++")},
     )
     assert out.returncode == 0
     assert out.stdout == ""
     assert out.stderr == (
         "setup: compiled physics not built, the twin runs interpreted: "
         f"no C compiler ({tmp_path / 'no-such-cc'} not found)\n"
+        "setup: compiled collision tests not built, the costmap uses numpy: "
+        f"no C++ compiler ({tmp_path / 'no-c++'} not found)\n"
     )

@@ -1,0 +1,215 @@
+"""The costmap's collision tests compiled (``host/nav/native/collide.cpp``), used when current.
+
+The exact footprint test of :class:`jackson.host.nav.costmap.Costmap` loops over poses and the
+obstacle discs near each; numpy runs it as passes over whole arrays, which is where a
+navigating daemon spent half its time. ``make setup`` compiles the C++ loops with the system's
+C++ compiler (``tools/build_compiled.py``, ``-ffp-contract=off``) into
+``build/compiled-nav/<digest>/libjackson_nav.so``, named by the digest of the source, and this
+module loads them with :mod:`ctypes` (no Python headers needed) only while the source still
+has that digest. The arithmetic is the numpy code's, operation for operation, with the C
+library's ``hypot``, ``cos`` and ``sin`` (numpy's, where numpy does not use its own SIMD
+versions): the answers are the same bit for bit (``tests/host/
+test_nav_native.py``), only the speed differs. Without a build, or with
+``JACKSON_NAV_INTERPRETED=1``, the costmap uses its numpy code.
+
+``python -m jackson.host.nav.native`` prints which one is in use.
+
+Attributes
+----------
+LIB : ctypes.CDLL or None
+    The loaded library (None: numpy).
+REASON : str
+    Why, one line.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+ENV_INTERPRETED = "JACKSON_NAV_INTERPRETED"
+LIBRARY = "libjackson_nav.so"
+DIGEST_HEX = 16
+
+_F64 = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
+_I64 = np.ctypeslib.ndpointer(np.int64, flags="C_CONTIGUOUS")
+_I32 = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
+_U8 = np.ctypeslib.ndpointer(np.uint8, flags="C_CONTIGUOUS")
+_N = ctypes.c_int64
+
+
+def source_path() -> Path:
+    """``host/nav/native/collide.cpp`` of this checkout (links of an editable install resolved)."""
+    return Path(__file__).resolve().parent / "native" / "collide.cpp"
+
+
+def source_digest(source: bytes) -> str:
+    """A build's name: the first :data:`DIGEST_HEX` hex digits of the source's SHA-256."""
+    return hashlib.sha256(source).hexdigest()[:DIGEST_HEX]
+
+
+def builds_dir(source: Path) -> Path:
+    """``build/compiled-nav`` of the checkout that holds ``source``."""
+    return source.parents[3] / "build" / "compiled-nav"
+
+
+def build_path(builds: Path, digest: str) -> Path:
+    """``<builds>/<digest>/libjackson_nav.so``."""
+    return builds / digest / LIBRARY
+
+
+def load_library(path: Path) -> ctypes.CDLL:
+    """Load a build and declare its functions' arguments.
+
+    Raises
+    ------
+    OSError
+        It does not load or lacks a function.
+    """
+    lib = ctypes.CDLL(str(path))
+    try:
+        hits = lib.jackson_footprint_hits
+        traj = lib.jackson_trajectories_collide
+    except AttributeError as e:
+        raise OSError(f"{path}: {e}") from e
+    hits.restype = None
+    hits.argtypes = [
+        _N, _F64, _F64, _F64, _F64, _N, ctypes.c_int32,
+        _I32, _N, _N, _N, _I64, _N, _F64, _F64, _F64, _F64, _I64, _F64,
+    ]  # fmt: skip
+    traj.restype = None
+    traj.argtypes = [
+        _N, _N, _F64, _F64, _F64, _F64, _I64, _F64, _U8, _N, _N,
+        _I32, _N, _N, _N, _I64, _N, _F64, _F64, _F64, _F64, _U8,
+    ]  # fmt: skip
+    return lib
+
+
+def _select() -> tuple[ctypes.CDLL | None, str]:
+    if os.environ.get(ENV_INTERPRETED, "") not in ("", "0"):
+        return None, f"numpy ({ENV_INTERPRETED} is set)"
+    source = source_path()
+    try:
+        digest = source_digest(source.read_bytes())
+    except OSError as e:
+        return None, f"numpy (cannot read the source: {e})"
+    path = build_path(builds_dir(source), digest)
+    if not path.is_file():
+        return None, f"numpy (no build of collide.cpp {digest}; make setup)"
+    try:
+        return load_library(path), f"compiled ({path})"
+    except OSError as e:
+        return None, f"numpy (the build does not load: {e})"
+
+
+LIB, REASON = _select()
+
+
+class Obstacles:
+    """The obstacle index of one costmap version, as the compiled tests read it.
+
+    Parameters
+    ----------
+    ids_padded : ndarray of int32
+        Obstacle id per cell of the grid padded by ``k`` cells (-1: none), flat.
+    padded_shape : tuple of int
+        Its (rows, cols).
+    k : int
+        The padding.
+    offsets : ndarray of int
+        Flat offsets of the cells within reach of a pose's cell.
+    xy, radius : ndarray
+        Disc centres (n, 2) [m] and radii (n,) [m].
+    grid : tuple of float
+        (origin x [m], origin y [m], resolution [m]).
+    robot : tuple of float
+        (robot radius, circumscribed radius, footprint x0, x1, y0, y1) [m].
+    """
+
+    def __init__(
+        self,
+        ids_padded: npt.NDArray[np.int32],
+        padded_shape: tuple[int, int],
+        k: int,
+        offsets: npt.NDArray[np.intp],
+        xy: npt.NDArray[np.float64],
+        radius: npt.NDArray[np.float64],
+        grid: tuple[float, float, float],
+        robot: tuple[float, float, float, float, float, float],
+    ) -> None:
+        self.ids = np.ascontiguousarray(ids_padded, np.int32)
+        self.rows, self.cols = padded_shape
+        self.k = k
+        self.offsets = np.ascontiguousarray(offsets, np.int64)
+        self.xy = np.ascontiguousarray(xy, np.float64).reshape(-1, 2)
+        self.radius = np.ascontiguousarray(radius, np.float64)
+        self.grid = np.array(grid, np.float64)
+        self.robot = np.array(robot, np.float64)
+
+    def footprint_hits(
+        self,
+        x: npt.NDArray[np.float64],
+        y: npt.NDArray[np.float64],
+        yaw: npt.NDArray[np.float64],
+        with_clearance: bool,
+        margin_m: float | npt.NDArray[np.float64],
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+        """:meth:`Costmap._footprint_hits`, compiled (:data:`LIB` must be loaded)."""
+        assert LIB is not None
+        x = np.ascontiguousarray(x, np.float64).ravel()
+        y = np.ascontiguousarray(y, np.float64).ravel()
+        yaw = np.ascontiguousarray(yaw, np.float64).ravel()
+        n = x.size
+        margin = np.ascontiguousarray(margin_m, np.float64).ravel()
+        step = 0 if margin.size == 1 else 1
+        if margin.size == 0:
+            margin, step = np.zeros(1), 0
+        counts = np.empty(n, np.int64)
+        clearance = np.empty(n, np.float64)
+        LIB.jackson_footprint_hits(
+            n, x, y, yaw, margin, step, int(with_clearance),
+            self.ids, self.rows, self.cols, self.k, self.offsets, len(self.offsets),
+            self.xy, self.radius, self.grid, self.robot, counts, clearance,
+        )  # fmt: skip
+        return counts, clearance
+
+    def trajectories_collide(
+        self,
+        x: npt.NDArray[np.float64],
+        y: npt.NDArray[np.float64],
+        yaw: npt.NDArray[np.float64],
+        margin_m: npt.NDArray[np.float64],
+        allowed: npt.NDArray[np.int_],
+        floor_m: npt.NDArray[np.float64],
+        classes_padded: npt.NDArray[np.uint8],
+        grid_shape: tuple[int, int],
+    ) -> npt.NDArray[np.bool_]:
+        """The per-trajectory loop of :meth:`Costmap.trajectories_collide`, compiled."""
+        assert LIB is not None
+        m, length = x.shape
+        x = np.ascontiguousarray(x, np.float64)
+        y = np.ascontiguousarray(y, np.float64)
+        yaw = np.ascontiguousarray(yaw, np.float64)
+        hit = np.zeros(m, np.uint8)
+        LIB.jackson_trajectories_collide(
+            m, length, x, y, yaw, np.ascontiguousarray(margin_m, np.float64),
+            np.ascontiguousarray(allowed, np.int64), np.ascontiguousarray(floor_m, np.float64),
+            np.ascontiguousarray(classes_padded),
+            grid_shape[0], grid_shape[1], self.ids, self.rows, self.cols, self.k, self.offsets,
+            len(self.offsets), self.xy, self.radius, self.grid, self.robot, hit,
+        )  # fmt: skip
+        return hit.astype(bool)
+
+
+def main() -> None:
+    """``python -m jackson.host.nav.native``: print which collision tests the costmap runs."""
+    print(f"jackson.host.nav collision tests: {REASON}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,98 @@
+"""The costmap's compiled collision tests (host/nav/native/collide.cpp) against its numpy code:
+the same answers bit for bit, on random scenes, margins, escapes and off-grid poses (a navigation
+replayed with numpy's: tests/sil/test_maze.py)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from jackson.host.nav import native
+from jackson.host.nav.costmap import LETHAL_OBSTACLE, Costmap, CostmapConfig
+from jackson.host.nav.grid import OccupancyGrid
+
+pytestmark = pytest.mark.skipif(native.LIB is None, reason=f"no compiled build: {native.REASON}")
+
+
+def _scene(rng: np.random.Generator) -> Costmap:
+    """A rolling window with a static wall, scan returns in clumps and a random centre."""
+    static = OccupancyGrid.empty(6.0, 6.0, 0.05, -3.0, -3.0, fill=0)
+    static.data[rng.integers(0, 120), :] = 100
+    cx, cy = rng.uniform(-1.0, 1.0, 2)
+    cm = Costmap.rolling_window(CostmapConfig(), cx, cy, static_map=static)
+    clumps = rng.uniform(-1.2, 1.2, (6, 2)) + np.array([cx, cy])
+    pts = np.concatenate([c + rng.normal(0.0, 0.03, (20, 2)) for c in clumps])
+    cm.update(pts, (cx, cy))
+    return cm
+
+
+def _both(cm: Costmap, method: str, *args: object, **kw: object) -> tuple[object, object]:
+    got = getattr(cm, method)(*args, **kw)
+    saved, cm._native = cm._native, None
+    try:
+        want = getattr(cm, method)(*args, **kw)
+    finally:
+        cm._native = saved
+    return got, want
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_footprint_hits_and_clearances_are_numpys_bit_for_bit(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    cm = _scene(rng)
+    n = 4000
+    x = rng.uniform(cm.origin_x_m - 0.3, cm.origin_x_m + 3.3, n)  # off the grid too
+    y = rng.uniform(cm.origin_y_m - 0.3, cm.origin_y_m + 3.3, n)
+    yaw = rng.uniform(-math.pi, math.pi, n)
+    margin = rng.uniform(0.0, cm.max_margin_m, n)
+    for m in (0.0, margin):
+        (count, clear), (count0, clear0) = _both(cm, "_footprint_hits", x, y, yaw, True, m)
+        assert np.array_equal(count, count0)
+        assert clear.tobytes() == clear0.tobytes()
+    assert np.count_nonzero(count) > 50  # the scene has obstacles the poses meet
+    got, want = _both(cm, "footprint_collides", x, y, yaw)
+    assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_trajectories_collide_as_numpy_does_with_and_without_escape(seed: int) -> None:
+    rng = np.random.default_rng(100 + seed)
+    cm = _scene(rng)
+    m, k = 300, 40
+    # arcs from one start pose off the obstacles' cells, often within the robot's reach of
+    # one (the escape rule), sometimes anywhere
+    obstacles = cm._obstacle_xy
+    while True:
+        start = obstacles[rng.integers(len(obstacles))] + rng.normal(0.0, 0.15, 2)
+        if seed % 3 == 0:
+            start = rng.uniform(0.5, 2.5, 2) + np.array([cm.origin_x_m, cm.origin_y_m])
+        near = cm._class_padded[cm._padded_index(*start)] == 1  # within reach: tested exactly
+        if cm.cost_at(*start) < LETHAL_OBSTACLE and (near or seed % 3 == 0):
+            break
+    v = rng.uniform(-0.3, 0.3, m)[:, None]
+    w = rng.uniform(-2.0, 2.0, m)[:, None]
+    t = np.linspace(0.0, 1.7, k)[None, :]
+    yaw0 = rng.uniform(-math.pi, math.pi)
+    yaw = yaw0 + w * t
+    safe_w = np.where(np.abs(w) < 1e-9, 1e-9, w)
+    x = start[0] + v / safe_w * (np.sin(yaw) - math.sin(yaw0))
+    y = start[1] - v / safe_w * (np.cos(yaw) - math.cos(yaw0))
+    margins = rng.uniform(0.0, cm.max_margin_m, m)
+    mixed = False  # some trajectories collide and some do not: the test tells them apart
+    for margin in (0.0, margins):
+        for escape in (True, False):
+            got, want = _both(cm, "trajectories_collide", x, y, yaw, escape, margin)
+            assert np.array_equal(got, want), (margin, escape)
+            mixed = mixed or 0 < np.count_nonzero(got) < m
+    assert mixed or seed % 3 == 0  # a start anywhere may be far from every obstacle
+
+
+def test_the_library_reports_itself() -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "jackson.host.nav.native"], capture_output=True, text=True
+    )
+    assert out.returncode == 0 and "compiled (" in out.stdout
