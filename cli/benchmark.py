@@ -27,6 +27,7 @@ SUITES: dict[str, str] = {
     "lockstep": "jackson.lockstep_bench",
     "host": "jackson.host_bench",
     "daemon": "jackson.daemon_bench",
+    "sil": "jackson.sil_bench",
     "campaign": "jackson.calibration.bench",
     "stage3": "jackson.calibration.bench_stage3",
     "ros": "jackson.ros_bench",

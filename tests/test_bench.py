@@ -183,3 +183,18 @@ def test_pymunk_rays_see_the_room_as_the_lidar_model_does() -> None:
         hit = space.segment_query_first((0.1, -0.2), end, 0.0, every)
         assert hit is not None
         assert hit.alpha * 12.0 == pytest.approx(r, abs=1e-6)
+
+
+def test_sil_figures_judge_the_run_against_the_robots_clock_and_the_command_against_its_runs() -> (
+    None
+):
+    from jackson.sil_bench import figures
+
+    runs = [{"sim_s": 30.0, "wall_s": 2.0}, {"sim_s": 10.0, "wall_s": 0.5}]
+    rtf, over = figures("maze", 5.0, runs, 30.0, 200.0, judged="nav")
+    assert rtf.name == "sil.maze_nav_real_time_factor"
+    assert rtf.value == 20.0 and not rtf.met  # the navigation run's own: 10 s in 0.5 s
+    assert over.name == "sil.maze_command_over_run"
+    assert over.value == 2.0 and not over.met  # 5 s for 2.5 s of runs
+    fast = figures("square", 0.5, [{"sim_s": 50.0, "wall_s": 0.4}], 100.0, 200.0)
+    assert [f.met for f in fast] == [True, True]
