@@ -746,3 +746,34 @@ def test_jackson_sim_without_lidar_prints_no_lidar_line() -> None:
         assert lines[2].startswith("twin: "), lines
     finally:
         assert _stop(proc) == 0
+
+
+@pytest.mark.parametrize(
+    "answer_type",
+    [DataType.MEASUREMENT_CAPSULED, DataType.MEASUREMENT_ULTRA_CAPSULED,
+     DataType.MEASUREMENT_DENSE_CAPSULED],
+)  # fmt: skip
+def test_capsules_decoded_together_are_the_capsules_decoded_one_by_one(answer_type: int) -> None:
+    """A chunk of many capsules is decoded in one pass of arrays: the same samples, bit for
+    bit, as capsule by capsule (random distances, corrections, a start bit and a wrap past
+    360 deg within the stream)."""
+    rng = np.random.default_rng(answer_type)
+    capsules = []
+    for i in range(60):
+        angle_q6 = (i * 1400 + 20000) % (360 << 6)
+        start = i == 0 or i == 31
+        if answer_type == DataType.MEASUREMENT_CAPSULED:
+            capsules.append(
+                encode_capsule(angle_q6, start, rng.integers(0, 16000, 32), rng.integers(0, 64, 32))
+            )
+        elif answer_type == DataType.MEASUREMENT_ULTRA_CAPSULED:
+            capsules.append(encode_ultra_capsule(angle_q6, start, rng.integers(0, 12000, 97)))
+        else:
+            capsules.append(encode_dense_capsule(angle_q6, start, rng.integers(0, 12000, 40)))
+    together = CapsuleDecoder(answer_type).feed(b"".join(capsules))
+    one = CapsuleDecoder(answer_type)
+    parts = [one.feed(c) for c in capsules]
+    assert len(together.angle_q6) == 58 * len(parts[1].angle_q6)  # two starts drop a capsule
+    for field in ("start", "angle_q6", "distance_q2"):
+        joined = np.concatenate([getattr(p, field) for p in parts])
+        assert np.array_equal(getattr(together, field), joined), field
