@@ -537,8 +537,12 @@ class Costmap:
             return
         # in cell units: sample k of a ray lies at (f0 + k u) cells from the grid's origin
         inv = 1.0 / res
-        k = np.arange(n, dtype=np.float64)
         unit = d[use] * (step * inv / length[use, None])
+        if native.LIB is not None:
+            base = ((sensor_xy[0] - self.origin_x_m) * inv, (sensor_xy[1] - self.origin_y_m) * inv)
+            native.clear_rays(unit, stop, base, step, self._obstacle, FREE_SPACE)
+            return
+        k = np.arange(n, dtype=np.float64)
         keep = (k[None, :] * step <= stop[:, None]).ravel()
         fx = ((sensor_xy[0] - self.origin_x_m) * inv + unit[:, 0:1] * k[None, :]).ravel()[keep]
         fy = ((sensor_xy[1] - self.origin_y_m) * inv + unit[:, 1:2] * k[None, :]).ravel()[keep]

@@ -75,6 +75,7 @@ def load_library(path: Path) -> ctypes.CDLL:
     try:
         hits = lib.jackson_footprint_hits
         traj = lib.jackson_trajectories_collide
+        lib.jackson_clear_rays  # noqa: B018  (present)
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -87,7 +88,32 @@ def load_library(path: Path) -> ctypes.CDLL:
         _N, _N, _F64, _F64, _F64, _F64, _I64, _F64, _U8, _N, _N,
         _I32, _N, _N, _N, _I64, _N, _F64, _F64, _F64, _F64, _U8,
     ]  # fmt: skip
+    rays = lib.jackson_clear_rays
+    rays.restype = None
+    rays.argtypes = [
+        _N, _F64, _F64, _F64, ctypes.c_double, ctypes.c_double, ctypes.c_double, _N, _N, _U8,
+        ctypes.c_uint8,
+    ]  # fmt: skip
     return lib
+
+
+def clear_rays(
+    unit: npt.NDArray[np.float64],
+    stop: npt.NDArray[np.float64],
+    base: tuple[float, float],
+    step: float,
+    obstacle: npt.NDArray[np.uint8],
+    free: int,
+) -> None:
+    """:meth:`Costmap._clear_rays`' sampling, compiled: ray i's samples k (k ``step`` up to
+    ``stop[i]``) at ``base + k unit[i]`` cells set to ``free`` in ``obstacle`` (rows, cols)."""
+    assert LIB is not None and obstacle.flags.c_contiguous
+    rows, cols = obstacle.shape
+    LIB.jackson_clear_rays(
+        len(stop), np.ascontiguousarray(unit[:, 0]), np.ascontiguousarray(unit[:, 1]),
+        np.ascontiguousarray(stop, np.float64), base[0], base[1], step, rows, cols,
+        obstacle.reshape(-1), free,
+    )  # fmt: skip
 
 
 def _select() -> tuple[ctypes.CDLL | None, str]:

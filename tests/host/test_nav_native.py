@@ -96,3 +96,25 @@ def test_the_library_reports_itself() -> None:
         [sys.executable, "-m", "jackson.host.nav.native"], capture_output=True, text=True
     )
     assert out.returncode == 0 and "compiled (" in out.stdout
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_rays_clear_the_cells_numpy_clears(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Scans from a moving sensor (returns near and far, some beyond the window, some closer
+    than the minimum range): the same obstacle layer and costs compiled and with numpy."""
+    maps = []
+    for lib in (native.LIB, None):
+        monkeypatch.setattr(native, "LIB", lib)
+        cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+        scan_rng = np.random.default_rng(seed)
+        for i in range(8):
+            sensor = (0.1 * i, -0.05 * i)
+            cm.recentre(*sensor)
+            a = np.linspace(-math.pi, math.pi, 1060, endpoint=False)
+            r = scan_rng.uniform(0.05, 4.0, a.size)
+            cm.update(
+                np.column_stack((sensor[0] + r * np.cos(a), sensor[1] + r * np.sin(a))), sensor
+            )
+        maps.append((cm.obstacle_layer.copy(), cm.costs.copy()))
+    assert np.array_equal(maps[0][0], maps[1][0])
+    assert np.array_equal(maps[0][1], maps[1][1])

@@ -1,6 +1,6 @@
-// The costmap's collision tests, compiled: the loops of Costmap._footprint_hits and
-// Costmap.trajectories_collide (host/nav/costmap.py) over poses and the obstacle discs near
-// them, which numpy can only run as whole-array passes over every pose.
+// The costmap's loops, compiled: Costmap._footprint_hits and Costmap.trajectories_collide
+// (host/nav/costmap.py) over poses and the obstacle discs near them, and Costmap._clear_rays
+// along a scan's rays, which numpy can only run as whole-array passes over every sample.
 //
 // Same arithmetic as the numpy code, operation for operation (built with -ffp-contract=off, the
 // same C library's hypot, cos and sin): the answers are the same bit for bit, only faster. Loaded
@@ -147,6 +147,26 @@ void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double
       if (count > allowed[t] || (count > 0 && clearance < floor_m[t])) out = 1;
     }
     hit[t] = out;
+  }
+}
+
+// Costmap._clear_rays after its set-up: ray i's samples k = 0, 1, ... while k step <= stop[i]
+// lie at (base + k u_i) cells from the grid's origin; each one on the grid is cleared.
+void jackson_clear_rays(std::int64_t n_rays, const double* ux, const double* uy,
+                        const double* stop, double base_x, double base_y, double step,
+                        std::int64_t rows, std::int64_t cols, std::uint8_t* obstacle,
+                        std::uint8_t free_value) {
+  const double top_r = static_cast<double>(rows);
+  const double top_c = static_cast<double>(cols);
+  for (std::int64_t i = 0; i < n_rays; ++i) {
+    for (std::int64_t k = 0;; ++k) {
+      const double kd = static_cast<double>(k);
+      if (!(kd * step <= stop[i])) break;
+      const double c = std::floor(base_x + ux[i] * kd);
+      const double r = std::floor(base_y + uy[i] * kd);
+      if (r >= 0.0 && r < top_r && c >= 0.0 && c < top_c)
+        obstacle[static_cast<std::int64_t>(r * top_c + c)] = free_value;
+    }
   }
 }
 
