@@ -1532,6 +1532,8 @@ class CapsuleDecoder:
             :, None
         ]
         wrapped = (raw_q16 + inc_q16[:, None]) % ANGLE_Q16_TURN
+        dist_q2: I64Array
+        angle_q6: I64Array
         body = wide[:, CAPSULE_HEADER_BYTES:]
         if fmt is CAPSULED:
             cab = body.reshape(c, -1, 5)

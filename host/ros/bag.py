@@ -88,6 +88,7 @@ from rosbags.typesys.stores import ros2_jazzy as jazzy
 from zstandard import ZstdError
 
 from jackson.host.odometry import OdometryCovariance
+from jackson.host.ros import cdr
 from jackson.host.ros.messages import (
     NS_PER_S,
     TOPIC_TYPES,
@@ -612,9 +613,9 @@ class BagRecorder:
         st = self._state
         ns = max(ns, st.last_ns.get(topic, 0))
         st.last_ns[topic] = ns
-        data = self._store.serialize_cdr(msg, msg.__msgtype__)
+        data = cdr.serialize(self._store, msg)  # the frame's own types packed directly
         try:
-            self._writer.add_message(self._channels[topic], ns, bytes(data), ns)
+            self._writer.add_message(self._channels[topic], ns, data, ns)
         except OSError as exc:
             raise BagError(f"{self.files[-1]}: cannot write {topic}: {exc}") from exc
         self._counts[topic] = self._counts.get(topic, 0) + 1
