@@ -37,38 +37,75 @@ struct Robot {
 inline double clip(double v, double lo, double hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
 // Overlapping discs and the centre's clearance at one pose (clearance only when wanted).
-inline std::int64_t hits_at(const Obstacles& o, const Grid& g, const Robot& rb, double x,
-                            double y, double c, double s, double margin, bool with_clearance,
-                            double* clearance) {
+// The obstacles within reach of each padded cell, gathered from the neighbour offsets the
+// first time a pose lands in the cell, in offset order (the order of the numpy code's sums).
+class Candidates {
+ public:
+  explicit Candidates(const Obstacles& o)
+      : o_(o), first_(static_cast<std::size_t>(o.ids_size), -1),
+        count_(static_cast<std::size_t>(o.ids_size), 0) {}
+
+  const std::int32_t* at(std::int64_t cell, std::int32_t* n) {
+    if (first_[cell] < 0) {
+      first_[cell] = static_cast<std::int32_t>(pool_.size());
+      for (std::int64_t j = 0; j < o_.n_offsets; ++j) {
+        std::int64_t cand = cell + o_.offsets[j];
+        cand = cand < 0 ? 0 : (cand > o_.ids_size - 1 ? o_.ids_size - 1 : cand);
+        if (o_.ids[cand] >= 0) pool_.push_back(o_.ids[cand]);
+      }
+      count_[cell] = static_cast<std::int32_t>(pool_.size()) - first_[cell];
+    }
+    *n = count_[cell];
+    return pool_.data() + first_[cell];
+  }
+
+ private:
+  const Obstacles& o_;
+  std::vector<std::int32_t> first_, count_, pool_;
+};
+
+// Overlapping discs and the centre's clearance at one pose (clearance only when wanted). With
+// ``first_only`` it stops at the first overlap (count 1): enough where none is allowed.
+inline std::int64_t hits_at(const Obstacles& o, Candidates& near, const Grid& g,
+                            const Robot& rb, double x, double y, double yaw, double margin,
+                            bool with_clearance, bool first_only, double* clearance) {
   const double kd = static_cast<double>(o.k);
   const auto col = static_cast<std::int64_t>(
       clip((x - g.origin_x) / g.res + kd, 0.0, static_cast<double>(o.padded_cols - 1)));
   const auto row = static_cast<std::int64_t>(
       clip((y - g.origin_y) / g.res + kd, 0.0, static_cast<double>(o.padded_rows - 1)));
-  const std::int64_t cell = row * o.padded_cols + col;
+  std::int32_t n = 0;
+  const std::int32_t* ids = near.at(row * o.padded_cols + col, &n);
   std::int64_t count = 0;
   double clear = std::numeric_limits<double>::infinity();
-  for (std::int64_t j = 0; j < o.n_offsets; ++j) {
-    std::int64_t cand = cell + o.offsets[j];
-    cand = cand < 0 ? 0 : (cand > o.ids_size - 1 ? o.ids_size - 1 : cand);
-    const std::int32_t id = o.ids[cand];
-    if (id < 0) continue;
+  bool turned = false;  // cos and sin of the heading, once a disc needs the rectangle
+  double c = 0.0, s = 0.0;
+  for (std::int32_t j = 0; j < n; ++j) {
+    const std::int32_t id = ids[j];
     const double dx = o.xy[2 * id] - x;
     const double dy = o.xy[2 * id + 1] - y;
     const double h = o.r[id];
     const double gap = std::hypot(dx, dy) - h;
     if (with_clearance && gap < clear) clear = gap;
-    if (gap < rb.radius + margin) {
-      ++count;
-      continue;
-    }
+    bool hit = gap < rb.radius + margin;
     const double grown = h + margin;
-    const double reach = rb.circumscribed + M_SQRT2 * grown - h;
-    if (!(gap < reach)) continue;
-    const double lx = c * dx + s * dy;
-    const double ly = c * dy - s * dx;
-    if (lx >= rb.x0 - grown && lx <= rb.x1 + grown && ly >= rb.y0 - grown && ly <= rb.y1 + grown)
+    if (!hit) {
+      const double reach = rb.circumscribed + M_SQRT2 * grown - h;
+      if (!(gap < reach)) continue;
+      if (!turned) {
+        c = std::cos(yaw);
+        s = std::sin(yaw);
+        turned = true;
+      }
+      const double lx = c * dx + s * dy;
+      const double ly = c * dy - s * dx;
+      hit = lx >= rb.x0 - grown && lx <= rb.x1 + grown && ly >= rb.y0 - grown &&
+            ly <= rb.y1 + grown;
+    }
+    if (hit) {
       ++count;
+      if (first_only) break;
+    }
   }
   *clearance = clear;
   return count;
@@ -91,9 +128,10 @@ void jackson_footprint_hits(std::int64_t n, const double* x, const double* y, co
                     offsets, n_offsets,                 obstacle_xy, obstacle_r};
   const Grid g{grid[0], grid[1], grid[2], 0, 0};
   const Robot rb{robot[0], robot[1], robot[2], robot[3], robot[4], robot[5]};
+  Candidates near(o);
   for (std::int64_t i = 0; i < n; ++i) {
-    counts[i] = hits_at(o, g, rb, x[i], y[i], std::cos(yaw[i]), std::sin(yaw[i]), margin[i * margin_step],
-                        with_clearance != 0, &clearance[i]);
+    counts[i] = hits_at(o, near, g, rb, x[i], y[i], yaw[i], margin[i * margin_step],
+                        with_clearance != 0, false, &clearance[i]);
   }
 }
 
@@ -118,6 +156,7 @@ void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double
   const double top_col = static_cast<double>(grid_cols) + 1.0;
   const double top_row = static_cast<double>(grid_rows) + 1.0;
   std::vector<std::uint8_t> cls(static_cast<std::size_t>(len));
+  Candidates near(o);
   for (std::int64_t t = 0; t < m; ++t) {
     const bool escaping = allowed[t] > 0;
     const std::uint8_t lethal = escaping ? kBlocked : kDeep;
@@ -142,8 +181,8 @@ void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double
       const std::int64_t p = t * len + j;
       // the C library's cosine and sine, which numpy's are (checked by the tests)
       double clearance = 0.0;
-      const std::int64_t count = hits_at(o, g, rb, x[p], y[p], std::cos(yaw[p]),
-                                         std::sin(yaw[p]), margin[t], escaping, &clearance);
+      const std::int64_t count = hits_at(o, near, g, rb, x[p], y[p], yaw[p], margin[t], escaping,
+                                         !escaping, &clearance);
       if (count > allowed[t] || (count > 0 && clearance < floor_m[t])) out = 1;
     }
     hit[t] = out;
