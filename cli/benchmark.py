@@ -28,6 +28,7 @@ SUITES: dict[str, str] = {
     "host": "jackson.host_bench",
     "daemon": "jackson.daemon_bench",
     "sil": "jackson.sil_bench",
+    "soak": "jackson.soak_bench",
     "campaign": "jackson.calibration.bench",
     "stage3": "jackson.calibration.bench_stage3",
     "ros": "jackson.ros_bench",

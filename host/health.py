@@ -77,6 +77,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.window import SummedWindow
 from jackson.host.odometry import RobotGeometry
 
 POLICIES = ("continue", "stop")
@@ -740,8 +741,15 @@ class HealthMonitor:
         self._raw_since_s = 0.0
         self._moved_s = [0.0, 0.0]
         self._still_since_s: float | None = None
-        self._window: deque[tuple[float, float, float, float, float, float, float]] = deque()
-        self._window_creep: deque[tuple[float, float]] = deque()  # (t, kappa_a v alpha)
+        # (t, res, var, om_l, om_r, wz, v); the windowed test's sums kept exactly as samples
+        # come and go (the same sums as math.fsum's, without re-summing the window each frame):
+        # res, |wz|, |v|, var, wz, v
+        self._window: SummedWindow[tuple[float, float, float, float, float, float, float]] = (
+            SummedWindow(((1, False), (5, True), (6, True), (2, False), (5, False), (6, False)))
+        )
+        self._window_creep: SummedWindow[tuple[float, float]] = SummedWindow(
+            ((1, False),)
+        )  # (t, kappa_a v alpha)
         self._still: deque[tuple[float, float]] = deque()
         self._link: deque[tuple[float, int]] = deque()
         self._link_missing = 0  # the sum of the window's lost counts
@@ -1351,20 +1359,21 @@ class HealthMonitor:
             self.nis["window"] = 0.0
             self._window_mean = 0.0 if n < 5 else self._window_mean
             return set()
-        mean = math.fsum(w[1] for w in self._window) / n
+        window = self._window
+        mean = window.sum(0) / n
         # the random part averages down; the scale disagreement (scrub) does not
-        rate = math.fsum(abs(w[5]) for w in self._window) / n
-        speed = math.fsum(abs(w[6]) for w in self._window) / n
-        var_mean = math.fsum(w[2] for w in self._window) / (n * n)
+        rate = window.sum(1) / n
+        speed = window.sum(2) / n
+        var_mean = window.sum(3) / (n * n)
         var_mean += (self._kappa() * rate) ** 2 + (cfg.straight_tolerance_rad_m * speed) ** 2
         # the creep of a turn-in has one sign all along: it does not average down either
-        creep = math.fsum(c for _, c in self._window_creep) / max(len(self._window_creep), 1)
+        creep = self._window_creep.sum(0) / max(len(self._window_creep), 1)
         var_mean += creep * creep
         # the learned model's own error does not average down either: P_s mean(w_g)^2 +
         # P_c mean(v)^2 of the terms identified
         var_mean += self.model.variance(
-            math.fsum(w[5] for w in self._window) / n,
-            math.fsum(w[6] for w in self._window) / n,
+            window.sum(4) / n,
+            window.sum(5) / n,
             prior=False,
         )
         z2 = mean * mean / var_mean
