@@ -198,3 +198,19 @@ def test_sil_figures_judge_the_run_against_the_robots_clock_and_the_command_agai
     assert over.value == 2.0 and not over.met  # 5 s for 2.5 s of runs
     fast = figures("square", 0.5, [{"sim_s": 50.0, "wall_s": 0.4}], 100.0, 200.0)
     assert [f.met for f in fast] == [True, True]
+
+
+def test_the_vectorised_peer_sees_the_room_as_the_lidar_model_does() -> None:
+    from jackson.sim.bench_lidar import numpy_rays
+
+    obstacles = square_room(40, 4)
+    angles = np.linspace(-math.pi, math.pi, A1M8_BEAMS, endpoint=False)
+    for origin in ((0.1, -0.2), (-2.0, 1.5), (2.6, 2.6)):
+        exact = cast(origin, angles, obstacles, 12.0)
+        peer = numpy_rays(obstacles, *origin, angles, 12.0)
+        assert np.all(np.isfinite(peer))  # a closed room: every beam hits
+        np.testing.assert_allclose(peer, exact, atol=1e-9)
+    # from inside a cylinder, as the model has it
+    cx, cy, _ = obstacles.circles[0]
+    inside = numpy_rays(obstacles, float(cx), float(cy), angles[::90], 12.0)
+    np.testing.assert_allclose(inside, cast((cx, cy), angles[::90], obstacles, 12.0), atol=1e-9)
