@@ -19,7 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pymunk
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from jackson.common.bench import BenchResult, interleaved_slices
 from jackson.sim.lidar import A1M8_SCAN_PERIOD_S, Lidar, LidarSpec, Obstacles
@@ -99,7 +99,7 @@ def pymunk_room(obstacles: Obstacles) -> pymunk.Space:
 
 
 def numpy_rays(
-    obstacles: Obstacles, x: float, y: float, angles_rad: NDArray[np.float64], reach_m: float
+    obstacles: Obstacles, x: float, y: float, angles_rad: ArrayLike, reach_m: float
 ) -> NDArray[np.float64]:
     """The nearest hit along each ray by the textbook vectorised cast: every ray against every
     segment and circle at once in (rays x obstacles) arrays, the minimum per ray.
@@ -110,8 +110,9 @@ def numpy_rays(
     from inside). Rays hitting nothing within ``reach_m`` get ``inf``. This is the peer the
     model's own cast is judged against: the same geometry with nothing but numpy broadcasting.
     """
-    d = np.stack((np.cos(angles_rad), np.sin(angles_rad)), axis=1)[:, None, :]
-    best = np.full(len(angles_rad), np.inf)
+    angles = np.asarray(angles_rad, np.float64)
+    d = np.stack((np.cos(angles), np.sin(angles)), axis=1)[:, None, :]
+    best = np.full(len(angles), np.inf)
     seg = obstacles.segments
     if len(seg):
         a, e = seg[None, :, 0:2], seg[None, :, 2:4] - seg[None, :, 0:2]
