@@ -2,9 +2,11 @@
 
 A host on a Jetson shares its cores with the ROS graph and the planner; the figure that says
 whether the daemon fits is its CPU time over the robot's (MCU) time, from the first telemetry
-frame to the end of the run, as a share of one core. Each frame's handling (LiDAR bytes, the
-core, the bag and ROS messages it makes) is timed on the daemon's thread; the times go into a
-histogram of fixed size, so the meter's memory stays flat however long the daemon runs.
+frame to the end of the run, as a share of one core. Against a lockstep twin the daemon polls
+the twin's links briefly before it blocks (:mod:`jackson.common.spin`); a robot's port and bus
+are never polled, so that CPU is left out, here and per frame. Each frame's handling (LiDAR
+bytes, the core, the bag and ROS messages it makes) is timed on the daemon's thread; the times
+go into a histogram of fixed size, so the meter's memory stays flat however long the daemon runs.
 
 :class:`CpuMeter` is what ``health.json``'s ``cpu`` entry and the daemon's last line report
 (docs/host.md, "CPU"); ``jackson bench``'s ``daemon`` suite reads it from the real process.
@@ -17,6 +19,8 @@ import time
 from typing import Any
 
 import numpy as np
+
+from jackson.common.spin import contention
 
 BINS_PER_DECADE = 50  # the histogram's resolution: 4.7 % of a value
 LOWEST_US = 1.0  # [us] the first bin's lower edge
@@ -52,7 +56,7 @@ class CpuMeter:
         """The MCU time [s] of the frame just handled, with the process's CPU time now."""
         if t_s is None:
             return
-        now = (t_s, time.process_time())
+        now = (t_s, time.process_time() - contention.spun_s)
         if self._first is None:
             self._first = now
         self._last = now
@@ -74,7 +78,8 @@ class CpuMeter:
 
     @property
     def process_s(self) -> float:
-        """The process's CPU over that span, every thread [s]."""
+        """The process's CPU over that span, every thread, less what it spent polling a
+        lockstep twin's links [s]."""
         if self._first is None or self._last is None:
             return 0.0
         return self._last[1] - self._first[1]

@@ -18,6 +18,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from jackson.common.spin import contention
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
@@ -466,7 +467,7 @@ class Daemon:
                         self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
                     continue
                 rx_ns, frame = item
-                cpu0 = time.thread_time_ns()
+                cpu0 = time.thread_time_ns() - round(contention.spun_s * 1e9)
                 if self.lidar is not None and frame.type == Telemetry.TYPE:
                     self._read_lidar()
                 try:
@@ -496,7 +497,9 @@ class Daemon:
                         diagnostic_values(core, core.last_telemetry, link=self.health())
                     )
                 if frame.type == Telemetry.TYPE:
-                    self.cpu.frame((time.thread_time_ns() - cpu0) / 1e3)
+                    # less any polling of a lockstep twin's links (jackson.host.cpu)
+                    spun_ns = round(contention.spun_s * 1e9)
+                    self.cpu.frame((time.thread_time_ns() - spun_ns - cpu0) / 1e3)
                     self.cpu.robot_time(core.t_s)
                 if core.mission is not None and core.mission.done and core.braked:
                     break

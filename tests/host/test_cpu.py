@@ -53,3 +53,20 @@ def test_share_of_core_is_process_cpu_over_robot_time() -> None:
         report["frame_us"]["median"] * 1e-6 / 0.05
     )
     assert "% of a core" in meter.line()
+
+
+def test_polling_a_lockstep_twin_is_not_the_daemons_work() -> None:
+    """CPU spent in jackson.common.spin's polls (a twin's links only) is left out."""
+    from jackson.common import spin
+
+    meter = CpuMeter()
+    meter.robot_time(0.0)
+    t0 = time.process_time()
+    while time.process_time() - t0 < 0.02:  # work
+        sum(range(1000))
+    spun0 = spin.contention.spun_s
+    while spin.contention.spun_s - spun0 < 0.05:  # polling a partner that never answers
+        spin.contention.backoff = 0  # (a busy machine would have ended the spin)
+        spin.spin_poll(lambda: False, 0.01)
+    meter.robot_time(1.0)
+    assert 0.015 < meter.process_s < 0.04  # the work, not the 50 ms of polling
