@@ -28,6 +28,7 @@ import ctypes
 import hashlib
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -36,11 +37,21 @@ ENV_INTERPRETED = "JACKSON_NAV_INTERPRETED"
 LIBRARY = "libjackson_nav.so"
 DIGEST_HEX = 16
 
-_F64 = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
-_I64 = np.ctypeslib.ndpointer(np.int64, flags="C_CONTIGUOUS")
-_I32 = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
-_U8 = np.ctypeslib.ndpointer(np.uint8, flags="C_CONTIGUOUS")
+# Arrays go in as bare addresses (c_void_p), checked by _ptr: numpy's ctypes adapters
+# (ndpointer, ndarray.ctypes) build reference cycles on every call, garbage the daemon's
+# settled collector reaches only rarely, so its memory grew with the calls.
+_F64 = _I64 = _I32 = _U8 = ctypes.c_void_p
 _N = ctypes.c_int64
+
+
+_F, _L = np.float64, np.int64
+
+
+def _ptr(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
+    """The address of a C-contiguous array of ``dtype`` (the caller keeps the array alive)."""
+    if a.dtype != dtype or not a.flags.c_contiguous:
+        raise TypeError(f"expected a C-contiguous {np.dtype(dtype)} array, got {a.dtype}")
+    return int(a.__array_interface__["data"][0])
 
 
 def source_path() -> Path:
@@ -107,12 +118,14 @@ def clear_rays(
 ) -> None:
     """:meth:`Costmap._clear_rays`' sampling, compiled: ray i's samples k (k ``step`` up to
     ``stop[i]``) at ``base + k unit[i]`` cells set to ``free`` in ``obstacle`` (rows, cols)."""
-    assert LIB is not None and obstacle.flags.c_contiguous
+    assert LIB is not None
     rows, cols = obstacle.shape
+    ux = np.ascontiguousarray(unit[:, 0], np.float64)
+    uy = np.ascontiguousarray(unit[:, 1], np.float64)
+    stops = np.ascontiguousarray(stop, np.float64)
     LIB.jackson_clear_rays(
-        len(stop), np.ascontiguousarray(unit[:, 0]), np.ascontiguousarray(unit[:, 1]),
-        np.ascontiguousarray(stop, np.float64), base[0], base[1], step, rows, cols,
-        obstacle.reshape(-1), free,
+        len(stops), _ptr(ux, _F), _ptr(uy, _F), _ptr(stops, _F), base[0], base[1], step, rows,
+        cols, _ptr(obstacle, np.uint8), free,
     )  # fmt: skip
 
 
@@ -198,9 +211,10 @@ class Obstacles:
         counts = np.empty(n, np.int64)
         clearance = np.empty(n, np.float64)
         LIB.jackson_footprint_hits(
-            n, x, y, yaw, margin, step, int(with_clearance),
-            self.ids, self.rows, self.cols, self.k, self.offsets, len(self.offsets),
-            self.xy, self.radius, self.grid, self.robot, counts, clearance,
+            n, _ptr(x, _F), _ptr(y, _F), _ptr(yaw, _F), _ptr(margin, _F), step, int(with_clearance),
+            _ptr(self.ids, np.int32), self.rows, self.cols, self.k, _ptr(self.offsets, _L),
+            len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F), _ptr(self.grid, _F),
+            _ptr(self.robot, _F), _ptr(counts, _L), _ptr(clearance, _F),
         )  # fmt: skip
         return counts, clearance
 
@@ -222,12 +236,16 @@ class Obstacles:
         y = np.ascontiguousarray(y, np.float64)
         yaw = np.ascontiguousarray(yaw, np.float64)
         hit = np.zeros(m, np.uint8)
+        margin = np.ascontiguousarray(margin_m, np.float64)
+        allow = np.ascontiguousarray(allowed, np.int64)
+        floor = np.ascontiguousarray(floor_m, np.float64)
+        classes = np.ascontiguousarray(classes_padded, np.uint8)
         LIB.jackson_trajectories_collide(
-            m, length, x, y, yaw, np.ascontiguousarray(margin_m, np.float64),
-            np.ascontiguousarray(allowed, np.int64), np.ascontiguousarray(floor_m, np.float64),
-            np.ascontiguousarray(classes_padded),
-            grid_shape[0], grid_shape[1], self.ids, self.rows, self.cols, self.k, self.offsets,
-            len(self.offsets), self.xy, self.radius, self.grid, self.robot, hit,
+            m, length, _ptr(x, _F), _ptr(y, _F), _ptr(yaw, _F), _ptr(margin, _F), _ptr(allow, _L),
+            _ptr(floor, _F), _ptr(classes, np.uint8), grid_shape[0], grid_shape[1],
+            _ptr(self.ids, np.int32), self.rows, self.cols, self.k, _ptr(self.offsets, _L),
+            len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F), _ptr(self.grid, _F),
+            _ptr(self.robot, _F), _ptr(hit, np.uint8),
         )  # fmt: skip
         return hit.astype(bool)
 

@@ -118,3 +118,26 @@ def test_rays_clear_the_cells_numpy_clears(seed: int, monkeypatch: pytest.Monkey
         maps.append((cm.obstacle_layer.copy(), cm.costs.copy()))
     assert np.array_equal(maps[0][0], maps[1][0])
     assert np.array_equal(maps[0][1], maps[1][1])
+
+
+def test_calls_leave_no_garbage_for_the_collector() -> None:
+    """A call builds no reference cycles (numpy's ctypes adapters did, on every call: garbage
+    that the daemon's settled collector reaches rarely, so its memory grew while navigating)."""
+    import gc
+
+    cm = _scene(np.random.default_rng(5))
+    x, y = np.full((20, 10), cm.origin_x_m + 1.5), np.full((20, 10), cm.origin_y_m + 1.5)
+    yaw = np.zeros((20, 10))
+    cm.trajectories_collide(x, y, yaw)
+    gc.collect()
+    gc.disable()
+    try:
+        before = len(gc.get_objects())
+        for _ in range(300):
+            cm.trajectories_collide(x, y, yaw)
+            cm.footprint_collides(x[0], y[0], yaw[0])
+            cm.update(np.array([[cm.origin_x_m + 2.0, cm.origin_y_m + 2.0]]), (0.0, 0.0))
+        grown = len(gc.get_objects()) - before
+    finally:
+        gc.enable()
+    assert grown < 100, grown
