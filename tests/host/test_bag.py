@@ -690,3 +690,29 @@ def test_a_run_being_recorded_is_never_repaired(tmp_path: Path) -> None:
     assert not run_in_progress(run)  # the kernel dropped the dead process's lock
     assert main(["bag", "repair", str(run)]) == 0
     assert len(read_bag(run / "bag")["/wheel/odom"]) >= 1
+
+
+def test_chunk_indexes_wait_on_disk_and_the_summary_indexes_every_chunk(tmp_path: Path) -> None:
+    """A chunk a flush: the writer's chunk indexes are kept in a file, not in memory, and the
+    summary still holds one per chunk, each pointing at its chunk (mcap's indexed reader)."""
+    from mcap.reader import make_reader
+
+    from jackson.host.ros.bag import _ChunkIndexFile
+
+    with BagRecorder(tmp_path / "bag", flush_interval_s=0.05) as bag:
+        assert isinstance(bag._writer._Writer__chunk_indices, _ChunkIndexFile)  # type: ignore[attr-defined]
+        for k in range(400):
+            bag.wheel_odom(k * 0.05, k * 0.01, 0, 0, 0.2, 0)
+    assert sorted(p.name for p in (tmp_path / "bag").iterdir()) == [
+        "bag_0.mcap",
+        "metadata.yaml",
+    ]  # the index file had no name
+    file = tmp_path / "bag" / "bag_0.mcap"
+    chunks = _chunk_ends(file)
+    assert len(chunks) > 300
+    with file.open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None and len(summary.chunk_indexes) == len(chunks)
+        odom = [m for _, _, m in reader.iter_messages(topics=["/wheel/odom"])]
+    assert [m.log_time for m in odom] == [round(k * 0.05 * 1e9) for k in range(400)]
