@@ -3,7 +3,7 @@ the robot navigates the maze back and forth, recording on (``jackson bench`` sui
 
 Both processes run as users run them (the daemon on the twin's pty, lockstep, the twin's
 RPLIDAR in its densest mode, a map of the maze); the daemon is given goals at the maze's two
-ends in turn, as many as the soak needs, and stopped with SIGINT (it brakes, closes its run
+ends in turn, as many as the soak needs, and stopped with SIGTERM (it brakes, closes its run
 folder) once the robot's clock reaches the soak's length. Once per wall second the soak reads
 each process's resident set (``VmRSS`` of ``/proc/PID/status``) and the robot's time (the last
 row of the run's ``ekf.csv``, flushed once per second of MCU time). The figure is the slope of
@@ -153,7 +153,7 @@ def soak(robot_s: float, out: Path, progress: bool = True) -> Soak:
         bar.stop()
     finally:
         if daemon is not None and daemon.poll() is None:
-            daemon.send_signal(signal.SIGINT)
+            daemon.send_signal(signal.SIGTERM)  # (SIGINT is ignored by background jobs)
             try:
                 daemon.wait(timeout=60)
             except subprocess.TimeoutExpired:
