@@ -598,20 +598,23 @@ class MessageBuilder:
         )
 
     def path(self, t_s: float, points: Any, frame: str = "map") -> Any:
-        """/plan or /local_plan: (x, y[, yaw]) rows as poses in ``frame``."""
+        """/plan or /local_plan: (x, y[, yaw]) rows as poses in ``frame``, every pose stamped
+        as the path (one header object shared: messages are never changed once built)."""
+        header = self.header(t_s, frame)
+        rows = np.asarray(points, np.float64).reshape(len(points), -1) if len(points) else None
         poses = []
-        for row in points:
-            yaw = float(row[2]) if len(row) > 2 else 0.0
-            poses.append(
-                PoseStamped(
-                    header=self.header(t_s, frame),
-                    pose=Pose(
-                        position=Point(x=float(row[0]), y=float(row[1]), z=0.0),
-                        orientation=yaw_quaternion(yaw),
-                    ),
+        if rows is not None:
+            yaws = rows[:, 2] if rows.shape[1] > 2 else np.zeros(len(rows))
+            for x, y, yaw in zip(
+                rows[:, 0].tolist(), rows[:, 1].tolist(), yaws.tolist(), strict=True
+            ):
+                poses.append(
+                    PoseStamped(
+                        header=header,
+                        pose=Pose(position=Point(x=x, y=y, z=0.0), orientation=yaw_quaternion(yaw)),
+                    )
                 )
-            )
-        return Path(header=self.header(t_s, frame), poses=poses)
+        return Path(header=header, poses=poses)
 
     def occupancy(self, t_s: float, grid: Any, frame: str = "map") -> Any:
         """/map: an occupancy grid (-1 unknown, 0-100 occupied)."""
