@@ -55,7 +55,7 @@ native-test: native
 # One pytest worker per CPU (pytest-xdist); a file's tests run together in one worker, in file
 # order (module fixtures such as tests/calibration/test_cluster.py's Ray instance).
 pytest:
-	$(BIN)/pytest -q -n auto --dist loadfile
+	$(BIN)/pytest -q -n auto --dist loadfile --durations=12
 
 bench: setup
 	$(BIN)/jackson bench
