@@ -1511,13 +1511,11 @@ class CapsuleDecoder:
                 pairs.append((self._held, capsule))
             self._held = capsule
         del buf[:pos]
-        if self.format is DENSE_CAPSULED or len(pairs) == 1:  # dense: its sync runs along
-            return SampleBatch.concat([self._decode(h, f) for h, f in pairs])
-        return self._decode_many(pairs) if pairs else SampleBatch.concat([])
+        return self._decode(pairs) if pairs else SampleBatch.concat([])
 
-    def _decode_many(self, pairs: list[tuple[bytes, bytes]]) -> SampleBatch:
-        """:meth:`_decode` of many legacy or ultra capsules at once (one array per field, a row
-        per capsule): the same integer arithmetic, the samples in the same order."""
+    def _decode(self, pairs: list[tuple[bytes, bytes]]) -> SampleBatch:
+        """The samples of capsules, each with the capsule that followed it: all at once, one
+        array per field and a row per capsule (a turn's capsules cost about what one does)."""
         fmt = self.format
         c = len(pairs)
         held = np.frombuffer(b"".join(h for h, _ in pairs), dtype=np.uint8).reshape(c, -1)
@@ -1527,7 +1525,12 @@ class CapsuleDecoder:
         next_q8 = ((follow[:, 2].astype(np.int64) | (follow[:, 3].astype(np.int64) << 8))
                    & ANGLE_Q6_MAX) << 2  # fmt: skip
         diff_q8 = next_q8 - first_q8 + np.where(first_q8 > next_q8, 360 << 8, 0)
-        inc_q16 = diff_q8 << 3 if fmt is CAPSULED else (diff_q8 << 3) // 3
+        if fmt is CAPSULED:
+            inc_q16 = diff_q8 << 3
+        elif fmt is ULTRA_CAPSULED:
+            inc_q16 = (diff_q8 << 3) // 3
+        else:
+            inc_q16 = (diff_q8 << 8) // 40
         raw_q16 = (first_q8 << 8)[:, None] + np.arange(fmt.samples, dtype=np.int64) * inc_q16[
             :, None
         ]
@@ -1545,7 +1548,7 @@ class CapsuleDecoder:
                 axis=2,
             ).reshape(c, -1)
             angle_q6 = (raw_q16 - (dtheta_q3 << 13)) >> 10
-        else:
+        elif fmt is ULTRA_CAPSULED:
             words = (
                 np.ascontiguousarray(held[:, CAPSULE_HEADER_BYTES:]).view("<u4").astype(np.int64)
             )
@@ -1566,64 +1569,20 @@ class CapsuleDecoder:
             d2 = np.where(none2, 0, (p2 << next_lvl) + next_mm)
             dist_q2 = np.stack((this_mm, d1, d2), axis=2).reshape(c, -1) << 2
             angle_q6 = (raw_q16 - ultra_angle_offset_q16(dist_q2)) >> 10
-        sync = wrapped < inc_q16[:, None]
+        else:
+            dist_q2 = (
+                np.ascontiguousarray(held[:, CAPSULE_HEADER_BYTES:]).view("<u2").astype(np.int64)
+                << 2
+            )
+            angle_q6 = raw_q16 >> 10
+        if fmt is DENSE_CAPSULED:  # a sync flag is raised once per turn, along the stream
+            sync = np.zeros(wrapped.shape, dtype=bool)
+            flat = sync.reshape(-1)
+            for k, near in enumerate((wrapped < 2 * inc_q16[:, None]).ravel().tolist()):
+                flat[k] = near and not self._last_sync
+                self._last_sync = bool(flat[k])
+        else:
+            sync = wrapped < inc_q16[:, None]
         angle_q6 = np.where(angle_q6 < 0, angle_q6 + ANGLE_Q6_TURN, angle_q6)
         angle_q6 = np.where(angle_q6 >= ANGLE_Q6_TURN, angle_q6 - ANGLE_Q6_TURN, angle_q6)
         return SampleBatch(sync.ravel(), angle_q6.ravel(), dist_q2.ravel())
-
-    def _decode(self, held: bytes, following: bytes) -> SampleBatch:
-        fmt = self.format
-        first_q8 = (_U16.unpack_from(held, 2)[0] & ANGLE_Q6_MAX) << 2
-        next_q8 = (_U16.unpack_from(following, 2)[0] & ANGLE_Q6_MAX) << 2
-        diff_q8 = next_q8 - first_q8 + ((360 << 8) if first_q8 > next_q8 else 0)
-        if fmt is CAPSULED:
-            inc_q16 = diff_q8 << 3
-        elif fmt is ULTRA_CAPSULED:
-            inc_q16 = (diff_q8 << 3) // 3
-        else:
-            inc_q16 = (diff_q8 << 8) // 40
-        raw_q16 = (first_q8 << 8) + np.arange(fmt.samples, dtype=np.int64) * inc_q16
-        wrapped = (raw_q16 + inc_q16) % ANGLE_Q16_TURN
-        dist_q2: I64Array
-        angle_q6: I64Array
-        body = held[CAPSULE_HEADER_BYTES:]
-        if fmt is CAPSULED:
-            cab = np.frombuffer(body, dtype=np.uint8).reshape(-1, 5).astype(np.int64)
-            w1, w2 = cab[:, 0] | (cab[:, 1] << 8), cab[:, 2] | (cab[:, 3] << 8)
-            dist_q2 = np.stack((w1 & 0xFFFC, w2 & 0xFFFC), axis=1).ravel()
-            dtheta_q3 = np.stack(
-                ((cab[:, 4] & 0xF) | ((w1 & 3) << 4), (cab[:, 4] >> 4) | ((w2 & 3) << 4)), axis=1
-            ).ravel()
-            angle_q6 = (raw_q16 - (dtheta_q3 << 13)) >> 10
-            sync = wrapped < inc_q16
-        elif fmt is ULTRA_CAPSULED:
-            words = np.frombuffer(body, dtype="<u4").astype(np.int64)
-            next_major = int(_U32.unpack_from(following, CAPSULE_HEADER_BYTES)[0]) & 0xFFF
-            major_mm, level = varbitscale_decode(np.append(words & 0xFFF, next_major))
-            this_mm, this_lvl, next_mm, next_lvl = (
-                major_mm[:-1],
-                level[:-1],
-                major_mm[1:],
-                level[1:],
-            )
-            borrow = (this_mm == 0) & (next_mm != 0)
-            base1 = np.where(borrow, next_mm, this_mm)
-            lvl1 = np.where(borrow, next_lvl, this_lvl)
-            p1, p2 = _signed10((words >> 12) & 0x3FF), _signed10((words >> 22) & 0x3FF)
-            none1 = (p1 == -512) | (p1 == PREDICT_NONE)
-            none2 = (p2 == -512) | (p2 == PREDICT_NONE)
-            d1 = np.where(none1, 0, (p1 << lvl1) + base1)
-            d2 = np.where(none2, 0, (p2 << next_lvl) + next_mm)
-            dist_q2 = np.stack((this_mm, d1, d2), axis=1).ravel() << 2
-            angle_q6 = (raw_q16 - ultra_angle_offset_q16(dist_q2)) >> 10
-            sync = wrapped < inc_q16
-        else:
-            dist_q2 = np.frombuffer(body, dtype="<u2").astype(np.int64) << 2
-            angle_q6 = raw_q16 >> 10
-            sync = np.zeros(fmt.samples, dtype=bool)
-            for k, near in enumerate(wrapped < 2 * inc_q16):
-                sync[k] = bool(near) and not self._last_sync
-                self._last_sync = bool(sync[k])
-        angle_q6 = np.where(angle_q6 < 0, angle_q6 + ANGLE_Q6_TURN, angle_q6)
-        angle_q6 = np.where(angle_q6 >= ANGLE_Q6_TURN, angle_q6 - ANGLE_Q6_TURN, angle_q6)
-        return SampleBatch(np.asarray(sync, dtype=np.bool_), angle_q6, dist_q2)
