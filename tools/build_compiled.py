@@ -31,7 +31,9 @@ import sys
 import sysconfig
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 SETUP_PY = """\
 from mypyc.build import mypycify
@@ -99,18 +101,14 @@ def build(force: bool) -> Path | None:
     from jackson.sim import compiled
 
     source = compiled.source_path()
-    text = source.read_bytes()
-    digest = compiled.source_digest(text)
-    builds = compiled.builds_dir(source)
-    target = compiled.build_path(builds, digest)
+    text, digest, builds, target = _wanted(compiled, source)
     if target.is_file() and not force:
         return None
     missing = _missing_tool()
     if missing is not None:
         raise BuildError(missing)
-    builds.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=builds))
-    try:
+
+    def make(scratch: Path) -> Path:
         (scratch / f"{compiled.MODULE}.py").write_bytes(text)
         (scratch / "setup.py").write_text(SETUP_PY.format(module=compiled.MODULE))
         (scratch / "mypy.ini").write_text("[mypy]\n")  # not the repository's configuration
@@ -135,14 +133,9 @@ def build(force: bool) -> Path | None:
         )
         if check.returncode != 0:
             raise BuildError(f"the build does not import: {_last_error(check.stderr)}")
-        target.parent.mkdir(exist_ok=True)
-        os.replace(built, target)
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
-    for old in builds.iterdir():  # builds of older sources, scratch folders of dead builds
-        if old.is_dir() and old.name != digest and not _in_progress(old):
-            shutil.rmtree(old, ignore_errors=True)
-    return target
+        return built
+
+    return _place(builds, digest, target, make)
 
 
 def build_nav(force: bool) -> Path | None:
@@ -165,18 +158,14 @@ def build_nav(force: bool) -> Path | None:
     from jackson.host.nav import native
 
     source = native.source_path()
-    text = source.read_bytes()
-    digest = native.source_digest(text)
-    builds = native.builds_dir(source)
-    target = native.build_path(builds, digest)
+    text, digest, builds, target = _wanted(native, source)
     if target.is_file() and not force:
         return None
     cxx = (os.environ.get("CXX") or "c++").split()
     if shutil.which(cxx[0]) is None:
         raise BuildError(f"no C++ compiler ({cxx[0]} not found)")
-    builds.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=builds))
-    try:
+
+    def make(scratch: Path) -> Path:
         (scratch / source.name).write_bytes(text)
         built = scratch / target.name
         flags = ["-std=c++17", "-O2", "-ffp-contract=off", "-fPIC", "-shared", "-Wall"]
@@ -193,11 +182,32 @@ def build_nav(force: bool) -> Path | None:
             native.load_library(built)
         except OSError as e:
             raise BuildError(f"the build does not load: {e}") from e
+        return built
+
+    return _place(builds, digest, target, make)
+
+
+def _wanted(module: Any, source: Path) -> tuple[bytes, str, Path, Path]:
+    """A source's bytes as hashed, its digest, its builds' folder and the build it needs
+    (``module`` names them: :mod:`jackson.sim.compiled`, :mod:`jackson.host.nav.native`)."""
+    text = source.read_bytes()
+    digest = str(module.source_digest(text))
+    builds = Path(module.builds_dir(source))
+    return text, digest, builds, Path(module.build_path(builds, digest))
+
+
+def _place(builds: Path, digest: str, target: Path, make: Callable[[Path], Path]) -> Path:
+    """Make a build in a scratch folder beside the builds (``make`` returns the file), move it
+    into place, and remove the builds of older sources and dead scratch folders."""
+    builds.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=".scratch-", dir=builds))
+    try:
+        built = make(scratch)
         target.parent.mkdir(exist_ok=True)
         os.replace(built, target)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
-    for old in builds.iterdir():
+    for old in builds.iterdir():  # builds of older sources, scratch folders of dead builds
         if old.is_dir() and old.name != digest and not _in_progress(old):
             shutil.rmtree(old, ignore_errors=True)
     return target
