@@ -40,52 +40,6 @@ from jackson.protocol import (
 GC_GEN0_THRESHOLD = 20_000  # young objects allocated (less freed) between two collections
 
 
-TRIM_PERIOD_S = 60.0  # [s] of MCU time between two returns of the C heap's free memory
-
-
-class HeapTrimmer:
-    """Hands the C heap's free memory back to the system once per :data:`TRIM_PERIOD_S` of
-    MCU time (glibc's ``malloc_trim``; a no-op elsewhere).
-
-    Every control tick allocates and frees numpy arrays, messages and chunk buffers on several
-    threads; glibc keeps what is freed in its arenas for reuse, and fragmentation lets the
-    resident set creep up by a couple of MB every quarter of an hour (a navigating soak grew
-    4-5 MB per robot-hour with no object left alive: Python's allocated blocks stayed flat,
-    and a trim gave 3.5 MB back each time). A trim takes about a millisecond, once a minute.
-    """
-
-    def __init__(self, period_s: float = TRIM_PERIOD_S) -> None:
-        self.period_s = period_s
-        self.trims = 0
-        self._next_s: float | None = None
-        self._trim: Callable[[int], int] | None = None
-        try:
-            import ctypes
-            import ctypes.util
-
-            name = ctypes.util.find_library("c")
-            libc = ctypes.CDLL(name) if name else None
-            self._trim = getattr(libc, "malloc_trim", None)
-        except OSError:
-            self._trim = None
-
-    @property
-    def available(self) -> bool:
-        """Whether the C library trims (glibc)."""
-        return self._trim is not None
-
-    def tick(self, t_s: float | None) -> None:
-        """A frame of MCU time ``t_s`` was handled: trim when a period has passed."""
-        if t_s is None or self._trim is None:
-            return
-        if self._next_s is None:
-            self._next_s = t_s + self.period_s
-        elif t_s >= self._next_s:
-            self._trim(0)
-            self.trims += 1
-            self._next_s = t_s + self.period_s
-
-
 class GcSettled:
     """The garbage collector set for the frame loop: what set-up allocated (imports, the
     config, the core, the bag's schemas) frozen out of every later collection, and young
@@ -264,7 +218,6 @@ class Daemon:
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         self.events: list[str] = []  # what the operator was told, in order
         self.cpu = CpuMeter()  # the daemon's own CPU per robot-second and per frame
-        self.heap = HeapTrimmer()  # the C heap's free memory back once a minute
         self._hello_retries = 0  # HELLOs re-sent before the first INFO
         self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
         self._i2c_failing = False  # an I2C outage was told and has not ended
@@ -548,7 +501,6 @@ class Daemon:
                     spun_ns = round(contention.spun_s * 1e9)
                     self.cpu.frame((time.thread_time_ns() - spun_ns - cpu0) / 1e3)
                     self.cpu.robot_time(core.t_s)
-                    self.heap.tick(core.t_s)
                 if core.mission is not None and core.mission.done and core.braked:
                     break
                 if core.duty_source is not None and core.duty_source.done:

@@ -31,34 +31,3 @@ def test_the_daemons_navigation_keeps_only_its_recent_ticks() -> None:
     assert daemon.samples[0].t_s == (4 * RECENT_SAMPLES) * 0.05
     size = sys.getsizeof(_tick(0)) + 9 * 24  # the object and its fields
     assert size * 20 * 3600 > 15e6  # every tick of a robot-hour would be about 20 MB
-
-
-def test_the_c_heaps_free_memory_goes_back_once_a_period_of_mcu_time() -> None:
-    """The daemon's HeapTrimmer: a trim per period of MCU time, none before the first period,
-    none without a clock; on glibc the trim is real and gives freed memory back."""
-    from pathlib import Path
-
-    from jackson.host.daemon import HeapTrimmer
-
-    heap = HeapTrimmer(period_s=60.0)
-    if not heap.available:  # not glibc: nothing to trim
-        return
-    for k in range(20 * 200):  # 200 s of MCU time at 20 Hz
-        heap.tick(k * 0.05)
-        heap.tick(None)
-    assert heap.trims == 3  # at 60, 120 and 180 s: a period after the first frame, and on
-
-    def rss_kb() -> int:
-        status = Path("/proc/self/status").read_text()
-        return int(next(x for x in status.splitlines() if x.startswith("VmRSS")).split()[1])
-
-    # 30 MB freed below a block still in use: malloc keeps it until a trim gives it back
-    blocks = [bytearray(1500) for _ in range(20000)]
-    last = blocks.pop()
-    blocks.clear()
-    before = rss_kb()
-    heap._next_s = 0.0
-    heap.tick(1.0)
-    assert heap.trims == 4
-    assert before - rss_kb() > 10_000, (before, rss_kb())
-    del last
