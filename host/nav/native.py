@@ -40,11 +40,9 @@ DIGEST_HEX = 16
 # Arrays go in as bare addresses (c_void_p), checked by _ptr: numpy's ctypes adapters
 # (ndpointer, ndarray.ctypes) build reference cycles on every call, garbage the daemon's
 # settled collector reaches only rarely, so its memory grew with the calls.
-_F64 = _I64 = _I32 = _U8 = ctypes.c_void_p
+_P = ctypes.c_void_p  # an array's address
 _N = ctypes.c_int64
-
-
-_F, _L = np.float64, np.int64
+_F, _L = np.float64, np.int64  # the element types the C++ reads
 
 
 def _ptr(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
@@ -91,18 +89,18 @@ def load_library(path: Path) -> ctypes.CDLL:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
     hits.argtypes = [
-        _N, _F64, _F64, _F64, _F64, _N, ctypes.c_int32,
-        _I32, _N, _N, _N, _I64, _N, _F64, _F64, _F64, _F64, _I64, _F64,
+        _N, _P, _P, _P, _P, _N, ctypes.c_int32,
+        _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P, _P,
     ]  # fmt: skip
     traj.restype = None
     traj.argtypes = [
-        _N, _N, _F64, _F64, _F64, _F64, _I64, _F64, _U8, _N, _N,
-        _I32, _N, _N, _N, _I64, _N, _F64, _F64, _F64, _F64, _U8,
+        _N, _N, _P, _P, _P, _P, _P, _P, _P, _N, _N,
+        _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
     ]  # fmt: skip
     rays = lib.jackson_clear_rays
     rays.restype = None
     rays.argtypes = [
-        _N, _F64, _F64, _F64, ctypes.c_double, ctypes.c_double, ctypes.c_double, _N, _N, _U8,
+        _N, _P, _P, _P, ctypes.c_double, ctypes.c_double, ctypes.c_double, _N, _N, _P,
         ctypes.c_uint8,
     ]  # fmt: skip
     return lib
