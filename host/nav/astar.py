@@ -107,6 +107,12 @@ EIGHT_CONNECTED = np.ones((3, 3), bool)
 """``scipy.ndimage.label``'s structure for the search's neighbourhood."""
 _SEARCHERS_KEPT = 4
 """Search objects kept, one per grid shape, most recently used first."""
+SEARCHES_PER_SEARCHER = 16
+"""Searches a kept search object serves before it is built anew. scikit-image's heap (0.25)
+empties its values on each search's reset but keeps its item count, so the entries an early-
+stopping search leaves behind add up: one object kept for a whole run grew its heap by
+doubling to megabytes (and every reset and every exhausted search walked all of it). A new
+object every 16 searches bounds it; building one costs about a third of a search."""
 
 
 class NoPathError(RuntimeError):
@@ -371,7 +377,16 @@ class _Derived:
 
 _LOCK = threading.RLock()
 _DERIVED: weakref.WeakKeyDictionary[Costmap, _Derived] = weakref.WeakKeyDictionary()
-_SEARCHERS: OrderedDict[tuple[int, int], tuple[FloatArray, MCP_Geometric]] = OrderedDict()
+_SEARCHERS: OrderedDict[tuple[int, int], _Kept] = OrderedDict()
+
+
+@dataclass
+class _Kept:
+    """A kept search object, the cost buffer it reads, and the searches it has served."""
+
+    buffer: FloatArray
+    mcp: MCP_Geometric
+    searches: int = 0
 
 
 def _derived(costmap: Costmap, config: AStarConfig) -> _Derived:
@@ -411,14 +426,15 @@ def _searcher(search_cost: FloatArray) -> MCP_Geometric:
         return MCP_Geometric(np.asfortranarray(search_cost))
     shape = (int(search_cost.shape[0]), int(search_cost.shape[1]))
     kept = _SEARCHERS.pop(shape, None)
-    if kept is None:
+    if kept is None or kept.searches >= SEARCHES_PER_SEARCHER:
         buffer: FloatArray = np.full(shape, np.inf, order="F")
-        kept = (buffer, MCP_Geometric(buffer))
+        kept = _Kept(buffer, MCP_Geometric(buffer))
+    kept.searches += 1
     _SEARCHERS[shape] = kept
     while len(_SEARCHERS) > _SEARCHERS_KEPT:
         _SEARCHERS.popitem(last=False)
-    np.copyto(kept[0], search_cost)
-    return kept[1]
+    np.copyto(kept.buffer, search_cost)
+    return kept.mcp
 
 
 COARSE_FACTOR = 4

@@ -960,3 +960,28 @@ def test_a_goal_the_map_itself_cuts_off_fails_at_once() -> None:
     assert cmd.reason.startswith("goal (1.21, -0.04) unreachable on the map: no path")
     assert (cmd.v_m_s, cmd.w_rad_s) == (0.0, 0.0)
     assert nav.plan.shape == (0, 2) and sum(nav.recoveries.values()) == 0
+
+
+def test_a_kept_search_object_is_built_anew_after_its_searches_and_finds_the_same_paths() -> None:
+    """scikit-image's heap keeps its item count across a kept search object's searches, so
+    one object kept for a whole run grows without bound (a navigating soak's resident set
+    stepped up 2 MB at a time). Each kept object serves ``SEARCHES_PER_SEARCHER`` searches;
+    a fresh one, and a reused one, give the same path."""
+    g = maze_map(4.0, 0.5, 11)
+    cm = Costmap.from_map(g, CostmapConfig())
+    assert cm.shape[0] * cm.shape[1] <= astar_module.COARSE_ABOVE_CELLS  # one search a plan
+    rng = np.random.default_rng(3)
+    n = astar_module.SEARCHES_PER_SEARCHER
+    astar_module._SEARCHERS.pop(cm.shape, None)  # the first plan builds the object
+    seen: list[int] = []
+    for _ in range(2 * n + 2):
+        start = (float(rng.integers(0, 8)) * 0.5 + 0.25, float(rng.integers(0, 8)) * 0.5 + 0.25)
+        goal = (float(rng.integers(0, 8)) * 0.5 + 0.25, float(rng.integers(0, 8)) * 0.5 + 0.25)
+        reused = astar(cm, start, goal, AStarConfig(smooth=False))
+        seen.append(id(astar_module._SEARCHERS[cm.shape].mcp))
+        kept = astar_module._SEARCHERS.pop(cm.shape)
+        fresh = astar(cm, start, goal, AStarConfig(smooth=False))
+        astar_module._SEARCHERS[cm.shape] = kept
+        np.testing.assert_array_equal(reused, fresh)
+    changes = [i for i in range(1, len(seen)) if seen[i] != seen[i - 1]]
+    assert changes == [n, 2 * n]
