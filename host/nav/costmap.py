@@ -839,22 +839,8 @@ class Costmap:
         if not np.all((margins >= 0.0) & (margins <= self.max_margin_m + 1e-12)):
             raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m, got {margin_m}")
         m = x_m.shape[0]
-        start_cls = (
-            int(self._class_padded[self._padded_index(x_m.flat[0], y_m.flat[0])])
-            if x_m.size
-            else _CLEAR
-        )
-        # escape: per distinct margin, the start pose's overlaps and clearance
-        allowed: IntArray = np.zeros(m, np.int_)
-        floor_m: FloatArray = np.full(m, -math.inf)
-        if escape and m and _NEAR <= start_cls <= _DEEP:
-            values, which = np.unique(np.broadcast_to(margins, (m,)), return_inverse=True)
-            count0, clear0 = self._footprint_hits(
-                np.repeat(x_m.flat[0], len(values)), np.repeat(y_m.flat[0], len(values)),
-                np.repeat(yaw_rad.flat[0], len(values)), True, values,
-            )  # fmt: skip
-            allowed = count0[which]
-            floor_m = np.where(allowed > 0, clear0[which] - 1e-9, -math.inf)
+        start = (float(x_m.flat[0]), float(y_m.flat[0]), float(yaw_rad.flat[0])) if m else None
+        allowed, floor_m = self._escape(start, np.broadcast_to(margins, (m,)), escape)
         if self._native is not None:
             return self._native.trajectories_collide(
                 x_m, y_m, yaw_rad, np.broadcast_to(margins, (m,)), allowed, floor_m,
@@ -891,6 +877,94 @@ class Costmap:
                 bad |= (count > 0) & (clearance < floor_m[rows])
             hit[rows[bad]] = True
         return np.asarray(hit, bool)
+
+    def _escape(
+        self, start: tuple[float, float, float] | None, margins: FloatArray, escape: bool
+    ) -> tuple[IntArray, FloatArray]:
+        """The escape rule's allowance per trajectory: the obstacles its start pose overlaps
+        (with its margin) and the clearance its centre must keep (``-inf``: none)."""
+        m = margins.shape[0]
+        allowed: IntArray = np.zeros(m, np.int_)
+        floor_m: FloatArray = np.full(m, -math.inf)
+        if not escape or start is None or m == 0:
+            return allowed, floor_m
+        start_cls = int(self._class_padded[self._padded_index(start[0], start[1])])
+        if _NEAR <= start_cls <= _DEEP:
+            # per distinct margin, the start pose's overlaps and clearance
+            values, which = np.unique(margins, return_inverse=True)
+            count0, clear0 = self._footprint_hits(
+                np.repeat(start[0], len(values)), np.repeat(start[1], len(values)),
+                np.repeat(start[2], len(values)), True, values,
+            )  # fmt: skip
+            allowed = count0[which]
+            floor_m = np.where(allowed > 0, clear0[which] - 1e-9, -math.inf)
+        return allowed, floor_m
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the collision tests run compiled (:mod:`jackson.host.nav.native`)."""
+        return self._native is not None
+
+    def rollouts_collide(
+        self,
+        start: tuple[float, float, float],
+        ds_m: FloatArray,
+        cos_sin: FloatArray,
+        yaw_rad: FloatArray,
+        iv: IntArray,
+        iw: IntArray,
+        stride: IntArray,
+        margin_m: FloatArray,
+    ) -> BoolArray:
+        """:meth:`trajectories_collide` of factored roll-outs, each evaluated only at the poses
+        read, compiled only (:attr:`compiled`; DWB's numpy path evaluates the poses itself).
+
+        Roll-out t starts at ``start`` (x [m], y [m], yaw [rad]) and steps ``ds_m[iv[t], i]``
+        along (cos, sin) ``cos_sin[iw[t], i]``, ``cos_sin[W + iw[t], i]`` (W angular ramps);
+        its heading at pose j is ``yaw_rad[iw[t], j]`` (its start pose's heading is the
+        start's). It is read at poses 0, s, 2 s, ... and K (s = ``stride[t]``), its position
+        there the running sum of its steps plus the start, as numpy sums them. The escape
+        rule applies.
+
+        Parameters
+        ----------
+        start : tuple of float
+            The start pose, map frame.
+        ds_m : ndarray, shape (V, K)
+            Path length of each step of each linear ramp [m].
+        cos_sin : ndarray, shape (2 W, K)
+            Cosines, then sines, of each step's heading of each angular ramp.
+        yaw_rad : ndarray, shape (W, K + 1)
+            Heading of each pose of each angular ramp [rad].
+        iv, iw, stride : ndarray of int, shape (R,)
+            The ramps and the stride of each roll-out.
+        margin_m : ndarray, shape (R,)
+            As :meth:`trajectories_collide`'s, per roll-out [m].
+
+        Returns
+        -------
+        ndarray of bool, shape (R,)
+            True for a roll-out that collides.
+
+        Raises
+        ------
+        RuntimeError
+            If the collision tests are not compiled.
+        ValueError
+            On a margin outside [0, :attr:`max_margin_m`], or inconsistent tables.
+        """
+        if self._native is None:
+            raise RuntimeError("rollouts_collide needs the compiled collision tests (make setup)")
+        margins = np.ascontiguousarray(margin_m, np.float64)
+        if margins.shape != np.shape(iv):
+            raise ValueError(f"margin_m: one per roll-out, got {margins.shape}")
+        if not np.all((margins >= 0.0) & (margins <= self.max_margin_m + 1e-12)):
+            raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m")
+        allowed, floor_m = self._escape(start, margins, True)
+        return self._native.rollouts_collide(
+            (start[0], start[1]), ds_m, cos_sin, yaw_rad, iv, iw, stride, margins, allowed,
+            floor_m, self._class_padded, self.shape,
+        )  # fmt: skip
 
     def _footprint_hits(
         self,

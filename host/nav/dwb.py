@@ -1156,6 +1156,13 @@ class DwbPlanner:
         near = np.flatnonzero(np.any(reach_m <= length_m + 1e-9, axis=0))
         if near.size == 0:
             return hit
+        if costmap.compiled:  # the poses made where they are tested, the same bit for bit
+            start = (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
+            hit[near] = costmap.rollouts_collide(
+                start, ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[near], ro.iw[near], group[near],
+                margin_m[near],
+            )  # fmt: skip
+            return hit
         x, y, yaw, owner = ro.at_strides(near, group[near])
         hit_rows = costmap.trajectories_collide(x, y, yaw, margin_m=margin_m[owner])
         hit[owner[hit_rows]] = True

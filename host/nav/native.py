@@ -84,6 +84,7 @@ def load_library(path: Path) -> ctypes.CDLL:
     try:
         hits = lib.jackson_footprint_hits
         traj = lib.jackson_trajectories_collide
+        rolls = lib.jackson_rollouts_collide
         lib.jackson_clear_rays  # noqa: B018  (present)
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
@@ -96,6 +97,11 @@ def load_library(path: Path) -> ctypes.CDLL:
     traj.argtypes = [
         _N, _N, _P, _P, _P, _P, _P, _P, _P, _N, _N,
         _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
+    ]  # fmt: skip
+    rolls.restype = None
+    rolls.argtypes = [
+        _N, _N, _P, _P, _P, _P, _P, _N, _P, ctypes.c_double, ctypes.c_double, _P, _P, _P,
+        _P, _N, _N, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
     ]  # fmt: skip
     rays = lib.jackson_clear_rays
     rays.restype = None
@@ -244,6 +250,53 @@ class Obstacles:
             _ptr(self.ids, np.int32), self.rows, self.cols, self.k, _ptr(self.offsets, _L),
             len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F), _ptr(self.grid, _F),
             _ptr(self.robot, _F), _ptr(hit, np.uint8),
+        )  # fmt: skip
+        return hit.astype(bool)
+
+    def rollouts_collide(
+        self,
+        start: tuple[float, float],
+        ds_m: npt.NDArray[np.float64],
+        cos_sin: npt.NDArray[np.float64],
+        yaw_rad: npt.NDArray[np.float64],
+        iv: npt.NDArray[np.int_],
+        iw: npt.NDArray[np.int_],
+        stride: npt.NDArray[np.int_],
+        margin_m: npt.NDArray[np.float64],
+        allowed: npt.NDArray[np.int_],
+        floor_m: npt.NDArray[np.float64],
+        classes_padded: npt.NDArray[np.uint8],
+        grid_shape: tuple[int, int],
+    ) -> npt.NDArray[np.bool_]:
+        """:meth:`Costmap.rollouts_collide`, compiled."""
+        assert LIB is not None
+        steps = int(ds_m.shape[1])
+        ds = np.ascontiguousarray(ds_m, np.float64)
+        cs = np.ascontiguousarray(cos_sin, np.float64)
+        yaw = np.ascontiguousarray(yaw_rad, np.float64)
+        if cs.shape[1] != steps or yaw.shape[1] != steps + 1 or cs.shape[0] != 2 * yaw.shape[0]:
+            raise ValueError(f"roll-out tables: ds {ds.shape}, cos_sin {cs.shape}, yaw {yaw.shape}")
+        ivs = np.ascontiguousarray(iv, np.int64)
+        iws = np.ascontiguousarray(iw, np.int64)
+        strides = np.ascontiguousarray(stride, np.int64)
+        m = ivs.size
+        if m and not (
+            0 <= ivs.min() and ivs.max() < ds.shape[0] and 0 <= iws.min()
+            and iws.max() < yaw.shape[0] and strides.min() >= 1
+        ):  # fmt: skip
+            raise ValueError("roll-outs: ramp index off its table, or a stride below 1")
+        hit = np.zeros(m, np.uint8)
+        margin = np.ascontiguousarray(margin_m, np.float64)
+        allow = np.ascontiguousarray(allowed, np.int64)
+        floor = np.ascontiguousarray(floor_m, np.float64)
+        classes = np.ascontiguousarray(classes_padded, np.uint8)
+        LIB.jackson_rollouts_collide(
+            m, steps, _ptr(ivs, _L), _ptr(iws, _L), _ptr(strides, _L), _ptr(ds, _F),
+            _ptr(cs, _F), yaw.shape[0], _ptr(yaw, _F), start[0], start[1], _ptr(margin, _F),
+            _ptr(allow, _L), _ptr(floor, _F), _ptr(classes, np.uint8), grid_shape[0],
+            grid_shape[1], _ptr(self.ids, np.int32), self.rows, self.cols, self.k,
+            _ptr(self.offsets, _L), len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F),
+            _ptr(self.grid, _F), _ptr(self.robot, _F), _ptr(hit, np.uint8),
         )  # fmt: skip
         return hit.astype(bool)
 

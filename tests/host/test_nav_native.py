@@ -91,6 +91,65 @@ def test_trajectories_collide_as_numpy_does_with_and_without_escape(seed: int) -
     assert mixed or seed % 3 == 0  # a start anywhere may be far from every obstacle
 
 
+@pytest.mark.parametrize("seed", range(10))
+def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) -> None:
+    """DWB's roll-outs tested by the compiled loop that makes each pose where it is read give
+    the numpy path's answer (poses folded into rows, then the row test), roll-out by roll-out,
+    from starts near obstacles (the escape rule) until some roll-outs collide and some do not,
+    and at every stride."""
+    from jackson.host.actuation.limiter import LimiterConfig
+    from jackson.host.nav.dwb import _CULL_STEPS, DwbConfig, DwbPlanner
+    from jackson.host.nav.types import Pose2D
+
+    rng = np.random.default_rng(300 + seed)
+    cm = _scene(rng)
+    obstacles = cm._obstacle_xy
+    planner = DwbPlanner(DwbConfig(), LimiterConfig())
+    mixed = False
+    for _ in range(200):
+        start = obstacles[rng.integers(len(obstacles))] + rng.normal(0.0, 0.25, 2)
+        if cm.cost_at(*start) >= LETHAL_OBSTACLE:
+            continue
+        pose = Pose2D(float(start[0]), float(start[1]), float(rng.uniform(-math.pi, math.pi)))
+        velocity = (float(rng.uniform(-0.05, 0.3)), float(rng.uniform(-1.5, 1.5)))
+        v, w, _ = planner.samples(*velocity)
+        ro = planner.rollouts(pose, velocity, v, w)
+        coarse = ro.coarse(_CULL_STEPS)
+        got = planner._collisions(ro, coarse, v, w, velocity, cm)
+        saved, cm._native = cm._native, None
+        try:
+            want = planner._collisions(ro, coarse, v, w, velocity, cm)
+        finally:
+            cm._native = saved
+        assert np.array_equal(got, want)
+        mixed = 0 < np.count_nonzero(got) < len(v)
+        if mixed:
+            break
+    assert mixed  # the test tells colliding roll-outs from the others
+    # every stride, every roll-out, margins up to the largest
+    rows = np.arange(len(v))
+    stride = rng.integers(1, ro.steps + 1, len(v))
+    margin = rng.uniform(0.0, cm.max_margin_m, len(v))
+    got = cm.rollouts_collide(
+        (0.0 + pose.x, 0.0 + pose.y, float(ro.yaw_rad[0, 0])), ro.ds_m, ro.cos_sin, ro.yaw_rad,
+        ro.iv, ro.iw, stride, margin,
+    )  # fmt: skip
+    x, y, yaw, owner = ro.at_strides(rows, stride)
+    hit_rows = cm.trajectories_collide(x, y, yaw, margin_m=margin[owner])
+    want = np.zeros(len(v), bool)
+    want[owner[hit_rows]] = True
+    assert np.array_equal(got, want)
+
+
+def test_rollouts_collide_refuses_indices_off_the_tables() -> None:
+    cm = _scene(np.random.default_rng(1))
+    ds, cs, yaw = np.zeros((2, 4)), np.zeros((6, 4)), np.zeros((3, 5))
+    one = np.zeros(1, np.int_)
+    for iv, iw, stride in ((one + 2, one, one + 1), (one, one + 3, one + 1), (one, one, one)):
+        with pytest.raises(ValueError, match="ramp index off its table, or a stride below 1"):
+            cm.rollouts_collide((0.0, 0.0, 0.0), ds, cs, yaw, iv, iw, stride, np.zeros(1))
+
+
 def test_the_library_reports_itself() -> None:
     out = subprocess.run(
         [sys.executable, "-m", "jackson.host.nav.native"], capture_output=True, text=True

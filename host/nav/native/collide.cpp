@@ -111,6 +111,52 @@ inline std::int64_t hits_at(const Obstacles& o, Candidates& near, const Grid& g,
   return count;
 }
 
+// One trajectory's test (jackson_trajectories_collide's rule), the obstacle candidates shared
+// by all the trajectories of one call.
+class Trajectory {
+ public:
+  Trajectory(const Obstacles& o, const Grid& g, const Robot& rb, const std::uint8_t* classes,
+             std::int64_t max_len)
+      : o_(o), g_(g), rb_(rb), classes_(classes), near_(o),
+        cls_(static_cast<std::size_t>(max_len)) {}
+
+  std::uint8_t collides(const double* x, const double* y, const double* yaw, std::int64_t len,
+                        double margin, std::int64_t allowed, double floor_m) {
+    const bool escaping = allowed > 0;
+    const std::uint8_t lethal = escaping ? kBlocked : kDeep;
+    const double top_col = static_cast<double>(g_.cols) + 1.0;
+    const double top_row = static_cast<double>(g_.rows) + 1.0;
+    // the lookup first, over the whole row (cheap), then the exact tests in order
+    bool any_tested = false;
+    for (std::int64_t j = 0; j < len; ++j) {
+      const auto col =
+          static_cast<std::int64_t>(clip((x[j] - g_.origin_x) / g_.res + 1.0, 0.0, top_col));
+      const auto row =
+          static_cast<std::int64_t>(clip((y[j] - g_.origin_y) / g_.res + 1.0, 0.0, top_row));
+      cls_[j] = classes_[row * (g_.cols + 2) + col];
+      if (cls_[j] >= lethal) return 1;
+      any_tested = any_tested || cls_[j] != kClear;
+    }
+    for (std::int64_t j = 0; j < len && any_tested; ++j) {
+      if (cls_[j] == kClear) continue;
+      // the C library's cosine and sine, which numpy's are (checked by the tests)
+      double clearance = 0.0;
+      const std::int64_t count = hits_at(o_, near_, g_, rb_, x[j], y[j], yaw[j], margin, escaping,
+                                         !escaping, &clearance);
+      if (count > allowed || (count > 0 && clearance < floor_m)) return 1;
+    }
+    return 0;
+  }
+
+ private:
+  const Obstacles& o_;
+  const Grid& g_;
+  const Robot& rb_;
+  const std::uint8_t* classes_;
+  Candidates near_;
+  std::vector<std::uint8_t> cls_;
+};
+
 }  // namespace
 
 extern "C" {
@@ -141,51 +187,82 @@ void jackson_footprint_hits(std::int64_t n, const double* x, const double* y, co
 // allowed, or an escaping centre nearer than its floor, collides. A trajectory stops at its
 // first collision.
 void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double* x,
-                                  const double* y, const double* yaw, const double* margin, const std::int64_t* allowed,
-                                  const double* floor_m, const std::uint8_t* classes,
-                                  std::int64_t grid_rows, std::int64_t grid_cols,
-                                  const std::int32_t* ids, std::int64_t padded_rows,
-                                  std::int64_t padded_cols, std::int64_t k,
-                                  const std::int64_t* offsets, std::int64_t n_offsets,
-                                  const double* obstacle_xy, const double* obstacle_r,
-                                  const double* grid, const double* robot, std::uint8_t* hit) {
+                                  const double* y, const double* yaw, const double* margin,
+                                  const std::int64_t* allowed, const double* floor_m,
+                                  const std::uint8_t* classes, std::int64_t grid_rows,
+                                  std::int64_t grid_cols, const std::int32_t* ids,
+                                  std::int64_t padded_rows, std::int64_t padded_cols,
+                                  std::int64_t k, const std::int64_t* offsets,
+                                  std::int64_t n_offsets, const double* obstacle_xy,
+                                  const double* obstacle_r, const double* grid,
+                                  const double* robot, std::uint8_t* hit) {
   const Obstacles o{ids,     padded_rows * padded_cols, padded_rows, padded_cols, k,
                     offsets, n_offsets,                 obstacle_xy, obstacle_r};
   const Grid g{grid[0], grid[1], grid[2], grid_rows, grid_cols};
   const Robot rb{robot[0], robot[1], robot[2], robot[3], robot[4], robot[5]};
-  const double top_col = static_cast<double>(grid_cols) + 1.0;
-  const double top_row = static_cast<double>(grid_rows) + 1.0;
-  std::vector<std::uint8_t> cls(static_cast<std::size_t>(len));
-  Candidates near(o);
+  Trajectory test(o, g, rb, classes, len);
   for (std::int64_t t = 0; t < m; ++t) {
-    const bool escaping = allowed[t] > 0;
-    const std::uint8_t lethal = escaping ? kBlocked : kDeep;
-    std::uint8_t out = 0;
-    // the lookup first, over the whole row (cheap), then the exact tests in order
-    bool any_tested = false;
-    for (std::int64_t j = 0; j < len; ++j) {
-      const std::int64_t p = t * len + j;
-      const auto col = static_cast<std::int64_t>(
-          clip((x[p] - g.origin_x) / g.res + 1.0, 0.0, top_col));
-      const auto row = static_cast<std::int64_t>(
-          clip((y[p] - g.origin_y) / g.res + 1.0, 0.0, top_row));
-      cls[j] = classes[row * (grid_cols + 2) + col];
-      if (cls[j] >= lethal) {
-        out = 1;
-        break;
+    hit[t] = test.collides(x + t * len, y + t * len, yaw + t * len, len, margin[t], allowed[t],
+                           floor_m[t]);
+  }
+}
+
+// DwbPlanner's roll-outs tested where they are (Rollouts.at_strides then
+// jackson_trajectories_collide, without the arrays between): roll-out t steps ds[iv[t], i] along
+// (cos, sin)[iw[t], i] from (x0, y0), its heading yaw[iw[t], j] at pose j, and is read at poses
+// 0, s, 2 s, ... and K (s = stride[t]). Its positions are numpy's: the steps' running sums
+// (first step, then one addition per step) plus the start. ds is (V, K), cs the W cosine rows
+// then the W sine rows (2 W, K), yaw (W, K + 1).
+void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int64_t* iv,
+                              const std::int64_t* iw, const std::int64_t* stride,
+                              const double* ds, const double* cs, std::int64_t w,
+                              const double* yaw, double x0, double y0, const double* margin,
+                              const std::int64_t* allowed, const double* floor_m,
+                              const std::uint8_t* classes, std::int64_t grid_rows,
+                              std::int64_t grid_cols, const std::int32_t* ids,
+                              std::int64_t padded_rows, std::int64_t padded_cols, std::int64_t k,
+                              const std::int64_t* offsets, std::int64_t n_offsets,
+                              const double* obstacle_xy, const double* obstacle_r,
+                              const double* grid, const double* robot, std::uint8_t* hit) {
+  const Obstacles o{ids,     padded_rows * padded_cols, padded_rows, padded_cols, k,
+                    offsets, n_offsets,                 obstacle_xy, obstacle_r};
+  const Grid g{grid[0], grid[1], grid[2], grid_rows, grid_cols};
+  const Robot rb{robot[0], robot[1], robot[2], robot[3], robot[4], robot[5]};
+  Trajectory test(o, g, rb, classes, steps + 1);
+  std::vector<double> px(static_cast<std::size_t>(steps + 1));
+  std::vector<double> py(px.size()), pyaw(px.size());
+  for (std::int64_t t = 0; t < m; ++t) {
+    const double* d = ds + iv[t] * steps;
+    const double* c = cs + iw[t] * steps;
+    const double* s = cs + (w + iw[t]) * steps;
+    const double* h = yaw + iw[t] * (steps + 1);
+    const std::int64_t every = stride[t];
+    std::int64_t n = 0;
+    px[0] = 0.0 + x0;
+    py[0] = 0.0 + y0;
+    pyaw[0] = h[0];
+    n = 1;
+    double ax = 0.0, ay = 0.0;
+    for (std::int64_t i = 0; i < steps; ++i) {
+      const double sx = d[i] * c[i];
+      const double sy = d[i] * s[i];
+      if (i == 0) {
+        ax = sx;
+        ay = sy;
+      } else {
+        ax += sx;
+        ay += sy;
       }
-      any_tested = any_tested || cls[j] != kClear;
+      const std::int64_t j = i + 1;  // the pose after this step
+      if (j % every == 0 || j == steps) {
+        px[n] = ax + x0;
+        py[n] = ay + y0;
+        pyaw[n] = h[j];
+        ++n;
+      }
     }
-    for (std::int64_t j = 0; j < len && !out && any_tested; ++j) {
-      if (cls[j] == kClear) continue;
-      const std::int64_t p = t * len + j;
-      // the C library's cosine and sine, which numpy's are (checked by the tests)
-      double clearance = 0.0;
-      const std::int64_t count = hits_at(o, near, g, rb, x[p], y[p], yaw[p], margin[t], escaping,
-                                         !escaping, &clearance);
-      if (count > allowed[t] || (count > 0 && clearance < floor_m[t])) out = 1;
-    }
-    hit[t] = out;
+    hit[t] = test.collides(px.data(), py.data(), pyaw.data(), n, margin[t], allowed[t],
+                           floor_m[t]);
   }
 }
 
