@@ -39,12 +39,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Literal, NamedTuple, cast
+from typing import Any, Literal, NamedTuple, cast
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
-from skimage.metrics import structural_similarity
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -63,7 +61,20 @@ BOOTSTRAP_SEED = 0  # its random generator's seed: the same runs give the same i
 SINGULAR_RCOND = 1e-12  # a covariance whose eigenvalues span more than 1e12 is singular
 _CHUNK_ELEMENTS = 1 << 20  # points x segments evaluated at once by the nearest-point search
 
-_ssim = cast(Callable[..., float], structural_similarity)
+
+def _stats() -> Any:  # (scipy has no type information)
+    """``scipy.stats``, imported on first use: half a second that a single run (``jackson run``
+    computes its metrics from this module) never needs."""
+    from scipy import stats
+
+    return stats
+
+
+def _ssim(*args: object, **kwargs: object) -> float:
+    """scikit-image's ``structural_similarity``, imported on first use (as :func:`_stats`)."""
+    from skimage.metrics import structural_similarity
+
+    return cast(Callable[..., float], structural_similarity)(*args, **kwargs)
 
 
 class MetricInputError(ValueError):
@@ -695,8 +706,8 @@ def nees_band(dof: int, confidence: float = NEES_CONFIDENCE, runs: int = 1) -> t
             f"got {dof}, {runs}, {confidence}"
         )
     k = dof * runs
-    lo = float(stats.chi2.ppf(0.5 * (1.0 - confidence), k)) / runs
-    hi = float(stats.chi2.ppf(0.5 * (1.0 + confidence), k)) / runs
+    lo = float(_stats().chi2.ppf(0.5 * (1.0 - confidence), k)) / runs
+    hi = float(_stats().chi2.ppf(0.5 * (1.0 + confidence), k)) / runs
     return lo, hi
 
 
@@ -1202,7 +1213,7 @@ def mean_sd_ci(
         if not np.all((x == 0.0) | (x == 1.0)):
             raise MetricInputError("binary values must be 0 or 1")
         k = int(np.count_nonzero(x))
-        ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
+        ci = _stats().binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
         sd = float(np.std(x, ddof=1)) if n > 1 else math.nan
         return MeanSdCi(mean, sd, float(ci.low), float(ci.high), n, "clopper-pearson")
     if domain == "unit_interval" and not np.all((x >= 0.0) & (x <= 1.0)):
@@ -1213,7 +1224,7 @@ def mean_sd_ci(
         method = {"real": "t", "positive": "lognormal-cox"}.get(domain, "bootstrap-percentile")
         return MeanSdCi(mean, math.nan, math.nan, math.nan, 1, method)
     sd = float(np.std(x, ddof=1))
-    t = float(stats.t.ppf(0.5 + 0.5 * confidence, n - 1))
+    t = float(_stats().t.ppf(0.5 + 0.5 * confidence, n - 1))
     if domain == "real":
         half = t * sd / math.sqrt(n)
         return MeanSdCi(mean, sd, mean - half, mean + half, n, "t")
@@ -1256,7 +1267,7 @@ def bootstrap_mean_ci(
     x = _series("values", values, min_len=2)
     if np.all(x == x[0]):
         return float(x[0]), float(x[0])
-    res = stats.bootstrap(
+    res = _stats().bootstrap(
         (x,),
         np.mean,
         n_resamples=BOOTSTRAP_RESAMPLES,
