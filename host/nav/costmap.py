@@ -842,10 +842,10 @@ class Costmap:
         start = (float(x_m.flat[0]), float(y_m.flat[0]), float(yaw_rad.flat[0])) if m else None
         allowed, floor_m = self._escape(start, np.broadcast_to(margins, (m,)), escape)
         if self._native is not None:
-            return self._native.trajectories_collide(
-                x_m, y_m, yaw_rad, np.broadcast_to(margins, (m,)), allowed, floor_m,
-                self._class_padded, self.shape,
-            )  # fmt: skip
+            rule = native.Rule(
+                np.broadcast_to(margins, (m,)), allowed, floor_m, self._class_padded, self.shape
+            )
+            return self._native.trajectories_collide(x_m, y_m, yaw_rad, rule)
         cls = np.take(self._class_padded, self._padded_index(x_m, y_m))
         escaping = allowed > 0
         any_escaping = bool(np.any(escaping))
@@ -961,10 +961,10 @@ class Costmap:
         if not np.all((margins >= 0.0) & (margins <= self.max_margin_m + 1e-12)):
             raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m")
         allowed, floor_m = self._escape(start, margins, True)
+        rule = native.Rule(margins, allowed, floor_m, self._class_padded, self.shape)
         return self._native.rollouts_collide(
-            (start[0], start[1]), ds_m, cos_sin, yaw_rad, iv, iw, stride, margins, allowed,
-            floor_m, self._class_padded, self.shape,
-        )  # fmt: skip
+            (start[0], start[1]), ds_m, cos_sin, yaw_rad, iv, iw, stride, rule
+        )
 
     def _footprint_hits(
         self,

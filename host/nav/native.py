@@ -27,6 +27,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -153,6 +154,32 @@ def _select() -> tuple[ctypes.CDLL | None, str]:
 LIB, REASON = _select()
 
 
+@dataclass(frozen=True)
+class Rule:
+    """What a trajectory test decides by, besides the poses: per trajectory the margin [m],
+    the escape rule's allowance and floor [m]; the cell classes of the grid padded by one
+    cell, and the grid's (rows, cols)."""
+
+    margin_m: npt.NDArray[np.float64]
+    allowed: npt.NDArray[np.int_]
+    floor_m: npt.NDArray[np.float64]
+    classes_padded: npt.NDArray[np.uint8]
+    grid_shape: tuple[int, int]
+
+    def arguments(self) -> tuple[tuple[npt.NDArray[Any], ...], tuple[int, ...]]:
+        """The arrays as the C functions read them, which the caller keeps until the call
+        returns, and the arguments."""
+        margin = np.ascontiguousarray(self.margin_m, np.float64)
+        allow = np.ascontiguousarray(self.allowed, np.int64)
+        floor = np.ascontiguousarray(self.floor_m, np.float64)
+        classes = np.ascontiguousarray(self.classes_padded, np.uint8)
+        args = (
+            _ptr(margin, _F), _ptr(allow, _L), _ptr(floor, _F), _ptr(classes, np.uint8),
+            self.grid_shape[0], self.grid_shape[1],
+        )  # fmt: skip
+        return (margin, allow, floor, classes), args
+
+
 class Obstacles:
     """The obstacle index of one costmap version, as the compiled tests read it.
 
@@ -194,6 +221,15 @@ class Obstacles:
         self.grid = np.array(grid, np.float64)
         self.robot = np.array(robot, np.float64)
 
+    def _index(self) -> tuple[int, ...]:
+        """The obstacle index as the C functions take it: ids, padded rows, cols, k, offsets
+        and their count, disc centres, radii, grid and robot (addresses of arrays it keeps)."""
+        return (
+            _ptr(self.ids, np.int32), self.rows, self.cols, self.k, _ptr(self.offsets, _L),
+            len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F), _ptr(self.grid, _F),
+            _ptr(self.robot, _F),
+        )  # fmt: skip
+
     def footprint_hits(
         self,
         x: npt.NDArray[np.float64],
@@ -216,9 +252,7 @@ class Obstacles:
         clearance = np.empty(n, np.float64)
         LIB.jackson_footprint_hits(
             n, _ptr(x, _F), _ptr(y, _F), _ptr(yaw, _F), _ptr(margin, _F), step, int(with_clearance),
-            _ptr(self.ids, np.int32), self.rows, self.cols, self.k, _ptr(self.offsets, _L),
-            len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F), _ptr(self.grid, _F),
-            _ptr(self.robot, _F), _ptr(counts, _L), _ptr(clearance, _F),
+            *self._index(), _ptr(counts, _L), _ptr(clearance, _F),
         )  # fmt: skip
         return counts, clearance
 
@@ -227,11 +261,7 @@ class Obstacles:
         x: npt.NDArray[np.float64],
         y: npt.NDArray[np.float64],
         yaw: npt.NDArray[np.float64],
-        margin_m: npt.NDArray[np.float64],
-        allowed: npt.NDArray[np.int_],
-        floor_m: npt.NDArray[np.float64],
-        classes_padded: npt.NDArray[np.uint8],
-        grid_shape: tuple[int, int],
+        rule: Rule,
     ) -> npt.NDArray[np.bool_]:
         """The per-trajectory loop of :meth:`Costmap.trajectories_collide`, compiled."""
         assert LIB is not None
@@ -240,17 +270,12 @@ class Obstacles:
         y = np.ascontiguousarray(y, np.float64)
         yaw = np.ascontiguousarray(yaw, np.float64)
         hit = np.zeros(m, np.uint8)
-        margin = np.ascontiguousarray(margin_m, np.float64)
-        allow = np.ascontiguousarray(allowed, np.int64)
-        floor = np.ascontiguousarray(floor_m, np.float64)
-        classes = np.ascontiguousarray(classes_padded, np.uint8)
+        kept, args = rule.arguments()
         LIB.jackson_trajectories_collide(
-            m, length, _ptr(x, _F), _ptr(y, _F), _ptr(yaw, _F), _ptr(margin, _F), _ptr(allow, _L),
-            _ptr(floor, _F), _ptr(classes, np.uint8), grid_shape[0], grid_shape[1],
-            _ptr(self.ids, np.int32), self.rows, self.cols, self.k, _ptr(self.offsets, _L),
-            len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F), _ptr(self.grid, _F),
-            _ptr(self.robot, _F), _ptr(hit, np.uint8),
+            m, length, _ptr(x, _F), _ptr(y, _F), _ptr(yaw, _F), *args, *self._index(),
+            _ptr(hit, np.uint8),
         )  # fmt: skip
+        del kept
         return hit.astype(bool)
 
     def rollouts_collide(
@@ -262,11 +287,7 @@ class Obstacles:
         iv: npt.NDArray[np.int_],
         iw: npt.NDArray[np.int_],
         stride: npt.NDArray[np.int_],
-        margin_m: npt.NDArray[np.float64],
-        allowed: npt.NDArray[np.int_],
-        floor_m: npt.NDArray[np.float64],
-        classes_padded: npt.NDArray[np.uint8],
-        grid_shape: tuple[int, int],
+        rule: Rule,
     ) -> npt.NDArray[np.bool_]:
         """:meth:`Costmap.rollouts_collide`, compiled."""
         assert LIB is not None
@@ -286,18 +307,13 @@ class Obstacles:
         ):  # fmt: skip
             raise ValueError("roll-outs: ramp index off its table, or a stride below 1")
         hit = np.zeros(m, np.uint8)
-        margin = np.ascontiguousarray(margin_m, np.float64)
-        allow = np.ascontiguousarray(allowed, np.int64)
-        floor = np.ascontiguousarray(floor_m, np.float64)
-        classes = np.ascontiguousarray(classes_padded, np.uint8)
+        kept, args = rule.arguments()
         LIB.jackson_rollouts_collide(
             m, steps, _ptr(ivs, _L), _ptr(iws, _L), _ptr(strides, _L), _ptr(ds, _F),
-            _ptr(cs, _F), yaw.shape[0], _ptr(yaw, _F), start[0], start[1], _ptr(margin, _F),
-            _ptr(allow, _L), _ptr(floor, _F), _ptr(classes, np.uint8), grid_shape[0],
-            grid_shape[1], _ptr(self.ids, np.int32), self.rows, self.cols, self.k,
-            _ptr(self.offsets, _L), len(self.offsets), _ptr(self.xy, _F), _ptr(self.radius, _F),
-            _ptr(self.grid, _F), _ptr(self.robot, _F), _ptr(hit, np.uint8),
+            _ptr(cs, _F), yaw.shape[0], _ptr(yaw, _F), start[0], start[1], *args,
+            *self._index(), _ptr(hit, np.uint8),
         )  # fmt: skip
+        del kept
         return hit.astype(bool)
 
 
