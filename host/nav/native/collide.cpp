@@ -85,6 +85,13 @@ inline std::int64_t hits_at(const Obstacles& o, Candidates& near, const Grid& g,
     const double dx = o.xy[2 * id] - x;
     const double dy = o.xy[2 * id + 1] - y;
     const double h = o.r[id];
+    if (!with_clearance) {
+      // a disc certainly beyond the rectangle test's reach (so beyond the disc test's too)
+      // needs no hypot: its squared distance exceeds (reach + h)^2 by far more than the
+      // rounding of either side, so hypot - h >= reach would hold as well
+      const double far = rb.circumscribed + M_SQRT2 * (h + margin);  // reach + h
+      if (dx * dx + dy * dy > far * far * (1.0 + 1e-9)) continue;
+    }
     const double gap = std::hypot(dx, dy) - h;
     if (with_clearance && gap < clear) clear = gap;
     bool hit = gap < rb.radius + margin;
