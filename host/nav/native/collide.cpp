@@ -3,8 +3,10 @@
 // along a scan's rays, which numpy can only run as whole-array passes over every sample.
 //
 // Same arithmetic as the numpy code, operation for operation (built with -ffp-contract=off, the
-// same C library's hypot, cos and sin): the answers are the same bit for bit, only faster. Loaded
-// with ctypes by jackson.host.nav.native; built by `make setup` (tools/build_compiled.py).
+// same C library's hypot, cos and sin): the answers are the same bit for bit, only faster. The
+// one shortcut numpy does not take, skipping a disc that is certainly out of reach before its
+// hypot, cannot change an answer (hits_at). Loaded with ctypes by jackson.host.nav.native;
+// built by `make setup` (tools/build_compiled.py).
 #include <cmath>
 #include <cstdint>
 #include <limits>
