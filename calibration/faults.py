@@ -11,7 +11,7 @@ MCU time, with the robot driving its first side, the fault is injected:
 - the twin's **I2C server restarted** (its socket closed and served anew at the same path);
 - a **foreign MODE1 write** (another I2C client puts the PCA9685 to sleep);
 - the serial port **unplugged and replugged** (the pty removed for ``UNPLUG_WALL_S``);
-- an **MCU reset** (the emulator boots again: new boot_id, counts from 0, no session);
+- an **MCU reset** (the firmware core boots again: new boot_id, counts from 0, no session);
 - the **IMU dying** (no IMU_OK from then on: the health monitor excludes it and the square goes
   on with the wheels' yaw rate, ``health.imu_lost: continue``);
 - **5 % of telemetry frames lost** on the line, and **5 % of frames with a corrupted byte**.
@@ -306,36 +306,25 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
         runner._sel.register(runner.i2c, 1, "i2c")  # selectors.EVENT_READ
 
     def reset_mcu() -> None:
-        s = mcu._sensors()
-        mcu.__init__(  # type: ignore[misc]  # the same object boots again
-            mcu._write,
-            mcu._sensors,
-            motor_output=mcu.motor_output,
-            imu_present=mcu.imu_present,
-            boot_us=twin.t_us,
-            boot_id=(mcu.boot_id + 0x9E3779B9) & 0xFFFFFFFF or 1,
-        )
-        mcu.left.update(s.enc_left)
-        mcu.right.update(s.enc_right)
-        mcu.left.zero()  # the PCNT counts restart at 0 with the chip
-        mcu.right.zero()
+        # the same MCU boots again: a new boot_id, no session, the PCNT counters back at 0
+        mcu.reset(twin.t_us, (mcu.boot_id + 0x9E3779B9) & 0xFFFFFFFF or 1)
         runner._actuate()  # the line fell with the reset
         watch.pace_from = (time.monotonic(), twin.t_s)  # a rebooting MCU takes real time
 
     def kill_imu() -> None:
-        real = mcu._sensors
+        real = mcu.sensors
 
         def dead() -> SensorSample:
             s = real()
             return SensorSample(s.enc_left, s.enc_right, False, s.accel, s.temp, s.gyro)
 
-        mcu._sensors = dead
+        mcu.sensors = dead
 
     def lose_frames() -> None:
         runner.drop_telemetry = lambda n: rng.random() < LOSS_P
 
     def corrupt_frames() -> None:
-        real = mcu._write
+        real = mcu.write
 
         def noisy(frame: bytes) -> bool:
             if rng.random() < LOSS_P:
@@ -344,7 +333,7 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
                 frame = bytes(b)
             return real(frame)
 
-        mcu._write = noisy
+        mcu.write = noisy
 
     main_thread_action: list[str] = []
     name = fault.name

@@ -52,7 +52,7 @@ from jackson.protocol import FrameDecoder, Message, encode_frame
 from jackson.protocol.units import yaw_rate_rad_s
 from jackson.sim.config import load_robot, load_world
 from jackson.sim.i2c_server import I2cSocketServer
-from jackson.sim.mcu import McuEmulator
+from jackson.sim.mcu import Mcu
 from jackson.sim.robot import WheelDrive
 from jackson.sim.twin import Twin
 
@@ -88,7 +88,7 @@ def telemetry_stream(seconds: float) -> list[bytes]:
         out.append(frame)
         return True
 
-    mcu = McuEmulator(write, twin.sensors)
+    mcu = Mcu(write, twin.sensors)
     from jackson.protocol import hello
 
     mcu.receive(encode_frame(hello(), 0), 0)

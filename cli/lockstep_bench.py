@@ -1,17 +1,17 @@
 """The lockstep loop over the pty against the work it carries (run by ``jackson bench``).
 
-Starts ``jackson sim --no-lidar`` (the twin and its MCU emulator in their own process, lockstep,
-200 Hz physics) and drives it with the host daemon itself (:class:`jackson.host.daemon.Daemon`)
-with constant wheel duties as its command source: per telemetry frame the whole host pipeline
-(odometry, EKF, listeners), one PCA9685 block write over the I2C socket and one HEARTBEAT, as
-when a user runs ``jackson daemon`` against the twin. In the same run each end's own work is
-timed: the daemon thread's CPU time and the twin process's (it prints it on exit), each less
-the time it spent polling for the other end (jackson.common.spin); and, interleaved, the twin
-alone (:mod:`jackson.sim.bench`'s figure-eight, no LiDAR, no MCU emulator) runs for the same
-simulated time in this process. Five rounds (a round takes about 3 s); the lockstep's wall time
-is cut into slices of 50 frames and each slice's best time over the rounds is kept (a
-preemption spoils one slice of one round, as for the other suites); the work and the twin alone
-are the best of the rounds. Figures:
+Starts ``jackson sim --no-lidar`` (the twin and its MCU, the firmware core, in their own
+process, lockstep, 200 Hz physics) and drives it with the host daemon itself
+(:class:`jackson.host.daemon.Daemon`) with constant wheel duties as its command source: per
+telemetry frame the whole host pipeline (odometry, EKF, listeners), one PCA9685 block write
+over the I2C socket and one HEARTBEAT, as when a user runs ``jackson daemon`` against the twin.
+In the same run each end's own work is timed: the daemon thread's CPU time and the twin
+process's (it prints it on exit), each less the time it spent polling for the other end
+(jackson.common.spin); and, interleaved, the twin alone (:mod:`jackson.sim.bench`'s
+figure-eight, no LiDAR, no MCU) runs for the same simulated time in this process. Five rounds
+(a round takes about 3 s); the lockstep's wall time is cut into slices of 50 frames and each
+slice's best time over the rounds is kept (a preemption spoils one slice of one round, as for
+the other suites); the work and the twin alone are the best of the rounds. Figures:
 
 - the twin alone's real-time factor over the lockstep's: how much slower the twin runs with the
   real host on its pty than alone (same physics rate, no LiDAR); target 20x, the ratio a square
@@ -19,8 +19,8 @@ are the best of the rounds. Figures:
   2000x;
 - the lockstep's wall time per frame over the work both ends do per frame, for information (the
   two ends take turns, so it is about 1 by construction);
-- the twin process's work per frame over the twin alone's, for information: what the MCU
-  emulator, the I2C server and the lockstep loop add to the physics and the sensors.
+- the twin process's work per frame over the twin alone's, for information: what the
+  firmware core, the I2C server and the lockstep loop add to the physics and the sensors.
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ def lockstep_round(frames: int) -> _Round:
         daemon's thread (reading and decoding the port, :meth:`HostCore.on_frame`, the
         PCA9685 write, the HEARTBEAT) less the time it spent polling in a wait
         (jackson.common.spin); the twin's own work per frame: its process's CPU time (the
-        physics, the sensors, the MCU emulator, the I2C server) less its polling, as it prints
+        physics, the sensors, the firmware core, the I2C server) less its polling, as it prints
         on exit; and the wall time of each slice of :data:`SLICE_FRAMES` timed frames.
     """
     exe = Path(sys.executable).parent / "jackson"
@@ -225,7 +225,7 @@ def run(quick: bool = False) -> list[BenchResult]:
             None,
             "lower",
             "the work both ends do per frame in the same lockstep: the twin process's CPU "
-            "time (physics, sensors, MCU emulator, I2C server) plus the daemon thread's, each "
+            "time (physics, sensors, the firmware core, I2C server) plus the daemon thread's, each "
             "less its polling waits (for information: the two ends take turns, so this is "
             "about 1 by construction)",
             lock_us,
@@ -240,7 +240,7 @@ def run(quick: bool = False) -> list[BenchResult]:
             None,
             "lower",
             "the twin alone on the figure-eight per frame, same run (for information: what "
-            "the MCU emulator, the I2C server and the lockstep loop add to the physics and "
+            "the firmware core, the I2C server and the lockstep loop add to the physics and "
             "sensors in the twin process)",
             1e6 * twin_s,
             "us per frame",
@@ -255,7 +255,7 @@ def run(quick: bool = False) -> list[BenchResult]:
             "lower",
             "the twin alone (no LiDAR, 200 Hz physics, the figure-eight) for the same "
             "simulated time, same run: how much slower the twin runs with the real host "
-            "daemon on its pty (the MCU emulator, the I2C server, the pty, the whole host)",
+            "daemon on its pty (the firmware core, the I2C server, the pty, the whole host)",
             lockstep,
             "x real time",
             twin,

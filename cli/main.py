@@ -29,6 +29,7 @@ from jackson.common.args import (
 )
 from jackson.common.fields import ConfigError
 from jackson.host.cli import HostCliError
+from jackson.sim.firmware_core import McuBuildError
 
 DEFAULT_ROBOT = "jackson_physical"  # the twin robot of run and campaign
 
@@ -782,7 +783,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = (_brake_parser() if brake else build_parser()).parse_args(given)
     try:
         rc: int = args.func(args)
-    except (CliError, HostCliError, ConfigError) as exc:
+    except (CliError, HostCliError, ConfigError, McuBuildError) as exc:
         print(f"jackson {args.command}: {one_line(exc)}", file=sys.stderr)
         return 2
     except OSError as exc:  # the machine refused: a full disk, a folder where a file goes, ...

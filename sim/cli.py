@@ -37,6 +37,7 @@ from jackson.common.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
 from jackson.sim.faults import FaultError, FaultSpec, format_fault, parse_fault, summary
 from jackson.sim.fil import FirmwareError
+from jackson.sim.firmware_core import McuBuildError
 from jackson.sim.i2c_server import I2cServerError
 
 
@@ -92,7 +93,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--firmware",
         action="store_true",
-        help="run the compiled POSIX firmware as the MCU instead of the emulator",
+        help="run the MCU as the POSIX firmware process (its own pty) instead of the same core "
+        "in this process",
     )
     p.add_argument(
         "--mcu-motors",
@@ -254,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
             truth=args.truth,
             stall_s=args.stall_timeout,
         )
-    except (I2cServerError, FirmwareError, FaultError, OSError) as exc:
+    except (I2cServerError, FirmwareError, McuBuildError, FaultError, OSError) as exc:
         if publisher is not None:
             publisher.close()
         if tmp is not None:
@@ -279,7 +281,7 @@ def run(args: argparse.Namespace) -> int:
         for f in twin.faults.faults:
             print(f"fault: {format_fault(f)}", flush=True)
     mode = "real time" if args.realtime else "lockstep"
-    mcu = "POSIX firmware" if args.firmware else "MCU emulator"
+    mcu = "POSIX firmware process" if args.firmware else "firmware core in process"
     from jackson.sim.compiled import SELECTION
 
     physics = "compiled physics" if SELECTION.compiled else "interpreted physics"

@@ -8,8 +8,8 @@ act on one, and the kind's parameters. Robot files list them under ``faults:``
 
 At run time a :class:`FaultInjector` applies them where the fault lives:
 
-- **IMU and encoders** in the sensor values the MCU reads (``Twin.sensors``), so the Python
-  emulator and the compiled firmware see the same fault: ``imu_dead`` clears the sample's
+- **IMU and encoders** in the sensor values the MCU reads (``Twin.sensors``), so the MCU in
+  process and the POSIX firmware process see the same fault: ``imu_dead`` clears the sample's
   ``imu_ok`` (the chip stops answering on the I2C bus), ``imu_stuck`` repeats the registers of
   the last reading before onset, ``imu_spike`` and ``imu_bias_step`` add to the gyro's z rate
   before quantisation, ``encoder_dropout`` holds one wheel's count;

@@ -14,8 +14,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from jackson.sim.mcu import SensorSample
-from jackson.sim.sensors import imu_register_bytes
+from jackson.sim.mcu import SensorSample, imu_register_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_BINARY = REPO / "build" / "native" / "firmware" / "jackson-firmware-posix"

@@ -19,14 +19,18 @@ ends wait counts: a host that is working on a frame, however slowly (a starved p
 stalled. The default ``heartbeat_timeout_s`` (1 s) is shorter than the default ``stall_s``
 (:data:`STALL_S`): such a twin moves on in real time before it could stall.
 
-The MCU is the Python emulator (:mod:`jackson.sim.mcu`) or, with ``firmware=True``, the compiled
-POSIX firmware (:mod:`jackson.sim.fil`) fed the same sensor values at the same instants.
+The MCU is the firmware core compiled into this process (:mod:`jackson.sim.mcu`) or, with
+``firmware=True``, the same core as the POSIX firmware process (:mod:`jackson.sim.fil`), fed the
+same sensor values at the same instants. In this process the twin stops at every telemetry
+instant and, while the interlock line is asserted, at the instant it would drop; the core's
+other deadlines (its IMU polls, STATUS) run at their own times inside the stop that follows.
 
 The MCU's motor interlock line (docs/firmware.md, "Motor interlock") drives the pin the robot
 file's ``wiring.interlock`` names, the PCA9685's OE or the TB6612's STBY, before the bridge
 outputs are computed; so a host that stops sending heartbeats has its last PCA9685 duty cut at
-the instant the MCU drops the line (the emulator's next deadline includes it; the compiled
-firmware's status line shows it at the next telemetry instant, at most one period later).
+the instant the MCU drops the line (the in-process MCU's next deadline includes it; the
+firmware process's status line shows it at the next telemetry instant, at most one period
+later).
 An optional ``observer`` is called with the twin after each advance of its clock (in real
 time, once the wall clock has caught up); ``jackson sim --ros`` publishes from it
 (:mod:`jackson.sim.ros`).
@@ -38,10 +42,10 @@ acts at each instant: a revolution that ended at or before a telemetry frame rea
 host ahead of that frame.
 
 The twin's link faults (``frame_loss``, ``corrupt_bytes``: :mod:`jackson.sim.faults`) act on
-the line between the emulated MCU and its pty: a telemetry frame the MCU sent is lost, or
+the line between the in-process MCU and its pty: a telemetry frame the MCU sent is lost, or
 reaches the host with one bit flipped. In lockstep the runner does not wait for the heartbeat
-of such a frame (the host cannot acknowledge what it never decoded). The compiled firmware
-writes its own pty, so these faults need the emulator (:class:`FaultError` otherwise).
+of such a frame (the host cannot acknowledge what it never decoded). The firmware process
+writes its own pty, so these faults need the in-process MCU (:class:`FaultError` otherwise).
 
 With ``truth`` the runner streams the twin's ground truth to a file (:class:`TruthStream`,
 read back by :func:`read_truth`): one CSV row per advance of the clock, written and flushed
@@ -70,7 +74,7 @@ from jackson.sim.faults import LINK_KINDS, FaultError, format_fault
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.link import PtyLink
-from jackson.sim.mcu import McuEmulator, SensorSample
+from jackson.sim.mcu import Mcu, SensorSample
 from jackson.sim.pca9685 import Pca9685
 from jackson.sim.robot import WheelDrive
 from jackson.sim.rplidar import RplidarEmulator
@@ -270,8 +274,8 @@ class TwinRunner:
         if firmware and faults is not None and faults.link:
             names = ", ".join(format_fault(f) for f in faults.faults if f.kind in LINK_KINDS)
             raise FaultError(
-                f"{names}: link faults act between the emulated MCU and its pty; the compiled "
-                "firmware writes its own pty (drop --firmware)"
+                f"{names}: link faults act between the in-process MCU and its pty; the firmware "
+                "process writes its own pty (drop --firmware)"
             )
         self.twin = twin
         self._faults = faults if faults is not None and faults.link else None
@@ -307,7 +311,7 @@ class TwinRunner:
         self._sample: tuple[int, SensorSample] | None = None
         self.firmware: FirmwareProcess | None = None
         self.link: PtyLink | None = None
-        self.mcu: McuEmulator | None = None
+        self.mcu: Mcu | None = None
         if firmware:
             self.firmware = FirmwareProcess(
                 motors=mcu_motors, imu_present=twin.robot_spec.imu.present, boot_id=self.boot_id
@@ -316,7 +320,7 @@ class TwinRunner:
         else:
             self.link = PtyLink(serial_link)
             self.serial_path = self.link.path
-            self.mcu = McuEmulator(
+            self.mcu = Mcu(
                 self._write,
                 self.sensors,
                 motor_output=mcu_motors,
@@ -335,8 +339,8 @@ class TwinRunner:
         self._outage_until: float | None = None
         self.outage_outputs: list[tuple[BridgeOutput, BridgeOutput]] = []
         self._stop: Event | None = None
-        # heartbeats seen (emulator) or the last heartbeat_ack (firmware) when the host went
-        # silent; None while it answers
+        # heartbeats seen (in-process MCU) or the last heartbeat_ack (firmware process) when
+        # the host went silent; None while it answers
         self._host_gone: int | None = None
         self._pace_origin = (0.0, 0.0)
         self._session_wall0 = 0.0  # wall time of the HELLO (run() statistics)
@@ -425,8 +429,9 @@ class TwinRunner:
         return self._sample[1]
 
     def motor_enable(self, fw: FeedStatus | None = None) -> bool:
-        """The MCU's interlock line (docs/firmware.md, "Motor interlock"): the emulator's, or the
-        compiled firmware's as its status line ``fw`` (else its last one) reports it."""
+        """The MCU's interlock line (docs/firmware.md, "Motor interlock"): the in-process
+        MCU's, or the firmware process's as its status line ``fw`` (else its last one) reports
+        it."""
         if self.mcu is not None:
             return self.mcu.motor_enable
         if fw is None and self.firmware is not None:
@@ -617,7 +622,7 @@ class TwinRunner:
         if self.firmware is not None:
             self._run_firmware(duration_s, stop)
         else:
-            self._run_emulator(duration_s, stop)
+            self._run_in_process(duration_s, stop)
         cpu0, spun0 = self._session_cpu0
         return RunnerStats(
             self.twin.t_s - start_s,
@@ -641,7 +646,7 @@ class TwinRunner:
             or (end_s is not None and self.twin.t_s >= end_s - 1e-9)
         )
 
-    def _run_emulator(self, duration_s: float | None, stop: Event | None) -> None:
+    def _run_in_process(self, duration_s: float | None, stop: Event | None) -> None:
         mcu = self.mcu
         assert mcu is not None
         while not mcu.session:  # the clock stands still until the host says HELLO
@@ -700,7 +705,7 @@ class TwinRunner:
         fw = self.firmware
         assert fw is not None
         status = fw.wait_heartbeat(256, 0)
-        while not status.session:  # time stands still until HELLO, as with the emulator
+        while not status.session:  # time stands still until HELLO, as in process
             if stop is not None and stop.is_set():
                 return
             status = fw.wait_heartbeat(256, 50, on_wait=self._service_side)
@@ -716,7 +721,7 @@ class TwinRunner:
             if end_s is not None:
                 step_us = min(step_us, max(1, round((end_s - self.twin.t_s) * 1e6)))
             self.twin.advance(step_us / 1e6)
-            # as with the emulator: paced and observed with the outputs of the step just run,
+            # as in process: paced and observed with the outputs of the step just run,
             # before the MCU acts at the new instant
             if self._host_gone is not None:
                 self._pace(*self._pace_origin)

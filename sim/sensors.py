@@ -132,8 +132,3 @@ class ImuModel:
             _lsb(w_z + bz + g_sigma * n_gz, g_scale),
         )
         return accel, TEMP_RAW_AT_25C, gyro
-
-
-def imu_register_bytes(accel: tuple[int, int, int], temp: int, gyro: tuple[int, int, int]) -> bytes:
-    """The 14 bytes at 0x3B..0x48: big-endian, accel xyz, temperature, gyro xyz."""
-    return b"".join(v.to_bytes(2, "big", signed=True) for v in (*accel, temp, *gyro))

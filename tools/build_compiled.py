@@ -1,6 +1,6 @@
-"""Compile the twin's per-step model, ``sim/physics.py``, with mypyc, and the costmap's collision
-tests, ``host/nav/native/collide.cpp`` (:func:`build_nav`), with the C++ compiler (run by
-``make setup``).
+"""Compile the twin's per-step model, ``sim/physics.py``, with mypyc, the costmap's collision
+tests, ``host/nav/native/collide.cpp`` (:func:`build_nav`), with the C++ compiler, and the
+firmware core as the twin's MCU (:func:`build_firmware`) with pybind11 (run by ``make setup``).
 
 The build is ``build/compiled/<digest>/jackson_sim_physics<EXT_SUFFIX>``, named by the digest
 of the source it was compiled from (:mod:`jackson.sim.compiled` loads it only while
@@ -50,6 +50,14 @@ from jackson.sim.compiled import load_build
 from pathlib import Path
 module = load_build(Path(sys.argv[1]))
 sys.exit(0 if module.__file__ == sys.argv[1] else 1)
+"""
+FIRMWARE_CHECK_PY = """\
+import sys
+from pathlib import Path
+from jackson.sim.firmware_core import load_build
+module = load_build(Path(sys.argv[1]))
+core = module.Core(lambda frame: True, lambda: (0, 0), False, True, 0, 1)
+sys.exit(0 if not core.session else 1)
 """
 TIMEOUT_S = 600
 
@@ -187,6 +195,67 @@ def build_nav(force: bool) -> Path | None:
     return _place(builds, digest, target, make)
 
 
+def build_firmware(force: bool) -> Path | None:
+    """Build the firmware core as the twin's MCU (``firmware/twin/module.cpp`` with
+    ``firmware/core``) into ``build/compiled-firmware/<digest>/`` unless that build exists.
+
+    A Python extension module made with pybind11 (:mod:`jackson.sim.firmware_core`). Unlike the
+    two builds above it has no interpreted stand-in: the twin cannot run without it.
+
+    Returns
+    -------
+    Path or None
+        The new build (None: it existed).
+
+    Raises
+    ------
+    BuildError
+        It cannot be made.
+    """
+    from jackson.sim import firmware_core as fc
+
+    digest = fc.source_digest()
+    builds = fc.builds_dir()
+    target = fc.build_path(builds, digest)
+    if target.is_file() and not force:
+        return None
+    cxx = (os.environ.get("CXX") or "c++").split()
+    if shutil.which(cxx[0]) is None:
+        raise BuildError(f"no C++ compiler ({cxx[0]} not found)")
+    try:
+        import pybind11
+    except ImportError as e:
+        raise BuildError("pybind11 is not installed (a dependency of the package)") from e
+    include = Path(sysconfig.get_paths()["include"])
+    if not (include / "Python.h").exists():
+        raise BuildError(f"no Python headers ({include}/Python.h; install python3-dev)")
+    eigen = Path("/usr/include/eigen3")
+    if not (eigen / "Eigen" / "Core").exists():
+        raise BuildError("no Eigen headers (/usr/include/eigen3; install libeigen3-dev)")
+
+    def make(scratch: Path) -> Path:
+        built = scratch / target.name
+        flags = ["-std=c++17", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall"]
+        flags += ["-DEIGEN_NO_MALLOC", f"-I{include}", f"-I{pybind11.get_include()}", f"-I{eigen}"]
+        flags += [f"-I{d}" for d in fc.include_dirs()]
+        out = subprocess.run(
+            [*cxx, *flags, *(str(u) for u in fc.compile_units()), "-o", str(built)],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
+        if out.returncode != 0 or not built.is_file():
+            raise BuildError(f"{cxx[0]} failed: {_last_error(out.stdout + out.stderr)}")
+        check = subprocess.run(
+            [sys.executable, "-c", FIRMWARE_CHECK_PY, str(built)], capture_output=True, text=True
+        )
+        if check.returncode != 0:
+            raise BuildError(f"the build does not import: {_last_error(check.stderr)}")
+        return built
+
+    return _place(builds, digest, target, make)
+
+
 def _wanted(module: Any, source: Path) -> tuple[bytes, str, Path, Path]:
     """A source's bytes as hashed, its digest, its builds' folder and the build it needs
     (``module`` names them: :mod:`jackson.sim.compiled`, :mod:`jackson.host.nav.native`)."""
@@ -224,9 +293,13 @@ def main() -> int:
     Returns
     -------
     int
-        0 (the twin runs interpreted without a build).
+        0, or 1 when the firmware core cannot be built (the physics and the collision tests
+        have interpreted stand-ins; the twin's MCU has none).
     """
-    parser = argparse.ArgumentParser(description="Compile sim/physics.py with mypyc.")
+    parser = argparse.ArgumentParser(
+        description="Compile sim/physics.py (mypyc), the costmap's collision tests and the "
+        "firmware core as the twin's MCU."
+    )
     parser.add_argument("--force", action="store_true", help="rebuild an existing build")
     args = parser.parse_args()
     t0 = time.monotonic()
@@ -250,6 +323,16 @@ def main() -> int:
             f"setup: compiled collision tests not built, the costmap uses numpy: {why}",
             file=sys.stderr,
         )
+    t0 = time.monotonic()
+    try:
+        fw = build_firmware(args.force)
+        if fw is not None:
+            took = time.monotonic() - t0
+            print(f"setup: compiled the firmware core as the twin's MCU ({took:.0f} s)")
+    except Exception as e:  # the twin cannot run without it: make setup stops here
+        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
+        print(f"setup: the firmware core (the twin's MCU) cannot be built: {why}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -98,4 +98,6 @@ fi
 # The twin's per-step model (sim/physics.py) compiled with mypyc into build/compiled/<digest>
 # (docs/compiled.md): skipped when the build of the source as it is now exists; one that cannot
 # be made is one line on stderr and the twin runs the same model interpreted.
-"$VENV/bin/python" tools/build_compiled.py || true
+# The firmware core as the twin's MCU (firmware/twin/module.cpp, pybind11) has no such stand-in:
+# without it the twin cannot run, so a build that fails stops make setup (its reason on stderr).
+"$VENV/bin/python" tools/build_compiled.py || exit 1

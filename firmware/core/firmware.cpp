@@ -301,6 +301,7 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
     f.as(hb);
     if (f.len < proto::Heartbeat::kSize || !session_) return;
     heartbeat_seen_ = true;
+    ++heartbeats_;
     heartbeat_ack_ = hb.ack_seq;
     last_heartbeat_us_ = now;
     host_shutdown_ = hb.host_state == static_cast<uint8_t>(proto::HostState::kShutdown);

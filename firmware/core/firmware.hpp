@@ -75,6 +75,14 @@ class Firmware {
   bool motor_enable() const noexcept { return motor_enable_; }
   /// When the next telemetry frame is due (meaningful during a session).
   uint32_t next_telemetry_us() const noexcept { return next_telemetry_us_; }
+  /// When the newest HEARTBEAT (or the HELLO) arrived, and the instant the host counts as lost
+  /// without another: failsafe_ms later (the motor failsafe and the interlock line drop then).
+  uint32_t last_heartbeat_us() const noexcept { return last_heartbeat_us_; }
+  uint32_t host_lost_us() const noexcept { return last_heartbeat_us_ + 1000u * cfg_.failsafe_ms; }
+  /// HEARTBEATs taken in sessions since boot (a simulator tells a host that came back by it).
+  uint32_t heartbeats() const noexcept { return heartbeats_; }
+  /// The flags a TELEMETRY or STATUS frame sent at `now` carries (PCNT_OVERFLOW aside).
+  uint16_t telemetry_flags(uint32_t now) const noexcept;
   const Mpu6050& imu() const noexcept { return imu_; }
 
  private:
@@ -95,7 +103,6 @@ class Firmware {
   void apply_config();
   bool save_config();
   bool save_calibration();
-  uint16_t telemetry_flags(uint32_t now) const noexcept;
   uint32_t telemetry_period_us() const noexcept { return 1'000'000u / cfg_.telemetry_rate_hz; }
   uint32_t imu_period_us() const noexcept;
 
@@ -123,6 +130,7 @@ class Firmware {
   uint8_t last_telemetry_seq_ = 0;
   bool heartbeat_seen_ = false;
   uint8_t heartbeat_ack_ = 0;
+  uint32_t heartbeats_ = 0;
   uint32_t last_heartbeat_us_ = 0;
   bool host_shutdown_ = false;  ///< the newest HEARTBEAT said SHUTDOWN
   bool motor_enable_ = false;

@@ -473,6 +473,30 @@ TEST(Interlock, DropsExactlyWhenFailsafeMsPassWithoutHeartbeat) {
   EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true, false}));
 }
 
+TEST(Interlock, HeartbeatsAreCountedAndTheLostInstantIsFailsafeMsAfterTheLast) {
+  // what a simulator reads to stop at the drop and to tell a host that came back
+  Bench b(false);
+  b.fw.begin();
+  heartbeat(b, 0);  // outside a session: not taken
+  b.fw.tick();
+  EXPECT_EQ(b.fw.heartbeats(), 0u);
+  b.hello();
+  b.run_for(20'000);
+  heartbeat(b, 1);
+  b.fw.tick();
+  heartbeat(b, 2);
+  b.fw.tick();
+  EXPECT_EQ(b.fw.heartbeats(), 2u);
+  EXPECT_EQ(b.fw.last_heartbeat_us(), b.clock.t);
+  EXPECT_EQ(b.fw.host_lost_us(), b.clock.t + 1000u * b.fw.config().failsafe_ms);
+  const uint32_t lost = b.fw.host_lost_us();
+  b.clock.t = lost;
+  b.fw.tick();
+  EXPECT_FALSE(b.enable.enabled);
+  EXPECT_TRUE(b.fw.telemetry_flags(lost) & proto::telemetry_flags::kHostLost);
+  EXPECT_FALSE(b.fw.telemetry_flags(lost) & proto::telemetry_flags::kMotorEnable);
+}
+
 TEST(Interlock, NextDeadlineIncludesTheInstantTheLineDrops) {
   // a lockstep run ticks only at next_deadline(): it must stop at the drop, not at the next frame
   Bench b(false);

@@ -174,18 +174,23 @@ def test_module_says_which_model_runs() -> None:
     assert out.stdout == "jackson.sim.physics: interpreted (JACKSON_SIM_INTERPRETED is set)\n"
 
 
-def test_a_build_that_cannot_be_made_is_one_line_and_setup_goes_on(tmp_path: Path) -> None:
+def test_a_build_that_cannot_be_made_is_one_line_and_only_the_firmware_core_stops_setup(
+    tmp_path: Path,
+) -> None:
+    # the physics and the collision tests have interpreted stand-ins; the twin's MCU has none
     out = subprocess.run(
         [sys.executable, str(ROOT / "tools" / "build_compiled.py"), "--force"],
         capture_output=True,
         text=True,
         env={**os.environ, "CC": str(tmp_path / "no-such-cc"), "CXX": str(tmp_path / "no-c++")},
     )
-    assert out.returncode == 0
+    assert out.returncode == 1
     assert out.stdout == ""
     assert out.stderr == (
         "setup: compiled physics not built, the twin runs interpreted: "
         f"no C compiler ({tmp_path / 'no-such-cc'} not found)\n"
         "setup: compiled collision tests not built, the costmap uses numpy: "
+        f"no C++ compiler ({tmp_path / 'no-c++'} not found)\n"
+        "setup: the firmware core (the twin's MCU) cannot be built: "
         f"no C++ compiler ({tmp_path / 'no-c++'} not found)\n"
     )

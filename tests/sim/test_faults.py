@@ -435,7 +435,7 @@ def imu_ok_and_errors(stream: bytes) -> tuple[list[tuple[float, bool]], list[int
     return telemetry, [m.i2c_errors for m in messages if isinstance(m, Status)]
 
 
-def test_the_emulator_and_the_firmware_see_the_same_sensor_faults() -> None:
+def test_the_mcu_in_process_and_the_firmware_process_see_the_same_sensor_faults() -> None:
     faults = [
         "imu_dead@1+0.4",
         "imu_stuck@1.8+0.4",
@@ -445,10 +445,10 @@ def test_the_emulator_and_the_firmware_see_the_same_sensor_faults() -> None:
         "wheel_slip@0.3+1:side=right",
     ]
     args = [a for f in faults for a in ("--fault", f)]
-    emulated = scenario("jackson_physical", *args)
-    compiled = scenario("jackson_physical", *args, "--firmware")
-    assert emulated == compiled
-    telemetry, errors = imu_ok_and_errors(compiled)
+    in_process = scenario("jackson_physical", *args)
+    process = scenario("jackson_physical", *args, "--firmware")
+    assert in_process == process
+    telemetry, errors = imu_ok_and_errors(process)
     dead = [t for t, ok in telemetry if not ok]
     # from the onset until the driver's first retry after the window (its backoff: 50, 100,
     # 200, 400 ms after three failed reads at 0.96-0.98 s: 1.73 s), no IMU_OK
@@ -456,7 +456,7 @@ def test_the_emulator_and_the_firmware_see_the_same_sensor_faults() -> None:
     assert all(ok == (t < 1.0 - 1e-9 or t > dead[-1]) for t, ok in telemetry)
     # STATUS's I2C errors at 1, 2, 3 s: the three reads before 1 s, then the failed retries
     assert errors[:3] == [3, 6, 6]
-    messages = [decode_message(f) for f in FrameDecoder().feed(compiled)]
+    messages = [decode_message(f) for f in FrameDecoder().feed(process)]
     stuck = [m for m in messages if isinstance(m, Telemetry) and 1.8 <= m.t_us / 1e6 < 2.199]
     assert len({(m.accel, m.temp, m.gyro) for m in stuck}) == 1 and len(stuck) == 20
 
@@ -496,7 +496,7 @@ def test_lost_and_corrupted_frames_on_the_line() -> None:
     assert host.decoder.counters.crc_errors + host.decoder.counters.oversize >= corrupted - 2
 
 
-def test_link_faults_need_the_emulator(capsys: pytest.CaptureFixture[str]) -> None:
+def test_link_faults_need_the_mcu_in_process(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "--firmware", "--fault", "frame_loss@0"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "frame_loss@0:probability=0.05" in err and "--firmware" in err

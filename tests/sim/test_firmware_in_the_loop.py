@@ -1,5 +1,5 @@
-"""One scripted scenario against the MCU emulator and against the compiled firmware: the host
-receives the same bytes from both."""
+"""One scripted scenario against the twin's MCU (the firmware core in the twin's process) and
+against the POSIX firmware process: the host receives the same bytes from both."""
 
 from __future__ import annotations
 
@@ -75,19 +75,19 @@ def robot(request: pytest.FixtureRequest, tmp_path: Path) -> str:
     return str(path)
 
 
-def test_firmware_and_emulator_send_identical_bytes(robot: str) -> None:
-    emulated = scenario(robot)
-    compiled = scenario(robot, "--firmware")
-    assert len(emulated) > 120 * 38
-    if emulated != compiled:  # show where they part
-        i = next(k for k, (a, b) in enumerate(zip(emulated, compiled, strict=False)) if a != b)
+def test_the_mcu_in_process_and_the_firmware_process_send_identical_bytes(robot: str) -> None:
+    in_process = scenario(robot)
+    process = scenario(robot, "--firmware")
+    assert len(in_process) > 120 * 38
+    if in_process != process:  # show where they part
+        i = next(k for k, (a, b) in enumerate(zip(in_process, process, strict=False)) if a != b)
         raise AssertionError(
-            f"first difference at byte {i}: emulator {emulated[i - 8 : i + 30].hex()} vs "
-            f"firmware {compiled[i - 8 : i + 30].hex()}"
+            f"first difference at byte {i}: in process {in_process[i - 8 : i + 30].hex()} vs "
+            f"firmware process {process[i - 8 : i + 30].hex()}"
         )
     # and the scenario exercised what it is meant to: the IMU's health and error counts, the
     # ranges set at frame 50 (flag bits 8-11) and the registers scaled by them
-    messages = [decode_message(f) for f in FrameDecoder().feed(compiled)]
+    messages = [decode_message(f) for f in FrameDecoder().feed(process)]
     telemetry = [m for m in messages if isinstance(m, Telemetry)]
     statuses = [m for m in messages if isinstance(m, Status)]
     imu_missing = robot != "jackson_physical"

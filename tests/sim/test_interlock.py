@@ -186,17 +186,19 @@ def report(name: str, b: Brake, record_property: RecordProperty) -> None:
 
 
 @pytest.mark.parametrize(
-    "firmware", [False, pytest.param(True, marks=needs_firmware)], ids=["emulator", "firmware"]
+    "firmware",
+    [False, pytest.param(True, marks=needs_firmware)],
+    ids=["in_process", "firmware_process"],
 )
 def test_a_silent_host_is_braked_within_failsafe_plus_one_period(
     tmp_path: Path, firmware: bool, record_property: RecordProperty
 ) -> None:
     b = run_silent_host(tmp_path, firmware=firmware)
-    report("firmware" if firmware else "emulator", b, record_property)
+    report("firmware_process" if firmware else "in_process", b, record_property)
     assert b.line_dropped_s == pytest.approx(b.last_heartbeat_s + FAILSAFE_S, abs=PERIOD_S + 1e-6)
     # the bridges leave CW/CCW no sooner than failsafe_ms and within one period after it
     assert FAILSAFE_S - 1e-6 <= b.delay_s <= FAILSAFE_S + PERIOD_S + 1e-6
-    if not firmware:  # the emulator's next deadline is the drop itself
+    if not firmware:  # the in-process MCU's next deadline is the drop itself
         assert b.delay_s == pytest.approx(FAILSAFE_S, abs=1e-6)
     assert b.final_speed_m_s < 0.002  # short brake: stopped well within 2 s
     # 60 % is about 0.21 m/s: 0.6 s of it plus the braking distance, not the 0.4 m of 2 s more
@@ -278,6 +280,6 @@ def test_a_killed_daemon_is_braked_by_the_interlock(
     assert b.delay_s == pytest.approx(FAILSAFE_S, abs=1e-6)
     assert b.drive_off_s is not None and b.drive_off_s - killed_s <= FAILSAFE_S + PERIOD_S
     assert not mcu.motor_enable
-    flags = mcu._flags(mcu.last_heartbeat_us + 1_000_000, True)
+    flags = mcu.telemetry_flags(mcu.last_heartbeat_us + 1_000_000)
     assert flags & TelemetryFlags.HOST_LOST and not flags & TelemetryFlags.MOTOR_ENABLE
     assert b.final_speed_m_s < 0.002

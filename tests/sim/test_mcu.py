@@ -1,5 +1,5 @@
-"""The MCU emulator on its own: what the firmware does with an MPU-6050 that is not there, and
-its motor interlock line."""
+"""The twin's MCU (the compiled firmware core, sim/mcu.py) on its own: what the firmware does
+with an MPU-6050 that is not there, and its motor interlock line."""
 
 from __future__ import annotations
 
@@ -17,22 +17,20 @@ from jackson.protocol import (
     decode_message,
     encode_frame,
 )
-from jackson.sim.mcu import McuEmulator, SensorSample
+from jackson.sim.mcu import Mcu, SensorSample
 
 NO_IMU = SensorSample(0, 0, False, (0, 0, 0), 0, (0, 0, 0))
 
 
-def emulator(sent: list[bytes]) -> McuEmulator:
+def without_imu(sent: list[bytes]) -> Mcu:
     def write(frame: bytes) -> bool:
         sent.append(frame)
         return True
 
-    return McuEmulator(write, lambda: NO_IMU, imu_present=False)
+    return Mcu(write, lambda: NO_IMU, imu_present=False)
 
 
-def error_instants_ms(
-    mcu: McuEmulator, until_ms: int, step_ms: int = 10, from_ms: int = 0
-) -> list[int]:
+def error_instants_ms(mcu: Mcu, until_ms: int, step_ms: int = 10, from_ms: int = 0) -> list[int]:
     """Tick every ``step_ms`` after ``from_ms`` and return the instants i2c_errors grew."""
     out = []
     seen = mcu.i2c_errors
@@ -45,14 +43,14 @@ def error_instants_ms(
 
 
 def test_an_absent_imu_is_retried_with_backoff_from_50_ms_to_2_s() -> None:
-    mcu = emulator([])
+    mcu = without_imu([])
     assert mcu.i2c_errors == 1  # the boot attempt at 0
     # firmware/core/mpu6050.cpp: retry after 50, 100, 200, ... ms, at most 2 s apart
     assert error_instants_ms(mcu, 9200) == [50, 150, 350, 750, 1550, 3150, 5150, 7150, 9150]
 
 
-def test_the_schedule_does_not_depend_on_how_often_the_emulator_ticks() -> None:
-    fine, coarse = emulator([]), emulator([])
+def test_the_schedule_does_not_depend_on_how_often_the_mcu_ticks() -> None:
+    fine, coarse = without_imu([]), without_imu([])
     error_instants_ms(fine, 6000, step_ms=10)
     coarse.tick(6_000_000)  # one tick: the polls in between are caught up
     assert coarse.i2c_errors == fine.i2c_errors == 8
@@ -60,16 +58,17 @@ def test_the_schedule_does_not_depend_on_how_often_the_emulator_ticks() -> None:
 
 def test_set_config_retries_at_the_next_poll() -> None:
     sent: list[bytes] = []
-    mcu = emulator(sent)
+    mcu = without_imu(sent)
     error_instants_ms(mcu, 400)  # errors at 0, 50, 150, 350; next retry due at 750
     mcu.receive(encode_frame(SetConfig(accel_fs=1, gyro_fs=1, failsafe_ms=600), 0), 405_000)
+    mcu.tick(405_000)
     # the driver re-initialises at its next poll (410 ms); the backoff keeps growing: 800 ms
     assert error_instants_ms(mcu, 2000, from_ms=400) == [410, 1210]
 
 
 def test_telemetry_and_status_report_the_errors() -> None:
     sent: list[bytes] = []
-    mcu = emulator(sent)
+    mcu = without_imu(sent)
     hello = Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH)
     mcu.receive(encode_frame(hello, 0), 0)
     error_instants_ms(mcu, 1000)
@@ -86,21 +85,21 @@ def test_telemetry_and_status_report_the_errors() -> None:
 # ---- the motor interlock line (firmware.cpp update_interlock) ---------------------------------
 
 
-def session(sent: list[bytes]) -> McuEmulator:
-    mcu = emulator(sent)
+def session(sent: list[bytes]) -> Mcu:
+    mcu = without_imu(sent)
     hello = Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH)
     mcu.receive(encode_frame(hello, 0), 0)
     mcu.tick(0)
     return mcu
 
 
-def heartbeat(mcu: McuEmulator, seq: int, t_us: int, state: HostState = HostState.ACTIVE) -> None:
+def heartbeat(mcu: Mcu, seq: int, t_us: int, state: HostState = HostState.ACTIVE) -> None:
     mcu.receive(encode_frame(Heartbeat(ack_seq=0, host_state=state), seq), t_us)
     mcu.tick(t_us)
 
 
 def test_interlock_is_released_at_boot_and_until_the_first_heartbeat() -> None:
-    mcu = emulator([])
+    mcu = without_imu([])
     assert not mcu.motor_enable
     mcu.receive(encode_frame(Heartbeat(ack_seq=0, host_state=HostState.ACTIVE), 0), 1000)
     mcu.tick(1000)
@@ -152,6 +151,7 @@ def test_a_new_hello_releases_the_line_until_its_first_heartbeat() -> None:
     heartbeat(mcu, 1, 20_000)
     hello = Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH)
     mcu.receive(encode_frame(hello, 2), 40_000)
+    mcu.tick(40_000)
     assert not mcu.motor_enable
     heartbeat(mcu, 3, 60_000)
     assert mcu.motor_enable

@@ -153,7 +153,7 @@ FIRMWARE_BUILT = Path(os.environ.get("JACKSON_FIRMWARE_POSIX", DEFAULT_BINARY)).
             ),
         ),
     ],
-    ids=["emulator", "firmware"],
+    ids=["in_process", "firmware_process"],
 )
 def test_a_host_answering_late_is_not_a_stall_and_a_silent_one_is(mcu: tuple[str, ...]) -> None:
     """A twin that waits without a heartbeat timeout (longer than --stall-timeout) is not cut by
