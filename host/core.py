@@ -35,10 +35,11 @@ from jackson.host.control import Mission, NavState
 from jackson.host.control.base import ScanMission
 from jackson.host.control.guard import MissionGuard
 from jackson.host.ekf import Ekf, EkfState, GyroBiasEstimator
-from jackson.host.health import HealthInput, HealthMonitor, Transition, Verdict
+from jackson.host.frontend import FrontEnd, Measurement
+from jackson.host.health import HealthMonitor, Transition, Verdict
 from jackson.host.lidar.rplidar import Revolution, RevolutionAssembler
 from jackson.host.nav.types import Scan
-from jackson.host.odometry import OdometryState, WheelOdometry, tick_delta
+from jackson.host.odometry import OdometryState, WheelOdometry
 from jackson.host.recording import RunRecorder
 from jackson.protocol import (
     Frame,
@@ -51,11 +52,9 @@ from jackson.protocol import (
     SetRate,
     Telemetry,
     TelemetryFlags,
-    TimestampUnwrapper,
     check_peer,
     decode_message,
 )
-from jackson.protocol.units import accel_m_s2, yaw_rate_rad_s
 
 _IMU_OK = int(TelemetryFlags.IMU_OK)  # a plain int: IntFlag's & builds an enum member
 
@@ -254,8 +253,8 @@ class HostCore:
         self.cfg = cfg
         self.duty_source = duty_source  # raw duties instead of a velocity command
         self.imu_calibration = imu_calibration  # False: the device sends raw IMU registers
-        self._enc: tuple[int, int] | None = None  # counts unwrapped from the first frame
-        self._raw_enc = (0, 0)
+        # time, counts, odometry, gyro bias, lost frames, MCU-reset re-anchoring: one place
+        self.frontend = FrontEnd(cfg)
         self.output = output
         self.send = send
         self.mission = mission
@@ -265,26 +264,16 @@ class HostCore:
             else None
         )
         self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
-        self.mcu_resets = 0  # INFO with another boot_id: counts and clock re-anchored
         self.host_state = HostState.ACTIVE  # sent in every HEARTBEAT (SHUTDOWN drops the interlock)
-        self._reanchor = False
         self._wheel_cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] commanded at the last frame
         self._rx_ns = 0
-        self.unwrapper = TimestampUnwrapper()
         # the config sections are the stages' own configs
-        self.odometry = WheelOdometry(cfg.robot)
         self.ekf = Ekf(cfg.ekf)
-        self.gyro_bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
-        self.bias_ever_known = False  # a re-measurement later does not hold the mission
         self.health = HealthMonitor(cfg.health, cfg.robot) if cfg.health.enabled else None
         self.verdict: Verdict | None = None
         self.sensors_lost: str | None = None  # the health policy's reason to brake
         self._hinted = False  # the uncalibrated config's hint was given
-        self._prev_raw: tuple[int, int] | None = None
         self._told = 0  # health transitions told
-        self._last_seq: int | None = None  # SEQ of the last frame from the MCU
-        self._lost = 0  # frames missing by SEQ since the last telemetry frame
-        self._prev_t_s: float | None = None
         self.limiter = VelocityLimiter(cfg.limits)
         self.deadband = cfg.deadband
         zero = cfg.deadband.zero_threshold_rad_s  # the PI brakes where the deadband stage does
@@ -319,6 +308,21 @@ class HostCore:
         self.scans = 0
         self.last_scan: Scan | None = None
 
+    @property
+    def odometry(self) -> WheelOdometry:
+        """The front end's wheel odometry."""
+        return self.frontend.odometry
+
+    @property
+    def gyro_bias(self) -> GyroBiasEstimator:
+        """The front end's gyro bias estimate."""
+        return self.frontend.gyro_bias
+
+    @property
+    def mcu_resets(self) -> int:
+        """INFO frames with another boot_id: counts and clock re-anchored."""
+        return self.frontend.resets
+
     # ------------------------------------------------------------------ inputs
 
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None:
@@ -341,17 +345,13 @@ class HostCore:
         for listener in self.listeners:
             listener.on_frame(frame, host_time_ns)
         self._rx_ns = host_time_ns
-        if self._last_seq is not None:
-            self._lost += (frame.seq - self._last_seq - 1) & 0xFF
-        self._last_seq = frame.seq
+        self.frontend.frame_seq(frame.seq)
         msg = decode_message(frame)
         if isinstance(msg, Info):
             check_peer(msg)  # raises ProtocolMismatchError naming both versions
-            if self.info is not None and msg.boot_id != self.info.boot_id:
+            if self.frontend.info(msg):
                 # an MCU reset: its counts and clock restart; the next frame is a new origin
-                self.mcu_resets += 1
-                self._reanchor = True
-                self._lost = 0  # a new boot counts its frames from its own first
+                assert self.info is not None
                 self.event(f"mcu reset: boot_id {self.info.boot_id:#010x} -> {msg.boot_id:#010x}")
             self.info = msg
             self._configure_device()
@@ -401,15 +401,10 @@ class HostCore:
     # ------------------------------------------------------------------ the frame
 
     def _on_telemetry(self, t: Telemetry, seq: int) -> None:
-        if self._reanchor:
-            self._reanchor = False
-            self.unwrapper.reanchor()
-            self.odometry.reanchor()
-        t_s = self.unwrapper.unwrap(t.t_us) / 1e6
-        self.t_s = t_s
+        m = self.frontend.measure(t)
+        t_s = self.t_s = m.t_s
         self.frames += 1
-        odo = self.odometry.update(t_s, t.enc_left, t.enc_right)
-        self.last_odometry = odo
+        odo = self.last_odometry = m.odometry
         ekf = self.ekf
         # 30 Hz outputs of MCU time up to this frame: prediction only between measurements
         period = 1.0 / self.cfg.ekf.frequency_hz
@@ -419,13 +414,13 @@ class HostCore:
             if ekf.initialized:
                 self._record_ekf(self._next_output_s)
             self._next_output_s += period
-        self._fuse(t_s, t, odo)
+        self._fuse(m)
         if self._revolutions:
             self._take_scans(t_s)
         # command and actuation
         if self.duty_source is not None:
             v_cmd = w_cmd = v = w = 0.0
-            duties = self._raw_duties(t_s, t)
+            duties = self._raw_duties(t_s, m.counts)
             brake = duties == (0.0, 0.0)
         else:
             v_cmd, w_cmd, brake = self._command(t_s, odo, t)
@@ -437,54 +432,25 @@ class HostCore:
         for listener in self.listeners:
             listener.on_result(self, result)
 
-    def _fuse(self, t_s: float, t: Telemetry, odo: OdometryState) -> None:
+    def _fuse(self, m: Measurement) -> None:
         """The EKF's measurements of this frame, as the health monitor allows (docs/health.md):
         both wheels' speed and the gyro; or one wheel and the gyro, or the wheels' yaw rate in
         place of the gyro; or, standing still, a zero-velocity update."""
         ekf = self.ekf
-        wz: float | None = None
-        if t.flags & _IMU_OK:
-            raw_wz = yaw_rate_rad_s(t)
-            still = odo.wheel_velocity_left_rad_s == 0 and odo.wheel_velocity_right_rad_s == 0
-            self.gyro_bias.add(t_s, raw_wz, still)
-            bias = self.gyro_bias.bias_rad_s
-            if bias is not None:
-                self.bias_ever_known = True
-                wz = raw_wz - bias
+        t_s, odo, wz, dt_s = m.t_s, m.odometry, m.wz_rad_s, m.dt_s
         hm = self.health
         if hm is None:  # the paper's filter: every measurement
             ekf.update_wheel(t_s, odo.v_m_s, 0.0)
             if wz is not None:
                 ekf.update_gyro(t_s, wz)
             return
-        raw = (t.enc_left, t.enc_right)
-        prev = self._prev_raw if self._prev_raw is not None else raw
-        ticks = (tick_delta(prev[0], raw[0]), tick_delta(prev[1], raw[1]))
-        dt_s = t_s - self._prev_t_s if self._prev_t_s is not None else 0.0
-        self._prev_raw, self._prev_t_s = raw, t_s
-        om = (odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s)
+        om = m.wheel_rad_s
         still_cmd = self.braked or self._wheel_cmd == (0.0, 0.0)
-        hm.link(t_s, self._lost)
-        self._lost = 0
-        accel = accel_m_s2(t) if t.flags & _IMU_OK else None
-        v = self.verdict = hm.update(
-            HealthInput(
-                t_s=t_s,
-                imu_ok=bool(t.flags & _IMU_OK),
-                imu_raw=(*t.accel, *t.gyro, t.temp),
-                wz_rad_s=wz,
-                wheel_rad_s=om,
-                ticks=ticks,
-                dt_s=dt_s,
-                wheel_cmd_rad_s=self._wheel_cmd,
-                commanded_still=still_cmd,
-                accel_y_m_s2=accel[1] if accel is not None else None,
-                accel_x_m_s2=accel[0] if accel is not None else None,
-            )
-        )
+        hm.link(t_s, m.lost)
+        v = self.verdict = hm.update(m.health_input(self._wheel_cmd, still_cmd))
         self._report_health(hm)
         if hm.remeasure_bias:
-            self.gyro_bias.reset()  # measured again over the next standstill
+            self.frontend.remeasure_bias()  # measured again over the next standstill
         if v.lost is not None and self.sensors_lost is None:
             self.sensors_lost = v.lost
             if self._hinted:  # a wheel or the gyro was excluded on an uncalibrated config
@@ -566,19 +532,10 @@ class HostCore:
         for listener in self.listeners:
             listener.on_filtered(t_s, s)
 
-    def _raw_duties(self, t_s: float, t: Telemetry) -> tuple[float, float]:
+    def _raw_duties(self, t_s: float, counts: tuple[int, int]) -> tuple[float, float]:
         """The duty source's duties, written to the output as they are (0, 0 brakes)."""
         assert self.duty_source is not None
-        raw = (t.enc_left, t.enc_right)
-        if self._enc is None:
-            self._enc = raw
-        else:
-            self._enc = (
-                self._enc[0] + tick_delta(self._raw_enc[0], raw[0]),
-                self._enc[1] + tick_delta(self._raw_enc[1], raw[1]),
-            )
-        self._raw_enc = raw
-        d_l, d_r = self.duty_source.step(t_s, self._enc[0], self._enc[1])
+        d_l, d_r = self.duty_source.step(t_s, counts[0], counts[1])
         self.output.set(d_l, d_r)
         self.braked = d_l == 0.0 and d_r == 0.0
         return d_l, d_r
@@ -600,7 +557,7 @@ class HostCore:
                 return 0.0, 0.0, True
             # an IMU the health monitor excluded is not waited for: wheel-only yaw
             imu_out = self.health is not None and not self.health.state("imu").usable
-            bias_known = self.bias_ever_known or imu_out
+            bias_known = self.frontend.bias_ever_known or imu_out
             if self.guard is not None and not self.mission.done:
                 reason = self.guard.check(
                     t_s,
@@ -674,8 +631,7 @@ class HostCore:
     def link_up(self) -> None:
         """The port was (re)opened: frames sent while nobody read it are not lost on the link,
         so SEQ gaps count again from this session's first frame."""
-        self._last_seq = None
-        self._lost = 0
+        self.frontend.link_up()
 
     def brake(self) -> None:
         """Brake now (link lost, shutdown)."""

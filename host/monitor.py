@@ -21,9 +21,8 @@ from rich.table import Table
 
 from jackson.host.config import HostConfig
 from jackson.host.daemon import VERSION_SILENCE_S
-from jackson.host.ekf import GyroBiasEstimator
-from jackson.host.health import HealthInput, HealthMonitor
-from jackson.host.odometry import WheelOdometry, tick_delta
+from jackson.host.frontend import FrontEnd
+from jackson.host.health import HealthMonitor
 from jackson.host.transport import LinkEvent, SerialTransport
 from jackson.protocol import (
     PROTOCOL_VERSION,
@@ -35,11 +34,10 @@ from jackson.protocol import (
     Status,
     Telemetry,
     TelemetryFlags,
-    TimestampUnwrapper,
     check_peer,
     decode_message,
 )
-from jackson.protocol.units import accel_m_s2, gyro_rad_s, temperature_c, yaw_rate_rad_s
+from jackson.protocol.units import accel_m_s2, gyro_rad_s, temperature_c
 
 
 def imu_si(t: Telemetry) -> tuple[tuple[float, ...], tuple[float, ...], float]:
@@ -53,52 +51,31 @@ def flag_names(flags: int) -> str:
 
 
 class SensorWatch:
-    """The health monitor on a robot that is not driven (module docstring)."""
+    """The health monitor on a robot that is not driven (module docstring), fed by the daemon's
+    own front end (:class:`jackson.host.frontend.FrontEnd`)."""
 
     def __init__(self, cfg: HostConfig | None = None) -> None:
         cfg = cfg if cfg is not None else HostConfig()
         self.health = HealthMonitor(cfg.health, cfg.robot)
-        self.odometry = WheelOdometry(cfg.robot)
-        self.bias = GyroBiasEstimator(window_s=cfg.ekf.gyro_bias_window_s)
-        self.unwrapper = TimestampUnwrapper()
-        self._prev: tuple[float, int, int] | None = None
-        self._seq: int | None = None
+        self.frontend = FrontEnd(cfg)
+
+    def frame(self, seq: int) -> None:
+        """A frame other than telemetry (its SEQ counts for the link's frame loss)."""
+        self.frontend.frame_seq(seq)
+
+    def info(self, msg: Info) -> None:
+        """The device's INFO (another boot_id: an MCU reset, the next frame a new origin)."""
+        self.frontend.info(msg)
 
     def feed(self, t: Telemetry, seq: int | None = None) -> None:
         """One telemetry frame (and its SEQ, for the link's frame loss)."""
-        t_s = self.unwrapper.unwrap(t.t_us) / 1e6
-        lost = 0
         if seq is not None:
-            if self._seq is not None:
-                lost = (seq - self._seq - 1) & 0xFF
-            self._seq = seq
-        self.health.link(t_s, lost)
-        odo = self.odometry.update(t_s, t.enc_left, t.enc_right)
-        om = (odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s)
-        imu_ok = bool(t.flags & TelemetryFlags.IMU_OK)
-        wz = None
-        if imu_ok:
-            raw = yaw_rate_rad_s(t)
-            self.bias.add(t_s, raw, om == (0.0, 0.0))
-            if self.bias.bias_rad_s is not None:
-                wz = raw - self.bias.bias_rad_s
-        prev = self._prev if self._prev is not None else (t_s, t.enc_left, t.enc_right)
-        self._prev = (t_s, t.enc_left, t.enc_right)
-        self.health.update(
-            HealthInput(
-                t_s=t_s,
-                imu_ok=imu_ok,
-                imu_raw=(*t.accel, *t.gyro, t.temp),
-                wz_rad_s=wz,
-                wheel_rad_s=om,
-                ticks=(tick_delta(prev[1], t.enc_left), tick_delta(prev[2], t.enc_right)),
-                dt_s=t_s - prev[0],
-                wheel_cmd_rad_s=(0.0, 0.0),
-                commanded_still=True,
-            )
-        )
+            self.frontend.frame_seq(seq)
+        m = self.frontend.measure(t)
+        self.health.link(m.t_s, m.lost)
+        self.health.update(m.health_input((0.0, 0.0), True))  # nothing is commanded
         if self.health.remeasure_bias:
-            self.bias.reset()
+            self.frontend.remeasure_bias()
 
     def line(self) -> str:
         """The states, the NIS and the last transition, for the live view."""
@@ -199,6 +176,8 @@ def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = No
                     continue
                 if isinstance(item, LinkEvent):
                     s.link = "up" if item.kind == "up" else f"down ({item.detail}), retrying"
+                    if item.kind == "up":
+                        s.sensors.frontend.link_up()
                     continue
                 rx_ns, frame = item
                 msg = decode_message(frame)
@@ -209,9 +188,13 @@ def run_monitor(port: str, baudrate: int = 921600, duration_s: float | None = No
                     now = rx_ns / 1e9
                     s.times = [t for t in s.times if t > now - 2.0] + [now]
                     transport.send(Heartbeat(ack_seq=frame.seq, host_state=HostState.IDLE))
-                elif isinstance(msg, Info):
+                    live.update(render(s, transport))
+                    continue
+                s.sensors.frame(frame.seq)
+                if isinstance(msg, Info):
                     check_peer(msg)
                     s.info = msg
+                    s.sensors.info(msg)
                 elif isinstance(msg, Status):
                     s.status = msg
                 elif isinstance(msg, Log):

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from jackson.calibration.procedures import CalibrationError, Reference, RunData
-from jackson.host.odometry import tick_delta
+from jackson.host.config import HostConfig
+from jackson.host.frontend import FrontEnd
 from jackson.host.recording import KIND_END, KIND_RX, KIND_TX, RecordingError, read_log
 from jackson.protocol import (
     FrameDecoder,
@@ -20,7 +21,6 @@ from jackson.protocol import (
     SetImuCalibration,
     Telemetry,
     TelemetryFlags,
-    TimestampUnwrapper,
     decode_message,
 )
 from jackson.protocol.messages import (
@@ -153,14 +153,13 @@ def load_run(folder: str | Path) -> RunData:
         raise CalibrationError(f"run folder {path} does not exist")
     if not (path / "log.jrec").exists():
         raise CalibrationError(f"{path} is not a run folder (no log.jrec)")
-    unwrapper = TimestampUnwrapper()
+    front = FrontEnd(HostConfig())  # the daemon's: MCU time unwrapped, counts across resets
     t_s: list[float] = []
     enc: list[tuple[int, int]] = []
     gyro: list[np.ndarray[Any, Any]] = []
     accel: list[np.ndarray[Any, Any]] = []
     nan3 = np.full(3, np.nan)
     device = _DeviceImu()
-    raw_left = raw_right = 0
     ended = False
     try:
         for rec in read_log(path):
@@ -174,23 +173,17 @@ def load_run(folder: str | Path) -> RunData:
             if rec.kind != KIND_RX or len(rec.payload) < 2:
                 continue
             if rec.payload[0] == Info.TYPE:
-                device.info(Info.unpack(rec.payload[2:]))
+                info = Info.unpack(rec.payload[2:])
+                device.info(info)
+                front.info(info)
                 continue
             if rec.payload[0] != Telemetry.TYPE:
                 continue
             t = Telemetry.unpack(rec.payload[2:])
             calibration = device.frame(bool(t.flags & TelemetryFlags.IMU_CALIBRATED))
-            t_s.append(unwrapper.unwrap(t.t_us) / 1e6)
-            if enc:
-                enc.append(
-                    (
-                        enc[-1][0] + tick_delta(raw_left, t.enc_left),
-                        enc[-1][1] + tick_delta(raw_right, t.enc_right),
-                    )
-                )
-            else:
-                enc.append((t.enc_left, t.enc_right))
-            raw_left, raw_right = t.enc_left, t.enc_right
+            m = front.measure(t)
+            t_s.append(m.t_s)
+            enc.append(m.counts)
             if not t.flags & TelemetryFlags.IMU_OK:
                 gyro.append(nan3)
                 accel.append(nan3)

@@ -72,3 +72,45 @@ def test_a_reconnect_to_the_same_boot_keeps_counting() -> None:
     assert core.mcu_resets == 0
     x = core.odometry.state.x_m
     assert abs(x - 2 * 3.14159 * 0.033 * (400 + 190) / 621) < 0.01
+
+
+class _Duties:
+    """A duty source that records the counts it is given."""
+
+    done = False
+
+    def __init__(self) -> None:
+        self.counts: list[tuple[int, int]] = []
+
+    def step(self, t_s: float, enc_left: int, enc_right: int) -> tuple[float, float]:
+        self.counts.append((enc_left, enc_right))
+        return 0.2, 0.2
+
+
+def test_after_a_reset_health_and_the_raw_duty_path_see_a_new_origin_not_a_jump() -> None:
+    # one front end: the health monitor's ticks and dt, and the raw-duty path's cumulative
+    # counts, are re-anchored with the odometry (before, they saw -390 ticks in 0 s)
+    seen: list[tuple[tuple[int, int], float]] = []
+    for duty in (False, True):
+        source = _Duties() if duty else None
+        core = HostCore(
+            load_config(DEFAULT_CONFIG), NullOutput(), lambda m: None, duty_source=source
+        )
+        hm = core.health
+        assert hm is not None
+        real = hm.update
+
+        def spy(inp, real=real):  # type: ignore[no-untyped-def]
+            seen.append((inp.ticks, inp.dt_s))
+            return real(inp)
+
+        hm.update = spy  # type: ignore[method-assign]
+        core.on_frame(frame(info(0x1111)))
+        drive(core, 5_000_000, 0, 40, 10)  # 390 ticks
+        seen.clear()
+        core.on_frame(frame(info(0x2222)))
+        drive(core, 300_000, 0, 3, 10)  # the new boot's counts: 0, 10, 20
+        assert seen[0] == ((0, 0), 0.0)  # the new origin: no motion, no time
+        assert seen[1][0] == (10, 10) and abs(seen[1][1] - 0.05) < 1e-9
+        if source is not None:
+            assert source.counts[-4:] == [(390, 390), (390, 390), (400, 400), (410, 410)]
