@@ -2,16 +2,24 @@
 
 :class:`HostCore` is everything the daemon computes, free of I/O but for its motor output and a
 ``send`` callable, so the same code runs on the robot, against the twin and in ``jackson
-replay``. Per telemetry frame, on MCU time (the unwrapped ``t_us``, never the wall clock):
+replay``. It is a pipeline of small stages, each its own class, run per telemetry frame on MCU
+time (the unwrapped ``t_us``, never the wall clock):
 
-1. wheel odometry (Eq. 2, 3, 9) from the cumulative counts;
-2. the EKF: outputs at 30 Hz of MCU time up to this frame (predict only), then predict to the
-   frame and fuse wheel ``vx`` with ``vy = 0`` and the IMU yaw rate less the start-up gyro bias;
-3. a command: from the mission, or the newest external (``/cmd_vel``-style) command, which
-   brakes once older than the watchdog (0.6 s);
-4. the actuation chain: velocity and acceleration limits, inverse kinematics, optional wheel
-   PI, per-wheel and per-direction deadband compensation, the motor output;
-5. a HEARTBEAT acknowledging the frame (in lockstep, the twin advances on it).
+1. the front end (:class:`~jackson.host.frontend.FrontEnd`): time, lost frames, counts, wheel
+   odometry (Eq. 2, 3, 9), the gyro less its bias, MCU-reset re-anchoring; one frozen
+   :class:`~jackson.host.frontend.Measurement`;
+2. the measurement policy (:class:`~jackson.host.fusion.Fusion`): the EKF's outputs at 30 Hz of
+   MCU time up to this frame (predict only), then the frame's measurements fused as the health
+   monitor allows;
+3. the LiDAR's revolutions completed since the last frame (:class:`~jackson.host.lidar.intake.
+   ScanIntake`), to the health monitor and a navigating mission;
+4. command arbitration (:class:`~jackson.host.control.arbiter.CommandArbiter`): the mission's
+   command, or the newest external (``/cmd_vel``-style) one, which brakes once older than the
+   watchdog (0.6 s);
+5. the actuation chain (:class:`~jackson.host.actuation.chain.ActuationChain`): velocity and
+   acceleration limits, inverse kinematics, optional wheel PI, per-wheel and per-direction
+   deadband compensation, the motor output;
+6. a HEARTBEAT acknowledging the frame (in lockstep, the twin advances on it).
 
 What it computes goes to its :class:`CoreListener` s (the run recorder, the rosbag2, the ROS
 bridge). :class:`jackson.host.daemon.Daemon` adds the serial transport and the process.
@@ -19,25 +27,24 @@ bridge). :class:`jackson.host.daemon.Daemon` adds the serial transport and the p
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from jackson.host.actuation.deadband import wheel_duty
-from jackson.host.actuation.kinematics import inverse
+from jackson.host.actuation.chain import ActuationChain
 from jackson.host.actuation.limiter import VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.actuation.watchdog import CommandWatchdog
-from jackson.host.actuation.wheel_pi import WheelSpeedPi
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
+from jackson.host.control.arbiter import CommandArbiter, Conditions
 from jackson.host.control.base import ScanMission
-from jackson.host.control.guard import MissionGuard
 from jackson.host.ekf import Ekf, EkfState, GyroBiasEstimator
-from jackson.host.frontend import FrontEnd, Measurement
+from jackson.host.frontend import FrontEnd
+from jackson.host.fusion import Fusion
 from jackson.host.health import HealthMonitor, Transition, Verdict
-from jackson.host.lidar.rplidar import Revolution, RevolutionAssembler
+from jackson.host.lidar.intake import ScanIntake
+from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.nav.types import Scan
 from jackson.host.odometry import OdometryState, WheelOdometry
 from jackson.host.recording import RunRecorder
@@ -57,8 +64,6 @@ from jackson.protocol import (
 )
 
 _IMU_OK = int(TelemetryFlags.IMU_OK)  # a plain int: IntFlag's & builds an enum member
-
-ONE_WHEEL_VARIANCE_SCALE = 4.0  # R of v_x from one wheel and the gyro, relative to two wheels
 
 
 def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
@@ -90,13 +95,6 @@ def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> li
             )
         )
     return out
-
-
-UNCALIBRATED_HINT = (
-    "the host config holds no calibration (imu.calibration is unset): on a robot other than "
-    "the one it describes the sensors disagree with it and look faulty; calibrate this robot "
-    "first (jackson calibrate, docs/calibration.md)"
-)
 
 
 class DutySource(Protocol):
@@ -255,58 +253,23 @@ class HostCore:
         self.imu_calibration = imu_calibration  # False: the device sends raw IMU registers
         # time, counts, odometry, gyro bias, lost frames, MCU-reset re-anchoring: one place
         self.frontend = FrontEnd(cfg)
-        self.output = output
+        # limits, kinematics, PI, deadband, the motor output
+        self.actuation = ActuationChain(cfg, output)
         self.send = send
-        self.mission = mission
-        self.guard = (
-            MissionGuard(mission.name, mission_timeout_s, sensor_rules=not cfg.health.enabled)
-            if mission is not None
-            else None
+        # the mission's command or the newest external one, the guard, the watchdog
+        self.arbiter = CommandArbiter(
+            cfg.watchdog_s, mission, mission_timeout_s, sensor_rules=not cfg.health.enabled
         )
         self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
         self.host_state = HostState.ACTIVE  # sent in every HEARTBEAT (SHUTDOWN drops the interlock)
-        self._wheel_cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] commanded at the last frame
         self._rx_ns = 0
-        # the config sections are the stages' own configs
-        self.ekf = Ekf(cfg.ekf)
-        self.health = HealthMonitor(cfg.health, cfg.robot) if cfg.health.enabled else None
-        self.verdict: Verdict | None = None
-        self.sensors_lost: str | None = None  # the health policy's reason to brake
-        self._hinted = False  # the uncalibrated config's hint was given
-        self._told = 0  # health transitions told
-        self.limiter = VelocityLimiter(cfg.limits)
-        self.deadband = cfg.deadband
-        zero = cfg.deadband.zero_threshold_rad_s  # the PI brakes where the deadband stage does
-        self.pi = (
-            (
-                WheelSpeedPi(cfg.wheel_pi, zero_threshold_rad_s=zero),
-                WheelSpeedPi(cfg.wheel_pi, zero_threshold_rad_s=zero),
-            )
-            if cfg.wheel_pi.enabled
-            else None
-        )
-        self.watchdog = CommandWatchdog(cfg.watchdog_s)
+        # the EKF fed as the sensors' health allows, its 30 Hz outputs
+        self.fusion = Fusion(cfg, self.frontend, self.event, self._tell_transition)
         self.info: Info | None = None
-        self.t_s: float | None = None
-        self.last_odometry: OdometryState | None = None
-        self.external: tuple[float, float] = (0.0, 0.0)
-        self._external_pending: tuple[float, float, int] | None = None
-        self._taken: tuple[float, float, int] | None = None
-        self._next_output_s: float | None = None
-        self.frames = 0
-        self.braked = True
-        self.ekf_outputs = 0
-        self.last_output: EkfState | None = None
         self.listeners: list[CoreListener] = [RunFolderListener(recorder)] if recorder else []
         self.last_result: FrameResult | None = None
-        self.last_telemetry: Telemetry | None = None
         # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded here
-        self.lidar = RevolutionAssembler(streaming=True)
-        self._revolutions: list[Revolution] = []
-        self._lidar_received = 0  # LiDAR bytes read since the last frame
-        self._lidar_skipped = 0  # the LiDAR decoder's malformed bytes at the last frame
-        self.scans = 0
-        self.last_scan: Scan | None = None
+        self.intake = ScanIntake()
 
     @property
     def odometry(self) -> WheelOdometry:
@@ -319,6 +282,105 @@ class HostCore:
         return self.frontend.gyro_bias
 
     @property
+    def output(self) -> MotorOutput:
+        """The motor output the actuation chain writes."""
+        return self.actuation.output
+
+    @property
+    def limiter(self) -> VelocityLimiter:
+        """The actuation chain's velocity and acceleration limiter."""
+        return self.actuation.limiter
+
+    @property
+    def braked(self) -> bool:
+        """The motors were braked at the last frame (or since)."""
+        return self.actuation.braked
+
+    @property
+    def lidar(self) -> RevolutionAssembler:
+        """The LiDAR's decoder."""
+        return self.intake.assembler
+
+    @property
+    def scans(self) -> int:
+        """LiDAR scans taken."""
+        return self.intake.scans
+
+    @property
+    def last_scan(self) -> Scan | None:
+        """The newest LiDAR scan."""
+        return self.intake.last_scan
+
+    @property
+    def mission(self) -> Mission | None:
+        """The mission the daemon runs (None: external commands)."""
+        return self.arbiter.mission
+
+    @mission.setter
+    def mission(self, mission: Mission | None) -> None:
+        self.arbiter.mission = mission
+
+    @property
+    def watchdog(self) -> CommandWatchdog:
+        """The external command's watchdog."""
+        return self.arbiter.watchdog
+
+    @property
+    def external(self) -> tuple[float, float]:
+        """The newest external command in force (v [m/s], w [rad/s])."""
+        return self.arbiter.external
+
+    @property
+    def ekf(self) -> Ekf:
+        """The filter."""
+        return self.fusion.ekf
+
+    @property
+    def health(self) -> HealthMonitor | None:
+        """The sensor health monitor (None: off)."""
+        return self.fusion.health
+
+    @property
+    def verdict(self) -> Verdict | None:
+        """The health monitor's verdict at the last frame."""
+        return self.fusion.verdict
+
+    @property
+    def sensors_lost(self) -> str | None:
+        """The health policy's reason to brake."""
+        return self.fusion.sensors_lost
+
+    @property
+    def ekf_outputs(self) -> int:
+        """The filter's 30 Hz outputs so far."""
+        return self.fusion.outputs
+
+    @property
+    def last_output(self) -> EkfState | None:
+        """The newest 30 Hz output."""
+        return self.fusion.last_output
+
+    @property
+    def t_s(self) -> float | None:
+        """The MCU time of the last telemetry frame [s] (None before one)."""
+        return self.frontend.t_s
+
+    @property
+    def frames(self) -> int:
+        """Telemetry frames handled."""
+        return self.frontend.frames
+
+    @property
+    def last_odometry(self) -> OdometryState | None:
+        """Wheel odometry after the last telemetry frame (None before one)."""
+        return self.frontend.odometry.state if self.frontend.frames else None
+
+    @property
+    def last_telemetry(self) -> Telemetry | None:
+        """The last telemetry frame handled (None before one)."""
+        return self.last_result.telemetry if self.last_result is not None else None
+
+    @property
     def mcu_resets(self) -> int:
         """INFO frames with another boot_id: counts and clock re-anchored."""
         return self.frontend.resets
@@ -328,18 +390,15 @@ class HostCore:
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None:
         """An external velocity command (``/cmd_vel``); it takes effect, stamped on MCU time, at
         the next telemetry frame. Safe to call from another thread (the ROS executor)."""
-        if not (math.isfinite(v_m_s) and math.isfinite(w_rad_s)):
-            return  # a NaN must never become a duty
-        self._external_pending = (v_m_s, w_rad_s, host_time_ns)
+        self.arbiter.submit(v_m_s, w_rad_s, host_time_ns)
 
     def on_frame(self, frame: Frame, host_time_ns: int = 0) -> None:
         """One decoded frame from the MCU."""
-        self._taken = None
-        if frame.type == Telemetry.TYPE and self._external_pending is not None:
+        taken = self.arbiter.take(frame.type == Telemetry.TYPE)
+        if taken is not None:
             # taken once, on this thread; logged before the frame that applies it, so a replay
             # applies it to the same frame
-            self._taken, self._external_pending = self._external_pending, None
-            v, w, t_ns = self._taken
+            v, w, t_ns = taken
             for listener in self.listeners:
                 listener.on_command(v, w, t_ns)
         for listener in self.listeners:
@@ -366,8 +425,7 @@ class HostCore:
             return
         for listener in self.listeners:
             listener.on_lidar(data, host_time_ns)
-        self._lidar_received += len(data)
-        self._revolutions += self.lidar.feed(data)
+        self.intake.feed(data)
 
     def lidar_gone(self, reason: str) -> None:
         """The LiDAR's port failed: the monitor excludes it at once, and a mission that
@@ -376,7 +434,7 @@ class HostCore:
         hm = self.health
         if hm is not None:
             hm.lidar_gone(t_s, reason)
-            self._report_health(hm)
+            self.fusion.report_health()
         if isinstance(self.mission, ScanMission) and not self.mission.done:
             self.abort(f"LiDAR lost: {reason}")
             self.brake()
@@ -402,20 +460,12 @@ class HostCore:
 
     def _on_telemetry(self, t: Telemetry, seq: int) -> None:
         m = self.frontend.measure(t)
-        t_s = self.t_s = m.t_s
-        self.frames += 1
-        odo = self.last_odometry = m.odometry
-        ekf = self.ekf
+        t_s, odo = m.t_s, m.odometry
         # 30 Hz outputs of MCU time up to this frame: prediction only between measurements
-        period = 1.0 / self.cfg.ekf.frequency_hz
-        if self._next_output_s is None:
-            self._next_output_s = math.ceil(t_s / period) * period
-        while self._next_output_s <= t_s + 1e-9:
-            if ekf.initialized:
-                self._record_ekf(self._next_output_s)
-            self._next_output_s += period
-        self._fuse(m)
-        if self._revolutions:
+        self.fusion.outputs_to(t_s, self._emit_filtered)
+        act = self.actuation
+        self.fusion.fuse(m, act.wheel_cmd, act.commanded_still)
+        if self.intake.pending:
             self._take_scans(t_s)
         # command and actuation
         if self.duty_source is not None:
@@ -423,97 +473,30 @@ class HostCore:
             duties = self._raw_duties(t_s, m.counts)
             brake = duties == (0.0, 0.0)
         else:
-            v_cmd, w_cmd, brake = self._command(t_s, odo, t)
-            v, w, duties = self._actuate(t_s, v_cmd, w_cmd, brake, odo)
+            v_cmd, w_cmd, brake = self._command(t_s, t)
+            v, w, duties = self.actuation.apply(t_s, v_cmd, w_cmd, brake, odo)
         self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
-        self.last_telemetry = t
         result = FrameResult(t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake)
         self.last_result = result
         for listener in self.listeners:
             listener.on_result(self, result)
 
-    def _fuse(self, m: Measurement) -> None:
-        """The EKF's measurements of this frame, as the health monitor allows (docs/health.md):
-        both wheels' speed and the gyro; or one wheel and the gyro, or the wheels' yaw rate in
-        place of the gyro; or, standing still, a zero-velocity update."""
-        ekf = self.ekf
-        t_s, odo, wz, dt_s = m.t_s, m.odometry, m.wz_rad_s, m.dt_s
-        hm = self.health
-        if hm is None:  # the paper's filter: every measurement
-            ekf.update_wheel(t_s, odo.v_m_s, 0.0)
-            if wz is not None:
-                ekf.update_gyro(t_s, wz)
-            return
-        om = m.wheel_rad_s
-        still_cmd = self.braked or self._wheel_cmd == (0.0, 0.0)
-        hm.link(t_s, m.lost)
-        v = self.verdict = hm.update(m.health_input(self._wheel_cmd, still_cmd))
-        self._report_health(hm)
-        if hm.remeasure_bias:
-            self.frontend.remeasure_bias()  # measured again over the next standstill
-        if v.lost is not None and self.sensors_lost is None:
-            self.sensors_lost = v.lost
-            if self._hinted:  # a wheel or the gyro was excluded on an uncalibrated config
-                self.sensors_lost = f"{v.lost} ({UNCALIBRATED_HINT})"
-            self.event(f"health: braking: {self.sensors_lost}")
-        ekf.stationary = v.stationary
-        if v.stationary:
-            ekf.update_zero_velocity(t_s, self.cfg.health.zupt_variance)
-            return
-        r = self.cfg.robot
-        if v.use_left and v.use_right:
-            ekf.update_wheel(t_s, odo.v_m_s, 0.0)
-        elif wz is not None and v.use_gyro and (v.use_left or v.use_right):
-            # one wheel and the gyro: v = r_i omega_i -+ wz B / 2
-            half = 0.5 * wz * r.wheel_separation_m
-            if v.use_left:
-                vx = r.wheel_radius_left_m * om[0] + half
-            else:
-                vx = r.wheel_radius_right_m * om[1] - half
-            ekf.update_wheel(t_s, vx, 0.0, variance_scale=ONE_WHEEL_VARIANCE_SCALE)
-        if wz is not None and v.use_gyro:
-            ekf.update_gyro(t_s, wz)
-        elif v.use_left and v.use_right and dt_s > 0.0:
-            # the wheels' yaw rate through the model learned while the gyro was healthy
-            w_e = (
-                r.wheel_radius_right_m * om[1] - r.wheel_radius_left_m * om[0]
-            ) / r.wheel_separation_m
-            ekf.update_yaw_rate(t_s, hm.model.true_rate(w_e, odo.v_m_s), v.wheel_yaw_variance)
-
-    def _report_health(self, hm: HealthMonitor) -> None:
-        """Tell the operator and the listeners of the monitor's new transitions; with a config
-        that holds no calibration, the first exclusion of a wheel or the gyro for disagreeing
-        with the other (not a dead or stuck sensor) says so too."""
-        for tr in hm.transitions[self._told :]:
-            self.event(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
-            for listener in self.listeners:
-                listener.on_health(tr)
-            if (
-                tr.new.value == "excluded"
-                and tr.sensor in ("imu", "encoder_left", "encoder_right")
-                and "disagree" in tr.reason  # the wheels and the gyro against the config's robot
-                and self.cfg.imu.calibration is None
-                and not self._hinted
-            ):
-                self._hinted = True
-                self.event(f"health: {UNCALIBRATED_HINT}")
-        self._told = len(hm.transitions)
+    def _tell_transition(self, tr: Transition) -> None:
+        for listener in self.listeners:
+            listener.on_health(tr)
 
     def _take_scans(self, t_s: float) -> None:
-        revolutions, self._revolutions = self._revolutions, []
+        revolutions = self.intake.take()
         hm = self.health
-        if hm is not None and self._lidar_received:
-            skipped = self.lidar.decoder.malformed_bytes
-            hm.lidar_bytes(t_s, self._lidar_received, skipped - self._lidar_skipped)
-            self._lidar_skipped = skipped
-            self._lidar_received = 0
+        if hm is not None:
+            report = self.intake.bytes_report()
+            if report is not None:
+                hm.lidar_bytes(t_s, *report)
         navigating = isinstance(self.mission, ScanMission)
         if hm is not None:
             hm.lidar_needed = navigating and self.mission is not None and not self.mission.done
         for rev in revolutions:
-            scan = Scan(t_s, rev.angles_rad, rev.ranges_m)
-            self.scans += 1
-            self.last_scan = scan
+            scan = self.intake.scan(t_s, rev)
             # a scan too noisy to trust, or from an excluded LiDAR, is published (the
             # listeners) but not navigated by
             use = hm.scan(t_s, rev.ranges_m, rev.angles_rad) if hm is not None else True
@@ -522,13 +505,10 @@ class HostCore:
                 self.mission.on_scan(scan, self.nav_state())
             for listener in self.listeners:
                 listener.on_scan(self, scan)
-        if hm is not None:
-            self._report_health(hm)
+        self.fusion.report_health()
 
-    def _record_ekf(self, t_s: float) -> None:
+    def _emit_filtered(self, t_s: float, s: EkfState) -> None:
         """A 30 Hz output: the estimate predicted to ``t_s`` (the filter itself is not moved)."""
-        self.ekf_outputs += 1
-        self.last_output = s = self.ekf.state_at(t_s)
         for listener in self.listeners:
             listener.on_filtered(t_s, s)
 
@@ -536,97 +516,25 @@ class HostCore:
         """The duty source's duties, written to the output as they are (0, 0 brakes)."""
         assert self.duty_source is not None
         d_l, d_r = self.duty_source.step(t_s, counts[0], counts[1])
-        self.output.set(d_l, d_r)
-        self.braked = d_l == 0.0 and d_r == 0.0
-        return d_l, d_r
+        return self.actuation.raw(d_l, d_r)
 
     def nav_state(self) -> NavState:
         e = self.ekf
         return NavState(self.t_s or 0.0, e.x_m, e.y_m, e.yaw_rad, e.vx_m_s, e.vyaw_rad_s)
 
-    def _command(self, t_s: float, odo: OdometryState, t: Telemetry) -> tuple[float, float, bool]:
-        if self._taken is not None:
-            self.external = (self._taken[0], self._taken[1])
-            self._taken = None
-            self.watchdog.feed(t_s)
-        if self.mission is not None:
-            if self.abort_reason is not None:
-                return 0.0, 0.0, True
-            if self.sensors_lost is not None:
-                self.abort(self.sensors_lost)
-                return 0.0, 0.0, True
-            # an IMU the health monitor excluded is not waited for: wheel-only yaw
-            imu_out = self.health is not None and not self.health.state("imu").usable
-            bias_known = self.frontend.bias_ever_known or imu_out
-            if self.guard is not None and not self.mission.done:
-                reason = self.guard.check(
-                    t_s,
-                    bool(t.flags & _IMU_OK),
-                    bias_known,
-                    (t.enc_left, t.enc_right),
-                    self._wheel_cmd,
-                )
-                if reason is not None:
-                    self.abort(reason)
-                    return 0.0, 0.0, True
-            if not bias_known:
-                return 0.0, 0.0, True  # stand still until the gyro bias is known
-            v, w = self.mission.command(self.nav_state())
-            if self.health is not None and self.health.lidar_blind and not self.mission.done:
-                return 0.0, 0.0, True  # no usable scan for too long: braked until one comes
-            return v, w, self.mission.done
-        if self.watchdog.expired(t_s) or self.sensors_lost is not None:
-            return 0.0, 0.0, True
-        return self.external[0], self.external[1], False
-
-    def _actuate(
-        self, t_s: float, v_cmd: float, w_cmd: float, brake: bool, odo: OdometryState
-    ) -> tuple[float, float, tuple[float, float]]:
-        """Limits, kinematics, PI, deadband, the motor output; (v, w, duties) as sent."""
-        if brake:
-            self.limiter.reset()
-            if self.pi is not None:
-                for pi in self.pi:
-                    pi.reset()
-            self.output.brake()
-            self.braked = True
-            duties = (0.0, 0.0)
-            v = w = 0.0
-            self._wheel_cmd = (0.0, 0.0)
-        else:
-            v, w = self.limiter.limit(v_cmd, w_cmd, t_s)
-            r = self.cfg.robot
-            om_l, om_r = inverse(
-                v, w, r.wheel_radius_left_m, r.wheel_radius_right_m, r.wheel_separation_m
-            )
-            self._wheel_cmd = (om_l, om_r)
-            d_l = wheel_duty(om_l, "left", self.deadband)
-            d_r = wheel_duty(om_r, "right", self.deadband)
-            if self.pi is not None:
-                d_l = max(
-                    -1.0,
-                    min(
-                        1.0,
-                        d_l
-                        + self.pi[0].update(
-                            om_l, odo.wheel_velocity_left_rad_s, t_s, feedforward_duty=d_l
-                        ),
-                    ),
-                )
-                d_r = max(
-                    -1.0,
-                    min(
-                        1.0,
-                        d_r
-                        + self.pi[1].update(
-                            om_r, odo.wheel_velocity_right_rad_s, t_s, feedforward_duty=d_r
-                        ),
-                    ),
-                )
-            self.output.set(d_l, d_r)
-            self.braked = False
-            duties = (d_l, d_r)
-        return v, w, duties
+    def _command(self, t_s: float, t: Telemetry) -> tuple[float, float, bool]:
+        hm = self.health
+        # an IMU the health monitor excluded is not waited for: wheel-only yaw
+        imu_out = hm is not None and not hm.state("imu").usable
+        conditions = Conditions(
+            imu_ok=bool(t.flags & _IMU_OK),
+            bias_known=self.frontend.bias_ever_known or imu_out,
+            counts=(t.enc_left, t.enc_right),
+            wheel_cmd=self.actuation.wheel_cmd,
+            sensors_lost=self.sensors_lost,
+            lidar_blind=hm is not None and hm.lidar_blind,
+        )
+        return self.arbiter.command(t_s, conditions, self.abort_reason, self.abort, self.nav_state)
 
     def link_up(self) -> None:
         """The port was (re)opened: frames sent while nobody read it are not lost on the link,
@@ -635,5 +543,4 @@ class HostCore:
 
     def brake(self) -> None:
         """Brake now (link lost, shutdown)."""
-        self.output.brake()
-        self.braked = True
+        self.actuation.brake()

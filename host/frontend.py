@@ -127,6 +127,7 @@ class FrontEnd:
         self.boot_id: int | None = None  # the MCU's, from its INFO
         self.resets = 0  # INFO with another boot_id
         self.frames = 0  # telemetry frames measured
+        self.t_s: float | None = None  # the MCU time of the last frame measured
         self._new_origin = False  # the next frame starts a new origin (an MCU reset)
         self._prev: tuple[float, int, int] | None = None  # t_s and raw counts of the last frame
         self._counts: tuple[int, int] | None = None
@@ -182,7 +183,7 @@ class FrontEnd:
             self.unwrapper.reanchor()
             self.odometry.reanchor()
             self._prev = None  # no motion, no time across the reset
-        t_s = self.unwrapper.unwrap(t.t_us) / 1e6
+        t_s = self.t_s = self.unwrapper.unwrap(t.t_us) / 1e6
         self.frames += 1
         raw = (t.enc_left, t.enc_right)
         if self._prev is None:

@@ -75,8 +75,12 @@ class CoreLike(Protocol):
     """What the bridge reads from the daemon's core (:class:`HostCore` is one)."""
 
     cfg: HostConfig
-    t_s: float | None
-    last_odometry: OdometryState | None
+
+    @property
+    def t_s(self) -> float | None: ...
+
+    @property
+    def last_odometry(self) -> OdometryState | None: ...
 
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None: ...
 
