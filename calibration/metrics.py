@@ -44,6 +44,10 @@ from typing import Any, Literal, NamedTuple, cast
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.geometry import wrap_angles
+
+wrap_angle = wrap_angles  # the metrics' name for the elementwise wrap (common/geometry.py)
+
 FloatArray = npt.NDArray[np.float64]
 
 TIME_ZERO_V_M_S = 0.01  # [m/s] time zero: first command with v above this (Sec. 2.5.3)
@@ -125,23 +129,6 @@ def _same_length(name_a: str, a: FloatArray, name_b: str, b: FloatArray) -> None
             f"{name_a} and {name_b} must be synchronised (same length), "
             f"got {a.shape[0]} and {b.shape[0]}"
         )
-
-
-def wrap_angle(angle_rad: npt.ArrayLike) -> FloatArray:
-    """Wrap angles to [-pi, pi) [rad], elementwise.
-
-    Parameters
-    ----------
-    angle_rad : array_like
-        Angles [rad], any shape.
-
-    Returns
-    -------
-    numpy.ndarray
-        (angle + pi) mod 2 pi - pi, same shape.
-    """
-    a = np.asarray(angle_rad, dtype=np.float64)
-    return np.mod(a + math.pi, 2.0 * math.pi) - math.pi
 
 
 # ---- Stage 1-2: closure, cross-track, heading --------------------------------------------------

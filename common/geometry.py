@@ -1,10 +1,78 @@
-"""Planar geometry every layer uses."""
+"""Planar geometry every layer uses: angle wrapping and a grid's world <-> cell mapping, each
+written once.
+
+Two angle conventions are in use, each where it belongs, and each is kept bit for bit as the
+code that uses it was recorded with (``jackson replay``): :func:`wrap_angle` and
+:func:`wrap_angles`, ``(a + pi) mod 2 pi - pi`` in [-pi, pi), for differences of headings
+(controllers, the EKF, AMCL, the metrics); :func:`angle_of`, ``atan2(sin a, cos a)`` in
+[-pi, pi], for the heading of a composed rotation (poses, frames).
+"""
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int_]
+
 
 def wrap_angle(angle_rad: float) -> float:
-    """The angle in [-pi, pi) [rad] (for arrays: ``jackson.calibration.metrics.wrap_angle``)."""
+    """The angle in [-pi, pi) [rad]: ``(a + pi) mod 2 pi - pi``."""
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def wrap_angles(angles_rad: npt.ArrayLike) -> FloatArray:
+    """:func:`wrap_angle` elementwise (the same arithmetic, numpy's floor modulo), any shape."""
+    a = np.asarray(angles_rad, dtype=np.float64)
+    return np.asarray(np.mod(a + math.pi, 2.0 * math.pi) - math.pi, np.float64)
+
+
+def angle_of(angle_rad: float) -> float:
+    """The heading of the rotation by ``angle_rad``, in [-pi, pi] [rad]: ``atan2(sin, cos)``."""
+    return math.atan2(math.sin(angle_rad), math.cos(angle_rad))
+
+
+def world_to_cell(
+    x_m: npt.ArrayLike,
+    y_m: npt.ArrayLike,
+    origin_x_m: float,
+    origin_y_m: float,
+    resolution_m: float,
+) -> tuple[IntArray, IntArray]:
+    """(row, col) of the grid cells holding world points (rows along y, columns along x, cell
+    (0, 0)'s corner at the origin; the cells may lie outside the grid).
+
+    Parameters
+    ----------
+    x_m, y_m : array_like
+        Points [m].
+    origin_x_m, origin_y_m : float
+        The grid's lower-left corner [m].
+    resolution_m : float
+        Cell edge [m].
+
+    Returns
+    -------
+    row, col : ndarray of int
+        ``floor((p - origin) / resolution)``.
+    """
+    col = np.floor((np.asarray(x_m, np.float64) - origin_x_m) / resolution_m)
+    row = np.floor((np.asarray(y_m, np.float64) - origin_y_m) / resolution_m)
+    return row.astype(np.int_), col.astype(np.int_)
+
+
+def cell_to_world(
+    row: npt.ArrayLike,
+    col: npt.ArrayLike,
+    origin_x_m: float,
+    origin_y_m: float,
+    resolution_m: float,
+) -> tuple[FloatArray, FloatArray]:
+    """World centres (x, y) [m] of grid cells (the inverse of :func:`world_to_cell` up to the
+    cell)."""
+    x = origin_x_m + (np.asarray(col, np.float64) + 0.5) * resolution_m
+    y = origin_y_m + (np.asarray(row, np.float64) + 0.5) * resolution_m
+    return x, y

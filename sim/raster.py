@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
+from jackson.common.geometry import world_to_cell
 from jackson.sim.config import Cylinder, WorldSpec
 
 BoolArray = npt.NDArray[np.bool_]
@@ -127,8 +128,8 @@ def reachable_free(
         True for the free cells connected to the start; all False when the start lies off the
         raster or on an occupied cell.
     """
-    col = math.floor((start_xy_m[0] - origin_x_m) / resolution_m)
-    row = math.floor((start_xy_m[1] - origin_y_m) / resolution_m)
+    cell = world_to_cell(start_xy_m[0], start_xy_m[1], origin_x_m, origin_y_m, resolution_m)
+    row, col = int(cell[0]), int(cell[1])
     h, w = occupied.shape
     if not (0 <= row < h and 0 <= col < w) or occupied[row, col]:
         return np.zeros(occupied.shape, np.bool_)

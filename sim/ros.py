@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from jackson.common.geometry import angle_of
 from jackson.common.ros_env import missing_ros
 from jackson.sim.lidar import LidarSpec
 from jackson.sim.twin import Twin
@@ -202,7 +203,7 @@ class TwinRosPublisher:
         x0, y0, yaw0 = self._origin
         c, s = math.cos(yaw0), math.sin(yaw0)
         dx, dy = truth.x - x0, truth.y - y0
-        yaw = math.atan2(math.sin(truth.yaw - yaw0), math.cos(truth.yaw - yaw0))
+        yaw = angle_of(truth.yaw - yaw0)
         msg = self._Odometry()
         msg.header.stamp = self._stamp(twin.t_us)
         msg.header.frame_id = self.odom_frame

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -114,3 +115,31 @@ def test_no_import_cycles() -> None:
 
     for m in sorted(graph):
         visit(m, [])
+
+
+# an angle wrap or a world -> cell mapping written out again, anywhere but common/geometry.py
+# (arithmetic written otherwise, e.g. a multiplication by 1 / resolution, is its own rounding
+# and is not caught here)
+RULES_WRITTEN_ONCE = (
+    r"% \(2\.0 \* math\.pi\) - math\.pi",
+    r"% TWO_PI - math\.pi",
+    r"2\.0 \* math\.pi\) - math\.pi",
+    r"atan2\((math|np)\.sin\(",
+    r"floor\(\(.*origin_[xy]_m\) / (self\.)?resolution_m\)",
+)
+
+
+def test_angle_wrapping_and_world_to_cell_are_written_once() -> None:
+    found = []
+    for folder in ("cli", "common", "protocol", "host", "sim", "calibration"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if path == ROOT / "common" / "geometry.py":
+                continue
+            text = path.read_text()
+            found += [
+                f"{path.relative_to(ROOT)}: {r}" for r in RULES_WRITTEN_ONCE if re.search(r, text)
+            ]
+    assert not found, "use jackson.common.geometry: " + "; ".join(found)
+    geometry = (ROOT / "common" / "geometry.py").read_text()
+    for rule in RULES_WRITTEN_ONCE:  # and there, once (x and y of world_to_cell: one rule each)
+        assert len(re.findall(rule, geometry)) <= 2, rule

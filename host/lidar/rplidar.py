@@ -39,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 import serial
 
+from jackson.common.geometry import wrap_angles
 from jackson.protocol.rplidar import (
     CAPSULE_FORMATS,
     DESCRIPTOR_BYTES,
@@ -289,7 +290,7 @@ class RevolutionAssembler:
         self._distance_parts.clear()
         # heading clockwise -> counter-clockwise, wrapped to [-pi, pi)
         angles = -angle_q6.astype(np.float64) * Q6_TO_RAD
-        angles = np.mod(angles + math.pi, 2.0 * math.pi) - math.pi
+        angles = wrap_angles(angles)
         ranges = distance_q2.astype(np.float64) * MM_Q2_TO_M
         ranges[(distance_q2 == 0) | (ranges > self.range_cap_m)] = np.inf
         order = np.argsort(angles, kind="stable")

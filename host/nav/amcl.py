@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import distance_transform_edt, label
 
+from jackson.common.geometry import wrap_angle, wrap_angles
 from jackson.host.nav.grid import FREE, OccupancyGrid
 from jackson.host.nav.types import Pose2D, Scan
 
@@ -177,15 +178,6 @@ class AmclConfig:
 # ---------------------------------------------------------------------------- the equations
 
 
-def wrap_angles(angles_rad: FloatArray) -> FloatArray:
-    """Angles in [-pi, pi) [rad], elementwise."""
-    return np.asarray((angles_rad + math.pi) % TWO_PI - math.pi, np.float64)
-
-
-def _wrap(angle_rad: float) -> float:
-    return (angle_rad + math.pi) % TWO_PI - math.pi
-
-
 def sample_motion_model_odometry(
     particles: FloatArray,
     odom_from: Pose2D,
@@ -231,10 +223,12 @@ def sample_motion_model_odometry(
     a1, a2, a3, a4 = alphas
     dx, dy = odom_to.x - odom_from.x, odom_to.y - odom_from.y
     trans = math.hypot(dx, dy)
-    rot1 = 0.0 if trans < BEARING_MIN_TRANSLATION_M else _wrap(math.atan2(dy, dx) - odom_from.yaw)
-    rot2 = _wrap(_wrap(odom_to.yaw - odom_from.yaw) - rot1)
-    rot1_n = min(abs(rot1), abs(_wrap(rot1 - math.pi)))
-    rot2_n = min(abs(rot2), abs(_wrap(rot2 - math.pi)))
+    rot1 = (
+        0.0 if trans < BEARING_MIN_TRANSLATION_M else wrap_angle(math.atan2(dy, dx) - odom_from.yaw)
+    )
+    rot2 = wrap_angle(wrap_angle(odom_to.yaw - odom_from.yaw) - rot1)
+    rot1_n = min(abs(rot1), abs(wrap_angle(rot1 - math.pi)))
+    rot2_n = min(abs(rot2), abs(wrap_angle(rot2 - math.pi)))
     sd = np.sqrt(
         [
             a1 * rot1_n**2 + a2 * trans**2,
@@ -670,7 +664,7 @@ class ParticleFilter:
         c = self._config
         return (
             before.distance(after) >= c.update_min_d
-            or abs(_wrap(after.yaw - before.yaw)) >= c.update_min_a
+            or abs(wrap_angle(after.yaw - before.yaw)) >= c.update_min_a
         )
 
     def _beam_end_points(self, scan: Scan, mount: Pose2D) -> FloatArray | None:

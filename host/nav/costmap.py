@@ -46,6 +46,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
+from jackson.common.geometry import cell_to_world, world_to_cell
 from jackson.host.nav import native
 from jackson.host.nav.grid import OccupancyGrid
 
@@ -379,17 +380,13 @@ class Costmap:
 
     def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
         """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
-        col = np.floor((np.asarray(x_m, np.float64) - self.origin_x_m) / self.resolution_m)
-        row = np.floor((np.asarray(y_m, np.float64) - self.origin_y_m) / self.resolution_m)
-        return row.astype(np.int_), col.astype(np.int_)
+        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
 
     def cell_to_world(
         self, row: npt.ArrayLike, col: npt.ArrayLike
     ) -> tuple[FloatArray, FloatArray]:
         """Map-frame centres of cells [m]."""
-        x = self.origin_x_m + (np.asarray(col, np.float64) + 0.5) * self.resolution_m
-        y = self.origin_y_m + (np.asarray(row, np.float64) + 0.5) * self.resolution_m
-        return x, y
+        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
 
     def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> BoolArray:
         """Which (row, col) lie on the grid."""

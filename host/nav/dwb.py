@@ -85,7 +85,7 @@ import numpy.typing as npt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order
 
-from jackson.common.geometry import wrap_angle
+from jackson.common.geometry import wrap_angle, wrap_angles
 from jackson.host.actuation.limiter import LimiterConfig, ramp
 from jackson.host.nav.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
@@ -326,7 +326,7 @@ class RotateToGoalCritic:
         if not self.in_window:
             return np.zeros(m), np.ones(m, bool)
         c = self.config
-        err = np.abs((yaw - self._goal_yaw + math.pi) % (2.0 * math.pi) - math.pi)
+        err = np.abs(wrap_angles(yaw - self._goal_yaw))
         if not self.rotating:
             speed_sq = v * v
             return speed_sq * c.rotate_to_goal_slowing_factor + err, speed_sq < self._speed_sq

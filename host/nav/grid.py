@@ -45,6 +45,7 @@ import yaml
 from PIL import Image
 
 from jackson.common.fields import ConfigError, read_yaml, show
+from jackson.common.geometry import cell_to_world, world_to_cell
 
 UNKNOWN = -1
 FREE = 0
@@ -131,17 +132,13 @@ class OccupancyGrid:
 
     def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
         """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
-        col = np.floor((np.asarray(x_m, np.float64) - self.origin_x_m) / self.resolution_m)
-        row = np.floor((np.asarray(y_m, np.float64) - self.origin_y_m) / self.resolution_m)
-        return row.astype(np.int_), col.astype(np.int_)
+        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
 
     def cell_to_world(
         self, row: npt.ArrayLike, col: npt.ArrayLike
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """Map-frame centres of cells [m]."""
-        x = self.origin_x_m + (np.asarray(col, np.float64) + 0.5) * self.resolution_m
-        y = self.origin_y_m + (np.asarray(row, np.float64) + 0.5) * self.resolution_m
-        return x, y
+        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
 
     def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """Which (row, col) lie on the grid."""

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.geometry import angle_of
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -33,7 +35,7 @@ class Pose2D:
         return Pose2D(
             self.x + c * other.x - s * other.y,
             self.y + s * other.x + c * other.y,
-            math.atan2(math.sin(self.yaw + other.yaw), math.cos(self.yaw + other.yaw)),
+            angle_of(self.yaw + other.yaw),
         )
 
     def inverse(self) -> Pose2D:
