@@ -40,6 +40,7 @@ from jackson.common.args import (
     nonzero_float,
     positive_float,
 )
+from jackson.common.errors import JacksonError
 from jackson.host.config import DEFAULT_CONFIG, IDENTITY, ConfigError, HostConfig, load_config
 from jackson.protocol import ProtocolMismatchError
 
@@ -50,7 +51,7 @@ if TYPE_CHECKING:  # numpy, scipy and the host's daemon load when a procedure ru
 TWO_PI = 2.0 * math.pi
 
 
-class CalibrateCliError(Exception):
+class CalibrateCliError(JacksonError):
     """A bad combination of options or answers: one line, exit status 2."""
 
 

@@ -39,6 +39,8 @@ from pathlib import Path
 from types import FrameType, ModuleType
 from typing import Any, TypeVar
 
+from jackson.common.errors import JacksonError
+
 S = TypeVar("S")
 R = TypeVar("R")
 
@@ -47,7 +49,7 @@ INSTALL_HINT = "--cluster needs the cluster extra: pip install 'jackson[cluster]
 _CLIENT = re.compile(r"^ray://[^\s:/]+:\d{1,5}$")
 
 
-class ClusterError(Exception):
+class ClusterError(JacksonError):
     """A cluster cannot run the campaign: unreachable, or a node without the report folder."""
 
 

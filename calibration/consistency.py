@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.calibration import metrics as m
+from jackson.common.errors import JacksonError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -46,7 +47,7 @@ PAPER_OPTIMISM_GAP_CM = (4.69, 2.82)  # physical robot, figure-eight: mean, SD (
 AVERAGE_GRID_S = 1.0 / 30.0  # [s] time step of the campaign's average NEES (the EKF's rate)
 
 
-class ConsistencyError(ValueError):
+class ConsistencyError(JacksonError, ValueError):
     """A run folder the NEES cannot be computed from (missing file, column or rows)."""
 
 

@@ -49,6 +49,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from jackson.common.errors import JacksonError
+
 if TYPE_CHECKING:  # the twin and the host load when a campaign runs, not for jackson --help
     from jackson.calibration.stage3 import NavTrialSpec
     from jackson.calibration.trial import TrialSpec
@@ -70,7 +72,7 @@ MONITOR_YAML = "host-monitor.yaml"
 NO_MONITOR_YAML = "host-no-monitor.yaml"
 
 
-class FaultCampaignError(RuntimeError):
+class FaultCampaignError(JacksonError, RuntimeError):
     """The campaign cannot run its trials: the maze's mapping run did not finish."""
 
 

@@ -44,6 +44,7 @@ from typing import Any, Literal, NamedTuple, cast
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.errors import JacksonError
 from jackson.common.geometry import wrap_angles
 
 wrap_angle = wrap_angles  # the metrics' name for the elementwise wrap (common/geometry.py)
@@ -81,7 +82,7 @@ def _ssim(*args: object, **kwargs: object) -> float:
     return cast(Callable[..., float], structural_similarity)(*args, **kwargs)
 
 
-class MetricInputError(ValueError):
+class MetricInputError(JacksonError, ValueError):
     """An input a metric cannot be computed from (wrong shape, too few samples, ...)."""
 
 

@@ -47,6 +47,7 @@ from ruamel.yaml.representer import RoundTripRepresenter
 from ruamel.yaml.scalarbool import ScalarBoolean
 from ruamel.yaml.tokens import CommentToken
 
+from jackson.common.errors import JacksonError
 from jackson.common.fields import read_yaml
 from jackson.host.config import ConfigError, load_config
 
@@ -60,7 +61,7 @@ _LAYOUTS = ((2, 4, 2), (2, 2, 0), (4, 6, 4), (4, 4, 0), (4, 6, 2), (3, 5, 3), (3
 round trip reproduces the file is used."""
 
 
-class YamlUpdateError(ValueError):
+class YamlUpdateError(JacksonError, ValueError):
     """The configuration cannot be updated (unreadable, or the result would be invalid)."""
 
 

@@ -27,14 +27,13 @@ from jackson.common.args import (
     one_line,
     output_folder,
 )
+from jackson.common.errors import JacksonError
 from jackson.common.fields import ConfigError
-from jackson.host.cli import HostCliError
-from jackson.sim.firmware_core import McuBuildError
 
 DEFAULT_ROBOT = "jackson_physical"  # the twin robot of run and campaign
 
 
-class CliError(Exception):
+class CliError(JacksonError):
     """A user-facing error: printed as one line, exit status 2."""
 
 
@@ -783,12 +782,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = (_brake_parser() if brake else build_parser()).parse_args(given)
     try:
         rc: int = args.func(args)
-    except (CliError, HostCliError, ConfigError, McuBuildError) as exc:
-        print(f"jackson {args.command}: {one_line(exc)}", file=sys.stderr)
-        return 2
     except OSError as exc:  # the machine refused: a full disk, a folder where a file goes, ...
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"jackson {args.command}: {where}{exc.strerror or one_line(exc)}", file=sys.stderr)
+        return 2
+    except JacksonError as exc:  # every error of the project's own: one line (common/errors.py)
+        print(f"jackson {args.command}: {one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

@@ -17,8 +17,10 @@ from typing import Any
 
 import yaml
 
+from jackson.common.errors import JacksonError
 
-class ConfigError(ValueError):
+
+class ConfigError(JacksonError, ValueError):
     """A configuration, robot or world file is missing, unreadable, not YAML, or has a bad
     field."""
 

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from jackson.common.args import int_in
+from jackson.common.errors import JacksonError
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
 from jackson.host.actuation.settings import DEFAULT_CONFIG, Pca9685Settings, load_motor_settings
@@ -26,7 +27,7 @@ ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt
 
 
-class BrakeError(RuntimeError):
+class BrakeError(JacksonError, RuntimeError):
     """The bus or the chip could not be reached, or did not hold the brake."""
 
 

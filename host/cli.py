@@ -17,9 +17,10 @@ from jackson.common.args import (
     positive_float,
     positive_int,
 )
+from jackson.common.errors import JacksonError
 
 
-class HostCliError(Exception):
+class HostCliError(JacksonError):
     """One line for the user, exit status 2."""
 
 

@@ -20,6 +20,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from jackson.common.errors import JacksonError
 from jackson.protocol import Ack, Frame, Message, MotorPwm, Nack, NackError, decode_message
 
 ANSWER_TIMEOUT_S = 0.25  # [s] wall time for an ACK/NACK before the command is sent again
@@ -35,7 +36,7 @@ NACK_REASONS = {
 }
 
 
-class CommandError(RuntimeError):
+class CommandError(JacksonError, RuntimeError):
     """The device refused a command, or never answered it: one line for the operator."""
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from jackson.common.errors import JacksonError
 from jackson.common.spin import contention
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
@@ -82,7 +83,7 @@ class _OperatorListener(CoreListener):
             self.daemon._say(text)
 
 
-class DaemonError(RuntimeError):
+class DaemonError(JacksonError, RuntimeError):
     """The daemon cannot go on (a device that refuses its commands, another protocol)."""
 
 

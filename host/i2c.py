@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from types import TracebackType
 from typing import Protocol, runtime_checkable
 
+from jackson.common.errors import JacksonError
 from jackson.common.spin import DEFAULT_SPIN_S, peer_is_this_process, spin_poll
 
 # ---- wire format (protocol/i2c-socket.md) -----------------------------------------------------
@@ -43,7 +44,7 @@ _OP_NAMES = {
 }
 
 
-class I2cError(OSError):
+class I2cError(JacksonError, OSError):
     """An I²C transfer or bus failed: no device answered, timeout, lost link, bad bus spec.
 
     A subclass of OSError because smbus2 reports the same failures on a real bus as OSError

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from jackson.common.errors import JacksonError
+
 MAGIC = b"JREC0001"
 KIND_RX = 1
 KIND_TX = 2
@@ -82,7 +84,7 @@ HEALTH_COLUMNS = (
 )
 
 
-class RecordingError(ValueError):
+class RecordingError(JacksonError, ValueError):
     """A run folder is missing or damaged."""
 
 

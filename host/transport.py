@@ -55,6 +55,7 @@ from typing import Literal
 
 import serial
 
+from jackson.common.errors import JacksonError
 from jackson.common.spin import DEFAULT_SPIN_S, spin_poll
 from jackson.protocol import (
     Frame,
@@ -73,7 +74,7 @@ SILENCE_S = 1.0  # [s] no frame for this long on an open port: send HELLO again
 STALL_S = 10.0  # [s] of waiting without a telemetry frame: a lockstep twin has stalled
 
 
-class LinkError(RuntimeError):
+class LinkError(JacksonError, RuntimeError):
     """The serial port cannot be used at all (missing, no permission): one line for the user."""
 
 

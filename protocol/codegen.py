@@ -24,6 +24,8 @@ from typing import Any
 
 import yaml
 
+from jackson.common.errors import JacksonError
+
 PROTOCOL_DIR = Path(__file__).resolve().parent
 SCHEMA_PATH = PROTOCOL_DIR / "schema.yaml"
 PY_OUT = PROTOCOL_DIR / "messages.py"
@@ -42,7 +44,7 @@ SCALARS: dict[str, tuple[str, int, str, str]] = {
 _TYPE_RE = re.compile(r"^(?P<base>[a-z0-9]+)(\[(?P<n>\d+)\])?$")
 
 
-class SchemaError(ValueError):
+class SchemaError(JacksonError, ValueError):
     """The schema file is malformed."""
 
 

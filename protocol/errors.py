@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from jackson.common.errors import JacksonError
 
-class ProtocolError(Exception):
+
+class ProtocolError(JacksonError):
     """Base class of every protocol error."""
 
 

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from jackson.common.errors import JacksonError
 from jackson.sim.mcu import SensorSample
 
 __all__ = [
@@ -130,7 +131,7 @@ PARAMS: dict[str, dict[str, _Param]] = {
 """Each kind's parameters with their defaults and ranges."""
 
 
-class FaultError(ValueError):
+class FaultError(JacksonError, ValueError):
     """A fault that cannot be: unknown kind or key, a bad number, a missing side (one line)."""
 
 

@@ -14,13 +14,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from jackson.common.errors import JacksonError
 from jackson.sim.mcu import SensorSample, imu_register_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_BINARY = REPO / "build" / "native" / "firmware" / "jackson-firmware-posix"
 
 
-class FirmwareError(RuntimeError):
+class FirmwareError(JacksonError, RuntimeError):
     """The POSIX firmware is missing, failed to start, or stopped answering."""
 
 

@@ -20,6 +20,8 @@ import sysconfig
 from pathlib import Path
 from types import ModuleType
 
+from jackson.common.errors import JacksonError
+
 MODULE = "jackson_firmware_core"
 DIGEST_HEX = 16
 REPO = Path(__file__).resolve().parents[1]
@@ -27,7 +29,7 @@ REPO = Path(__file__).resolve().parents[1]
 _loaded: ModuleType | None = None
 
 
-class McuBuildError(RuntimeError):
+class McuBuildError(JacksonError, RuntimeError):
     """The compiled firmware core for the present sources is missing or does not load."""
 
 
@@ -46,7 +48,8 @@ def sources(repo: Path = REPO) -> list[Path]:
     """
     found = [repo / "firmware" / "twin" / "module.cpp"]
     found += sorted((repo / "firmware" / "core").glob("*.[ch]pp"))
-    found += [repo / "firmware" / "posix" / name for name in ("posix_hal.cpp", "posix_hal.hpp")]
+    posix = ("advance.hpp", "posix_hal.cpp", "posix_hal.hpp")
+    found += [repo / "firmware" / "posix" / name for name in posix]
     found += sorted((repo / "protocol" / "include" / "jackson" / "protocol").glob("*.hpp"))
     return found
 

@@ -26,6 +26,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import Protocol
 
+from jackson.common.errors import JacksonError
+
 # ---- wire format (protocol/i2c-socket.md) -----------------------------------------------------
 from jackson.protocol.i2c_socket import (
     MAX_ADDRESS,
@@ -57,7 +59,7 @@ class I2cDevice(Protocol):
         """Return ``n`` bytes of one read transaction starting at register ``reg``."""
 
 
-class I2cServerError(Exception):
+class I2cServerError(JacksonError):
     """The server cannot serve at the path it was given."""
 
 

@@ -69,6 +69,7 @@ from typing import TextIO
 import numpy as np
 from numpy.typing import NDArray
 
+from jackson.common.errors import JacksonError
 from jackson.common.spin import contention, spin_poll
 from jackson.sim.faults import LINK_KINDS, FaultError, format_fault
 from jackson.sim.fil import FeedStatus, FirmwareProcess
@@ -109,7 +110,7 @@ TRUTH_MAGIC = "# jackson twin ground truth"
 TRUTH_COLUMNS = ("t_us", "t_s", "x_m", "y_m", "yaw_rad")
 
 
-class TruthFileError(ValueError):
+class TruthFileError(JacksonError, ValueError):
     """A ground-truth file that cannot be read (one line naming the file)."""
 
 

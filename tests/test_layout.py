@@ -143,3 +143,27 @@ def test_angle_wrapping_and_world_to_cell_are_written_once() -> None:
     geometry = (ROOT / "common" / "geometry.py").read_text()
     for rule in RULES_WRITTEN_ONCE:  # and there, once (x and y of world_to_cell: one rule each)
         assert len(re.findall(rule, geometry)) <= 2, rule
+
+
+def test_every_error_of_the_project_is_a_jackson_error() -> None:
+    # one base, caught once at the command line (common/errors.py)
+    bases: dict[str, list[str]] = {}
+    for folder in ("cli", "common", "protocol", "host", "sim", "calibration"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.ClassDef) and node.name.endswith("Error"):
+                    names = [ast.unparse(b).split(".")[-1] for b in node.bases]
+                    if "IntEnum" not in names:  # NackError: a protocol field, not an exception
+                        bases[node.name] = names
+
+    def reaches(name: str, seen: frozenset[str] = frozenset()) -> bool:
+        if name == "JacksonError":
+            return True
+        return (
+            name in bases
+            and name not in seen
+            and any(reaches(b, seen | {name}) for b in bases[name])
+        )
+
+    assert len(bases) > 30
+    assert [n for n in sorted(bases) if not reaches(n)] == []

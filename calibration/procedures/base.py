@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from jackson.common.errors import JacksonError
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
@@ -29,7 +31,7 @@ MAX_GAP_PERIODS = 3.0  # a run with a longer gap between frames lost frames on t
 MIN_GAP_S = 0.1  # [s] gaps shorter than this are jitter at any telemetry rate
 
 
-class CalibrationError(ValueError):
+class CalibrationError(JacksonError, ValueError):
     """Recorded data that cannot give the result (one line for the user, naming the run)."""
 
 

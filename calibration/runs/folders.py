@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from jackson.calibration.procedures import CalibrationError, Reference, RunData
+from jackson.common.errors import JacksonError
 from jackson.host.config import HostConfig
 from jackson.host.frontend import FrontEnd
 from jackson.host.recording import KIND_END, KIND_RX, KIND_TX, RecordingError, read_log
@@ -38,7 +39,7 @@ _DeviceCalibration = tuple[tuple[float, ...], tuple[float, ...], float]
 """A calibration the device applies: rotation (row-major), gyro bias [rad/s], accel scale."""
 
 
-class RunError(RuntimeError):
+class RunError(JacksonError, RuntimeError):
     """A calibration run could not be recorded (link, bus, a robot that does not move)."""
 
 

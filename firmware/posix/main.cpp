@@ -29,6 +29,7 @@
 #include <random>
 #include <string>
 
+#include "advance.hpp"
 #include "firmware.hpp"
 #include "posix_hal.hpp"
 
@@ -107,16 +108,7 @@ struct Process {
 
   // Runs tick() at every deadline of the core up to `t` (lockstep), then at `t` itself.
   void advance_to(uint64_t t) {
-    uint64_t cur = clock.now64();
-    while (cur < t) {
-      const uint32_t deadline = fw.next_deadline();
-      const int32_t ahead = static_cast<int32_t>(deadline - static_cast<uint32_t>(cur));
-      if (ahead <= 0 || cur + static_cast<uint64_t>(ahead) >= t) break;
-      cur += static_cast<uint64_t>(ahead);
-      clock.set(cur);
-      fw.tick();
-    }
-    clock.set(t);
+    posix::advance_before(fw, clock, t);
     fw.tick();
   }
 

@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "advance.hpp"
 #include "firmware.hpp"
 #include "posix_hal.hpp"
 
@@ -96,20 +97,8 @@ class Core {
     i2c_.set(answering, regs);
   }
 
-  /// Runs tick() at every deadline of the core strictly before `t`, then sets the clock to `t`
-  /// without ticking there (the caller hands over what arrived at `t`, then ticks).
-  void advance_before(uint64_t t) {
-    uint64_t cur = clock_.now64();
-    while (cur < t) {
-      const uint32_t deadline = fw_.next_deadline();
-      const int32_t ahead = static_cast<int32_t>(deadline - static_cast<uint32_t>(cur));
-      if (ahead <= 0 || cur + static_cast<uint64_t>(ahead) >= t) break;
-      cur += static_cast<uint64_t>(ahead);
-      clock_.set(cur);
-      fw_.tick();
-    }
-    clock_.set(t);
-  }
+  /// Every deadline of the core before `t`, then the clock at `t` without a tick there.
+  void advance_before(uint64_t t) { posix::advance_before(fw_, clock_, t); }
 
   void tick() { fw_.tick(); }
   void push(py::bytes data) { serial_.push(std::string(data)); }

@@ -39,6 +39,7 @@ import numpy as np
 import numpy.typing as npt
 import serial
 
+from jackson.common.errors import JacksonError
 from jackson.common.geometry import wrap_angles
 from jackson.protocol.rplidar import (
     CAPSULE_FORMATS,
@@ -111,7 +112,7 @@ DECODED_ANSWER_TYPES = frozenset({int(DataType.MEASUREMENT), *CAPSULE_FORMATS})
 """The scan answer types :class:`RevolutionAssembler` decodes: 0x81 nodes and the capsules."""
 
 
-class LidarError(RuntimeError):
+class LidarError(JacksonError, RuntimeError):
     """The LiDAR cannot be used (missing port, no permission, no answer): one line."""
 
 

@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import distance_transform_edt, label
 
+from jackson.common.errors import JacksonError
 from jackson.common.geometry import wrap_angle, wrap_angles
 from jackson.host.nav.grid import FREE, OccupancyGrid
 from jackson.host.nav.types import Pose2D, Scan
@@ -49,7 +50,7 @@ IDENTITY_POSE = Pose2D()
 """The sensor at the base's origin (the default mount)."""
 
 
-class LocalizationError(RuntimeError):
+class LocalizationError(JacksonError, RuntimeError):
     """The filter was used before :meth:`ParticleFilter.initialise` gave it a pose."""
 
 

@@ -93,6 +93,7 @@ from scipy import ndimage
 from scipy.linalg import solve_banded
 from skimage.graph import MCP_Geometric
 
+from jackson.common.errors import JacksonError
 from jackson.host.nav.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     MAX_NON_OBSTACLE,
@@ -115,7 +116,7 @@ doubling to megabytes (and every reset and every exhausted search walked all of 
 object every 16 searches bounds it; building one costs about a third of a search."""
 
 
-class NoPathError(RuntimeError):
+class NoPathError(JacksonError, RuntimeError):
     """No path exists between the start and the goal (the message says why, on one line)."""
 
 

@@ -44,6 +44,7 @@ import numpy.typing as npt
 import yaml
 from PIL import Image
 
+from jackson.common.errors import JacksonError
 from jackson.common.fields import ConfigError, read_yaml, show
 from jackson.common.geometry import cell_to_world, world_to_cell
 
@@ -74,7 +75,7 @@ MAX_YAML_BYTES = 1 << 20
 IntArray = npt.NDArray[np.int_]
 
 
-class MapFileError(ValueError):
+class MapFileError(JacksonError, ValueError):
     """A map file pair cannot be read or written (one line naming the file)."""
 
 

@@ -72,6 +72,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
+from jackson.common.errors import JacksonError
 from jackson.common.geometry import wrap_angle
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.nav.astar import (
@@ -95,7 +96,7 @@ from jackson.host.nav.types import Pose2D
 FloatArray = npt.NDArray[np.float64]
 
 
-class RouteError(ValueError):
+class RouteError(JacksonError, ValueError):
     """A start or goal the map rules out (one line: which pose, where, what is wrong)."""
 
 

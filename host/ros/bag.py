@@ -90,6 +90,7 @@ from rosbags.typesys.store import Typestore
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 from zstandard import ZstdError
 
+from jackson.common.errors import JacksonError
 from jackson.host.odometry import OdometryCovariance
 from jackson.host.ros import cdr
 from jackson.host.ros.messages import (
@@ -114,7 +115,7 @@ DEFAULT_FLUSH_INTERVAL_S = 1.0  # [s] of message time between chunk flushes
 _LEVEL_TEXT = ("OK", "WARN", "ERROR", "STALE")
 
 
-class BagError(RuntimeError):
+class BagError(JacksonError, RuntimeError):
     """A bag cannot be created, written or repaired (the message names the folder)."""
 
 
