@@ -169,9 +169,7 @@ def build_nav(force: bool) -> Path | None:
     text, digest, builds, target = _wanted(native, source)
     if target.is_file() and not force:
         return None
-    cxx = (os.environ.get("CXX") or "c++").split()
-    if shutil.which(cxx[0]) is None:
-        raise BuildError(f"no C++ compiler ({cxx[0]} not found)")
+    cxx = _cxx()
 
     def make(scratch: Path) -> Path:
         (scratch / source.name).write_bytes(text)
@@ -219,9 +217,7 @@ def build_firmware(force: bool) -> Path | None:
     target = fc.build_path(builds, digest)
     if target.is_file() and not force:
         return None
-    cxx = (os.environ.get("CXX") or "c++").split()
-    if shutil.which(cxx[0]) is None:
-        raise BuildError(f"no C++ compiler ({cxx[0]} not found)")
+    cxx = _cxx()
     try:
         import pybind11
     except ImportError as e:
@@ -254,6 +250,20 @@ def build_firmware(force: bool) -> Path | None:
         return built
 
     return _place(builds, digest, target, make)
+
+
+def _cxx() -> list[str]:
+    """The C++ compiler's command (``CXX`` from the environment, else ``c++``).
+
+    Raises
+    ------
+    BuildError
+        It is not installed.
+    """
+    cxx = (os.environ.get("CXX") or "c++").split()
+    if shutil.which(cxx[0]) is None:
+        raise BuildError(f"no C++ compiler ({cxx[0]} not found)")
+    return cxx
 
 
 def _wanted(module: Any, source: Path) -> tuple[bytes, str, Path, Path]:
