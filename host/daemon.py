@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from jackson.common.errors import JacksonError
 from jackson.common.spin import contention
@@ -37,6 +37,11 @@ from jackson.protocol import (
     Telemetry,
     TelemetryFlags,
 )
+
+if TYPE_CHECKING:  # the seams' types only: the serial port and the LiDAR load when used
+    from jackson.host.lidar.rplidar import LidarSource
+    from jackson.host.sdnotify import Notifier
+    from jackson.host.transport import Link
 
 GC_GEN0_THRESHOLD = 20_000  # young objects allocated (less freed) between two collections
 
@@ -170,18 +175,18 @@ class Daemon:
         self,
         cfg: HostConfig,
         output_factory: Callable[[Callable[[Message], object]], MotorOutput],
-        transport: Any,
+        transport: Link,
         *,
         mission_name: str | None = None,
         run_folder: Path | None = None,
         meta: dict[str, Any] | None = None,
         ros_args: list[str] | None = None,
         mission_timeout_s: float | None = None,
-        notifier: Any = None,
+        notifier: Notifier | None = None,
         duty_source: DutySource | None = None,
         imu_calibration: bool = True,
         mission: Mission | None = None,
-        lidar: Any = None,
+        lidar: LidarSource | None = None,
         stall_s: float | None = None,
     ) -> None:
         from jackson.host.transport import STALL_S
@@ -190,7 +195,7 @@ class Daemon:
         self.transport = transport
         if stall_s is not None:
             transport.stall_s = None if math.isinf(stall_s) else stall_s
-        elif getattr(transport, "stall_s", 0.0) is None and getattr(transport, "on_pty", False):
+        elif transport.stall_s is None and transport.on_pty:
             transport.stall_s = STALL_S  # a twin's pty: lockstep can stall
         self.stalled: str | None = None  # the stall line, when a lockstep stall ended the run
         self.wall_limit_hit = False  # run(max_s) ended on its wall-clock limit
@@ -340,7 +345,7 @@ class Daemon:
         return LinkHealth(
             link_up=bool(self.transport.link_up),
             reconnects=self.transport.reconnects,
-            silences=getattr(self.transport, "silences", 0),
+            silences=self.transport.silences,
             frames_lost=c.seq_lost,
             crc_errors=c.crc_errors,
             resyncs=c.timeouts,
@@ -363,7 +368,7 @@ class Daemon:
             return
         if time.monotonic() - started_s < VERSION_SILENCE_S:
             return
-        where = f"device on {getattr(self.transport, 'port_name', 'the link')}"
+        where = f"device on {self.transport.port_name}"
         raise FrameVersionError(getattr(dec, "last_unknown_version", None), PROTOCOL_VERSION, where)
 
     def _unanswered(self, detail: str) -> None:
@@ -371,7 +376,7 @@ class Daemon:
         (1, 2, 4, 8, ... retries), so the operator sees the retries without a flood."""
         self._hello_retries += 1
         n = self._hello_retries
-        port = getattr(self.transport, "port_name", "the link")
+        port = self.transport.port_name
         if n == 1:
             self.tell(
                 f"no answer on {port}: is the firmware flashed? (make flash); is it the MCU's "
@@ -593,7 +598,7 @@ class Daemon:
             print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
 
 
-def lidar_meta(lidar: Any) -> dict[str, Any]:
+def lidar_meta(lidar: LidarSource | None) -> dict[str, Any]:
     """What a run folder's meta.json records of a started RPLIDAR driver (none without one):
     the device, its scan mode and the stream's answer type, which a replay decodes the logged
     bytes as (docs/recording.md)."""

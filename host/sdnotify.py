@@ -12,10 +12,27 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping
+from typing import Protocol
 
 import sdnotify
 
 DEFAULT_PING_S = 0.5  # [s] between pings when systemd gives no WATCHDOG_USEC
+
+
+class Notifier(Protocol):
+    """What the daemon tells its supervisor (:class:`SystemdNotifier` tells systemd)."""
+
+    def ready(self) -> None:
+        """Set up: the first INFO arrived."""
+        ...
+
+    def watchdog(self) -> None:
+        """Alive (called every loop; the notifier paces its pings)."""
+        ...
+
+    def stopping(self) -> None:
+        """Shutting down."""
+        ...
 
 
 class SystemdNotifier:

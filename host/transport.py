@@ -51,7 +51,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from termios import error as termios_error
-from typing import Literal
+from typing import Literal, Protocol
 
 import serial
 
@@ -110,6 +110,38 @@ def open_error(port: str, exc: BaseException) -> LinkError:
             "(look for /dev/ttyACM* or /dev/jackson-mcu)"
         )
     return LinkError(f"cannot open serial port {port}: {text}")
+
+
+class Link(Protocol):
+    """What the daemon needs of its link to the MCU. :class:`SerialTransport` (a USB serial
+    port or the twin's pty) is the one the project ships; another link (a TCP bridge, a test's
+    in-memory pair) implements these members."""
+
+    port_name: str  # where it goes, for messages
+    decoder: FrameDecoder  # the receive side's decoder (its counters; a version mismatch)
+    silence_s: float  # an open link without a frame for this long gets HELLO again [s]
+    stall_s: float | None  # lockstep: wall seconds without telemetry before a stall (None: off)
+    link_up: bool  # the link is open
+    reconnects: int  # times it was opened again
+    silences: int  # times it fell silent for silence_s
+
+    @property
+    def on_pty(self) -> bool:
+        """The link is the twin's pseudo-terminal (lockstep may stall)."""
+        ...
+
+    def encode(self, msg: Message) -> bytes:
+        """The frame of ``msg`` with this link's next SEQ."""
+        ...
+
+    def send_raw(self, frame: bytes) -> bool:
+        """Write one encoded frame; False when it could not be written."""
+        ...
+
+    def get(self, timeout_s: float) -> Item | None:
+        """The next received frame (with its receive time [ns]) or link event, waiting at most
+        ``timeout_s``; None when nothing came."""
+        ...
 
 
 class SerialTransport:

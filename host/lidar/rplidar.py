@@ -34,6 +34,7 @@ import select
 import time
 from dataclasses import dataclass
 from types import TracebackType
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -307,6 +308,24 @@ def choose_mode(modes: tuple[ScanMode, ...], typical_id: int | None) -> ScanMode
     if not usable:
         return None
     return min(usable, key=lambda m: (m.us_per_sample_q8, m.id != typical_id, m.id))
+
+
+class LidarSource(Protocol):
+    """What the daemon needs of a started LiDAR (:class:`RplidarDriver` is one): its raw bytes
+    (the core decodes and logs them), the stream's answer type, and what a run folder's meta
+    records of it."""
+
+    info: DeviceInfo | None  # the device, when it told
+    mode: ScanMode | None  # the scan mode started (None: not started)
+
+    @property
+    def answer_type(self) -> int:
+        """The data answer type of the stream (what the core decodes the bytes as)."""
+        ...
+
+    def read(self) -> bytes:
+        """The raw bytes available now (never blocks)."""
+        ...
 
 
 class RplidarDriver:
