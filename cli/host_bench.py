@@ -44,10 +44,11 @@ from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig
 from jackson.host.control import SquareMission
-from jackson.host.core import CoreListener, FrameResult, HostCore
+from jackson.host.core import HostCore
 from jackson.host.daemon import GcSettled
 from jackson.host.ekf import Ekf
 from jackson.host.i2c import SocketI2cBus
+from jackson.host.results import CoreListener, FrameResult
 from jackson.protocol import FrameDecoder, Message, encode_frame
 from jackson.protocol.units import yaw_rate_rad_s
 from jackson.sim.config import load_robot, load_world
@@ -105,7 +106,7 @@ class _EkfInputs(CoreListener):
     def __init__(self) -> None:
         self.inputs: list[tuple[float, float, float]] = []
 
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
+    def on_result(self, result: FrameResult) -> None:
         self.inputs.append((result.t_s, result.odometry.v_m_s, yaw_rate_rad_s(result.telemetry)))
 
 

@@ -41,9 +41,9 @@ from jackson.common.spin import contention
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import DEFAULT_CONFIG, load_config
-from jackson.host.core import CoreListener, FrameResult, HostCore
 from jackson.host.daemon import Daemon, with_port
 from jackson.host.i2c import open_bus
+from jackson.host.results import CoreListener, FrameResult
 from jackson.host.transport import SerialTransport
 from jackson.protocol import Message
 
@@ -76,7 +76,7 @@ class _Clock(CoreListener):
         self.last: tuple[float, float, float] | None = None
         self.wall_s: list[float] = []  # of the warm-up's last frame and of each timed frame
 
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
+    def on_result(self, result: FrameResult) -> None:
         self.frames += 1
         if self.frames < WARMUP_FRAMES:
             return

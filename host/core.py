@@ -28,7 +28,6 @@ bridge). :class:`jackson.host.daemon.Daemon` adds the serial transport and the p
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Protocol
 
 from jackson.host.actuation.chain import ActuationChain
@@ -48,6 +47,7 @@ from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.nav.types import Scan
 from jackson.host.odometry import OdometryState, WheelOdometry
 from jackson.host.recording import RunRecorder
+from jackson.host.results import CoreListener, FrameResult
 from jackson.protocol import (
     Frame,
     Heartbeat,
@@ -108,73 +108,13 @@ class DutySource(Protocol):
         ...
 
 
-@dataclass(frozen=True)
-class FrameResult:
-    """What the core made of one telemetry frame, handed to every listener.
-
-    Attributes
-    ----------
-    t_s : float
-        The frame's unwrapped MCU time [s].
-    telemetry : Telemetry
-        The frame.
-    odometry : OdometryState
-        Wheel odometry after the frame.
-    v_cmd, w_cmd : float
-        The command before the limits [m/s, rad/s].
-    v, w : float
-        The command after the limits (0 when braked).
-    duties : tuple of float
-        The wheel duties sent to the motor output (0 when braked).
-    braked : bool
-        The motors were braked at this frame.
-    """
-
-    t_s: float
-    telemetry: Telemetry
-    odometry: OdometryState
-    v_cmd: float
-    w_cmd: float
-    v: float
-    w: float
-    duties: tuple[float, float]
-    braked: bool
-
-
-class CoreListener:
-    """Receives what the core computes (the run folder, the rosbag2, the ROS bridge); no-op
-    defaults. Called on the core's thread, in the order the core works."""
-
-    def on_command(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
-        """An external velocity command, taken at the telemetry frame that applies it."""
-
-    def on_frame(self, frame: Frame, host_time_ns: int) -> None:
-        """Every frame received, before it is handled."""
-
-    def on_event(self, host_time_ns: int, text: str) -> None:
-        """Something the operator should know (an MCU reset, an abort)."""
-
-    def on_filtered(self, t_s: float, state: EkfState) -> None:
-        """Each 30 Hz EKF output."""
-
-    def on_lidar(self, data: bytes, host_time_ns: int) -> None:
-        """Raw bytes from the LiDAR's port, as read (before the frame they preceded)."""
-
-    def on_scan(self, core: HostCore, scan: Scan) -> None:
-        """A LiDAR revolution, stamped with the MCU time of the frame it arrived before."""
-
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
-        """After a telemetry frame was handled (odometry, EKF, command are current)."""
-
-    def on_health(self, transition: Transition) -> None:
-        """A sensor changed its health state (before the frame's :meth:`on_result`)."""
-
-
 class RunFolderListener(CoreListener):
-    """Writes the core's inputs and outputs into a run folder (:class:`RunRecorder`)."""
+    """Writes the core's inputs and outputs into a run folder (:class:`RunRecorder`); with the
+    health monitor, its state at every frame (``health.csv``)."""
 
-    def __init__(self, recorder: RunRecorder) -> None:
+    def __init__(self, recorder: RunRecorder, health: HealthMonitor | None = None) -> None:
         self.recorder = recorder
+        self.health = health
 
     def on_command(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
         self.recorder.command(host_time_ns, v_m_s, w_rad_s)
@@ -208,10 +148,10 @@ class RunFolderListener(CoreListener):
             ),
         )
 
-    def on_result(self, core: HostCore, r: FrameResult) -> None:
+    def on_result(self, r: FrameResult) -> None:
         rec, odo, t = self.recorder, r.odometry, r.telemetry
         rec.row(rec.commands, (r.t_s, r.v, r.w, r.duties[0], r.duties[1], int(r.braked)))
-        hm = core.health
+        hm = self.health
         if hm is not None:
             rec.row(
                 rec.health,
@@ -222,7 +162,7 @@ class RunFolderListener(CoreListener):
                     hm.model.scale,
                     hm.model.per_metre,
                     *(state.value for state in hm.sensors.values()),
-                    int(core.verdict is not None and core.verdict.stationary),
+                    int(r.verdict is not None and r.verdict.stationary),
                     hm.lidar_roughness_m,
                 ),
             )
@@ -266,7 +206,9 @@ class HostCore:
         # the EKF fed as the sensors' health allows, its 30 Hz outputs
         self.fusion = Fusion(cfg, self.frontend, self.event, self._tell_transition)
         self.info: Info | None = None
-        self.listeners: list[CoreListener] = [RunFolderListener(recorder)] if recorder else []
+        self.listeners: list[CoreListener] = (
+            [RunFolderListener(recorder, self.fusion.health)] if recorder else []
+        )
         self.last_result: FrameResult | None = None
         # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded here
         self.intake = ScanIntake()
@@ -476,10 +418,13 @@ class HostCore:
             v_cmd, w_cmd, brake = self._command(t_s, t)
             v, w, duties = self.actuation.apply(t_s, v_cmd, w_cmd, brake, odo)
         self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
-        result = FrameResult(t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake)
+        result = FrameResult(
+            t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake, self.frames, self.ekf.state(),
+            self.verdict, self.mission,
+        )  # fmt: skip
         self.last_result = result
         for listener in self.listeners:
-            listener.on_result(self, result)
+            listener.on_result(result)
 
     def _tell_transition(self, tr: Transition) -> None:
         for listener in self.listeners:
@@ -504,7 +449,7 @@ class HostCore:
                 assert isinstance(self.mission, ScanMission)
                 self.mission.on_scan(scan, self.nav_state())
             for listener in self.listeners:
-                listener.on_scan(self, scan)
+                listener.on_scan(scan)
         self.fusion.report_health()
 
     def _emit_filtered(self, t_s: float, s: EkfState) -> None:

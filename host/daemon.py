@@ -24,10 +24,11 @@ from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS, Mission
-from jackson.host.core import CoreListener, DutySource, HostCore
+from jackson.host.core import DutySource, HostCore
 from jackson.host.cpu import CpuMeter
 from jackson.host.health import Transition
 from jackson.host.recording import RunRecorder, run_in_progress
+from jackson.host.results import CoreListener
 from jackson.protocol import (
     PROTOCOL_VERSION,
     FrameVersionError,

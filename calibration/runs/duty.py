@@ -20,13 +20,9 @@ from jackson.calibration.runs.link import (
     _write_config,
 )
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
-from jackson.host.core import (
-    CoreListener,
-    DutySource,
-    FrameResult,
-    HostCore,
-)
+from jackson.host.core import DutySource
 from jackson.host.daemon import Daemon
+from jackson.host.results import CoreListener, FrameResult
 from jackson.protocol import (
     Message,
 )
@@ -45,7 +41,7 @@ class _Progress(CoreListener):
         self.update = update
         self.t0: float | None = None
 
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
+    def on_result(self, result: FrameResult) -> None:
         self.t0 = result.t_s if self.t0 is None else self.t0
         self.update(result.t_s - self.t0)
 

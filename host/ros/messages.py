@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
-from jackson.host.core import CoreListener, FrameResult, HostCore
+from jackson.host.results import CoreListener, FrameResult
 from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
@@ -805,7 +805,7 @@ class RosOutput(CoreListener):
         # taken at the frame that applies it: stamped with the last frame's time
         self.send("cmd_vel", self._t_s, self.builder.twist(self._t_s, v_m_s, w_rad_s))
 
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
+    def on_result(self, result: FrameResult) -> None:
         b, t_s, odo, t = self.builder, result.t_s, result.odometry, result.telemetry
         self._t_s = t_s
         self._frames += 1
@@ -831,7 +831,7 @@ class RosOutput(CoreListener):
                 self.send("tf", t_s, b.odom_tf(t_s, odo.x_m, odo.y_m, odo.yaw_rad))
             if b.settings.publish_tf and b.settings.publish_wheel_tf:
                 self.send("tf", t_s, b.wheel_tf(t_s, odo))
-        self._navigation(core, t_s)
+        self._navigation(result, t_s)
 
     def on_filtered(self, t_s: float, state: EkfState) -> None:
         if not state.initialized:
@@ -842,7 +842,7 @@ class RosOutput(CoreListener):
         if b.settings.publish_tf and b.settings.tf_source == "filtered":
             self.send("tf", t_s, b.odom_tf(t_s, state.x_m, state.y_m, state.yaw_rad))
 
-    def on_scan(self, core: HostCore, scan: Scan) -> None:
+    def on_scan(self, scan: Scan) -> None:
         if len(scan.angles_rad) < 2:
             return
         if not self.builder.clock.ready:  # no frame yet to map MCU time onto the ROS clock
@@ -882,11 +882,11 @@ class RosOutput(CoreListener):
         self.send("diagnostics", values.t_s, self.builder.diagnostics(values))
         return True
 
-    def _navigation(self, core: HostCore, t_s: float) -> None:
+    def _navigation(self, result: FrameResult, t_s: float) -> None:
         """After a control tick of a navigation mission: /plan (each new global plan),
         /local_plan, map -> odom on /tf, and /map (once on a known map; every
         :data:`MAP_PERIOD_S` while mapping)."""
-        nav: Any = core.mission
+        nav: Any = result.mission
         if nav is None or not hasattr(nav, "navigator"):
             return
         b = self.builder

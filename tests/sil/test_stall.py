@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 
 from jackson.calibration.trial import TrialSpec, cut_reason, run_trial
-from jackson.host.core import CoreListener, FrameResult, HostCore
+from jackson.host.core import CoreListener, FrameResult
 from jackson.host.replay import replay
 from jackson.sim.link import PtyLink
 from jackson.sim.runner import read_truth
@@ -203,8 +203,8 @@ class _SlowHost(CoreListener):
         self.at, self.seconds = at, seconds
         self.slow_done = threading.Event()
 
-    def on_result(self, core: HostCore, result: FrameResult) -> None:
-        if core.frames == self.at:
+    def on_result(self, result: FrameResult) -> None:
+        if result.frame == self.at:
             threading.Event().wait(self.seconds)
             self.slow_done.set()
 
