@@ -419,8 +419,8 @@ class HostCore:
             v, w, duties = self.actuation.apply(t_s, v_cmd, w_cmd, brake, odo)
         self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
         result = FrameResult(
-            t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake, self.frames, self.ekf.state(),
-            self.verdict, self.mission,
+            t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake, self.frames, self.verdict,
+            self.mission,
         )  # fmt: skip
         self.last_result = result
         for listener in self.listeners:

@@ -39,8 +39,6 @@ class FrameResult:
         The motors were braked at this frame.
     frame : int
         Telemetry frames handled so far, this one included.
-    ekf : EkfState
-        The filter's estimate after this frame's measurements.
     verdict : Verdict or None
         The health monitor's verdict at this frame (None: the monitor is off).
     mission : Mission or None
@@ -57,7 +55,6 @@ class FrameResult:
     duties: tuple[float, float]
     braked: bool
     frame: int
-    ekf: EkfState
     verdict: Verdict | None
     mission: Mission | None
 

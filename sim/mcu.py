@@ -31,7 +31,7 @@ from typing import Any
 
 from jackson.sim.firmware_core import McuBuildError, load
 
-__all__ = ["Mcu", "McuBuildError", "MotorOutput", "SensorSample", "imu_register_bytes"]
+__all__ = ["Mcu", "McuBuildError", "SensorSample", "imu_register_bytes"]
 
 TELEMETRY_TYPE = 0x01  # a frame's TYPE byte (offset 3) for TELEMETRY
 
@@ -46,17 +46,6 @@ class SensorSample:
     accel: tuple[int, int, int]
     temp: int
     gyro: tuple[int, int, int]
-
-
-@dataclass(frozen=True)
-class MotorOutput:
-    """The MCU's TB6612 output (when it drives the motors): duty in 1e-4 per wheel, direction
-    flags applied, braked or not, and whether a lapsed command or a silent host braked it."""
-
-    left: int = 0
-    right: int = 0
-    braked: bool = True
-    failsafe: bool = False
 
 
 def imu_register_bytes(accel: tuple[int, int, int], temp: int, gyro: tuple[int, int, int]) -> bytes:
@@ -254,16 +243,10 @@ class Mcu:
         session's HEARTBEATs arrive within failsafe_ms and the newest is not SHUTDOWN."""
         return bool(self._core.motor_enable)
 
-    @property
-    def motors(self) -> MotorOutput:
-        """The TB6612 outputs the core drives (braked without a motor output)."""
-        left, right, braked, failsafe = self._core.motors
-        return MotorOutput(int(left), int(right), bool(braked), bool(failsafe))
-
     def wheel_duty(self) -> tuple[float, float, bool]:
         """The H-bridge output per wheel as signed duty (-1..1, direction flags applied) and
         whether both are braked."""
-        left, right, braked, _ = self._core.motors
+        left, right, braked = self._core.motors
         return left / 10_000.0, right / 10_000.0, bool(braked)
 
     def telemetry_flags(self, t_us: int) -> int:

@@ -65,7 +65,6 @@ class TwinSerial : public SerialPort {
     return n;
   }
   void push(const std::string& data) { rx_.insert(rx_.end(), data.begin(), data.end()); }
-  size_t waiting() const { return rx_.size() - pos_; }
 
  private:
   py::object write_;
@@ -104,7 +103,6 @@ class Core {
   void push(py::bytes data) { serial_.push(std::string(data)); }
 
   uint64_t now_us() { return clock_.now64(); }
-  size_t rx_waiting() const { return serial_.waiting(); }
   const Firmware& fw() const { return fw_; }
   const posix::RecordedMotors& motors() const { return motors_; }
   bool line() const { return enable_.enabled_; }
@@ -141,12 +139,9 @@ PYBIND11_MODULE(jackson_firmware_core, m) {
       .def("tick", &Core::tick)
       .def("push", &Core::push, py::arg("data"))
       .def_property_readonly("now_us", &Core::now_us)
-      .def_property_readonly("rx_waiting", &Core::rx_waiting)
       .def_property_readonly("session", [](const Core& c) { return c.fw().session_active(); })
       .def_property_readonly("next_telemetry_us",
                              [](const Core& c) { return c.fw().next_telemetry_us(); })
-      .def_property_readonly("next_deadline_us",
-                             [](const Core& c) { return c.fw().next_deadline(); })
       .def_property_readonly("last_heartbeat_us",
                              [](const Core& c) { return c.fw().last_heartbeat_us(); })
       .def_property_readonly("host_lost_us", [](const Core& c) { return c.fw().host_lost_us(); })
@@ -167,28 +162,15 @@ PYBIND11_MODULE(jackson_firmware_core, m) {
       .def_property_readonly("motors",
                              [](const Core& c) {
                                const auto& m = c.motors();
-                               return py::make_tuple(m.left_, m.right_, m.braked_,
-                                                     c.fw().motors().failsafe);
+                               return py::make_tuple(m.left_, m.right_, m.braked_);
                              })
       .def_property_readonly("telemetry_rate_hz",
                              [](const Core& c) { return c.fw().config().telemetry_rate_hz; })
       .def_property_readonly("failsafe_ms",
                              [](const Core& c) { return c.fw().config().failsafe_ms; })
-      .def_property_readonly("direction_flags",
-                             [](const Core& c) { return c.fw().config().direction_flags; })
       .def_property_readonly("accel_fs", [](const Core& c) { return c.fw().imu().accel_fs(); })
       .def_property_readonly("gyro_fs", [](const Core& c) { return c.fw().imu().gyro_fs(); })
-      .def_property_readonly("imu_ok", [](const Core& c) { return c.fw().imu().ok(); })
       .def_property_readonly("i2c_errors", [](const Core& c) { return c.fw().imu().errors(); })
-      .def_property_readonly("calibrated", [](const Core& c) { return c.fw().calibrated(); })
-      .def_property_readonly("frames_sent", [](const Core& c) { return c.fw().frames_sent(); })
-      .def_property_readonly("tx_dropped", [](const Core& c) { return c.fw().tx_dropped(); })
-      .def_property_readonly("rx_bad_commands",
-                             [](const Core& c) { return c.fw().rx_bad_commands(); })
-      .def_property_readonly("rx_frames_ok",
-                             [](const Core& c) { return c.fw().rx_counters().frames_ok; })
-      .def_property_readonly("rx_crc_errors",
-                             [](const Core& c) { return c.fw().rx_counters().crc_errors; })
       .def("telemetry_flags", [](const Core& c, uint32_t now) { return c.fw().telemetry_flags(now); },
            py::arg("t_us"));
 }
