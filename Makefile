@@ -53,7 +53,7 @@ native-test: native
 	ctest --test-dir $(NATIVE) --output-on-failure
 
 # One pytest worker per CPU (pytest-xdist); a file's tests run together in one worker, in file
-# order (module fixtures such as tests/calibration/test_cluster.py's Ray instance).
+# order (module fixtures such as tests/experiments/test_cluster.py's Ray instance).
 pytest:
 	$(BIN)/pytest -q -n auto --dist loadfile --durations=12
 

@@ -2,8 +2,8 @@
 
 The import packages map onto the repository's folders: ``jackson.protocol`` is
 ``protocol/``, ``jackson.host`` is ``host/``, ``jackson.sim`` is ``sim/``,
-``jackson.calibration`` is ``calibration/``; this package (``cli/``) holds the
-``jackson`` command.
+``jackson.calibration`` is ``calibration/``, ``jackson.experiments`` is ``experiments/``;
+this package (``cli/``) holds the ``jackson`` command.
 """
 
 __version__ = "0.1.0"

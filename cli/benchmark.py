@@ -29,8 +29,8 @@ SUITES: dict[str, str] = {
     "daemon": "jackson.daemon_bench",
     "sil": "jackson.sil_bench",
     "soak": "jackson.soak_bench",
-    "campaign": "jackson.calibration.bench",
-    "stage3": "jackson.calibration.bench_stage3",
+    "campaign": "jackson.experiments.bench",
+    "stage3": "jackson.experiments.bench_stage3",
     "ros": "jackson.ros_bench",
 }
 """Suite name -> module with a ``run(quick)`` function, in the order they run."""

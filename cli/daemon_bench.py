@@ -44,7 +44,7 @@ def _jackson() -> str:
 
 def _maze_map(folder: Path) -> Path:
     """A map of the maze from the twin's world file (no survey needed), map_server YAML."""
-    from jackson.calibration.stage3 import world_grid
+    from jackson.experiments.stage3 import world_grid
     from jackson.sim.config import load_world
 
     path = folder / "maze.yaml"

@@ -178,7 +178,7 @@ def _check_route(check: Callable[[], None], against: str) -> None:
 def _cmd_map(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.stage3 import check_world_route, mapping_spec, run_nav_trial
+    from jackson.experiments.stage3 import check_world_route, mapping_spec, run_nav_trial
     from jackson.sim.config import load_world
 
     _check_twin_files(args.robot, args.world)
@@ -216,7 +216,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from jackson.calibration.stage3 import (
+    from jackson.experiments.stage3 import (
         NavTrialSpec,
         check_world_route,
         mapping_spec,
@@ -308,8 +308,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from jackson.calibration.report import plot_trajectories
-    from jackson.calibration.trial import TrialSpec, run_trial
+    from jackson.experiments.report import plot_trajectories
+    from jackson.experiments.trial import TrialSpec, run_trial
     from jackson.sim.faults import summary
 
     args.robot = args.robot or DEFAULT_ROBOT
@@ -354,7 +354,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     connected once here, so a wrong address fails before any trial or mapping run)."""
     if args.cluster is None:
         return _cmd_campaign_kind(args)
-    from jackson.calibration.cluster import ClusterError, RayMissingError, ray_session
+    from jackson.experiments.cluster import ClusterError, RayMissingError, ray_session
 
     try:
         with ray_session(args.cluster, num_cpus=args.workers):
@@ -379,7 +379,7 @@ def _lidar_mode_arg(text: str) -> str:
 
 
 def _cluster_arg(text: str) -> str:
-    from jackson.calibration.cluster import parse_cluster
+    from jackson.experiments.cluster import parse_cluster
 
     try:
         return parse_cluster(text)
@@ -390,7 +390,7 @@ def _cluster_arg(text: str) -> str:
 def _cmd_campaign_kind(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.campaign import run_campaign
+    from jackson.experiments.campaign import run_campaign
 
     if args.mission == "worlds":
         return _cmd_campaign_worlds(args)
@@ -440,7 +440,7 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
 def _cmd_campaign_worlds(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.worlds_campaign import ROBOTS, WORLDS, run_worlds_campaign
+    from jackson.experiments.worlds_campaign import ROBOTS, WORLDS, run_worlds_campaign
 
     for option, value in (
         ("--short", args.short),
@@ -480,7 +480,7 @@ def _cmd_campaign_worlds(args: argparse.Namespace) -> int:
 def _cmd_campaign_faults(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.fault_campaign import (
+    from jackson.experiments.fault_campaign import (
         CASES,
         WORLDS,
         FaultCampaignError,
@@ -539,7 +539,7 @@ def _lidar_mode(args: argparse.Namespace) -> str | None:
 def _cmd_campaign_stage3(args: argparse.Namespace) -> int:
     import datetime as dt
 
-    from jackson.calibration.stage3 import CAMPAIGNS, run_stage3_campaign
+    from jackson.experiments.stage3 import CAMPAIGNS, run_stage3_campaign
 
     world = args.world or "maze"
     _check_twin_files(args.robot, world)
@@ -651,7 +651,7 @@ def build_parser() -> argparse.ArgumentParser:
                 help="run the trials on Ray: auto = the running cluster, local = a Ray instance "
                 "started here, ray://HOST:PORT = Ray Client (default: the local process pool)",
             )
-            from jackson.calibration.fault_campaign import CASE_NAMES
+            from jackson.experiments.fault_campaign import CASE_NAMES
 
             p.add_argument(
                 "--short",
@@ -751,7 +751,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _cmd_faults(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from jackson.calibration.faults import run_matrix
+    from jackson.experiments.fault_matrix import run_matrix
 
     console = Console(stderr=True)
     if args.out.exists() and not args.out.is_dir():

@@ -19,17 +19,21 @@ MAPPING = {
     "jackson.host": "host",
     "jackson.sim": "sim",
     "jackson.calibration": "calibration",
+    "jackson.experiments": "experiments",
 }
+FOLDERS = tuple(MAPPING.values())
 # the command-line modules (the top-level package, folder cli/): only cli/ may import them
 CLI = tuple(
     sorted(f"jackson.{p.stem}" for p in (ROOT / "cli").glob("*.py") if p.stem != "__init__")
 )
+LAB = ("jackson.calibration", "jackson.experiments")  # what runs on the twin and in the lab
 FORBIDDEN = {  # package folder -> packages it must never import
-    "common": ("jackson.protocol", "jackson.host", "jackson.sim", "jackson.calibration", *CLI),
-    "protocol": ("jackson.host", "jackson.sim", "jackson.calibration", *CLI),
-    "host": ("jackson.sim", "jackson.calibration", *CLI),
-    "sim": ("jackson.host", "jackson.calibration", *CLI),
-    "calibration": CLI,
+    "common": ("jackson.protocol", "jackson.host", "jackson.sim", *LAB, *CLI),
+    "protocol": ("jackson.host", "jackson.sim", *LAB, *CLI),
+    "host": ("jackson.sim", *LAB, *CLI),
+    "sim": ("jackson.host", *LAB, *CLI),
+    "calibration": ("jackson.experiments", *CLI),
+    "experiments": CLI,
 }
 
 
@@ -131,7 +135,7 @@ RULES_WRITTEN_ONCE = (
 
 def test_angle_wrapping_and_world_to_cell_are_written_once() -> None:
     found = []
-    for folder in ("cli", "common", "protocol", "host", "sim", "calibration"):
+    for folder in FOLDERS:
         for path in sorted((ROOT / folder).rglob("*.py")):
             if path == ROOT / "common" / "geometry.py":
                 continue
@@ -148,7 +152,7 @@ def test_angle_wrapping_and_world_to_cell_are_written_once() -> None:
 def test_every_error_of_the_project_is_a_jackson_error() -> None:
     # one base, caught once at the command line (common/errors.py)
     bases: dict[str, list[str]] = {}
-    for folder in ("cli", "common", "protocol", "host", "sim", "calibration"):
+    for folder in FOLDERS:
         for path in sorted((ROOT / folder).rglob("*.py")):
             for node in ast.walk(ast.parse(path.read_text())):
                 if isinstance(node, ast.ClassDef) and node.name.endswith("Error"):

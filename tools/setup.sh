@@ -61,7 +61,7 @@ fi
 deps_key=$( (cat pyproject.toml tools/constraints.txt; echo "$extras$cluster") | sha256sum | cut -c1-16)
 # Strict editable install: a static link tree that mypy and pytest see like any install; it
 # is rebuilt when a Python file is added or removed.
-files_key=$( (echo "$deps_key"; find cli common protocol host sim calibration -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
+files_key=$( (echo "$deps_key"; find cli common protocol host sim calibration experiments -name '*.py' -o -name py.typed | sort) | sha256sum | cut -c1-16)
 
 # --no-compile: the .pyc of a module are written when it is first imported, not for every module
 # of every package at install time (about 45 s of a fresh set-up, most of it Ray and SciPy)

@@ -29,7 +29,7 @@ from jackson.calibration.procedures.step import (
     step_angle,
     step_plan,
 )
-from jackson.calibration.trial import TrialSpec, run_trial
+from jackson.experiments.trial import TrialSpec, run_trial
 from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
 from jackson.host.config import HostConfig, dump_config
 from jackson.host.odometry import RobotGeometry

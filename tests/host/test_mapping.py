@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from jackson.calibration.metrics import MetricInputError, map_ssim
+from jackson.experiments.metrics import MetricInputError, map_ssim
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.likelihood import LikelihoodField, PointField
 from jackson.host.nav.mapping import Mapper, MappingConfig

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from jackson.calibration.bench_stage3 import perfect_maze
-from jackson.calibration.metrics import Cylinder, d_min
+from jackson.experiments.bench_stage3 import perfect_maze
+from jackson.experiments.metrics import Cylinder, d_min
 from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.nav import astar as astar_module
 from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, path_cost

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jackson.calibration import metrics
-from jackson.calibration.trial import read_csv
+from jackson.experiments import metrics
+from jackson.experiments.trial import read_csv
 from jackson.host.ros.bag import read_bag
 
 from .harness import JACKSON, TwinThread, run_daemon_cli, wait_for

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from jackson.calibration.faults import BRAKE_LIMIT_S, Fault, plot_brakes, run_row
+from jackson.experiments.fault_matrix import BRAKE_LIMIT_S, Fault, plot_brakes, run_row
 
 
 def test_a_killed_host_on_the_pca9685_path_is_braked_by_the_interlock(tmp_path: Path) -> None:

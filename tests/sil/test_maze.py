@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from jackson.calibration.stage3 import (
+from jackson.experiments.stage3 import (
     NavTrialSpec,
     mapping_spec,
     run_nav_trial,

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from jackson.calibration.trial import TrialSpec, cut_reason, run_trial
+from jackson.experiments.trial import TrialSpec, cut_reason, run_trial
 from jackson.host.core import CoreListener, FrameResult
 from jackson.host.replay import replay
 from jackson.sim.link import PtyLink

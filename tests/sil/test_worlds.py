@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from jackson.calibration.stage3 import NavTrialSpec, mapping_spec, run_nav_trial, world_goals
-from jackson.calibration.worlds_campaign import health_events
+from jackson.experiments.stage3 import NavTrialSpec, mapping_spec, run_nav_trial, world_goals
+from jackson.experiments.worlds_campaign import health_events
 from jackson.sim.config import load_world
 
 

@@ -16,7 +16,7 @@ import pytest
 import yaml
 from numpy.typing import NDArray
 
-from jackson.calibration.trial import TrialSpec, run_trial
+from jackson.experiments.trial import TrialSpec, run_trial
 from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.recording import KIND_RX, read_log
 from jackson.main import main

@@ -7,7 +7,7 @@ information: the campaigns' wall time over the twin alone's. Its reference is it
 (the compiled physics step made the twin alone three times faster), so the ratio rose without
 the campaigns getting slower; a trial's time is now mostly the host's, with its run folder and
 bag. The campaigns' judged figure is the Stage 3 set's: 180 runs on 2 workers within 10 minutes
-(:mod:`jackson.calibration.bench_stage3`).
+(:mod:`jackson.experiments.bench_stage3`).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from jackson.calibration.campaign import run_campaign
 from jackson.common.bench import BenchResult, reference_loop_us
+from jackson.experiments.campaign import run_campaign
 
 
 def run(quick: bool = False) -> list[BenchResult]:

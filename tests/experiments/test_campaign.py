@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jackson.calibration.campaign import run_campaign
+from jackson.experiments.campaign import run_campaign
 
 JACKSON = str(Path(sys.executable).parent / "jackson")
 
@@ -90,7 +90,7 @@ def test_jackson_run_prints_the_table_and_writes_the_plot(tmp_path: Path) -> Non
 def test_runs_csv_has_every_runs_columns_when_the_first_run_failed(tmp_path: Path) -> None:
     """A failed run has fewer metrics than a completed one; sorted first, it used to make
     the report fail (DictWriter: fields not in fieldnames) and leave no summary."""
-    from jackson.calibration.campaign import write_runs
+    from jackson.experiments.campaign import write_runs
 
     failed = {"variant": "C00", "trial": 0, "completed": False, "failure": "LiDAR excluded"}
     done = {"variant": "C00", "trial": 1, "completed": True, "failure": None, "d_traj_cm": 0.5}
@@ -103,8 +103,8 @@ def test_runs_csv_has_every_runs_columns_when_the_first_run_failed(tmp_path: Pat
 def _nav_run(out: Path, short_of_goal_m: float) -> dict[str, object]:
     """The metrics of a run whose navigator reached its goal by its own estimate, the twin's
     truth ending ``short_of_goal_m`` before it on the straight line from the start."""
-    from jackson.calibration.stage3 import STAGE3_GOAL, STAGE3_START, nav_metrics
-    from jackson.calibration.trial import write_ground_truth
+    from jackson.experiments.stage3 import STAGE3_GOAL, STAGE3_START, nav_metrics
+    from jackson.experiments.trial import write_ground_truth
     from jackson.host.config import HostConfig
     from jackson.host.control.navigate import NavigateConfig, NavigateMission
     from jackson.sim.twin import Truth
@@ -130,7 +130,7 @@ def _nav_run(out: Path, short_of_goal_m: float) -> dict[str, object]:
 def test_a_run_reached_by_its_estimate_but_not_in_truth_is_no_success(tmp_path: Path) -> None:
     """The maze run that ended 25.1 cm from the goal on the ground truth while the robot's own
     estimate was within 0.25 m: reached by the navigator, not in truth, no success."""
-    from jackson.calibration.stage3 import write_stage3_report
+    from jackson.experiments.stage3 import write_stage3_report
 
     short = _nav_run(tmp_path / "runs" / "short", 0.251)
     assert short["reached"] is True and short["reached_truth"] is False

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from jackson.calibration.metrics import (
+from jackson.experiments.metrics import (
     CI_METHODS,
     MetricInputError,
     bootstrap_mean_ci,

@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from jackson.calibration.fault_campaign import (
+from jackson.experiments.fault_campaign import (
     CASES,
     MAZE_ONSET_S,
     ONSET_S,
@@ -279,7 +279,7 @@ def _nav_folder(
     scans: int = 60,
     fault: bool = True,
 ) -> Path:
-    """A maze run's folder as :func:`jackson.calibration.stage3.run_nav_trial` writes it."""
+    """A maze run's folder as :func:`jackson.experiments.stage3.run_nav_trial` writes it."""
     folder.mkdir(parents=True)
     faults = [{"fault": LIDAR_DEAD.fault, "first_s": 4.04, "revolutions_lost": 40}]
     metrics = {
@@ -386,8 +386,8 @@ def test_clean_maze_runs_add_the_lidar_to_the_false_alarms(tmp_path: Path) -> No
 
 
 def test_maze_cases_plan_navigation_trials_on_the_map_and_clean_maze_runs(tmp_path: Path) -> None:
-    from jackson.calibration.stage3 import NavTrialSpec
-    from jackson.calibration.trial import TrialSpec
+    from jackson.experiments.stage3 import NavTrialSpec
+    from jackson.experiments.trial import TrialSpec
 
     configs = (tmp_path / "on.yaml", tmp_path / "off.yaml")
     map_yaml = tmp_path / "m.yaml"

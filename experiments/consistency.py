@@ -9,17 +9,17 @@ row's MCU time (its heading unwrapped first) and carried into the EKF's odom fra
 is moved rigidly so that at the first usable row it coincides with the EKF's pose there (the
 filter starts at (0, 0, 0) where the robot stands). The NEES eps_k = e_k^T P_k^-1 e_k with P_k
 the row's 3x3 pose covariance (p_xx ... p_yyaw) is chi-square with 3 degrees of freedom when
-the covariance is right (:func:`jackson.calibration.metrics.nees`); the share of rows inside,
+the covariance is right (:func:`jackson.experiments.metrics.nees`); the share of rows inside,
 above (optimistic: the errors are larger than P says) and below (pessimistic) the two-sided
 95 % band [0.216, 9.348] is the verdict. The rows are evenly spaced in time, so a share of
 rows is a share of time.
 
 Left out, and counted: rows before the filter is initialised (a pose or covariance field that
 is empty or not finite), rows outside the ground truth's time span, and rows whose P is
-singular (the NEES is undefined; :data:`jackson.calibration.metrics.SINGULAR_RCOND`).
+singular (the NEES is undefined; :data:`jackson.experiments.metrics.SINGULAR_RCOND`).
 
 At the end of the run: the true end-point error ||p_ekf - p_gt|| beside the covariance's own
-2-sigma radius 2 sqrt(lambda_max(P_xy)) (:func:`jackson.calibration.metrics.position_two_sigma`),
+2-sigma radius 2 sqrt(lambda_max(P_xy)) (:func:`jackson.experiments.metrics.position_two_sigma`),
 and the closure figures of the paper (ground truth, EKF, the optimism gap between them).
 """
 
@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from jackson.calibration import metrics as m
 from jackson.common.errors import JacksonError
+from jackson.experiments import metrics as m
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -397,7 +397,7 @@ class CampaignConsistency:
     average_nees : numpy.ndarray, shape (K,)
         The N runs' mean NEES at those times (each run interpolated).
     average_band : tuple of float
-        The 95 % band of an N-run mean (:func:`jackson.calibration.metrics.nees_band`).
+        The 95 % band of an N-run mean (:func:`jackson.experiments.metrics.nees_band`).
     average_in_band_fraction : float
         Share of ``t_s`` with the average inside its band.
     covered : int

@@ -10,8 +10,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from jackson.calibration import metrics as m
-from jackson.calibration.consistency import (
+from jackson.experiments import metrics as m
+from jackson.experiments.consistency import (
     ConsistencyError,
     campaign_consistency,
     plot_consistency,

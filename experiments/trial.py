@@ -35,7 +35,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from jackson.calibration import metrics as m
+from jackson.experiments import metrics as m
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, dump_config, load_config

@@ -2,12 +2,12 @@
 
 ``summary.json`` holds numbers: per metric its label, unit, n, mean, SD, the 95 % CI of the
 mean (from a method that keeps the interval in the quantity's domain,
-:func:`jackson.calibration.metrics.mean_sd_ci`) and the paper's figures beside ours;
+:func:`jackson.experiments.metrics.mean_sd_ci`) and the paper's figures beside ours;
 ``summary.md`` the same as text. Every figure is written twice (:func:`save_figure`): a PNG at
 :data:`FIGURE_DPI` and a PDF beside it.
 
 Beside the paper's figures, the consistency of the EKF's covariance (NEES against the twin's
-ground truth, :mod:`jackson.calibration.consistency`): rows of the table and ``nees.png``.
+ground truth, :mod:`jackson.experiments.consistency`): rows of the table and ``nees.png``.
 """
 
 from __future__ import annotations
@@ -22,8 +22,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from jackson.calibration import metrics as m
-from jackson.calibration.consistency import (
+from jackson.common.figures import FIGURE_DPI as FIGURE_DPI  # re-exported
+from jackson.common.figures import save_figure
+from jackson.common.figures import vector_path as vector_path  # re-exported
+from jackson.experiments import metrics as m
+from jackson.experiments.consistency import (
     PAPER_OPTIMISM_GAP_CM,
     CampaignConsistency,
     ConsistencyError,
@@ -32,10 +35,7 @@ from jackson.calibration.consistency import (
     run_consistency,
     significant,
 )
-from jackson.calibration.trial import read_csv
-from jackson.common.figures import FIGURE_DPI as FIGURE_DPI  # re-exported
-from jackson.common.figures import save_figure
-from jackson.common.figures import vector_path as vector_path  # re-exported
+from jackson.experiments.trial import read_csv
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -93,7 +93,7 @@ class MetricSpec:
     unit : str
         "cm", "deg", "m", "s", or "1" for a dimensionless figure.
     domain : str
-        :data:`jackson.calibration.metrics.Domain`: picks the CI (:func:`m.mean_sd_ci`).
+        :data:`jackson.experiments.metrics.Domain`: picks the CI (:func:`m.mean_sd_ci`).
     """
 
     label: str
@@ -440,7 +440,7 @@ def _pyplot() -> Any:
 
 
 def plot_nees(png: Path, campaign: CampaignConsistency, title: str = "") -> None:
-    """``nees.png`` (:func:`jackson.calibration.consistency.plot_consistency`) and its PDF.
+    """``nees.png`` (:func:`jackson.experiments.consistency.plot_consistency`) and its PDF.
 
     Parameters
     ----------

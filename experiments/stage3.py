@@ -18,9 +18,9 @@ Success is judged on the truth: a run is ``completed`` (the campaigns' success) 
 navigator reached its last goal by its own estimate (``reached``) *and* the twin's ground truth
 ends within the goal tolerance of it (``reached_truth``, the true end distance in
 ``goal_error_m``). A run is limited by the mission's MCU time (the daemon's guard, 180 s); the
-wall clock is a backstop (:func:`jackson.calibration.trial.wall_backstop_s`), and a lockstep
+wall clock is a backstop (:func:`jackson.experiments.trial.wall_backstop_s`), and a lockstep
 that stands still ends the run within seconds; a run cut either way has ``failure`` ``not
-ended: ...`` (:func:`jackson.calibration.trial.cut_reason`).
+ended: ...`` (:func:`jackson.experiments.trial.cut_reason`).
 
 Either run takes faults (:attr:`NavTrialSpec.faults`, :mod:`jackson.sim.faults`) as a square's
 or a figure-eight's trial does: the twin injects them besides the robot file's, meta.json lists
@@ -49,8 +49,8 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
-from jackson.calibration import metrics as m
-from jackson.calibration.trial import (
+from jackson.experiments import metrics as m
+from jackson.experiments.trial import (
     cut_reason,
     twin_session,
     wall_backstop_s,
@@ -186,11 +186,11 @@ class NavTrialSpec:
         Leave out the world's triggered obstacles (a mapping run).
     faults : tuple of FaultSpec
         Faults injected besides the robot file's (:mod:`jackson.sim.faults`), as
-        :class:`jackson.calibration.trial.TrialSpec`'s: meta.json lists their schedule and
+        :class:`jackson.experiments.trial.TrialSpec`'s: meta.json lists their schedule and
         metrics.json what each injected (``faults``).
     stall_s : float
         Wall seconds both ends of the lockstep may wait for each other before the run is cut
-        as stalled (:func:`jackson.calibration.trial.twin_session`).
+        as stalled (:func:`jackson.experiments.trial.twin_session`).
     lidar_mode : str or None
         The RPLIDAR scan mode the host starts (None: the densest, as the daemon does;
         ``"standard"``, ``"Express"``...).
@@ -443,7 +443,7 @@ CAMPAIGNS: dict[str, tuple[Variant, ...]] = {
 def trajectory_xy(run_dir: Path, result: dict[str, Any]) -> npt.NDArray[np.float64]:
     """The ground-truth path from time zero to the goal, anchored at the start (Eq. 19-20
     compare aligned trajectories)."""
-    from jackson.calibration.trial import read_csv
+    from jackson.experiments.trial import read_csv
 
     gt = read_csv(run_dir / "ground_truth.csv")
     t0 = float(result.get("t_start_s", 0.0) or 0.0)
@@ -469,13 +469,13 @@ def run_stage3_campaign(
 ) -> list[dict[str, Any]]:
     """Every variant of campaign ``name`` ``trials`` times, in worker processes (or on a Ray
     ``cluster``: ``local``, ``auto``, ``ray://HOST:PORT``, see
-    :func:`jackson.calibration.cluster.map_trials`; the paths are then made absolute); the map
+    :func:`jackson.experiments.cluster.map_trials`; the paths are then made absolute); the map
     is built once first (unless given); writes ``runs.csv``, ``runs.json``, ``summary.md`` and
     plots into ``out``. ``lidar_mode``: the RPLIDAR scan mode the host starts (None: the
     densest)."""
     from rich.progress import Progress
 
-    from jackson.calibration.cluster import map_trials
+    from jackson.experiments.cluster import map_trials
 
     variants = CAMPAIGNS[name]
     if cluster is not None:
@@ -604,7 +604,7 @@ def write_stage3_report(
 ) -> None:
     """``runs.json``, ``runs.csv``, ``summary.md`` (median [IQR] per variant beside the
     paper's medians) and ``stage3.png``."""
-    from jackson.calibration.campaign import write_runs
+    from jackson.experiments.campaign import write_runs
 
     flat = [{k: v for k, v in r.items() if not isinstance(v, (dict, list))} for r in results]
     write_runs(out, flat)
@@ -666,7 +666,7 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]]) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Circle, Polygon
 
-    from jackson.calibration.trial import read_csv
+    from jackson.experiments.trial import read_csv
 
     fig, ax = plt.subplots(figsize=(9, 6))
     first = out / results[0]["run"] if results else None

@@ -11,8 +11,8 @@ from typing import Any
 
 import pytest
 
-from jackson.calibration.campaign import run_campaign
-from jackson.calibration.cluster import ClusterError, map_trials, parse_cluster
+from jackson.experiments.campaign import run_campaign
+from jackson.experiments.cluster import ClusterError, map_trials, parse_cluster
 from jackson.main import main
 
 ray = pytest.importorskip("ray")

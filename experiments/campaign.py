@@ -1,12 +1,12 @@
 """``jackson campaign``: many trials on the twin in parallel, and a report like the paper's.
 
 Each trial runs in a worker process (the twin in lockstep over a pty and the real host, see
-:mod:`jackson.calibration.trial`) with its own run folder and seed ``seed + i``, so a campaign
+:mod:`jackson.experiments.trial`) with its own run folder and seed ``seed + i``, so a campaign
 is deterministic for a seed whatever the number of workers. The report folder holds per-run
 metrics (``runs.csv``, ``runs.json``), ``summary.md`` and ``summary.json`` with the paper's
 physical and Isaac Sim figures beside ours, the consistency of the EKF's covariance against the
-twin's ground truth (:mod:`jackson.calibration.consistency`), and figures (``trajectories``,
-``closure``, ``nees``; PNG and PDF), see :mod:`jackson.calibration.report`.
+twin's ground truth (:mod:`jackson.experiments.consistency`), and figures (``trajectories``,
+``closure``, ``nees``; PNG and PDF), see :mod:`jackson.experiments.report`.
 
 Progress goes to stderr (:class:`TrialProgress`): a bar on a terminal, one line per finished
 trial otherwise (a log file, CI), e.g. ``[3/10] figure8 seed 2 (R03): completed, GT closure
@@ -23,10 +23,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, TextIO
 
-from jackson.calibration.cluster import map_trials
-from jackson.calibration.consistency import run_consistency
-from jackson.calibration.report import write_report
-from jackson.calibration.trial import TrialSpec, run_trial
+from jackson.experiments.cluster import map_trials
+from jackson.experiments.consistency import run_consistency
+from jackson.experiments.report import write_report
+from jackson.experiments.trial import TrialSpec, run_trial
 
 
 class TrialProgress:
@@ -153,7 +153,7 @@ def run_campaign(
         Progress on stderr (:class:`TrialProgress`).
     cluster : str or None
         None: the local pool; ``local``, ``auto`` or ``ray://HOST:PORT``: a Ray cluster
-        (:func:`jackson.calibration.cluster.map_trials`; ``out`` and ``config`` are made
+        (:func:`jackson.experiments.cluster.map_trials`; ``out`` and ``config`` are made
         absolute, every node must see them).
 
     Returns
@@ -197,9 +197,9 @@ def run_campaign(
 
 
 def run_scored_trial(spec: TrialSpec) -> dict[str, Any]:
-    """One trial (:func:`jackson.calibration.trial.run_trial`) with the NEES figures added.
+    """One trial (:func:`jackson.experiments.trial.run_trial`) with the NEES figures added.
 
-    The covariance's consistency (:meth:`jackson.calibration.consistency.RunConsistency.metrics`:
+    The covariance's consistency (:meth:`jackson.experiments.consistency.RunConsistency.metrics`:
     ``nees_in_band_fraction``, ``nees_above_fraction``, ``nees_mean``,
     ``end_position_2sigma_cm``, ``end_error_covered``, ...) joins the trial's metrics, in the
     returned dict and in the run folder's ``metrics.json``.

@@ -10,7 +10,7 @@ import pytest
 from numpy.lib.stride_tricks import sliding_window_view
 from skimage.metrics import structural_similarity
 
-from jackson.calibration.metrics import (
+from jackson.experiments.metrics import (
     ENVELOPE_X_M,
     ENVELOPE_Y_M,
     Cylinder,

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from jackson.calibration.stage3 import (
+from jackson.experiments.stage3 import (
     NavTrialSpec,
     mapping_spec,
     plot_stage3,
@@ -163,7 +163,7 @@ def run_worlds_campaign(
     progress : bool
         Show a progress bar.
     cluster : str or None
-        Run the trials on Ray (:func:`jackson.calibration.cluster.map_trials`).
+        Run the trials on Ray (:func:`jackson.experiments.cluster.map_trials`).
 
     Returns
     -------
@@ -172,7 +172,7 @@ def run_worlds_campaign(
     """
     from rich.progress import Progress
 
-    from jackson.calibration.cluster import map_trials
+    from jackson.experiments.cluster import map_trials
 
     if cluster is not None:
         out = out.absolute()

@@ -380,7 +380,7 @@ def _replanning_steps_ms() -> tuple[float, float]:
 def _campaign_s() -> tuple[float, float]:
     """The 180-run set on 2 workers: its wall time and its CPU time [s] (this process's, the
     mapping run's included, and every trial's, measured in the worker that ran it)."""
-    from jackson.calibration.stage3 import run_stage3_campaign
+    from jackson.experiments.stage3 import run_stage3_campaign
 
     with tempfile.TemporaryDirectory(prefix="jackson-bench-stage3-") as tmp:
         folders = Path(tmp) / "ofat", Path(tmp) / "robustness"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from jackson.calibration.stage3 import NavTrialSpec, run_nav_trial
+from jackson.experiments.stage3 import NavTrialSpec, run_nav_trial
 from jackson.host.config import HostConfig, dump_config
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.main import main

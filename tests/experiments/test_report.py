@@ -14,9 +14,9 @@ import numpy.typing as npt
 import pytest
 from PIL import Image
 
-from jackson.calibration import metrics as m
-from jackson.calibration.campaign import TrialProgress, trial_line
-from jackson.calibration.report import (
+from jackson.experiments import metrics as m
+from jackson.experiments.campaign import TrialProgress, trial_line
+from jackson.experiments.report import (
     FIGURE_DPI,
     PAPER,
     anchored_trace,
@@ -24,7 +24,7 @@ from jackson.calibration.report import (
     summarise,
     write_report,
 )
-from jackson.calibration.trial import trial_metrics
+from jackson.experiments.trial import trial_metrics
 
 FloatArray = npt.NDArray[np.float64]
 META = {"robot": "jackson_physical", "world": "square_room", "seed": 0, "workers": 1, "wall_s": 1.0}
