@@ -35,8 +35,10 @@ from jackson.host.health import POLICIES, HealthConfig
 from jackson.host.odometry import OdometryCovariance, RobotGeometry
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
+    FAILSAFE_MS_DEFAULT,
     FAILSAFE_MS_RANGE,
     GYRO_BIAS_RAD_S_RANGE,
+    TELEMETRY_RATE_HZ_DEFAULT,
     TELEMETRY_RATE_HZ_RANGE,
 )
 
@@ -79,7 +81,7 @@ class SerialSettings:
 
     port: str = "/dev/jackson-mcu"
     baudrate: int = 921600
-    telemetry_rate_hz: int = 20
+    telemetry_rate_hz: int = TELEMETRY_RATE_HZ_DEFAULT  # the device's own (protocol/schema.yaml)
 
 
 @dataclass(frozen=True)
@@ -97,7 +99,8 @@ class HostConfig:
     pca9685: Pca9685Settings = field(default_factory=Pca9685Settings)
     imu: ImuSettings = field(default_factory=ImuSettings)
     serial: SerialSettings = field(default_factory=SerialSettings)
-    watchdog_s: float = 0.6  # velocity commands older than this brake the motors
+    # velocity commands older than this brake the motors; the MCU's failsafe is set to the same
+    watchdog_s: float = FAILSAFE_MS_DEFAULT / 1000.0
     recording_folder: Path = Path("runs")
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
     bag_compression: str = "zstd"  # the bag's MCAP chunk compression: zstd, lz4 or none

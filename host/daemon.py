@@ -340,8 +340,7 @@ class Daemon:
     def health(self) -> LinkHealth:
         """The link's and the motor path's state now."""
         c = self.transport.decoder.counters
-        out = self.output
-        h = out.health() if hasattr(out, "health") else None
+        h = self.output.health()
         last = self.core.last_telemetry
         return LinkHealth(
             link_up=bool(self.transport.link_up),
@@ -355,10 +354,10 @@ class Daemon:
             nacks=self.commands.counters.nacked,
             retries=self.commands.counters.retried,
             unanswered_motor=self.commands.counters.motor_unacked,
-            i2c_errors=getattr(h, "i2c_errors", 0),
-            i2c_reinits=getattr(h, "reinits", 0),
-            i2c_foreign_writes=getattr(h, "foreign_writes", 0),
-            i2c_bus_up=not getattr(h, "bus_down", False),
+            i2c_errors=h.i2c_errors,
+            i2c_reinits=h.reinits,
+            i2c_foreign_writes=h.foreign_writes,
+            i2c_bus_up=not h.bus_down,
             motor_enable=bool(last is not None and last.flags & TelemetryFlags.MOTOR_ENABLE),
         )
 
@@ -370,7 +369,7 @@ class Daemon:
         if time.monotonic() - started_s < VERSION_SILENCE_S:
             return
         where = f"device on {self.transport.port_name}"
-        raise FrameVersionError(getattr(dec, "last_unknown_version", None), PROTOCOL_VERSION, where)
+        raise FrameVersionError(dec.last_unknown_version, PROTOCOL_VERSION, where)
 
     def _unanswered(self, detail: str) -> None:
         """HELLO got no INFO yet: one line at once, then one per retry that doubles the count
@@ -389,14 +388,14 @@ class Daemon:
     def _motor_path(self, was_up: bool) -> bool:
         """Follow the PCA9685 path's health; while its bus is down the heartbeats say SHUTDOWN,
         so the MCU drops the interlock line and the bridge brakes without the bus."""
-        h = self.output.health() if hasattr(self.output, "health") else None
-        up = not getattr(h, "bus_down", False)
-        errors, reinits = getattr(h, "i2c_errors", 0), getattr(h, "reinits", 0)
+        h = self.output.health()
+        up = not h.bus_down
+        errors, reinits = h.i2c_errors, h.reinits
         if errors > self._i2c_told[0] and not self._i2c_failing:
             # the first failed write of an outage: say it at once, not only in health.json
             self._i2c_failing = True
             self.tell(
-                f"I2C: PCA9685 write failed ({getattr(h, 'last_error', '')}): retrying; the "
+                f"I2C: PCA9685 write failed ({h.last_error}): retrying; the "
                 "MCU interlock brakes if it lasts 0.5 s"
             )
         if reinits > self._i2c_told[1] and self._i2c_failing:
@@ -411,8 +410,7 @@ class Daemon:
                 self.tell("PCA9685 bus back: motor output re-initialised")
             else:
                 self.core.host_state = HostState.SHUTDOWN
-                err = getattr(h, "last_error", "")
-                self.tell(f"PCA9685 bus down ({err}): braking through the MCU interlock")
+                self.tell(f"PCA9685 bus down ({h.last_error}): braking through the MCU interlock")
         return up
 
     def run(self, max_s: float | None = None) -> int:

@@ -77,6 +77,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.robot import LIDAR_RANGE_NOISE_M
 from jackson.common.window import SummedWindow
 from jackson.host.odometry import RobotGeometry
 
@@ -240,7 +241,7 @@ class HealthConfig:
     link_loss_fraction: float = 0.01
     imu_lost: str = "continue"
     encoder_lost: str = "continue"
-    lidar_noise_m: float = 0.01
+    lidar_noise_m: float = LIDAR_RANGE_NOISE_M
     lidar_rough_factor: float = 3.0
     lidar_useless_m: float = 0.10
     lidar_rough_scans: int = 3

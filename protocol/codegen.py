@@ -100,6 +100,7 @@ class Schema:
     bit_fields: dict[str, dict[str, tuple[int, int]]]  # word -> name -> (shift, bits)
     scales: dict[str, float | tuple[float, ...]]
     limits: dict[str, tuple[float, float]]
+    defaults: dict[str, int]  # power-up settings, each within its limit (not hashed)
     messages: tuple[Message, ...]
     schema_hash: int
 
@@ -157,6 +158,10 @@ def load_schema(path: Path = SCHEMA_PATH) -> Schema:
         for k, v in (raw.get("scales") or {}).items()
     }
     limits = {k: (float(v[0]), float(v[1])) for k, v in (raw.get("limits") or {}).items()}
+    defaults = {k: int(v) for k, v in (raw.get("defaults") or {}).items()}
+    for k, v in defaults.items():
+        if k not in limits or not limits[k][0] <= v <= limits[k][1]:
+            raise SchemaError(f"defaults.{k}: {v} has no limit or lies outside it")
     canonical = {
         "protocol_version": raw["protocol_version"],
         "max_payload": raw["max_payload"],
@@ -183,6 +188,7 @@ def load_schema(path: Path = SCHEMA_PATH) -> Schema:
         bit_fields=bit_fields,
         scales=scales,
         limits=limits,
+        defaults=defaults,
         messages=tuple(messages),
         schema_hash=int.from_bytes(digest[:4], "big"),
     )
@@ -283,7 +289,7 @@ def _number(v: float) -> str:
 
 
 def _py_constants(s: Schema) -> list[str]:
-    """Bit fields (shifts and getters), scales and limits as module constants."""
+    """Bit fields (shifts and getters), scales, limits and defaults as module constants."""
     lines: list[str] = [""]
     for fields in s.bit_fields.values():
         lines += [f"{k}_SHIFT = {shift}" for k, (shift, _) in fields.items()]
@@ -294,6 +300,7 @@ def _py_constants(s: Schema) -> list[str]:
         integral = float(lo).is_integer() and float(hi).is_integer() and abs(hi) >= 1
         pair = (_number(lo), _number(hi)) if integral else (repr(lo), repr(hi))
         lines.append(f"{k.upper()}_RANGE = ({pair[0]}, {pair[1]})")
+    lines += [f"{k.upper()}_DEFAULT = {v}" for k, v in s.defaults.items()]
     for word, fields in s.bit_fields.items():
         for k, (shift, bits) in fields.items():
             lines += [
@@ -463,6 +470,7 @@ def render_cpp(s: Schema) -> str:
         lo_s, hi_s = (_number(lo), _number(hi)) if integral else (f"{lo!r}", f"{hi!r}")
         lines.append(f"constexpr {ctype} k{_camel(k)}Min = {lo_s}{suffix};")
         lines.append(f"constexpr {ctype} k{_camel(k)}Max = {hi_s}{suffix};")
+    lines += [f"constexpr int32_t k{_camel(k)}Default = {v};" for k, v in s.defaults.items()]
     lines.append("")
     for m in s.messages:
         lines += _cpp_message(m)

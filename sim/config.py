@@ -15,7 +15,14 @@ from pathlib import Path
 
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
-from jackson.common.robot import TICKS_PER_REV, WHEEL_RADIUS_M, WHEEL_SEPARATION_M
+from jackson.common.robot import (
+    ENVELOPE_X_M,
+    ENVELOPE_Y_M,
+    LIDAR_RANGE_NOISE_M,
+    TICKS_PER_REV,
+    WHEEL_RADIUS_M,
+    WHEEL_SEPARATION_M,
+)
 from jackson.sim.faults import PARAMS, SIDED_KINDS, FaultError, FaultSpec
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
 
@@ -199,7 +206,7 @@ class LidarMount:
     """The LiDAR's error model and pose on the robot (RPLIDAR A1M8 by default)."""
 
     enabled: bool = True
-    noise_sigma_m: float = 0.01
+    noise_sigma_m: float = LIDAR_RANGE_NOISE_M
     extra_noise_sigma_m: float = 0.0
     dropout_probability: float = 0.0
     mount_x_m: float = 0.0
@@ -217,8 +224,8 @@ class RobotSpec:
     wheel_radius_m: Sides = Sides(WHEEL_RADIUS_M, WHEEL_RADIUS_M)
     wheel_separation_m: float = WHEEL_SEPARATION_M  # B, between the contact points
     ticks_per_rev: Sides = Sides(TICKS_PER_REV, TICKS_PER_REV)
-    envelope_x_m: tuple[float, float] = (-0.135, 0.135177)  # collision envelope, base frame
-    envelope_y_m: tuple[float, float] = (-0.135439, 0.135)
+    envelope_x_m: tuple[float, float] = ENVELOPE_X_M  # collision envelope, base frame
+    envelope_y_m: tuple[float, float] = ENVELOPE_Y_M
     caster_load_fraction: float = 0.2  # share of the weight on the caster
     caster_rolling_coeff: float = 0.02
     actuation_latency_s: float = 0.0

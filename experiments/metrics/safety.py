@@ -8,6 +8,8 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.robot import ENVELOPE_X_M as ENVELOPE_X_M  # Eq. A21, re-exported
+from jackson.common.robot import ENVELOPE_Y_M as ENVELOPE_Y_M
 from jackson.experiments.metrics.inputs import (
     FloatArray,
     MetricInputError,
@@ -15,8 +17,6 @@ from jackson.experiments.metrics.inputs import (
     check_same_length,
 )
 
-ENVELOPE_X_M = (-0.135000, 0.135177)  # [m] Stage 3 collision envelope, robot frame (Eq. A21)
-ENVELOPE_Y_M = (-0.135439, 0.135000)  # [m]
 CYLINDER_RADIUS_M = 0.125  # [m] Stage 3 dynamic cylinder r_c
 
 

@@ -16,8 +16,8 @@ constexpr std::array<uint8_t, 3> kFirmwareVersion = {0, 1, 0};
 
 /// Device configuration, changed by SET_CONFIG and SET_RATE, persisted on request.
 struct DeviceConfig {
-  uint16_t telemetry_rate_hz = 20;
-  uint16_t failsafe_ms = 600;
+  uint16_t telemetry_rate_hz = protocol::kTelemetryRateHzDefault;  ///< protocol/schema.yaml
+  uint16_t failsafe_ms = protocol::kFailsafeMsDefault;
   uint8_t accel_fs = 0;         ///< +-2 g
   uint8_t gyro_fs = 0;          ///< +-250 deg/s
   uint8_t direction_flags = 0;  ///< bit 0 inverts left, bit 1 inverts right

@@ -14,14 +14,34 @@ from jackson.host.i2c import I2cBus
 from jackson.protocol import Message, MotorPwm
 
 
+@dataclass(frozen=True)
+class I2cHealth:
+    """The motor path's bus faults, for the daemon's diagnostics (all zero without a bus)."""
+
+    i2c_errors: int
+    reinits: int
+    foreign_writes: int  # register read-backs that found the chip reset or rewritten
+    bus_down: bool
+    last_error: str
+
+
+NO_BUS_FAULTS = I2cHealth(0, 0, 0, False, "")
+"""The health of an output that has no bus of its own to fail (MOTOR_PWM, a bare PCA9685)."""
+
+
 class MotorOutput(Protocol):
     """The last stage of the actuation chain."""
+
+    last: tuple[float, float] | None  # the duties last set, (left, right)
 
     def set(self, duty_left: float, duty_right: float) -> None:
         """Signed duties in [-1, 1]; 0 short-brakes that wheel."""
 
     def brake(self) -> None:
         """Short-brake both wheels now."""
+
+    def health(self) -> I2cHealth:
+        """The path's bus faults now (:data:`NO_BUS_FAULTS` for a path without its own bus)."""
 
 
 class Pca9685Output:
@@ -51,6 +71,9 @@ class Pca9685Output:
     def brake(self) -> None:
         self.set(0.0, 0.0)
 
+    def health(self) -> I2cHealth:
+        return NO_BUS_FAULTS
+
 
 class McuOutput:
     """MOTOR_PWM to firmware that drives the motors itself (duty in 1e-4, clamped there too);
@@ -69,6 +92,9 @@ class McuOutput:
     def brake(self) -> None:
         self.set(0.0, 0.0)
 
+    def health(self) -> I2cHealth:
+        return NO_BUS_FAULTS
+
 
 class NullOutput:
     """Discards commands (offline replay)."""
@@ -82,22 +108,14 @@ class NullOutput:
     def brake(self) -> None:
         self.last = (0.0, 0.0)
 
+    def health(self) -> I2cHealth:
+        return NO_BUS_FAULTS
+
 
 READBACK_PERIOD_S = 1.0  # [s] MODE1/MODE2/PRE_SCALE read back this often
 FIRST_RETRY_S = 0.01  # [s] back-off after an I2C failure, doubling ...
 MAX_RETRY_S = 1.0  # [s] ... up to this
 BUS_DOWN_AFTER_S = 0.5  # [s] failing this long: the bus counts as down
-
-
-@dataclass(frozen=True)
-class I2cHealth:
-    """The PCA9685 path's faults, for the daemon's diagnostics."""
-
-    i2c_errors: int
-    reinits: int
-    foreign_writes: int  # register read-backs that found the chip reset or rewritten
-    bus_down: bool
-    last_error: str
 
 
 class ResilientPca9685Output:

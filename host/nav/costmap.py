@@ -47,6 +47,8 @@ import numpy.typing as npt
 from scipy import ndimage
 
 from jackson.common.geometry import cell_to_world, world_to_cell
+from jackson.common.robot import ENVELOPE_X_M as ENVELOPE_X_M  # re-exported
+from jackson.common.robot import ENVELOPE_Y_M as ENVELOPE_Y_M
 from jackson.host.nav import native
 from jackson.host.nav.grid import OccupancyGrid
 
@@ -62,8 +64,6 @@ MAX_NON_OBSTACLE = INSCRIBED_INFLATED_OBSTACLE - 1  # 252, the top of the inflat
 _CLEAR, _NEAR, _DEEP, _BLOCKED = 0, 1, 2, 3
 _ONE_CALL_POSES = 2048  # up to this many poses need the exact test: all in one call
 
-ENVELOPE_X_M = (-0.135, 0.135177)  # REFERENCE Stage 3 collision envelope, robot frame [m]
-ENVELOPE_Y_M = (-0.135439, 0.135)  # [m]
 
 FloatArray = npt.NDArray[np.float64]
 CostArray = npt.NDArray[np.uint8]
