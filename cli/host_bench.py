@@ -4,8 +4,8 @@
   not count): decoding, odometry, EKF (30 Hz outputs, wheel and gyro updates), the square
   mission, the actuation chain and the PCA9685 block write, measured on the frames of a 60 s
   square in the twin. The I2C bus here is an in-memory register file, so the figure is the
-  host's own work. Beside it, frame by frame, a bare EKF (:class:`jackson.host.ekf.Ekf`) takes
-  the same frame's wheel and gyro updates alone. Figures: the median and p99 as shares of the
+  host's own work. Beside it, frame by frame, a bare EKF (:class:`jackson.host.estimation.ekf.Ekf`)
+  takes the same frame's wheel and gyro updates alone. Figures: the median and p99 as shares of the
   5 ms frame period at 200 Hz (the budget: 5 % and 10 %, see :data:`CPU_P50_SHARE_TARGET`),
   over the bare EKF's median and p99 (target 3x: the filter is most of the work), and the p99
   over the median (target 3x: no tail).
@@ -40,15 +40,15 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from jackson.common.bench import BenchResult, reference_loop_us
+from jackson.host.actuation.i2c import SocketI2cBus
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig
 from jackson.host.control import SquareMission
 from jackson.host.core import HostCore
+from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.daemon import GcSettled
-from jackson.host.ekf import Ekf
-from jackson.host.i2c import SocketI2cBus
-from jackson.host.results import CoreListener, FrameResult
+from jackson.host.estimation.ekf import Ekf
 from jackson.protocol import FrameDecoder, Message, encode_frame
 from jackson.protocol.units import yaw_rate_rad_s
 from jackson.sim.config import load_robot, load_world
@@ -114,8 +114,8 @@ def host_and_ekf(frames: list[bytes]) -> tuple[list[float], list[float]]:
     """A fresh host and a bare EKF side by side, frame by frame: their CPU time per frame.
 
     For each frame the host decodes and handles it (odometry, EKF, mission, actuation, the
-    PCA9685 write on an in-memory bus), then a bare :class:`~jackson.host.ekf.Ekf` takes the
-    wheel and gyro updates of the same frame alone. Times are this thread's CPU time, so a
+    PCA9685 write on an in-memory bus), then a bare :class:`~jackson.host.estimation.ekf.Ekf` takes
+    the wheel and gyro updates of the same frame alone. Times are this thread's CPU time, so a
     preemption by another process is not counted.
 
     Parameters

@@ -38,12 +38,12 @@ from pathlib import Path
 
 from jackson.common.bench import BenchResult, reference_loop_us
 from jackson.common.spin import contention
+from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import DEFAULT_CONFIG, load_config
+from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.daemon import Daemon, with_port
-from jackson.host.i2c import open_bus
-from jackson.host.results import CoreListener, FrameResult
 from jackson.host.transport import SerialTransport
 from jackson.protocol import Message
 

@@ -376,7 +376,7 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
                 threading.Event().wait(STOP_WALL_S)
                 proc.send_signal(signal.SIGCONT)
             elif name == "foreign MODE1 write":
-                from jackson.host.i2c import SocketI2cBus
+                from jackson.host.actuation.i2c import SocketI2cBus
 
                 with SocketI2cBus(sock) as bus:
                     bus.write_byte_data(twin.robot_spec.wiring.pca9685_address, 0x00, 0x11)

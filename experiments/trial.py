@@ -36,12 +36,12 @@ import yaml
 from numpy.typing import NDArray
 
 from jackson.experiments import metrics as m
+from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, dump_config, load_config
 from jackson.host.control.guard import MISSION_TIMEOUT_S
 from jackson.host.daemon import Daemon
-from jackson.host.i2c import open_bus
 from jackson.host.transport import STALL_S, SerialTransport
 
 if TYPE_CHECKING:

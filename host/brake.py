@@ -17,11 +17,17 @@ from pathlib import Path
 
 from jackson.common.args import int_in
 from jackson.common.errors import JacksonError
+from jackson.host.actuation.i2c import (
+    SOCKET_PREFIX,
+    I2cError,
+    I2cSpecError,
+    check_bus_spec,
+    open_bus,
+)
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
 from jackson.host.actuation.settings import DEFAULT_CONFIG, Pca9685Settings, load_motor_settings
 from jackson.host.actuation.tb6612 import bridge_duties
-from jackson.host.i2c import SOCKET_PREFIX, I2cError, I2cSpecError, check_bus_spec, open_bus
 
 ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt

@@ -123,12 +123,12 @@ def _load(path: Path | None) -> object:
 def cmd_daemon(args: argparse.Namespace) -> int:
     import dataclasses
 
+    from jackson.host.actuation.i2c import I2cError, I2cSpecError, open_bus
     from jackson.host.actuation.output import McuOutput, MotorOutput, ResilientPca9685Output
     from jackson.host.actuation.pca9685 import Pca9685
     from jackson.host.config import HostConfig
     from jackson.host.control.navigate import MAP_NAME, navigate_meta
     from jackson.host.daemon import Daemon, DaemonError, with_port
-    from jackson.host.i2c import I2cError, I2cSpecError, open_bus
     from jackson.host.sdnotify import notifier_from_env
     from jackson.host.transport import LinkError, SerialTransport
     from jackson.protocol import Message, ProtocolError

@@ -25,10 +25,10 @@ from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import MISSIONS, Mission
 from jackson.host.core import DutySource, HostCore
+from jackson.host.core.results import CoreListener
 from jackson.host.cpu import CpuMeter
-from jackson.host.health import Transition
+from jackson.host.estimation.health import Transition
 from jackson.host.recording import RunRecorder, run_in_progress
-from jackson.host.results import CoreListener
 from jackson.protocol import (
     PROTOCOL_VERSION,
     FrameVersionError,

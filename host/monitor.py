@@ -4,8 +4,8 @@ Works against the robot and the twin alike: it sends HELLO, then shows the devic
 the frame rate, CRC errors and sequence gaps, encoder counts, the IMU in SI units and the
 health bits. It sends heartbeats (so the device's failsafe stays calm) and no motor commands.
 
-It also runs the daemon's sensor health monitor (:mod:`jackson.host.health`) on the frames:
-each sensor's state, the yaw-rate NIS and the last transition. The robot stands still (the
+It also runs the daemon's sensor health monitor (:mod:`jackson.host.estimation.health`) on the
+frames: each sensor's state, the yaw-rate NIS and the last transition. The robot stands still (the
 monitor commands nothing), so the gyro's bias is checked at once; push the robot by hand and
 the wheels and the gyro are checked against each other.
 """
@@ -20,9 +20,9 @@ from rich.live import Live
 from rich.table import Table
 
 from jackson.host.config import HostConfig
+from jackson.host.core.frontend import FrontEnd
 from jackson.host.daemon import VERSION_SILENCE_S
-from jackson.host.frontend import FrontEnd
-from jackson.host.health import HealthMonitor
+from jackson.host.estimation.health import HealthMonitor
 from jackson.host.transport import LinkEvent, SerialTransport
 from jackson.protocol import (
     PROTOCOL_VERSION,
@@ -52,7 +52,7 @@ def flag_names(flags: int) -> str:
 
 class SensorWatch:
     """The health monitor on a robot that is not driven (module docstring), fed by the daemon's
-    own front end (:class:`jackson.host.frontend.FrontEnd`)."""
+    own front end (:class:`jackson.host.core.frontend.FrontEnd`)."""
 
     def __init__(self, cfg: HostConfig | None = None) -> None:
         cfg = cfg if cfg is not None else HostConfig()

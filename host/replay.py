@@ -16,8 +16,10 @@ transport`) has its end record, but did not end: its log holds the daemon's link
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from jackson.host.recording import (
     KIND_CMD,
@@ -33,6 +35,10 @@ from jackson.host.recording import (
 )
 from jackson.protocol import Frame
 from jackson.protocol.rplidar import DataType
+
+if TYPE_CHECKING:  # the missions load when a run is replayed, not for jackson --help
+    from jackson.host.actuation.limiter import LimiterConfig
+    from jackson.host.control import Mission
 
 COMPARED = ("odometry.csv", "ekf.csv", "commands.csv", "health.csv")
 STALL_RECORD = "lockstep stalled: "  # the daemon's link record when a stall ended the run
@@ -161,7 +167,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     """
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import DEFAULT_CONFIG, load_config
-    from jackson.host.control import MISSIONS, Mission
+    from jackson.host.control import MISSIONS
     from jackson.host.core import HostCore
     from jackson.protocol import Telemetry
 
@@ -177,9 +183,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     rec = RunRecorder(out, meta)
     the_mission: Mission | None = None
     if mission == "navigate":
-        from jackson.host.control.navigate import mission_from_meta
-
-        the_mission = mission_from_meta(run, meta, cfg.limits)
+        the_mission = _mission_from_meta(run, meta, cfg.limits)
     elif mission:
         the_mission = MISSIONS[mission]()
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
@@ -206,3 +210,39 @@ def replay(run: Path, out: Path) -> ReplayResult:
         if not same:
             result.differ.append(name)
     return result
+
+
+def _mission_from_meta(run: Path, meta: Mapping[str, object], limits: LimiterConfig) -> Mission:
+    """The mission a navigation run folder was driven by (its ``meta.json`` and map).
+
+    Raises
+    ------
+    RecordingError
+        The ``navigate`` entry or the map is missing or damaged.
+    """
+    from jackson.host.control.navigate import NavigateConfig, NavigateMission
+    from jackson.host.nav.grid import MapFileError, OccupancyGrid
+    from jackson.host.nav.types import Pose2D
+
+    where = run / "meta.json"
+    nav = meta.get("navigate")
+    if not isinstance(nav, Mapping):
+        raise RecordingError(f"{where}: a navigate run without its navigate entry")
+    try:
+        config = NavigateConfig(
+            start=Pose2D(*nav["start"]),
+            goals=tuple(Pose2D(*g) for g in nav["goals"]),
+            localisation=nav["localisation"],
+            extent=tuple(nav["extent"]),
+            lidar_mount=Pose2D(*nav["lidar_mount"]),
+            seed=int(nav["seed"]),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise RecordingError(f"{where}: navigate: {exc}") from exc
+    grid = None
+    if nav.get("map"):
+        try:
+            grid = OccupancyGrid.load(run / str(nav["map"]))
+        except MapFileError as exc:
+            raise RecordingError(str(exc)) from exc
+    return NavigateMission(config, limits, grid)

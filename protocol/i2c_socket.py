@@ -1,5 +1,5 @@
 """Wire constants of the twin's I2C socket (protocol/i2c-socket.md), shared by the host's client
-(``jackson.host.i2c``) and the twin's server (``jackson.sim.i2c_server``)."""
+(``jackson.host.actuation.i2c``) and the twin's server (``jackson.sim.i2c_server``)."""
 
 OP_WRITE_BYTE_DATA = 0x01
 OP_READ_BYTE_DATA = 0x02

@@ -85,9 +85,9 @@ def _module_name(path: Path) -> str:
     return ".".join([package, *parts])
 
 
-def test_no_import_cycles() -> None:
-    """No two modules import each other, directly or round a loop, not even through an import
-    inside a function (that only hides the knot)."""
+def _module_graph() -> tuple[dict[str, Path], dict[str, set[str]]]:
+    """Every module of the project and the modules each imports, imports inside functions and
+    under ``TYPE_CHECKING`` included."""
     modules = {
         _module_name(p): p
         for folder in MAPPING.values()
@@ -105,12 +105,16 @@ def test_no_import_cycles() -> None:
             for t in targets:
                 if t in modules and t != name and not name.startswith(t + "."):
                     graph[name].add(t)
+    return modules, graph
+
+
+def _acyclic(graph: dict[str, set[str]], what: str) -> None:
     done: set[str] = set()
 
     def visit(node: str, stack: list[str]) -> None:
         if node in stack:
             cycle = [*stack[stack.index(node) :], node]
-            raise AssertionError("import cycle: " + " -> ".join(cycle))
+            raise AssertionError(f"{what} cycle: " + " -> ".join(cycle))
         if node in done:
             return
         for nxt in sorted(graph[node]):
@@ -119,6 +123,31 @@ def test_no_import_cycles() -> None:
 
     for m in sorted(graph):
         visit(m, [])
+
+
+def test_no_import_cycles() -> None:
+    """No two modules import each other, directly or round a loop, not even through an import
+    inside a function (that only hides the knot)."""
+    _acyclic(_module_graph()[1], "import")
+
+
+def test_no_package_cycles() -> None:
+    """Nor do packages: a package's own modules (a package's top level is one node, each
+    subpackage another) never import a package that imports them back, so every package can be
+    read, tested and replaced above the ones it uses (e.g. jackson.host's daemon above
+    jackson.host.core above jackson.host.estimation)."""
+    modules, graph = _module_graph()
+
+    def package(name: str) -> str:
+        return name if modules[name].name == "__init__.py" else name.rpartition(".")[0]
+
+    packages: dict[str, set[str]] = {package(m): set() for m in modules}
+    for name, targets in graph.items():
+        for t in targets:
+            if package(t) != package(name):
+                packages[package(name)].add(package(t))
+    assert {"jackson.host", "jackson.host.core", "jackson.host.estimation"} <= set(packages)
+    _acyclic(packages, "package")
 
 
 # an angle wrap or a world -> cell mapping written out again, anywhere but common/geometry.py

@@ -16,7 +16,7 @@ from jackson.calibration.procedures.base import (
 )
 from jackson.calibration.procedures.imu import rotation_matrix
 from jackson.host.config import IDENTITY
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 
 
 @dataclass(frozen=True)

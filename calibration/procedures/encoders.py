@@ -14,7 +14,7 @@ from jackson.calibration.procedures.base import (
     RunData,
     wheel_travel_m,
 )
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 
 
 def encoder_resolution(ticks_per_rev_0: float, d_odom_m: float, d_meas_m: float) -> float:

@@ -19,7 +19,7 @@ from jackson.calibration.procedures.base import (
     wheel_angle_rad,
 )
 from jackson.host.config import IDENTITY, MAX_GYRO_BIAS_RAD_S, Rotation
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 from jackson.protocol.messages import GRAVITY_M_S2  # the nominal gravity of host, twin, Table 3
 
 

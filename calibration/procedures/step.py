@@ -51,7 +51,7 @@ from jackson.calibration.procedures.base import (
     wheel_angle_rad,
 )
 from jackson.host.actuation.deadband import DeadbandConfig, Direction, Side
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 
 SIDES: tuple[Side, Side] = ("left", "right")
 DIRECTIONS: tuple[Direction, Direction] = ("forward", "reverse")

@@ -15,7 +15,7 @@ from jackson.calibration.procedures.base import (
     wheel_angle_rad,
 )
 from jackson.calibration.procedures.encoders import _count_change
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 
 
 def wheel_separation(

@@ -21,8 +21,8 @@ from jackson.calibration.runs.link import (
 )
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.core import DutySource
+from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.daemon import Daemon
-from jackson.host.results import CoreListener, FrameResult
 from jackson.protocol import (
     Message,
 )

@@ -14,7 +14,7 @@ import numpy as np
 from jackson.calibration.procedures import CalibrationError, Reference, RunData
 from jackson.common.errors import JacksonError
 from jackson.host.config import HostConfig
-from jackson.host.frontend import FrontEnd
+from jackson.host.core.frontend import FrontEnd
 from jackson.host.recording import KIND_END, KIND_RX, KIND_TX, RecordingError, read_log
 from jackson.protocol import (
     FrameDecoder,

@@ -14,9 +14,9 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 
 from jackson.calibration.runs.folders import RunError
+from jackson.host.actuation.i2c import I2cBus, I2cError, open_bus
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, dump_config
-from jackson.host.i2c import I2cBus, I2cError, open_bus
 from jackson.host.transport import LinkError, SerialTransport
 
 

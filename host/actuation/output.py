@@ -8,9 +8,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+from jackson.host.actuation.i2c import I2cBus
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.actuation.tb6612 import BridgeChannels, bridge_duties
-from jackson.host.i2c import I2cBus
 from jackson.protocol import Message, MotorPwm
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 
-from jackson.host.i2c import I2cBus
+from jackson.host.actuation.i2c import I2cBus
 
 MODE1 = 0x00
 MODE2 = 0x01
@@ -67,7 +67,8 @@ def block_runs(channels: tuple[int, ...]) -> tuple[tuple[int, ...], ...]:
 
 
 class Pca9685:
-    """One PCA9685 on an :class:`~jackson.host.i2c.I2cBus` (smbus2 or the twin's socket)."""
+    """One PCA9685 on an :class:`~jackson.host.actuation.i2c.I2cBus` (smbus2 or the twin's
+    socket)."""
 
     def __init__(self, bus: I2cBus, address: int = DEFAULT_ADDRESS) -> None:
         self.bus = bus

@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Literal
 
 from jackson.common.fields import Fields, read_yaml, show
+from jackson.host.actuation.i2c import I2cSpecError, check_bus_spec
 from jackson.host.actuation.tb6612 import BridgeChannels
-from jackson.host.i2c import I2cSpecError, check_bus_spec
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "config" / "jackson.yaml"  # the shipped YAML
 Actuator = Literal["pca9685", "mcu"]

@@ -30,9 +30,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -354,40 +353,3 @@ def navigate_meta(config: NavigateConfig) -> dict[str, object]:
         "seed": config.seed,
         "map": f"{MAP_NAME}.yaml" if config.localisation == "amcl" else None,
     }
-
-
-def mission_from_meta(
-    run: Path, meta: Mapping[str, object], limits: LimiterConfig
-) -> NavigateMission:
-    """The mission a navigation run folder was driven by (its ``meta.json`` and map).
-
-    Raises
-    ------
-    RecordingError
-        The ``navigate`` entry or the map is missing or damaged.
-    """
-    from jackson.host.nav.grid import MapFileError
-    from jackson.host.recording import RecordingError
-
-    where = run / "meta.json"
-    nav = meta.get("navigate")
-    if not isinstance(nav, Mapping):
-        raise RecordingError(f"{where}: a navigate run without its navigate entry")
-    try:
-        config = NavigateConfig(
-            start=Pose2D(*nav["start"]),
-            goals=tuple(Pose2D(*g) for g in nav["goals"]),
-            localisation=nav["localisation"],
-            extent=tuple(nav["extent"]),
-            lidar_mount=Pose2D(*nav["lidar_mount"]),
-            seed=int(nav["seed"]),
-        )
-    except (KeyError, TypeError, ValueError) as exc:
-        raise RecordingError(f"{where}: navigate: {exc}") from exc
-    grid = None
-    if nav.get("map"):
-        try:
-            grid = OccupancyGrid.load(run / str(nav["map"]))
-        except MapFileError as exc:
-            raise RecordingError(str(exc)) from exc
-    return NavigateMission(config, limits, grid)

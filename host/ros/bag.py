@@ -91,7 +91,7 @@ from rosbags.typesys.stores import ros2_jazzy as jazzy
 from zstandard import ZstdError
 
 from jackson.common.errors import JacksonError
-from jackson.host.odometry import OdometryCovariance
+from jackson.host.estimation.odometry import OdometryCovariance
 from jackson.host.ros import cdr
 from jackson.host.ros.messages import (
     NS_PER_S,

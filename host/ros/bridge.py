@@ -62,7 +62,7 @@ from jackson.protocol import Telemetry, TelemetryFlags
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
     from jackson.host.core import HostCore
-    from jackson.host.odometry import OdometryState
+    from jackson.host.estimation.odometry import OdometryState
 
 SPIN_TIMEOUT_S = 0.1  # [s] an executor wait; bounds how long stop() takes
 

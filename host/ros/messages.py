@@ -26,16 +26,16 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
-from jackson.host.results import CoreListener, FrameResult
+from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
-    from jackson.host.ekf import EkfState
+    from jackson.host.estimation.ekf import EkfState
+    from jackson.host.estimation.odometry import OdometryCovariance, OdometryState
     from jackson.host.nav.types import Scan
-    from jackson.host.odometry import OdometryCovariance, OdometryState
 
 Header = jazzy.std_msgs__msg__Header
 Time = jazzy.builtin_interfaces__msg__Time

@@ -14,7 +14,7 @@ import pytest
 from jackson.calibration import procedures as proc
 from jackson.calibration import runs
 from jackson.host.config import DEFAULT_CONFIG, load_config
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 from jackson.host.recording import RunRecorder
 from jackson.main import main
 from jackson.protocol import SetImuCalibration, Telemetry, TelemetryFlags, encode_frame

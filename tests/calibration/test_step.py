@@ -32,7 +32,7 @@ from jackson.calibration.procedures.step import (
 from jackson.experiments.trial import TrialSpec, run_trial
 from jackson.host.actuation.deadband import DeadbandConfig, wheel_duty
 from jackson.host.config import HostConfig, dump_config
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 from jackson.sim.config import ROBOTS_DIR, RobotSpec, load_robot
 
 from ..sil.harness import TwinThread, host_config

@@ -21,7 +21,7 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.highlevel import AnyReader
 
-from jackson.host.odometry import OdometryCovariance
+from jackson.host.estimation.odometry import OdometryCovariance
 from jackson.host.ros.bag import (
     BagError,
     BagRecorder,

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import Pca9685Settings
-from jackson.host.i2c import open_bus
 from jackson.sim import pca9685 as model
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, BridgeMode, bridge_outputs

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from jackson.host.ekf import (
+from jackson.host.estimation.ekf import (
     AX,
     DEFAULT_PROCESS_NOISE,
     VX,

@@ -9,8 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from jackson.host.ekf import Ekf
-from jackson.host.health import (
+from jackson.host.estimation.ekf import Ekf
+from jackson.host.estimation.health import (
     Health,
     HealthConfig,
     HealthInput,
@@ -18,7 +18,7 @@ from jackson.host.health import (
     Verdict,
     wheel_yaw_prior,
 )
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 
 DT = 0.05
 ROBOT = RobotGeometry()

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 import smbus2
 
-from jackson.host.i2c import I2cBus, I2cError, SocketI2cBus, open_bus
+from jackson.host.actuation.i2c import I2cBus, I2cError, SocketI2cBus, open_bus
 
 HANG = b"hang"  # script entry: read the request, never answer
 CLOSE = b"close"  # script entry: read the request, then disconnect

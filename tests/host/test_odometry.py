@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from jackson.host.odometry import (
+from jackson.host.estimation.odometry import (
     ARC_THRESHOLD_RAD,
     OdometryCovariance,
     OdometryState,

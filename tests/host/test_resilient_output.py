@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from jackson.host.actuation.i2c import I2cBus, open_bus
 from jackson.host.actuation.output import (
     BUS_DOWN_AFTER_S,
     MAX_RETRY_S,
@@ -17,7 +18,6 @@ from jackson.host.actuation.output import (
     ResilientPca9685Output,
 )
 from jackson.host.config import Pca9685Settings
-from jackson.host.i2c import I2cBus, open_bus
 from jackson.sim import pca9685 as model
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, BridgeMode, bridge_outputs

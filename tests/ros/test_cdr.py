@@ -14,8 +14,8 @@ from rosbags.typesys.stores.ros2_jazzy import (
 )
 
 from jackson.host.config import HostConfig
+from jackson.host.estimation.odometry import OdometryState
 from jackson.host.nav.types import Scan
-from jackson.host.odometry import OdometryState
 from jackson.host.ros import cdr
 from jackson.host.ros.messages import MessageBuilder, RosSettings, StampClock
 

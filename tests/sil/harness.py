@@ -17,11 +17,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig
 from jackson.host.daemon import Daemon
-from jackson.host.i2c import open_bus
 from jackson.host.transport import SerialTransport
 from jackson.sim.config import RobotSpec, WorldSpec, load_robot, load_world
 from jackson.sim.runner import RunnerStats, TwinRunner

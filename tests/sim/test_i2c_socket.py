@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from jackson.host.i2c import I2cError, SocketI2cBus
+from jackson.host.actuation.i2c import I2cError, SocketI2cBus
 from jackson.sim.i2c_server import I2cServerError, I2cSocketServer
 from jackson.sim.pca9685 import (
     LED_FULL,

@@ -17,9 +17,9 @@ from collections.abc import Callable
 import serial
 
 from jackson.common.spin import spin_poll
+from jackson.host.actuation.i2c import SocketI2cBus, open_bus
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.actuation.tb6612 import BridgeChannels, bridge_duties
-from jackson.host.i2c import SocketI2cBus, open_bus
 from jackson.protocol import (
     Ack,
     FrameDecoder,

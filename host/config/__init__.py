@@ -30,9 +30,9 @@ from jackson.host.actuation.settings import Actuator as Actuator
 from jackson.host.actuation.settings import Pca9685Settings as Pca9685Settings
 from jackson.host.actuation.settings import parse_actuator, parse_pca9685
 from jackson.host.actuation.wheel_pi import WheelPiConfig
-from jackson.host.ekf import EkfConfig, ProcessNoise
-from jackson.host.health import POLICIES, HealthConfig
-from jackson.host.odometry import OdometryCovariance, RobotGeometry
+from jackson.host.estimation.ekf import EkfConfig, ProcessNoise
+from jackson.host.estimation.health import POLICIES, HealthConfig
+from jackson.host.estimation.odometry import OdometryCovariance, RobotGeometry
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
     FAILSAFE_MS_DEFAULT,

@@ -3,7 +3,7 @@
 Everything the host derives from the MCU's frames before any decision is made, in one place:
 the MCU time unwrapped (:class:`~jackson.protocol.TimestampUnwrapper`), frames lost by SEQ, the
 counts since the previous frame and since the first, wheel odometry (Eq. 2, 3, 9), the gyro's
-yaw rate less the start-up bias (:class:`~jackson.host.ekf.GyroBiasEstimator`) and the
+yaw rate less the start-up bias (:class:`~jackson.host.estimation.ekf.GyroBiasEstimator`) and the
 accelerometer in SI units. An MCU reset (an INFO with another ``boot_id``, protocol/spec.md
 §8.6) makes the next frame a new origin for all of them at once: its counts and clock restart,
 so that frame measures no motion and no time, and the counts since the first frame go on from
@@ -20,9 +20,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from jackson.host.config import HostConfig
-from jackson.host.ekf import GyroBiasEstimator
-from jackson.host.health import HealthInput
-from jackson.host.odometry import OdometryState, WheelOdometry, tick_delta
+from jackson.host.estimation.ekf import GyroBiasEstimator
+from jackson.host.estimation.health import HealthInput
+from jackson.host.estimation.odometry import OdometryState, WheelOdometry, tick_delta
 from jackson.protocol import Info, Telemetry, TelemetryFlags, TimestampUnwrapper
 from jackson.protocol.units import accel_m_s2, yaw_rate_rad_s
 

@@ -79,7 +79,7 @@ import numpy.typing as npt
 
 from jackson.common.robot import LIDAR_RANGE_NOISE_M
 from jackson.common.window import SummedWindow
-from jackson.host.odometry import RobotGeometry
+from jackson.host.estimation.odometry import RobotGeometry
 
 POLICIES = ("continue", "stop")
 SILENT_TICKS = 3.0  # a wheel expected to make this many counts in a frame and making none

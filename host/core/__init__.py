@@ -5,10 +5,10 @@
 replay``. It is a pipeline of small stages, each its own class, run per telemetry frame on MCU
 time (the unwrapped ``t_us``, never the wall clock):
 
-1. the front end (:class:`~jackson.host.frontend.FrontEnd`): time, lost frames, counts, wheel
+1. the front end (:class:`~jackson.host.core.frontend.FrontEnd`): time, lost frames, counts, wheel
    odometry (Eq. 2, 3, 9), the gyro less its bias, MCU-reset re-anchoring; one frozen
-   :class:`~jackson.host.frontend.Measurement`;
-2. the measurement policy (:class:`~jackson.host.fusion.Fusion`): the EKF's outputs at 30 Hz of
+   :class:`~jackson.host.core.frontend.Measurement`;
+2. the measurement policy (:class:`~jackson.host.core.fusion.Fusion`): the EKF's outputs at 30 Hz of
    MCU time up to this frame (predict only), then the frame's measurements fused as the health
    monitor allows;
 3. the LiDAR's revolutions completed since the last frame (:class:`~jackson.host.lidar.intake.
@@ -16,7 +16,7 @@ time (the unwrapped ``t_us``, never the wall clock):
 4. command arbitration (:class:`~jackson.host.control.arbiter.CommandArbiter`): the mission's
    command, or the newest external (``/cmd_vel``-style) one, which brakes once older than the
    watchdog (0.6 s);
-5. the actuation chain (:class:`~jackson.host.actuation.chain.ActuationChain`): velocity and
+5. the actuation chain (:class:`~jackson.host.core.chain.ActuationChain`): velocity and
    acceleration limits, inverse kinematics, optional wheel PI, per-wheel and per-direction
    deadband compensation, the motor output;
 6. a HEARTBEAT acknowledging the frame (in lockstep, the twin advances on it).
@@ -30,7 +30,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Protocol
 
-from jackson.host.actuation.chain import ActuationChain
 from jackson.host.actuation.limiter import VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.actuation.watchdog import CommandWatchdog
@@ -38,16 +37,17 @@ from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
 from jackson.host.control.arbiter import CommandArbiter, Conditions
 from jackson.host.control.base import ScanMission
-from jackson.host.ekf import Ekf, EkfState, GyroBiasEstimator
-from jackson.host.frontend import FrontEnd
-from jackson.host.fusion import Fusion
-from jackson.host.health import HealthMonitor, Transition, Verdict
+from jackson.host.core.chain import ActuationChain
+from jackson.host.core.frontend import FrontEnd
+from jackson.host.core.fusion import Fusion
+from jackson.host.core.results import CoreListener, FrameResult
+from jackson.host.estimation.ekf import Ekf, EkfState, GyroBiasEstimator
+from jackson.host.estimation.health import HealthMonitor, Transition, Verdict
+from jackson.host.estimation.odometry import OdometryState, WheelOdometry
 from jackson.host.lidar.intake import ScanIntake
 from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.nav.types import Scan
-from jackson.host.odometry import OdometryState, WheelOdometry
 from jackson.host.recording import RunRecorder
-from jackson.host.results import CoreListener, FrameResult
 from jackson.protocol import (
     Frame,
     Heartbeat,

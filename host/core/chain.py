@@ -14,7 +14,7 @@ from jackson.host.actuation.limiter import VelocityLimiter
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.actuation.wheel_pi import WheelSpeedPi
 from jackson.host.config import HostConfig
-from jackson.host.odometry import OdometryState
+from jackson.host.estimation.odometry import OdometryState
 
 
 class ActuationChain:

@@ -1,12 +1,12 @@
 """The measurement policy: the EKF fed as the sensors' health allows, and its outputs.
 
 Per telemetry frame (docs/host.md, step 2; docs/health.md): the health monitor judges the
-front end's :class:`~jackson.host.frontend.Measurement`, and the filter fuses what it allows:
+front end's :class:`~jackson.host.core.frontend.Measurement`, and the filter fuses what it allows:
 both wheels' speed and the gyro; or one wheel and the gyro, or the wheels' yaw rate in place of
 the gyro; or, standing still, a zero-velocity update. Without the monitor (``health.enabled:
 false``) every measurement is fused, as the paper's filter does. The filter's outputs are its
-estimate predicted to every instant of :class:`~jackson.host.ekf.OutputClock` (30 Hz of MCU
-time). The monitor's transitions are told (events), and a sensor loss that leaves nothing to
+estimate predicted to every instant of :class:`~jackson.host.estimation.ekf.OutputClock` (30 Hz of
+MCU time). The monitor's transitions are told (events), and a sensor loss that leaves nothing to
 navigate by is kept as the reason to brake (:attr:`Fusion.sensors_lost`).
 """
 
@@ -15,9 +15,9 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from jackson.host.config import HostConfig
-from jackson.host.ekf import Ekf, EkfState, OutputClock
-from jackson.host.frontend import FrontEnd, Measurement
-from jackson.host.health import HealthMonitor, Transition, Verdict
+from jackson.host.core.frontend import FrontEnd, Measurement
+from jackson.host.estimation.ekf import Ekf, EkfState, OutputClock
+from jackson.host.estimation.health import HealthMonitor, Transition, Verdict
 
 ONE_WHEEL_VARIANCE_SCALE = 4.0  # R of v_x from one wheel and the gyro, relative to two wheels
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from jackson.host.control.base import Mission
-from jackson.host.ekf import EkfState
-from jackson.host.health import Transition, Verdict
+from jackson.host.estimation.ekf import EkfState
+from jackson.host.estimation.health import Transition, Verdict
+from jackson.host.estimation.odometry import OdometryState
 from jackson.host.nav.types import Scan
-from jackson.host.odometry import OdometryState
 from jackson.protocol import Frame, Telemetry
 
 

@@ -101,7 +101,7 @@ class OdometryCovariance:
     twist_vx, twist_vy, twist_wz : float
         Twist covariance for v_x [(m/s)^2], v_y [(m/s)^2] and w_z [(rad/s)^2].
         robot_localization takes its R from these, so v_x and v_y equal Table 2's R_vx and
-        R_vy (:attr:`jackson.host.ekf.EkfConfig.r_vx`, ``r_vy``); w_z from the wheels is
+        R_vy (:attr:`jackson.host.estimation.ekf.EkfConfig.r_vx`, ``r_vy``); w_z from the wheels is
         published but not fused (the IMU's is).
     pose_xy, pose_yaw : float
         Pose covariance for x and y [m^2] and yaw [rad^2]; the dead-reckoned pose is not
