@@ -178,6 +178,40 @@ def test_angle_wrapping_and_world_to_cell_are_written_once() -> None:
         assert len(re.findall(rule, geometry)) <= 2, rule
 
 
+# the modules that may run a distance transform (scipy.ndimage.distance_transform_*), and why
+DISTANCE_TRANSFORMS = {
+    "host/nav/likelihood.py": "the likelihood field, and the mapper's nearest obstacle points",
+    "host/nav/costmap.py": "the costmaps' inflation, in cells",
+}
+
+
+def test_the_likelihood_field_is_written_once() -> None:
+    """One likelihood field (host/nav/likelihood.py) serves the particle filter and the mapper:
+    no other module turns a grid into distances to its obstacles, and there it is done once
+    (the other transform there yields the nearest cells only, no distances)."""
+    calls: dict[str, list[ast.Call]] = {}
+    for folder in ("cli", "common", "protocol", "host", "sim", "calibration"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            found = [
+                node
+                for node in ast.walk(ast.parse(path.read_text(), str(path)))
+                if isinstance(node, ast.Call)
+                and ast.unparse(node.func).split(".")[-1].startswith("distance_transform_")
+            ]
+            if found:
+                calls[path.relative_to(ROOT).as_posix()] = found
+    assert sorted(calls) == sorted(DISTANCE_TRANSFORMS)
+    distances = [
+        call
+        for call in calls["host/nav/likelihood.py"]
+        if not any(
+            k.arg == "return_distances" and ast.literal_eval(k.value) is False
+            for k in call.keywords
+        )
+    ]
+    assert len(distances) == 1, "a second likelihood field in host/nav/likelihood.py"
+
+
 def test_every_error_of_the_project_is_a_jackson_error() -> None:
     # one base, caught once at the command line (common/errors.py)
     bases: dict[str, list[str]] = {}

@@ -20,7 +20,15 @@ uses it to resolve the pose below the cell size.
 Unknown cells (-1) count as free: only cells at or above ``occupied_threshold`` attract points.
 A point off the grid reads ``max_distance_m``, as does every point of a grid with no occupied
 cell. The field is a padded copy of the distance array (one border cell of ``max_distance_m`` on
-every side) so a lookup is one clip and one gather, with no masking.
+every side) so a lookup is one clamp and one gather, with no masking.
+
+:class:`LikelihoodField` is the one likelihood field of the project: the particle filter
+(:mod:`jackson.host.nav.amcl`) weighs its particles with it and the mapper hands it out. Its
+arithmetic is fixed, because recorded runs replay the filter bit for bit: the distances are the
+transform in cells times the resolution, ``edt * resolution`` (``sampling=resolution`` differs
+from it in the last bit in about one cell in ten), and a point's cell is
+``floor((x - origin) * (1 / resolution))`` (adding the padding offset before the ``floor``
+rounds some points within an ulp of a cell edge into the next cell).
 """
 
 from __future__ import annotations
@@ -92,7 +100,8 @@ class LikelihoodField:
         max_distance_m: float = MAX_DISTANCE_M,
         occupied_threshold: int = OCCUPIED_THRESHOLD,
     ) -> LikelihoodField:
-        """The field of ``grid`` (scipy's exact Euclidean distance transform).
+        """The field of ``grid`` (scipy's exact Euclidean distance transform, in cells, times the
+        resolution).
 
         Parameters
         ----------
@@ -112,8 +121,8 @@ class LikelihoodField:
             raise ValueError(f"max_distance_m: expected a number > 0, got {max_distance_m}")
         occupied = grid.occupied(occupied_threshold)
         if occupied.any():
-            distance = distance_transform_edt(~occupied, sampling=grid.resolution_m)
-            distance = np.minimum(np.asarray(distance, np.float64), max_distance_m)
+            cells = np.asarray(distance_transform_edt(~occupied), np.float64)
+            distance = np.minimum(cells * grid.resolution_m, max_distance_m)
         else:
             distance = np.full(occupied.shape, max_distance_m, np.float64)
         return cls(distance, grid.resolution_m, grid.origin_x_m, grid.origin_y_m, max_distance_m)
@@ -133,8 +142,8 @@ class LikelihoodField:
 
         Parameters
         ----------
-        points_xy : array_like, shape (N, 2)
-            Map-frame points [m].
+        points_xy : array_like, shape (..., 2)
+            Map-frame points [m], e.g. (N, 2) or, for a particle filter, (particles, beams, 2).
         bilinear : bool
             False (AMCL's way): the value of the cell holding each point. True: bilinear
             interpolation between the four nearest cell centres, continuous in the point, as a
@@ -143,13 +152,13 @@ class LikelihoodField:
 
         Returns
         -------
-        ndarray of float64, shape (N,)
+        ndarray of float64, shape (...)
             Distances [m]; ``max_distance_m`` for points off the grid.
         """
         p = np.asarray(points_xy, np.float64)
-        if p.ndim != 2 or p.shape[1] != 2:
-            raise ValueError(f"points_xy: expected shape (N, 2), got {p.shape}")
-        return self.distance_xy(p[:, 0], p[:, 1], bilinear)
+        if p.ndim < 1 or p.shape[-1] != 2:
+            raise ValueError(f"points_xy: expected shape (..., 2), got {p.shape}")
+        return self.distance_xy(p[..., 0], p[..., 1], bilinear)
 
     def distance_xy(
         self, x_m: npt.ArrayLike, y_m: npt.ArrayLike, bilinear: bool = False
@@ -175,15 +184,20 @@ class LikelihoodField:
         rows_p, cols_p = padded.shape
         flat = padded.ravel()
         inv = 1.0 / self.resolution_m
-        # padded cell coordinates: the grid's cell (0, 0) is padded cell (1, 1)
-        u = (np.asarray(x_m, np.float64) - self.origin_x_m) * inv + 1.0
-        v = (np.asarray(y_m, np.float64) - self.origin_y_m) * inv + 1.0
-        u, v = np.broadcast_arrays(u, v)
+        x = np.asarray(x_m, np.float64)
+        y = np.asarray(y_m, np.float64)
         if not bilinear:
-            c = np.clip(u, 0.0, cols_p - 1.0).astype(np.intp)  # truncation = floor: u >= 0
-            r = np.clip(v, 0.0, rows_p - 1.0).astype(np.intp)
-            out: FloatArray = flat[r * cols_p + c]
+            # the grid's cell, clamped to the border (-1 or width, height) off the grid; NaN
+            # reads the border too (fmin ignores it). The grid's cell (0, 0) is padded (1, 1).
+            col = np.fmax(np.fmin(np.floor((x - self.origin_x_m) * inv), cols_p - 2.0), -1.0)
+            row = np.fmax(np.fmin(np.floor((y - self.origin_y_m) * inv), rows_p - 2.0), -1.0)
+            index = (row * cols_p + col + (cols_p + 1.0)).astype(np.intp)
+            out: FloatArray = flat[index]
             return out
+        # padded cell coordinates: the grid's cell (0, 0) is padded cell (1, 1)
+        u, v = np.broadcast_arrays(
+            (x - self.origin_x_m) * inv + 1.0, (y - self.origin_y_m) * inv + 1.0
+        )
         u = np.clip(u - 0.5, 0.0, cols_p - 1.0)  # to coordinates of cell centres
         v = np.clip(v - 0.5, 0.0, rows_p - 1.0)
         c0 = np.minimum(u.astype(np.intp), cols_p - 2)

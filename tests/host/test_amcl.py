@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 import pytest
+from scipy.ndimage import distance_transform_edt
 
 from jackson.host.nav.amcl import (
     AmclConfig,
@@ -27,6 +28,7 @@ from jackson.host.nav.amcl import (
     systematic_resample,
 )
 from jackson.host.nav.grid import FREE, OCCUPIED, OccupancyGrid
+from jackson.host.nav.likelihood import LikelihoodField
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 
@@ -417,6 +419,30 @@ def test_distance_field_and_config_checks(grid: OccupancyGrid) -> None:
     assert d[0] == 0.0 and d[1] == pytest.approx(0.1)
     assert d[2] == pytest.approx(0.1, abs=0.03) and d[3] == 2.0
     assert field.distance_at(points.reshape(2, 2, 2)).shape == (2, 2)
+
+
+def test_the_likelihood_field_keeps_the_arithmetic_recorded_runs_replay(
+    grid: OccupancyGrid,
+) -> None:
+    # to the last bit: the transform in cells times the resolution (not sampling=resolution)
+    # and a point's cell floor((x - origin) * (1 / resolution)), off the map the cap
+    field = ParticleFilter(grid, AmclConfig(), np.random.default_rng(0))._field
+    assert isinstance(field, LikelihoodField)
+    cells = np.asarray(distance_transform_edt(~grid.occupied()), np.float64)
+    assert np.array_equal(field.distance_m, np.minimum(cells * grid.resolution_m, 2.0))
+    res, inv = grid.resolution_m, 1.0 / grid.resolution_m
+    edges_x = grid.origin_x_m + np.arange(-2, grid.width + 3) * res
+    edges_y = grid.origin_y_m + np.arange(-2, grid.height + 3) * res
+    x = np.concatenate([edges_x, np.nextafter(edges_x, -1e9), np.nextafter(edges_x, 1e9)])
+    y = np.concatenate([edges_y, np.nextafter(edges_y, -1e9), np.nextafter(edges_y, 1e9)])
+    x, y = np.meshgrid(x, y)
+    col = np.floor((x - grid.origin_x_m) * inv).astype(np.int64)
+    row = np.floor((y - grid.origin_y_m) * inv).astype(np.int64)
+    inside = grid.inside(row, col)
+    rows, cols = np.clip(row, 0, grid.height - 1), np.clip(col, 0, grid.width - 1)
+    expected = np.where(inside, field.distance_m[rows, cols], 2.0)
+    assert np.array_equal(field.distance_xy(x, y), expected)
+    assert np.array_equal(field.distance_at(np.stack((x, y), axis=-1)), expected)
 
 
 def test_sensor_update_fits_in_the_scan_period(grid: OccupancyGrid, drive: Drive) -> None:
