@@ -620,7 +620,8 @@ class ReferenceDwb:
             for v, w in targets
         ) - 1e-9))  # fmt: skip
         rolls = [reference_rollout(p, pose, velocity, v, w, k) for v, w in targets]
-        p.rotate_to_goal.prepare(pose, v0, goal)
+        rotate_to_goal, oscillation = p.critic("RotateToGoal"), p.critic("Oscillation")
+        rotate_to_goal.latch(pose, v0, goal)
         window = reference_path_cells(p, pose, path, goal, cm)
         if window is None:
             reason = "no point of the global path lies on the local costmap"
@@ -645,7 +646,7 @@ class ReferenceDwb:
             for g in set(group)
         }
         # step 5: the critics, target by target
-        rotating = p.rotate_to_goal.rotating
+        rotating = rotate_to_goal.rotating
         at_goal_fpd = pose.distance(goal) <= c.path_align_forward_point_distance_m
         v_brake = targets[0][0]
         rows, cols = cm.shape
@@ -660,14 +661,14 @@ class ReferenceDwb:
                 "PathAlign": c.path_align_scale * 0.5 * cm.resolution_m,
                 "PathDist": c.path_dist_scale, "GoalDist": c.goal_dist_scale,
             }  # fmt: skip
-            if p.rotate_to_goal.in_window:
+            if rotate_to_goal.in_window:
                 err = abs((yaw[-1] - goal.yaw + math.pi) % (2.0 * math.pi) - math.pi)
                 if rotating:
                     raw["RotateToGoal"], ok["RotateToGoal"] = err, abs(v - v_brake) <= 1e-12
                 else:
                     raw["RotateToGoal"] = v * v * c.rotate_to_goal_slowing_factor + err
                     ok["RotateToGoal"] = v * v < v0 * v0
-            ok["Oscillation"] = bool(p.oscillation.score(np.array([w]))[1][0])
+            ok["Oscillation"] = bool(oscillation.allowed(np.array([w]))[0])
             checked = list(range(0, k + 1, g)) + ([k] if k % g else [])
             ok["BaseObstacle"] = not cm.trajectories_collide(
                 x[None, checked], y[None, checked], yaw[None, checked], margin_m=margin[g]
@@ -702,7 +703,7 @@ class ReferenceDwb:
             return 0.0, 0.0, math.inf, 0, None, f"no legal trajectory of {len(targets)} ({shares})"
         best = min((i for i in range(len(targets)) if legal[i]), key=lambda i: totals[i])
         (v, w), (x, y, yaw) = targets[best], rolls[best]
-        p.oscillation.debrief(pose, v, w)
+        oscillation.record(pose, v, w)
         return v, w, totals[best], sum(legal), np.column_stack((x, y, yaw)), ""
 
 
