@@ -428,7 +428,7 @@ class Navigator:
     @property
     def published_local_plan(self) -> FloatArray:
         """/local_plan: :attr:`local_plan` at its own granularity, as Nav2 publishes it
-        (:func:`~jackson.host.nav.dwb.own_granularity`)."""
+        (:func:`~jackson.host.nav.dwb.path.own_granularity`)."""
         c = self.config.dwb
         return own_granularity(self._local_plan, c.linear_granularity_m, c.angular_granularity_rad)
 
@@ -704,7 +704,7 @@ class Navigator:
         self._path = None
         self._progress_anchor = None
         self._local_cleared = False
-        self.dwb.oscillation.reset()
+        self.dwb.critic("Oscillation").reset()
 
     def _motion_collides(self, x: FloatArray, y: FloatArray, yaw: FloatArray) -> bool:
         """Whether a recovery's motion from the current pose would hit or get nearer an

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pytest
@@ -23,12 +23,19 @@ from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, 
 from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.dwb import (
     CRITICS,
+    Batch,
+    Command,
+    Context,
+    Critic,
     DwbConfig,
     DwbPlanner,
+    bringup_critics,
     densify,
     own_granularity,
     velocity_profile,
 )
+from jackson.host.nav.dwb.distance import DistanceMaps
+from jackson.host.nav.dwb.path import plan_cells, plan_span
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.navigator import Navigator, NavigatorConfig, NavState
 from jackson.host.nav.types import Pose2D
@@ -620,7 +627,8 @@ class ReferenceDwb:
             for v, w in targets
         ) - 1e-9))  # fmt: skip
         rolls = [reference_rollout(p, pose, velocity, v, w, k) for v, w in targets]
-        p.rotate_to_goal.prepare(pose, v0, goal)
+        rotate_to_goal, oscillation = p.critic("RotateToGoal"), p.critic("Oscillation")
+        rotate_to_goal.latch(pose, v0, goal)
         window = reference_path_cells(p, pose, path, goal, cm)
         if window is None:
             reason = "no point of the global path lies on the local costmap"
@@ -645,7 +653,7 @@ class ReferenceDwb:
             for g in set(group)
         }
         # step 5: the critics, target by target
-        rotating = p.rotate_to_goal.rotating
+        rotating = rotate_to_goal.rotating
         at_goal_fpd = pose.distance(goal) <= c.path_align_forward_point_distance_m
         v_brake = targets[0][0]
         rows, cols = cm.shape
@@ -660,14 +668,14 @@ class ReferenceDwb:
                 "PathAlign": c.path_align_scale * 0.5 * cm.resolution_m,
                 "PathDist": c.path_dist_scale, "GoalDist": c.goal_dist_scale,
             }  # fmt: skip
-            if p.rotate_to_goal.in_window:
+            if rotate_to_goal.in_window:
                 err = abs((yaw[-1] - goal.yaw + math.pi) % (2.0 * math.pi) - math.pi)
                 if rotating:
                     raw["RotateToGoal"], ok["RotateToGoal"] = err, abs(v - v_brake) <= 1e-12
                 else:
                     raw["RotateToGoal"] = v * v * c.rotate_to_goal_slowing_factor + err
                     ok["RotateToGoal"] = v * v < v0 * v0
-            ok["Oscillation"] = bool(p.oscillation.score(np.array([w]))[1][0])
+            ok["Oscillation"] = bool(oscillation.allowed(np.array([w]))[0])
             checked = list(range(0, k + 1, g)) + ([k] if k % g else [])
             ok["BaseObstacle"] = not cm.trajectories_collide(
                 x[None, checked], y[None, checked], yaw[None, checked], margin_m=margin[g]
@@ -702,7 +710,7 @@ class ReferenceDwb:
             return 0.0, 0.0, math.inf, 0, None, f"no legal trajectory of {len(targets)} ({shares})"
         best = min((i for i in range(len(targets)) if legal[i]), key=lambda i: totals[i])
         (v, w), (x, y, yaw) = targets[best], rolls[best]
-        p.oscillation.debrief(pose, v, w)
+        oscillation.record(pose, v, w)
         return v, w, totals[best], sum(legal), np.column_stack((x, y, yaw)), ""
 
 
@@ -784,6 +792,95 @@ def test_dwb_rollout_equals_the_target_by_target_integration() -> None:
         np.testing.assert_allclose(
             np.vstack((x[i], y[i], yaw[i])), np.vstack((rx, ry, ryaw)), rtol=0, atol=1e-12
         )
+
+
+def test_dwb_critics_score_every_roll_out_of_a_cycle_at_once() -> None:
+    # one interface: named as in Nav2's parameters, in bringup's order; prepared with the
+    # cycle, then a raw score and a legality per roll-out, all roll-outs in one call
+    planner = DwbPlanner(DwbConfig(), LimiterConfig())
+    assert tuple(critic.name for critic in planner.critics) == CRITICS
+    assert len(set(CRITICS)) == len(CRITICS) == 7
+    world = Obstacles(segments=WALLS)
+    world.add_circle(*CYLINDER)
+    pose, velocity = Pose2D(0.15, 0.1, 0.4), (0.05, -1.5)  # beside the cylinder
+    cm = Costmap.rolling_window(CostmapConfig(), pose.x, pose.y)
+    cm.update(scan_points(pose, world, np.random.default_rng(7), 0.01), (pose.x, pose.y))
+    path = straight_path(pose.x, GOAL.x, GOAL.y)
+    c = planner.config
+    span = plan_span(pose, path, cm, c.prune_distance_m, c.forward_prune_distance_m)
+    context = Context(pose, velocity, GOAL, cm, plan_cells(path, span, cm), DistanceMaps())
+    v, w, v_brake = planner.samples(*velocity)
+    batch = Batch.of(v, w, v_brake, planner.rollouts(pose, velocity, v, w), cm)
+    rejected = set()
+    for critic in planner.critics:
+        assert critic.prepare(context)
+        raw, legal = critic.score(batch)
+        assert raw.dtype == np.float64 and raw.shape == (len(v),)
+        assert legal.dtype == bool and legal.shape == (len(v),)
+        assert np.all(np.isfinite(raw)) and 0.0 <= critic.scale < math.inf
+        if not legal.all():
+            rejected.add(critic.name)
+    assert "BaseObstacle" in rejected  # some roll-outs hit the cylinder
+    # without the path in the window, the critics that follow it cannot score
+    unprepared = [critic.name for critic in planner.critics if not critic.prepare(
+        replace(context, plan=None)
+    )]  # fmt: skip
+    assert unprepared == ["GoalAlign", "PathAlign", "PathDist", "GoalDist"]
+
+
+@dataclass
+class SpyCritic(Critic):
+    """A critic of one's own: scores nothing, rejects nothing, records its calls."""
+
+    name: str = "Spy"
+    calls: list[tuple[str, object]] = field(default_factory=list)
+
+    @property
+    def scale(self) -> float:
+        return 0.0
+
+    def prepare(self, context: Context) -> bool:
+        self.calls.append(("prepare", context.pose))
+        return True
+
+    def score(self, batch: Batch) -> tuple[np.ndarray, np.ndarray]:
+        self.calls.append(("score", batch.size))
+        return np.zeros(batch.size), np.ones(batch.size, bool)
+
+    def debrief(self, command: Command) -> None:
+        self.calls.append(("debrief", command))
+
+
+def test_dwb_takes_a_critic_list_of_ones_own() -> None:
+    # without Oscillation, which rejects nothing on this drive, and with a critic that adds
+    # nothing, every command is the same bit for bit
+    config = DwbConfig()
+    spy = SpyCritic()
+    critics = [c for c in bringup_critics(config) if c.name != "Oscillation"] + [spy]
+    planner = DwbPlanner(config, LimiterConfig(), critics)
+    assert tuple(c.name for c in planner.critics) == (*CRITICS[:1], *CRITICS[2:], "Spy")
+    path = np.column_stack((np.linspace(0.0, 1.4, 29), 0.4 * np.sin(np.linspace(0, math.pi, 29))))
+    wall = np.column_stack((np.full(30, 0.6), np.linspace(-0.3, 0.3, 30)))
+    drives = []
+    for p in (DwbPlanner(config, LimiterConfig()), planner):
+        cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
+        cm.update(wall, (0.0, 0.0))
+        drives.append(drive(p, Pose2D(), path, Pose2D(1.4, 0.0), cm, 40))
+    (_, want), (poses, got) = drives
+    for a, b in zip(want, got, strict=True):
+        assert (a.v_m_s, a.w_rad_s, a.total, a.legal, a.samples) == (
+            b.v_m_s, b.w_rad_s, b.total, b.legal, b.samples,
+        )  # fmt: skip
+        assert np.array_equal(a.trajectory, b.trajectory)
+        assert {**a.scores, "Spy": 0.0} == {**b.scores, "Oscillation": 0.0}
+    # prepared once a cycle, scored on every roll-out, debriefed with the command chosen
+    assert [name for name, _ in spy.calls] == ["prepare", "score", "debrief"] * len(got)
+    for k, cmd in enumerate(got):
+        assert spy.calls[3 * k] == ("prepare", poses[k])
+        assert spy.calls[3 * k + 1] == ("score", cmd.samples)
+        assert spy.calls[3 * k + 2][1] is cmd
+    with pytest.raises(ValueError, match="distinct"):
+        DwbPlanner(config, LimiterConfig(), [*critics, SpyCritic()])
 
 
 # ---------------------------------------------------------------------------- navigator

@@ -1,0 +1,136 @@
+"""BaseObstacle: reject a colliding roll-out, score the cost under its end.
+
+Raw score: the cost of the end pose's cell (0-254, off the grid: unknown). A roll-out is
+illegal when the robot's disc and envelope rectangle collide with an obstacle at any of its
+poses (:meth:`Costmap.trajectories_collide`: against the obstacles' returns rather than cells,
+with an escape rule for a robot already touching one; see :mod:`jackson.host.nav.costmap`).
+Scale 0.02.
+
+The poses tested are those where the centre or a footprint corner may have moved half a cell
+since the last pose tested (:func:`collisions`), except on the roll-outs that never come
+within reach of an obstacle (:meth:`Costmap.clear_reach_m` at every 16th pose), which cannot
+collide.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from jackson.host.nav.costmap import Costmap
+from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
+from jackson.host.nav.dwb.rollouts import Rollouts
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+class BaseObstacleCritic(Critic):
+    """Reject colliding roll-outs; score the cost of the end pose's cell.
+
+    Parameters
+    ----------
+    config : DwbConfig
+        Scale and ``sim_time_s``.
+    """
+
+    name = "BaseObstacle"
+
+    def __init__(self, config: DwbConfig) -> None:
+        self.config = config
+        self._velocity = (0.0, 0.0)
+
+    @property
+    def scale(self) -> float:
+        """``base_obstacle_scale``."""
+        return self.config.base_obstacle_scale
+
+    def prepare(self, context: Context) -> bool:
+        """Keep the current velocity (it bounds the sweep between poses)."""
+        self._velocity = context.velocity
+        return True
+
+    def score(self, batch: Batch) -> tuple[FloatArray, BoolArray]:
+        """Raw scores (cost at the end) and legality (no collision) of every roll-out."""
+        costmap = batch.costmap
+        coarse = (batch.coarse_x_m, batch.coarse_y_m, batch.coarse_length_m)
+        hit = collisions(
+            batch.rollouts, coarse, batch.v_m_s, batch.w_rad_s, self._velocity, costmap,
+            self.config.sim_time_s,
+        )  # fmt: skip
+        return costmap.cost_at(batch.x_end_m, batch.y_end_m).astype(np.float64), ~hit
+
+
+def collisions(
+    ro: Rollouts,
+    coarse: tuple[FloatArray, FloatArray, FloatArray],
+    v: FloatArray,
+    w: FloatArray,
+    velocity: tuple[float, float],
+    costmap: Costmap,
+    sim_time_s: float,
+) -> BoolArray:
+    """Which roll-outs collide, each checked at the poses it needs.
+
+    A roll-out is checked at its first and last pose and every ``stride``-th between,
+    the stride as long as no point of the robot moves more than half a cell (speed
+    |v| + |w| r_circumscribed, whichever of the current and target velocity is faster);
+    the robot is grown by half that sweep so that nothing between two checked poses is
+    missed. Strides are rounded down to powers of two, and all roll-outs are checked in
+    one call (:meth:`Rollouts.at_strides` folds them into rows of equal length, or the
+    compiled :meth:`Costmap.rollouts_collide` makes each pose where it is tested).
+
+    Parameters
+    ----------
+    ro : Rollouts
+        The roll-outs.
+    coarse : tuple of ndarray
+        ``ro.coarse(_CULL_STEPS)``: (x, y) at every ``_CULL_STEPS``-th pose, (B + 1, M) [m],
+        and the path length between, (B, M) [m].
+    v, w : ndarray, shape (M,)
+        The targets [m/s], [rad/s].
+    velocity : tuple of float
+        Current (v [m/s], w [rad/s]).
+    costmap : Costmap
+        The local costmap.
+    sim_time_s : float
+        The roll-outs' length [s].
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+        True for a roll-out that collides.
+    """
+    k = ro.steps
+    dt_s = sim_time_s / k
+    r_m = costmap.config.circumscribed_radius_m
+    speed = np.maximum(np.abs(v), abs(velocity[0])) + np.maximum(np.abs(w), abs(velocity[1])) * r_m
+    per_step_m = speed * dt_s
+    half_cell = 0.5 * costmap.resolution_m
+    stride = np.minimum(k, np.floor(half_cell / np.maximum(per_step_m, 1e-12)))
+    group = np.exp2(np.floor(np.log2(np.maximum(stride, 1.0)))).astype(np.intp)
+    margin_m = np.empty(v.shape[0])
+    for g in np.bincount(group).nonzero()[0]:
+        rows = group == g
+        margin_m[rows] = 0.5 * min(g * float(per_step_m[rows].max()), half_cell)
+    hit = np.zeros(v.shape[0], bool)
+    # only the roll-outs that come within reach of an obstacle (or of the grid's edge)
+    # need the test: from each pose every _CULL_STEPS steps, the centre moves at most
+    # the path length of the next block
+    x_c, y_c, length_m = coarse
+    reach_m = costmap.clear_reach_m(x_c[:-1], y_c[:-1])
+    near = np.flatnonzero(np.any(reach_m <= length_m + 1e-9, axis=0))
+    if near.size == 0:
+        return hit
+    if costmap.compiled:  # the poses made where they are tested, the same bit for bit
+        start = (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
+        hit[near] = costmap.rollouts_collide(
+            start, ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[near], ro.iw[near], group[near],
+            margin_m[near],
+        )  # fmt: skip
+        return hit
+    x, y, yaw, owner = ro.at_strides(near, group[near])
+    hit_rows = costmap.trajectories_collide(x, y, yaw, margin_m=margin_m[owner])
+    hit[owner[hit_rows]] = True
+    return hit

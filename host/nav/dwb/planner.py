@@ -1,0 +1,257 @@
+"""The DWB cycle: sample the window, roll out, let every critic score all roll-outs, choose."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from jackson.host.actuation.limiter import LimiterConfig
+from jackson.host.nav.costmap import Costmap
+from jackson.host.nav.dwb.config import Command, DwbConfig
+from jackson.host.nav.dwb.critics import Batch, Context, Critic, bringup_critics
+from jackson.host.nav.dwb.distance import DistanceMaps
+from jackson.host.nav.dwb.path import PlanCells, plan_cells, plan_span
+from jackson.host.nav.dwb.rollouts import Rollouts, build_rollouts
+from jackson.host.nav.dwb.window import dynamic_window, sample_targets
+from jackson.host.nav.types import Pose2D
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+NO_PATH = "no point of the global path lies on the local costmap"
+
+
+class DwbPlanner:
+    """The DWB-style local planner.
+
+    Parameters
+    ----------
+    config : DwbConfig
+        Sampling, simulation and critics.
+    limits : LimiterConfig
+        Speed and acceleration bounds; the window never leaves them.
+    critics : sequence of Critic, optional
+        The critics, in scoring order, names distinct; Nav2 bringup's
+        (:func:`~jackson.host.nav.dwb.critics.bringup_critics`) by default.
+
+    Attributes
+    ----------
+    config : DwbConfig
+        As given.
+    limits : LimiterConfig
+        As given.
+    critics : tuple of Critic
+        The critics, in scoring order.
+
+    Raises
+    ------
+    ValueError
+        When two critics share a name.
+    """
+
+    def __init__(
+        self, config: DwbConfig, limits: LimiterConfig, critics: Sequence[Critic] | None = None
+    ) -> None:
+        self.config = config
+        self.limits = limits
+        self.critics = tuple(bringup_critics(config) if critics is None else critics)
+        names = [critic.name for critic in self.critics]
+        if len(set(names)) != len(names):
+            raise ValueError(f"DwbPlanner: critic names must be distinct, got {names}")
+        self._maps = DistanceMaps()
+        self._plan_key: tuple[object, ...] | None = None
+        self._plan: PlanCells | None = None
+
+    def critic(self, name: str) -> Critic:
+        """The critic called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            As in :data:`~jackson.host.nav.dwb.critics.CRITICS`.
+
+        Returns
+        -------
+        Critic
+            It.
+
+        Raises
+        ------
+        KeyError
+            When the planner has no such critic.
+        """
+        for critic in self.critics:
+            if critic.name == name:
+                return critic
+        raise KeyError(f"DwbPlanner has no critic {name!r}")
+
+    def reset(self) -> None:
+        """Forget the critics' state (a new goal)."""
+        for critic in self.critics:
+            critic.reset()
+
+    # ------------------------------------------------------------------ sampling
+
+    def window(self, v_m_s: float, w_rad_s: float) -> tuple[float, float, float, float]:
+        """The dynamic window (:func:`~jackson.host.nav.dwb.window.dynamic_window`).
+
+        Parameters
+        ----------
+        v_m_s, w_rad_s : float
+            Current velocity [m/s], [rad/s].
+
+        Returns
+        -------
+        tuple of float
+            (v_lo, v_hi, w_lo, w_hi) [m/s], [m/s], [rad/s], [rad/s].
+        """
+        return dynamic_window(self.config, self.limits, v_m_s, w_rad_s)
+
+    def samples(self, v_m_s: float, w_rad_s: float) -> tuple[FloatArray, FloatArray, float]:
+        """The window's targets (:func:`~jackson.host.nav.dwb.window.sample_targets`).
+
+        Parameters
+        ----------
+        v_m_s, w_rad_s : float
+            Current velocity [m/s], [rad/s].
+
+        Returns
+        -------
+        tuple
+            (v (M,), w (M,), slowest v of the window).
+        """
+        return sample_targets(self.config, self.limits, v_m_s, w_rad_s)
+
+    def rollout(
+        self, pose: Pose2D, velocity: tuple[float, float], v: FloatArray, w: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Every pose of every roll-out (:meth:`compute` evaluates only the poses it reads).
+
+        Parameters
+        ----------
+        pose : Pose2D
+            Start pose (map frame).
+        velocity : tuple of float
+            Current (v [m/s], w [rad/s]).
+        v, w : ndarray, shape (M,)
+            Targets [m/s], [rad/s].
+
+        Returns
+        -------
+        tuple of ndarray
+            (x (M, K+1), y (M, K+1), yaw (M, K+1), t (K+1,)), the start pose first.
+        """
+        ro = self.rollouts(pose, velocity, v, w)
+        x, y, yaw = ro.full()
+        return x, y, yaw, ro.t_s
+
+    def rollouts(
+        self, pose: Pose2D, velocity: tuple[float, float], v: FloatArray, w: FloatArray
+    ) -> Rollouts:
+        """The roll-outs, factored (:func:`~jackson.host.nav.dwb.rollouts.build_rollouts`).
+
+        Parameters
+        ----------
+        pose : Pose2D
+            Start pose (map frame).
+        velocity : tuple of float
+            Current (v [m/s], w [rad/s]).
+        v, w : ndarray, shape (M,)
+            Targets [m/s], [rad/s].
+
+        Returns
+        -------
+        Rollouts
+            Evaluated on demand.
+        """
+        return build_rollouts(self.config, self.limits, pose, velocity, v, w)
+
+    # ------------------------------------------------------------------ scoring
+
+    def compute(
+        self,
+        pose: Pose2D,
+        velocity: tuple[float, float],
+        path: npt.ArrayLike,
+        goal: Pose2D,
+        costmap: Costmap,
+    ) -> Command:
+        """Choose the command for this control period.
+
+        Parameters
+        ----------
+        pose : Pose2D
+            Robot pose in the costmap's (map) frame.
+        velocity : tuple of float
+            Current (v [m/s], w [rad/s]).
+        path : array_like, shape (N, 2)
+            The global path [m], map frame.
+        goal : Pose2D
+            The goal pose.
+        costmap : Costmap
+            The local costmap.
+
+        Returns
+        -------
+        Command
+            The best legal command, or an invalid one with the reason.
+        """
+        v0, w0 = float(velocity[0]), float(velocity[1])
+        v, w, v_brake = self.samples(v0, w0)
+        ro = self.rollouts(pose, (v0, w0), v, w)
+        m = v.shape[0]
+        context = Context(
+            pose, (v0, w0), goal, costmap, self._plan_cells(pose, path, costmap), self._maps
+        )
+        unprepared = [critic.name for critic in self.critics if not critic.prepare(context)]
+        if unprepared:
+            reason = NO_PATH if context.plan is None else "not prepared: " + ", ".join(unprepared)
+            return Command(0.0, 0.0, np.empty((0, 3)), valid=False, samples=m, reason=reason)
+        batch = Batch.of(v, w, v_brake, ro, costmap)
+        scored = [critic.score(batch) for critic in self.critics]
+        scales = [critic.scale for critic in self.critics]
+        all_ok = np.ones(m, bool)
+        for _, legal in scored:
+            all_ok &= legal
+        total = np.zeros(m)
+        for scale, (raw, _) in zip(scales, scored, strict=True):
+            if scale != 0.0:
+                total += scale * raw
+        if not all_ok.any():
+            shares = ", ".join(
+                f"{critic.name} {100.0 * np.mean(~legal):.0f}%"
+                for critic, (_, legal) in zip(self.critics, scored, strict=True)
+                if np.any(~legal)
+            )
+            return Command(
+                0.0, 0.0, np.empty((0, 3)), valid=False, samples=m,
+                reason=f"no legal trajectory of {m} ({shares})",
+            )  # fmt: skip
+        best = int(np.where(all_ok, total, np.inf).argmin())
+        scores = {
+            critic.name: float(scale * raw[best])
+            for critic, scale, (raw, _) in zip(self.critics, scales, scored, strict=True)
+        }
+        command = Command(
+            float(v[best]), float(w[best]), ro.trajectory(best), scores,
+            float(total[best]), True, "", m, int(np.count_nonzero(all_ok)),
+        )  # fmt: skip
+        for critic in self.critics:
+            critic.debrief(command)
+        return command
+
+    def _plan_cells(self, pose: Pose2D, path: npt.ArrayLike, costmap: Costmap) -> PlanCells | None:
+        """The global path's cells in the window (:func:`~jackson.host.nav.dwb.path.plan_cells`),
+        kept while the costmap and the slice of the path stay the same."""
+        full = np.asarray(path, np.float64).reshape(-1, 2)
+        if len(full) == 0:
+            return None
+        c = self.config
+        span = plan_span(pose, full, costmap, c.prune_distance_m, c.forward_prune_distance_m)
+        key = (id(costmap), costmap.version, span, full.tobytes())
+        if key != self._plan_key:
+            self._plan_key = key
+            self._plan = plan_cells(full, span, costmap)
+        return self._plan
