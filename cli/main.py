@@ -167,7 +167,7 @@ def _host_config(path: Path | None) -> Path | None:
 
 def _check_route(check: Callable[[], None], against: str) -> None:
     """Run a route check; its RouteError becomes one line naming what it was checked against."""
-    from jackson.host.nav.navigator import RouteError
+    from jackson.host.control.navigator import RouteError
 
     try:
         check()
@@ -224,8 +224,8 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
         run_nav_trial,
         world_goals,
     )
+    from jackson.host.control.navigator import NavigatorConfig, check_route
     from jackson.host.nav.grid import OccupancyGrid
-    from jackson.host.nav.navigator import NavigatorConfig, check_route
     from jackson.host.nav.types import Pose2D
     from jackson.sim.config import load_world
     from jackson.sim.faults import summary

@@ -50,12 +50,12 @@ import numpy.typing as npt
 
 from jackson.common.bench import BenchResult, reference_loop_us
 from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
+from jackson.host.control.navigator import Navigator, NavigatorConfig
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, smooth_path
 from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.mapping import Mapper, MappingConfig
-from jackson.host.nav.navigator import Navigator, NavigatorConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.sim.config import WorldSpec, load_world
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast

@@ -64,9 +64,9 @@ from jackson.host.control.navigate import (
     NavigateMission,
     navigate_meta,
 )
+from jackson.host.control.navigator import NavigatorConfig, check_route
 from jackson.host.daemon import Daemon
 from jackson.host.nav.grid import OccupancyGrid
-from jackson.host.nav.navigator import NavigatorConfig, check_route
 from jackson.host.nav.types import Pose2D
 from jackson.host.transport import STALL_S
 from jackson.sim.config import RobotSpec, Sides, WorldSpec, load_robot, load_world
@@ -563,7 +563,7 @@ def check_world_route(world: WorldSpec, goals: tuple[Pose2D, ...]) -> None:
     Raises
     ------
     RouteError
-        As :func:`jackson.host.nav.navigator.check_route` on the world's own raster.
+        As :func:`jackson.host.control.navigator.check_route` on the world's own raster.
     """
     grid = world_grid(world)
     check_route(grid, Pose2D(*world.start_pose), goals, NavigatorConfig())

@@ -353,7 +353,7 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
         localisation="amcl" if grid is not None else "slam",
         extent=extent,
     )
-    from jackson.host.nav.navigator import RouteError
+    from jackson.host.control.navigator import RouteError
 
     try:
         # a daemon runs for hours: its navigation keeps only its recent control ticks

@@ -6,7 +6,7 @@ LiDAR revolution, stamped on MCU time). Per telemetry frame it
 
 1. places the robot in the map: the EKF's odometry pose composed with the map -> odom
    correction of the localiser;
-2. steps the :class:`jackson.host.nav.navigator.Navigator` (costmaps, A*, DWB, recoveries) with
+2. steps the :class:`jackson.host.control.navigator.Navigator` (costmaps, A*, DWB, recoveries) with
    that pose, the EKF's velocities and the newest scan's returns in the map frame;
 3. returns the navigator's (v, w), which go through the daemon's actuation chain (limits,
    kinematics, deadband compensation) like any mission's.
@@ -39,16 +39,16 @@ import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.control.base import NavState as MissionState
-from jackson.host.nav.amcl import AmclConfig, ParticleFilter
-from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
-from jackson.host.nav.mapping import Mapper, MappingConfig
-from jackson.host.nav.navigator import (
+from jackson.host.control.navigator import (
     NavCommand,
     Navigator,
     NavigatorConfig,
     NavState,
     check_route,
 )
+from jackson.host.nav.amcl import AmclConfig, ParticleFilter
+from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
+from jackson.host.nav.mapping import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 
 Localisation = Literal["amcl", "slam"]
@@ -142,7 +142,7 @@ class NavigateMission:
     ------
     RouteError
         The start or a goal lies off the map, in unknown space, on or beside an obstacle, or
-        apart from the start (:func:`jackson.host.nav.navigator.check_route`).
+        apart from the start (:func:`jackson.host.control.navigator.check_route`).
 
     Attributes
     ----------

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from jackson.host.actuation.limiter import LimiterConfig
+from jackson.host.control.navigator import Navigator, NavigatorConfig, NavState
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.mapping import Mapper, MappingConfig
-from jackson.host.nav.navigator import Navigator, NavigatorConfig, NavState
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
 

@@ -18,6 +18,7 @@ from scipy.sparse.csgraph import dijkstra
 from jackson.experiments.bench_stage3 import perfect_maze
 from jackson.experiments.metrics import Cylinder, d_min
 from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
+from jackson.host.control.navigator import Navigator, NavigatorConfig, NavState
 from jackson.host.nav import astar as astar_module
 from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, path_cost
 from jackson.host.nav.costmap import Costmap, CostmapConfig
@@ -34,10 +35,9 @@ from jackson.host.nav.dwb import (
     own_granularity,
     velocity_profile,
 )
-from jackson.host.nav.dwb.distance import DistanceMaps
-from jackson.host.nav.dwb.path import plan_cells, plan_span
+from jackson.host.nav.dwb.core.distance import DistanceMaps
+from jackson.host.nav.dwb.core.path import plan_cells, plan_span
 from jackson.host.nav.grid import OccupancyGrid
-from jackson.host.nav.navigator import Navigator, NavigatorConfig, NavState
 from jackson.host.nav.types import Pose2D
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
 

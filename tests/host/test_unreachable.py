@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.nav.grid import OccupancyGrid
-from jackson.host.nav.navigator import (
+from jackson.host.control.navigator import (
     Navigator,
     NavigatorConfig,
     NavState,
     RouteError,
     check_route,
 )
+from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
 

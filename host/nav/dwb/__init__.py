@@ -44,7 +44,11 @@ Where this differs from Nav2's DWB, measured on the paper's Stage 3 course in cl
 
 from __future__ import annotations
 
-from jackson.host.nav.dwb.config import Command, DwbConfig
+from jackson.host.nav.dwb.core.config import Command, DwbConfig
+from jackson.host.nav.dwb.core.distance import grid_distance, grid_graph
+from jackson.host.nav.dwb.core.path import densify, own_granularity, prune_path
+from jackson.host.nav.dwb.core.rollouts import Rollouts
+from jackson.host.nav.dwb.core.window import velocity_profile
 from jackson.host.nav.dwb.critics import (
     CRITICS,
     BaseObstacleCritic,
@@ -60,11 +64,7 @@ from jackson.host.nav.dwb.critics import (
     bringup_critics,
 )
 from jackson.host.nav.dwb.critics.base import _CULL_STEPS
-from jackson.host.nav.dwb.distance import grid_distance, grid_graph
-from jackson.host.nav.dwb.path import densify, own_granularity, prune_path
 from jackson.host.nav.dwb.planner import DwbPlanner
-from jackson.host.nav.dwb.rollouts import Rollouts
-from jackson.host.nav.dwb.window import velocity_profile
 
 __all__ = [
     "CRITICS",

@@ -9,12 +9,12 @@ import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.nav.costmap import Costmap
-from jackson.host.nav.dwb.config import Command, DwbConfig
+from jackson.host.nav.dwb.core.config import Command, DwbConfig
+from jackson.host.nav.dwb.core.distance import DistanceMaps
+from jackson.host.nav.dwb.core.path import PlanCells, plan_cells, plan_span
+from jackson.host.nav.dwb.core.rollouts import Rollouts, build_rollouts
+from jackson.host.nav.dwb.core.window import dynamic_window, sample_targets
 from jackson.host.nav.dwb.critics import Batch, Context, Critic, bringup_critics
-from jackson.host.nav.dwb.distance import DistanceMaps
-from jackson.host.nav.dwb.path import PlanCells, plan_cells, plan_span
-from jackson.host.nav.dwb.rollouts import Rollouts, build_rollouts
-from jackson.host.nav.dwb.window import dynamic_window, sample_targets
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]
@@ -95,7 +95,7 @@ class DwbPlanner:
     # ------------------------------------------------------------------ sampling
 
     def window(self, v_m_s: float, w_rad_s: float) -> tuple[float, float, float, float]:
-        """The dynamic window (:func:`~jackson.host.nav.dwb.window.dynamic_window`).
+        """The dynamic window (:func:`~jackson.host.nav.dwb.core.window.dynamic_window`).
 
         Parameters
         ----------
@@ -110,7 +110,7 @@ class DwbPlanner:
         return dynamic_window(self.config, self.limits, v_m_s, w_rad_s)
 
     def samples(self, v_m_s: float, w_rad_s: float) -> tuple[FloatArray, FloatArray, float]:
-        """The window's targets (:func:`~jackson.host.nav.dwb.window.sample_targets`).
+        """The window's targets (:func:`~jackson.host.nav.dwb.core.window.sample_targets`).
 
         Parameters
         ----------
@@ -150,7 +150,7 @@ class DwbPlanner:
     def rollouts(
         self, pose: Pose2D, velocity: tuple[float, float], v: FloatArray, w: FloatArray
     ) -> Rollouts:
-        """The roll-outs, factored (:func:`~jackson.host.nav.dwb.rollouts.build_rollouts`).
+        """The roll-outs, factored (:func:`~jackson.host.nav.dwb.core.rollouts.build_rollouts`).
 
         Parameters
         ----------
@@ -243,8 +243,9 @@ class DwbPlanner:
         return command
 
     def _plan_cells(self, pose: Pose2D, path: npt.ArrayLike, costmap: Costmap) -> PlanCells | None:
-        """The global path's cells in the window (:func:`~jackson.host.nav.dwb.path.plan_cells`),
-        kept while the costmap and the slice of the path stay the same."""
+        """The global path's cells in the window
+        (:func:`~jackson.host.nav.dwb.core.path.plan_cells`), kept while the costmap and the slice
+        of the path stay the same."""
         full = np.asarray(path, np.float64).reshape(-1, 2)
         if len(full) == 0:
             return None

@@ -15,7 +15,7 @@ GoalDist      24.0   :mod:`.goal_dist`: the end near the goal
 
 from __future__ import annotations
 
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 from jackson.host.nav.dwb.critics.base_obstacle import BaseObstacleCritic
 from jackson.host.nav.dwb.critics.goal_align import GoalAlignCritic

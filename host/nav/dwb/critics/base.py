@@ -24,10 +24,10 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.nav.costmap import Costmap
-from jackson.host.nav.dwb.config import Command
-from jackson.host.nav.dwb.distance import DistanceMaps, cell_index
-from jackson.host.nav.dwb.path import PlanCells
-from jackson.host.nav.dwb.rollouts import Rollouts
+from jackson.host.nav.dwb.core.config import Command
+from jackson.host.nav.dwb.core.distance import DistanceMaps, cell_index
+from jackson.host.nav.dwb.core.path import PlanCells
+from jackson.host.nav.dwb.core.rollouts import Rollouts
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]

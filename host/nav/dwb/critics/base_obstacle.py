@@ -18,9 +18,9 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.nav.costmap import Costmap
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
+from jackson.host.nav.dwb.core.rollouts import Rollouts
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
-from jackson.host.nav.dwb.rollouts import Rollouts
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]

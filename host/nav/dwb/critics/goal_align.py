@@ -4,7 +4,7 @@ Raw score: the goal-align map at the point ``goal_align_forward_point_distance``
 of the roll-out's end pose, the Manhattan distance [cells] from its cell to the last cell of
 the global path in the window, that cell pushed on by the same distance towards the goal when
 it is the path's end (DWB shifts only the path's end, not a point where the path leaves the
-window), through the cells below inscribed (:mod:`jackson.host.nav.dwb.distance`). Rejects a
+window), through the cells below inscribed (:mod:`jackson.host.nav.dwb.core.distance`). Rejects a
 roll-out whose forward point lies off the grid. Scale 24.0; 0 (and nothing rejected) while
 RotateToGoal turns the stopped robot to the goal's yaw.
 """
@@ -16,7 +16,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 from jackson.host.nav.dwb.critics.rotate_to_goal import RotateToGoalCritic
 

@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.common.geometry import wrap_angle
-from jackson.host.nav.dwb.config import Command, DwbConfig
+from jackson.host.nav.dwb.core.config import Command, DwbConfig
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 from jackson.host.nav.types import Pose2D
 

@@ -3,7 +3,7 @@
 Raw score: the path map at the point ``path_align_forward_point_distance`` (0.1 m) ahead of the
 roll-out's end pose, the Manhattan distance [cells] from its cell to the nearest cell of the
 global path in the window, through the cells below inscribed
-(:mod:`jackson.host.nav.dwb.distance`). Rejects a roll-out whose forward point lies off the
+(:mod:`jackson.host.nav.dwb.core.distance`). Rejects a roll-out whose forward point lies off the
 grid. Scale 32.0 x resolution / 2, as DWB scales it; 0 (and nothing rejected) within the
 forward point distance of the goal, where the nose follows RotateToGoal alone, and, as
 GoalAlign, while RotateToGoal turns the stopped robot to the goal's yaw.
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 from jackson.host.nav.dwb.critics.rotate_to_goal import RotateToGoalCritic
 

@@ -2,7 +2,7 @@
 
 Raw score: the path map at the roll-out's end pose, the Manhattan distance [cells] from its
 cell to the nearest cell of the global path in the window (:class:`PlanCells`), through the
-cells below inscribed (:mod:`jackson.host.nav.dwb.distance`). Rejects a roll-out that ends off
+cells below inscribed (:mod:`jackson.host.nav.dwb.core.distance`). Rejects a roll-out that ends off
 the grid. Scale 32.0.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 
 FloatArray = npt.NDArray[np.float64]

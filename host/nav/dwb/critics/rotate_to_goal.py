@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.common.geometry import wrap_angles
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 from jackson.host.nav.types import Pose2D
 

@@ -77,7 +77,7 @@ def own_granularity(trajectory: FloatArray, linear_m: float, angular_rad: float)
     trajectory : ndarray, shape (K, 3)
         x, y [m], yaw [rad] at equal time steps.
     linear_m, angular_rad : float
-        :class:`~jackson.host.nav.dwb.config.DwbConfig`'s ``linear_granularity_m`` and
+        :class:`~jackson.host.nav.dwb.core.config.DwbConfig`'s ``linear_granularity_m`` and
         ``angular_granularity_rad``.
 
     Returns

@@ -1,10 +1,11 @@
 """The roll-outs of one cycle (step 3): every target simulated for ``sim_time``, kept factored.
 
 Every target is rolled out for ``sim_time`` (1.7 s): the velocity ramps from the current one
-towards the target at the limiter's bounds (:func:`~jackson.host.nav.dwb.window.velocity_profile`,
-the limiter's ramp in continuous time), the heading integrates it with the trapezoidal rule and
-the position with the midpoint heading, in ceil(max(|v| T / 0.05 m, |w| T / 0.025 rad)) steps
-for the most demanding target (DWB's granularity rule), shared by all roll-outs.
+towards the target at the limiter's bounds
+(:func:`~jackson.host.nav.dwb.core.window.velocity_profile`, the limiter's ramp in continuous
+time), the heading integrates it with the trapezoidal rule and the position with the midpoint
+heading, in ceil(max(|v| T / 0.05 m, |w| T / 0.025 rad)) steps for the most demanding target (DWB's
+granularity rule), shared by all roll-outs.
 
 The roll-outs are kept factored and evaluated only where they are read: the velocity and heading
 profiles are computed once per distinct linear and angular target (a 20 x 21 window has about
@@ -23,8 +24,8 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.nav.dwb.config import DwbConfig
-from jackson.host.nav.dwb.window import velocity_profile
+from jackson.host.nav.dwb.core.config import DwbConfig
+from jackson.host.nav.dwb.core.window import velocity_profile
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]

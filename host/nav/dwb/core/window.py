@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig, ramp
-from jackson.host.nav.dwb.config import DwbConfig
+from jackson.host.nav.dwb.core.config import DwbConfig
 
 FloatArray = npt.NDArray[np.float64]
 

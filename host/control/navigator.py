@@ -428,7 +428,7 @@ class Navigator:
     @property
     def published_local_plan(self) -> FloatArray:
         """/local_plan: :attr:`local_plan` at its own granularity, as Nav2 publishes it
-        (:func:`~jackson.host.nav.dwb.path.own_granularity`)."""
+        (:func:`~jackson.host.nav.dwb.core.path.own_granularity`)."""
         c = self.config.dwb
         return own_granularity(self._local_plan, c.linear_granularity_m, c.angular_granularity_rad)
 
