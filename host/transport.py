@@ -41,7 +41,6 @@ stalls its host.
 from __future__ import annotations
 
 import contextlib
-import errno
 import os
 import queue
 import select
@@ -55,7 +54,7 @@ from typing import Literal, Protocol
 
 import serial
 
-from jackson.common.errors import JacksonError
+from jackson.common.errors import JacksonError, PortKind, port_open_message
 from jackson.common.spin import DEFAULT_SPIN_S, spin_poll
 from jackson.protocol import (
     Frame,
@@ -90,26 +89,17 @@ class LinkEvent:
 Item = tuple[int, Frame] | LinkEvent
 
 
+MCU_PORT = PortKind(
+    "serial port",
+    "the robot",
+    "/dev/ttyACM* or /dev/jackson-mcu",
+    " (a running jackson daemon or monitor?)",
+)
+
+
 def open_error(port: str, exc: BaseException) -> LinkError:
-    """A one-line explanation of why ``port`` cannot be opened."""
-    text = str(exc)
-    code = getattr(exc, "errno", None)
-    if code == errno.EACCES or "Permission denied" in text:
-        return LinkError(
-            f"permission denied on {port}: add yourself to the dialout group "
-            "(sudo usermod -aG dialout $USER) and log in again"
-        )
-    if code in (errno.EAGAIN, errno.EWOULDBLOCK) or "exclusively lock" in text:
-        return LinkError(
-            f"serial port {port} is in use by another program (a running jackson daemon or "
-            "monitor?): stop it first, or look with: fuser -v " + port
-        )
-    if code == errno.ENOENT or "No such file" in text:
-        return LinkError(
-            f"serial port {port} does not exist: is the robot plugged in? "
-            "(look for /dev/ttyACM* or /dev/jackson-mcu)"
-        )
-    return LinkError(f"cannot open serial port {port}: {text}")
+    """A one-line explanation of why the MCU's ``port`` cannot be opened."""
+    return LinkError(port_open_message(MCU_PORT, port, exc))
 
 
 class Link(Protocol):

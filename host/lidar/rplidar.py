@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 import serial
 
-from jackson.common.errors import JacksonError
+from jackson.common.errors import JacksonError, PortKind, port_open_message
 from jackson.common.geometry import wrap_angles
 from jackson.protocol.rplidar import (
     CAPSULE_FORMATS,
@@ -136,26 +136,14 @@ class Revolution:
     nodes: int
 
 
+LIDAR_PORT = PortKind(
+    "LiDAR port", "the RPLIDAR", "/dev/ttyUSB* or /dev/jackson-lidar, docs/lidar.md"
+)
+
+
 def open_error(port: str, exc: BaseException) -> LidarError:
     """A one-line explanation of why the LiDAR's ``port`` cannot be opened."""
-    text = str(exc)
-    code = getattr(exc, "errno", None)
-    if code == errno.EACCES or "Permission denied" in text:
-        return LidarError(
-            f"permission denied on the LiDAR port {port}: add yourself to the dialout group "
-            "(sudo usermod -aG dialout $USER) and log in again"
-        )
-    if code in (errno.EAGAIN, errno.EWOULDBLOCK) or "exclusively lock" in text:
-        return LidarError(
-            f"LiDAR port {port} is in use by another program: stop it first, or look with: "
-            f"fuser -v {port}"
-        )
-    if code == errno.ENOENT or "No such file" in text:
-        return LidarError(
-            f"LiDAR port {port} does not exist: is the RPLIDAR plugged in? "
-            "(look for /dev/ttyUSB* or /dev/jackson-lidar, docs/lidar.md)"
-        )
-    return LidarError(f"cannot open LiDAR port {port}: {text}")
+    return LidarError(port_open_message(LIDAR_PORT, port, exc))
 
 
 class RevolutionAssembler:

@@ -339,3 +339,46 @@ def test_a_host_slow_on_a_frame_or_a_peer_at_work_is_not_a_stall(pty: tuple[int,
         assert time.monotonic() - peer_since[0] >= 0.3
     finally:
         t.close()
+
+
+@pytest.mark.parametrize(
+    ("exc", "serial", "lidar"),
+    [
+        (
+            OSError(13, "Permission denied"),
+            "permission denied on the serial port /dev/p: add yourself to the dialout group",
+            "permission denied on the LiDAR port /dev/p: add yourself to the dialout group",
+        ),
+        (
+            OSError(11, "Resource temporarily unavailable"),
+            "serial port /dev/p is in use by another program (a running jackson daemon or "
+            "monitor?): stop it first, or look with: fuser -v /dev/p",
+            "LiDAR port /dev/p is in use by another program: stop it first, "
+            "or look with: fuser -v /dev/p",
+        ),
+        (
+            OSError(2, "No such file or directory"),
+            "serial port /dev/p does not exist: is the robot plugged in? "
+            "(look for /dev/ttyACM* or /dev/jackson-mcu)",
+            "LiDAR port /dev/p does not exist: is the RPLIDAR plugged in? "
+            "(look for /dev/ttyUSB* or /dev/jackson-lidar, docs/lidar.md)",
+        ),
+        (
+            OSError(5, "Input/output error"),
+            "cannot open serial port /dev/p: [Errno 5] Input/output error",
+            "cannot open LiDAR port /dev/p: [Errno 5] Input/output error",
+        ),
+    ],
+)
+def test_a_port_that_cannot_be_opened_is_explained_once_for_both_kinds(
+    exc: OSError, serial: str, lidar: str
+) -> None:
+    # one explanation (common/errors.py) for the MCU's port and the LiDAR's, each in its words
+    from jackson.host.lidar.rplidar import LidarError
+    from jackson.host.lidar.rplidar import open_error as lidar_open_error
+    from jackson.host.transport import open_error
+
+    mcu, lid = open_error("/dev/p", exc), lidar_open_error("/dev/p", exc)
+    assert isinstance(mcu, LinkError) and isinstance(lid, LidarError)
+    assert str(mcu).startswith(serial) and "\n" not in str(mcu)
+    assert str(lid).startswith(lidar) and "\n" not in str(lid)
