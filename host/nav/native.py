@@ -44,6 +44,7 @@ DIGEST_HEX = 16
 _P = ctypes.c_void_p  # an array's address
 _N = ctypes.c_int64
 _F, _L = np.float64, np.int64  # the element types the C++ reads
+FloatArray = npt.NDArray[np.float64]
 
 
 def _ptr(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
@@ -87,6 +88,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         traj = lib.jackson_trajectories_collide
         rolls = lib.jackson_rollouts_collide
         lib.jackson_clear_rays  # noqa: B018  (present)
+        bfs = lib.jackson_grid_distance
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -110,7 +112,37 @@ def load_library(path: Path) -> ctypes.CDLL:
         _N, _P, _P, _P, ctypes.c_double, ctypes.c_double, ctypes.c_double, _N, _N, _P,
         ctypes.c_uint8,
     ]  # fmt: skip
+    bfs.restype = None
+    bfs.argtypes = [_N, _N, _P, _P, _P, _P]
     return lib
+
+
+def grid_distance(free: npt.NDArray[np.bool_], sources: npt.NDArray[np.bool_]) -> FloatArray:
+    """:func:`jackson.host.nav.dwb.core.distance.grid_distance` over the graph of ``free``,
+    compiled: one breadth-first search from the sources, the same distances [cells].
+
+    Parameters
+    ----------
+    free : ndarray of bool, shape (rows, cols)
+        Cells that may be crossed.
+    sources : ndarray of bool, shape (rows, cols)
+        Source cells.
+
+    Returns
+    -------
+    ndarray of float64, shape (rows, cols)
+        Distances; rows x cols where no source reaches.
+    """
+    assert LIB is not None
+    rows, cols = free.shape
+    f = np.ascontiguousarray(free, np.uint8)
+    s = np.ascontiguousarray(sources, np.uint8)
+    out = np.empty((rows, cols), np.float64)
+    queue = np.empty(rows * cols, np.int64)
+    LIB.jackson_grid_distance(
+        rows, cols, _ptr(f, np.uint8), _ptr(s, np.uint8), _ptr(out, _F), _ptr(queue, _L)
+    )
+    return out
 
 
 def clear_rays(

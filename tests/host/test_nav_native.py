@@ -202,3 +202,21 @@ def test_calls_leave_no_garbage_for_the_collector() -> None:
     finally:
         gc.enable()
     assert grown < 100, grown
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_dwb_distance_maps_are_scipys_search_bit_for_bit(seed: int) -> None:
+    # the compiled breadth-first search against grid_graph + grid_distance (scipy's search):
+    # random grids with walls, sources on obstacles, no sources at all, one row or column
+    from jackson.host.nav.dwb.core.distance import grid_distance, grid_graph
+
+    rng = np.random.default_rng(seed)
+    for trial in range(60):
+        rows, cols = (int(x) for x in rng.integers(1, 70, 2))
+        free = rng.random((rows, cols)) < rng.uniform(0.3, 1.0)
+        sources = rng.random((rows, cols)) < (0.0 if trial % 9 == 0 else rng.uniform(0.0, 0.05))
+        want = grid_distance(grid_graph(free), (rows, cols), sources)
+        got = native.grid_distance(free, sources)
+        assert got.tobytes() == want.tobytes(), (seed, trial)
+        if not sources.any():
+            assert (got == rows * cols).all()

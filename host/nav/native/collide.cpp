@@ -295,4 +295,38 @@ void jackson_clear_rays(std::int64_t n_rays, const double* ux, const double* uy,
   }
 }
 
+// DWB's distance maps (jackson.host.nav.dwb.core.distance.grid_distance over grid_graph): one
+// breadth-first search from every source cell at once through the 4-connected cells that are
+// free (an edge joins two adjacent free cells); distance[i] is the Manhattan distance in cells
+// along that search to the nearest source, rows x cols where none reaches. The distances are
+// whole numbers, so any breadth-first order gives the same ones. queue: rows x cols scratch.
+void jackson_grid_distance(std::int64_t rows, std::int64_t cols, const std::uint8_t* free_cell,
+                           const std::uint8_t* source, double* distance, std::int64_t* queue) {
+  const std::int64_t n = rows * cols;
+  std::int64_t head = 0;
+  std::int64_t tail = 0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    distance[i] = source[i] ? 0.0 : -1.0;
+    if (source[i]) queue[tail++] = i;
+  }
+  while (head < tail) {
+    const std::int64_t i = queue[head++];
+    if (!free_cell[i]) continue;  // a source on an obstacle reaches nothing
+    const std::int64_t r = i / cols;
+    const std::int64_t c = i - r * cols;
+    const double next = distance[i] + 1.0;
+    const std::int64_t around[4] = {r > 0 ? i - cols : -1, c > 0 ? i - 1 : -1,
+                                    c + 1 < cols ? i + 1 : -1, r + 1 < rows ? i + cols : -1};
+    for (const std::int64_t j : around) {
+      if (j >= 0 && free_cell[j] && distance[j] < 0.0) {
+        distance[j] = next;
+        queue[tail++] = j;
+      }
+    }
+  }
+  const double unreached = static_cast<double>(n);
+  for (std::int64_t i = 0; i < n; ++i)
+    if (distance[i] < 0.0) distance[i] = unreached;
+}
+
 }  // extern "C"

@@ -18,6 +18,7 @@ import numpy.typing as npt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order
 
+from jackson.host.nav import native
 from jackson.host.nav.costmap import INSCRIBED_INFLATED_OBSTACLE, Costmap
 
 FloatArray = npt.NDArray[np.float64]
@@ -130,9 +131,12 @@ class DistanceMaps:
     """The distance maps of the local costmap, searched on demand and kept while it stays the
     same (its identity and version).
 
-    The graph of the free cells (:func:`grid_graph`) is built once per costmap; the maps of the
-    last ``capacity`` sets of sources are kept (a cycle reads three: the path's cells, its last
-    cell and GoalAlign's target), so critics that read the same map share it.
+    With the compiled nav library (:mod:`jackson.host.nav.native`) each map is one compiled
+    breadth-first search over the free cells, the same distances; without it the graph of the
+    free cells (:func:`grid_graph`) is built once per costmap and searched by
+    :func:`grid_distance`. The maps of the last ``capacity`` sets of sources are kept (a cycle
+    reads three: the path's cells, its last cell and GoalAlign's target), so critics that read
+    the same map share it.
 
     Parameters
     ----------
@@ -144,6 +148,7 @@ class DistanceMaps:
         self.capacity = capacity
         self._costmap_key: tuple[int, int] | None = None
         self._graph: csr_matrix | None = None
+        self._free: BoolArray | None = None
         self._maps: OrderedDict[tuple[bytes, bytes], FloatArray] = OrderedDict()
 
     def to_cells(self, costmap: Costmap, rows: npt.ArrayLike, cols: npt.ArrayLike) -> FloatArray:
@@ -162,8 +167,9 @@ class DistanceMaps:
             :func:`grid_distance` from them, read-only (shared by the critics that read it).
         """
         costmap_key = (id(costmap), costmap.version)
-        if costmap_key != self._costmap_key or self._graph is None:
-            self._graph = grid_graph(costmap.costs < INSCRIBED_INFLATED_OBSTACLE)
+        if costmap_key != self._costmap_key or self._free is None:
+            self._free = costmap.costs < INSCRIBED_INFLATED_OBSTACLE
+            self._graph = None if native.LIB is not None else grid_graph(self._free)
             self._costmap_key = costmap_key
             self._maps.clear()
         r, c = np.asarray(rows, np.intp), np.asarray(cols, np.intp)
@@ -174,7 +180,10 @@ class DistanceMaps:
             return found
         sources = np.zeros(costmap.shape, bool)
         sources[r, c] = True
-        d = grid_distance(self._graph, costmap.shape, sources)
+        if self._graph is None:
+            d = native.grid_distance(self._free, sources)
+        else:
+            d = grid_distance(self._graph, costmap.shape, sources)
         d.flags.writeable = False
         self._maps[key] = d
         if len(self._maps) > self.capacity:
