@@ -135,8 +135,8 @@ def grid_distance(free: npt.NDArray[np.bool_], sources: npt.NDArray[np.bool_]) -
     """
     assert LIB is not None
     rows, cols = free.shape
-    f = np.ascontiguousarray(free, np.uint8)
-    s = np.ascontiguousarray(sources, np.uint8)
+    f = np.ascontiguousarray(free, np.bool_).view(np.uint8)  # numpy's bools are bytes: no copy
+    s = np.ascontiguousarray(sources, np.bool_).view(np.uint8)
     out = np.empty((rows, cols), np.float64)
     queue = np.empty(rows * cols, np.int64)
     LIB.jackson_grid_distance(
