@@ -506,7 +506,7 @@ class Daemon:
                     spun_ns = round(contention.spun_s * 1e9)
                     self.cpu.frame((time.thread_time_ns() - spun_ns - cpu0) / 1e3)
                     self.cpu.robot_time(core.t_s)
-                if core.mission is not None and core.mission.done and core.braked:
+                if core.finished:  # the mission done, braked, the robot at rest
                     break
                 if core.duty_source is not None and core.duty_source.done:
                     break

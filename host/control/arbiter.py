@@ -137,7 +137,9 @@ class CommandArbiter:
             v, w = mission.command(nav_state())
             if c.lidar_blind and not mission.done:
                 return 0.0, 0.0, True  # no usable scan for too long: braked until one comes
-            return v, w, mission.done
+            # done: the stop is shaped by the limiter's deceleration like any command, and
+            # braked once the wheels are commanded still
+            return v, w, mission.done and c.wheel_cmd == (0.0, 0.0)
         if self.watchdog.expired(t_s) or c.sensors_lost is not None:
             return 0.0, 0.0, True
         return self.external[0], self.external[1], False

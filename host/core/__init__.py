@@ -64,6 +64,8 @@ from jackson.protocol import (
 )
 
 _IMU_OK = int(TelemetryFlags.IMU_OK)  # a plain int: IntFlag's & builds an enum member
+REST_FRAMES = 3  # frames without an encoder count: the wheels stand still (0.15 s at 20 Hz)
+SETTLE_LIMIT_S = 2.0  # [s] the longest a done mission waits, braked, for the robot to rest
 
 
 def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> list[Message]:
@@ -212,6 +214,11 @@ class HostCore:
         self.last_result: FrameResult | None = None
         # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded here
         self.intake = ScanIntake()
+        # a done mission's robot coming to rest: frames with unchanged counts, braked since
+        self._counts: tuple[int, int] | None = None
+        self._still_frames = 0
+        self._braked_done_s: float | None = None
+        self.finished = False  # the mission is done, braked, and the robot at rest
 
     @property
     def odometry(self) -> WheelOdometry:
@@ -425,6 +432,23 @@ class HostCore:
         self.last_result = result
         for listener in self.listeners:
             listener.on_result(result)
+        self._track_rest(t_s, (t.enc_left, t.enc_right))
+
+    def _track_rest(self, t_s: float, counts: tuple[int, int]) -> None:
+        """After a mission is done and braked, :attr:`finished` once the wheels stand still
+        (``REST_FRAMES`` frames without a count), or ``SETTLE_LIMIT_S`` after the brake: the
+        run's log then ends where the robot came to rest, its run-on after the stop in it."""
+        self._still_frames = self._still_frames + 1 if counts == self._counts else 0
+        self._counts = counts
+        mission = self.mission
+        if mission is None or not mission.done or not self.braked:
+            self._braked_done_s = None
+            return
+        if self._braked_done_s is None:
+            self._braked_done_s = t_s
+        self.finished = (
+            self._still_frames >= REST_FRAMES or t_s - self._braked_done_s >= SETTLE_LIMIT_S
+        )
 
     def _tell_transition(self, tr: Transition) -> None:
         for listener in self.listeners:

@@ -64,6 +64,14 @@ def test_figure_eight_completes(tmp_path: Path) -> None:
     # two loops of about 1 m diameter on either side of the start
     assert max(ys) > 0.9 and min(ys) < -0.9
     assert 80 < truth[-1].t_s < 110  # the paper: 96.4 s (physical), 98.3 s (Isaac)
+    # the log ends with the robot at rest: braked, and the last frames without a count
+    with (tmp_path / "run" / "commands.csv").open() as f:
+        commands = list(csv.DictReader(f))
+    assert commands[-1]["braked"] == "1"
+    with (tmp_path / "run" / "odometry.csv").open() as f:
+        odometry = list(csv.DictReader(f))
+    counts = {(r["enc_left"], r["enc_right"]) for r in odometry[-3:]}
+    assert len(counts) == 1, odometry[-3:]
 
 
 def test_true_tpr_differs_from_the_hosts_belief(tmp_path: Path) -> None:
