@@ -243,7 +243,7 @@ def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
         extent=world_extent(world),
         seed=spec.seed,
     )
-    mission = NavigateMission(nav, cfg.limits, grid)
+    mission = NavigateMission(nav, cfg.navigation_limits(), grid)
     if grid is not None:
         grid.save(run_dir / f"{MAP_NAME}.yaml")  # the replay localises on the same map
     wall0 = time.perf_counter()

@@ -357,7 +357,7 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
 
     try:
         # a daemon runs for hours: its navigation keeps only its recent control ticks
-        return NavigateMission(config, cfg.limits, grid, keep_samples=False)
+        return NavigateMission(config, cfg.navigation_limits(), grid, keep_samples=False)
     except RouteError as exc:
         raise HostCliError(f"{exc} (--map {args.map})") from exc
 

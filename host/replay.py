@@ -183,7 +183,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     rec = RunRecorder(out, meta)
     the_mission: Mission | None = None
     if mission == "navigate":
-        the_mission = _mission_from_meta(run, meta, cfg.limits)
+        the_mission = _mission_from_meta(run, meta, cfg.navigation_limits())
     elif mission:
         the_mission = MISSIONS[mission]()
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)

@@ -13,7 +13,7 @@ Every problem is reported as one :class:`ConfigError` line naming the file and t
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, is_dataclass
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -92,6 +92,8 @@ class HostConfig:
     odometry: OdometryCovariance = field(default_factory=OdometryCovariance)
     ekf: EkfConfig = field(default_factory=EkfConfig)
     limits: LimiterConfig = field(default_factory=LimiterConfig)
+    # the local planner's top speed (Nav2 DWB's max_vel_x) [m/s]; None: limits.max_v_m_s
+    navigation_max_v_m_s: float | None = None
     deadband: DeadbandConfig = field(default_factory=DeadbandConfig)
     wheel_pi: WheelPiConfig = field(default_factory=WheelPiConfig)
     health: HealthConfig = field(default_factory=HealthConfig)
@@ -104,6 +106,14 @@ class HostConfig:
     recording_folder: Path = Path("runs")
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
     bag_compression: str = "zstd"  # the bag's MCAP chunk compression: zstd, lz4 or none
+
+    def navigation_limits(self) -> LimiterConfig:
+        """The bounds the local planner samples within: ``limits`` with the navigation's top
+        speed (``navigation.max_vel_x_m_s``) when one is set below ``limits.max_v_m_s``."""
+        v = self.navigation_max_v_m_s
+        if v is None or v >= self.limits.max_v_m_s:
+            return self.limits
+        return replace(self.limits, max_v_m_s=v)
 
 
 BAG_COMPRESSIONS = ("zstd", "lz4", "none")
@@ -152,6 +162,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         odometry=_odometry(top.section("odometry")),
         ekf=_ekf(top.section("ekf")),
         limits=_limits(top.section("limits")),
+        navigation_max_v_m_s=_navigation(top.section("navigation")),
         deadband=_deadband(top.section("deadband")),
         wheel_pi=_wheel_pi(top.section("wheel_pi")),
         health=_health(top.section("health")),
@@ -231,6 +242,12 @@ def _limits(s: Fields) -> LimiterConfig:
     out = LimiterConfig(
         **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
     )
+    s.finish()
+    return out
+
+
+def _navigation(s: Fields) -> float | None:
+    out = s.optional_number("max_vel_x_m_s", 0.0, lo_open=True)
     s.finish()
     return out
 
@@ -444,6 +461,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "gyro_bias_window_s": ekf.gyro_bias_window_s,
         },
         "limits": {f.name: getattr(cfg.limits, f.name) for f in fields(LimiterConfig)},
+        "navigation": {"max_vel_x_m_s": cfg.navigation_max_v_m_s},
         "deadband": {
             "left": {"forward": db.forward_left, "reverse": db.reverse_left},
             "right": {"forward": db.forward_right, "reverse": db.reverse_right},

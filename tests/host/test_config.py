@@ -370,3 +370,23 @@ def test_config_diff_names_each_changed_field() -> None:
     assert config_diff(old, dataclasses.replace(old, actuator="mcu")) == [
         "actuator: pca9685 -> mcu"
     ]
+
+
+# ------------------------------------------------------------------------- navigation
+
+
+def test_navigation_top_speed_caps_only_the_local_planner(tmp_path: Path) -> None:
+    cfg = load_with(tmp_path, {"navigation": {"max_vel_x_m_s": 0.1}})
+    assert cfg.navigation_max_v_m_s == 0.1
+    assert cfg.limits.max_v_m_s == 0.30  # the limiter (and the square) keep theirs
+    nav = cfg.navigation_limits()
+    assert nav.max_v_m_s == 0.1
+    assert dataclasses.replace(nav, max_v_m_s=0.30) == cfg.limits
+    # unset, or above the limiter's: the limiter's
+    assert HostConfig().navigation_limits() == HostConfig().limits
+    fast = load_with(tmp_path, {"navigation": {"max_vel_x_m_s": 0.5}})
+    assert fast.navigation_limits() == fast.limits
+    assert parse_config(dump_config(cfg)) == cfg  # round trip
+    assert error_of(tmp_path, {"navigation": {"max_vel_x_m_s": 0}}).endswith(
+        "navigation.max_vel_x_m_s: expected a number > 0 or null, got 0"
+    )
