@@ -521,12 +521,16 @@ class Daemon:
                 self._repairer.join()  # a repair replaces the bag only once complete
             if self.recorder is not None:
                 self._write_health()
-                self.recorder.close()
+            # the bag is finished before the recorder lets go of the run's lock: until then
+            # another daemon in the same recording folder (a campaign's next trial) must not
+            # take the closing bag for a killed run's and repair it under the writer's feet
             if self.bag is not None:
                 try:
                     self.bag.close()
                 except Exception as exc:
                     print(f"daemon: the run's bag did not close cleanly: {exc}", flush=True)
+            if self.recorder is not None:
+                self.recorder.close()
             settled.restore()
         return 1 if core.abort_reason is not None else 0
 

@@ -8,6 +8,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from jackson.experiments import metrics
 from jackson.experiments.trial import read_csv
@@ -122,3 +123,30 @@ def test_a_killed_runs_bag_is_repaired_by_the_next_daemon(tmp_path: Path) -> Non
     # chunks go to disk every second of MCU time: at most that much (20 frames) is lost
     assert len(bag["/wheel/odom"]) >= kept - 40
     assert set(TOPICS) <= set(bag)
+
+
+def test_the_bag_is_finished_before_the_run_lets_go_of_its_lock(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A campaign's next daemon repairs the unfinished bags of runs whose lock is free: the
+    ending daemon must finish its bag before it lets go of the lock, or the next one takes the
+    closing bag for a killed run's."""
+    from jackson.experiments.trial import TrialSpec, run_trial
+    from jackson.host.recording import RunRecorder, run_in_progress
+
+    seen: list[tuple[bool, bool]] = []
+    close = RunRecorder.close
+
+    def closing(self: RunRecorder) -> None:
+        seen.append(
+            ((self.folder / "bag" / "metadata.yaml").exists(), run_in_progress(self.folder))
+        )
+        close(self)
+
+    monkeypatch.setattr(RunRecorder, "close", closing)
+    run = tmp_path / "runs" / "R01"
+    result = run_trial(TrialSpec("square", 0, 0, "jackson", "square_room", run))
+    assert result["completed"]
+    # the bag was complete while the recorder still held the run
+    assert seen == [(True, True)]
+    assert not run_in_progress(run)
