@@ -542,6 +542,7 @@ def _cmd_campaign_faults(args: argparse.Namespace) -> int:
 
 def _cmd_campaign_fidelity(args: argparse.Namespace) -> int:
     from jackson.experiments.fidelity import (
+        BRINGUP_CONFIG,
         MECHANISMS,
         STAGES,
         FidelityError,
@@ -563,7 +564,7 @@ def _cmd_campaign_fidelity(args: argparse.Namespace) -> int:
     worlds = {"square": "square_room", "figure8": "open_floor", "maze": "maze"}
     for stage in stages:
         _check_twin_files(args.robot, worlds[stage])
-    config = _host_config(args.config)
+    config = _host_config(args.config if args.config is not None else BRINGUP_CONFIG)
     try:  # every check before anything runs or is written
         if args.notes is not None:
             option = "--notes"
@@ -803,7 +804,7 @@ def build_parser() -> argparse.ArgumentParser:
             type=Path,
             metavar="FILE",
             help="host YAML the robot runs with, e.g. one jackson calibrate --write made "
-            "(default: the paper's robot)",
+            "(default: the paper's robot; campaign fidelity: host/config/jackson_bringup.yaml)",
         )
         p.add_argument(
             "--out", type=Path, help="output folder (campaign fidelity: default build/fidelity)"

@@ -49,7 +49,7 @@ from jackson.common.errors import JacksonError
 from jackson.common.fields import ConfigError, read_yaml
 from jackson.experiments.campaign import run_campaign
 from jackson.experiments.stage3 import MappingError, run_stage3_campaign
-from jackson.host.config import parse_config
+from jackson.host.config import DEFAULT_CONFIG, parse_config
 from jackson.sim.config import ROBOTS_DIR, RobotSpec, load_robot, resolve
 
 STAGES = ("square", "figure8", "maze")
@@ -416,6 +416,11 @@ class Mechanism:
     stage3: bool = False
 
 
+BRINGUP_CONFIG = DEFAULT_CONFIG.with_name("jackson_bringup.yaml")
+"""The host configuration the campaign runs by default: the paper's robot commanded as its
+bringup drove it (the deceleration limits and Stage 3's top speed below)."""
+
+
 MECHANISMS: tuple[Mechanism, ...] = (
     Mechanism(
         "tyre_creep_scrub",
@@ -430,6 +435,7 @@ MECHANISMS: tuple[Mechanism, ...] = (
         "figure-eight's 0.08 m/s more than the square's 0.15 m/s",
         "fitted: the square's and the figure-eight's durations together",
         robot_patch={"caster_rolling_coeff": 0.0},
+        stage3=True,
     ),
     Mechanism(
         "left_drive_weaker",
@@ -454,6 +460,7 @@ MECHANISMS: tuple[Mechanism, ...] = (
         "a delay between a command and the motors",
         "measured on the physical robot: the paper's command-transport latency, about 50 ms",
         robot_patch={"actuation_latency_s": 0.0},
+        stage3=True,
     ),
     Mechanism(
         "trial_variation",
@@ -469,6 +476,26 @@ MECHANISMS: tuple[Mechanism, ...] = (
                 "floor_mu_sigma": 0.0,
             }
         },
+    ),
+    Mechanism(
+        "deceleration_limits",
+        "the robot's commands slow down at 0.15 m/s^2 and 1.0 rad/s^2 at most (the host's "
+        "limiter, host/config/jackson_bringup.yaml): it stops, and reverses its turn between "
+        "the figure-eight's loops, no faster; a finished mission's stop is ramped the same way",
+        "the paper's 'conservative physical motor acceleration limits' (Sec. 2.2.3, "
+        "Discussion), values not published: 0.15 m/s^2 is the bound the square's waypoint "
+        "controller plans its stops with, 1.0 rad/s^2 identified from the figure-eight's "
+        "final heading residual (T6)",
+        config_patch={"limits": {"max_decel_m_s2": 1.0, "max_alpha_decel_rad_s2": 6.0}},
+        stage3=True,
+    ),
+    Mechanism(
+        "navigation_top_speed",
+        "Stage 3's local planner drives at 0.10 m/s at most (navigation.max_vel_x_m_s, "
+        "Nav2's max_vel_x); off, it drives up to the limiter's 0.30 m/s",
+        "not published: identified from the physical t_nav (22.4 s over 1.958 m, T14)",
+        config_patch={"navigation": {"max_vel_x_m_s": None}},
+        stage3=True,
     ),
 )
 """The mechanisms of ``jackson_physical`` and the host, each with the patch that switches it
