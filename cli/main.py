@@ -392,6 +392,15 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
 
     from jackson.experiments.campaign import run_campaign
 
+    if args.mission != "fidelity":
+        for option, value in (
+            ("--docs", args.docs),
+            ("--ablation", args.ablation),
+            ("--notes", args.notes),
+            ("--stages", args.stages),
+        ):
+            if value:
+                raise CliError(f"{option} is for jackson campaign fidelity")
     if args.mission == "worlds":
         return _cmd_campaign_worlds(args)
     args.robot = args.robot or DEFAULT_ROBOT
@@ -406,6 +415,8 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
             raise CliError(f"{option} is for jackson campaign faults")
     if args.mission in STAGE3:
         return _cmd_campaign_stage3(args)
+    if args.mission == "fidelity":
+        return _cmd_campaign_fidelity(args)
     if _lidar_mode(args) is not None:
         raise CliError("--lidar-mode is for the Stage 3 campaigns (maze, ofat, robustness)")
     if args.map is not None:
@@ -529,6 +540,78 @@ def _cmd_campaign_faults(args: argparse.Namespace) -> int:
     return 0 if summary["all_met"] else 1
 
 
+def _cmd_campaign_fidelity(args: argparse.Namespace) -> int:
+    from jackson.experiments.fidelity import (
+        BRINGUP_CONFIG,
+        MECHANISMS,
+        STAGES,
+        FidelityError,
+        ablate,
+        check_docs,
+        read_notes,
+        run_fidelity,
+    )
+
+    for option, value in (("--world", args.world), ("--map", args.map)):
+        if value is not None:
+            raise CliError(
+                f"{option}: the fidelity campaign drives the paper's courses (square_room, "
+                "open_floor, maze)"
+            )
+    if _lidar_mode(args) is not None:
+        raise CliError("--lidar-mode: the fidelity campaign's maze reads the densest mode")
+    stages = args.stages or STAGES
+    worlds = {"square": "square_room", "figure8": "open_floor", "maze": "maze"}
+    for stage in stages:
+        _check_twin_files(args.robot, worlds[stage])
+    config = _host_config(args.config if args.config is not None else BRINGUP_CONFIG)
+    try:  # every check before anything runs or is written
+        if args.notes is not None:
+            option = "--notes"
+            read_notes(args.notes)
+        if args.docs is not None:
+            option = "--docs"
+            check_docs(args.docs)
+        if args.ablation:
+            option = "--ablation:"
+            ablate(MECHANISMS, args.robot, config)
+    except FidelityError as exc:
+        raise CliError(f"{option} {one_line(exc)}") from exc
+    trials = args.trials if args.trials is not None else 10
+    out = _out(args.out or Path("build/fidelity"))
+    report = run_fidelity(
+        trials,
+        out,
+        seed=args.seed,
+        robot=args.robot,
+        config=config,
+        workers=args.workers,
+        cluster=args.cluster,
+        ablation=args.ablation,
+        stages=stages,
+        docs=args.docs,
+        notes=args.notes,
+    )
+    print((out / "fidelity.md").read_text())
+    pages = f"; page: {args.docs}, {args.docs.with_suffix('.png')}" if args.docs else ""
+    print(f"report: {out}/fidelity.md, {out}/fidelity.png, {out}/fidelity.json{pages}")
+    nav = report.nav
+    done = all(r.completed == r.attempted for r in report.figures)
+    done = done and nav.completed == nav.attempted and nav.failure is None
+    return 0 if done else 1
+
+
+def _stages_arg(text: str) -> tuple[str, ...]:
+    """A comma list of the fidelity campaign's stages, in their own order."""
+    from jackson.experiments.fidelity import STAGES
+
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    bad = [n for n in names if n not in STAGES]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a comma list of {', '.join(STAGES)}")
+    return tuple(s for s in STAGES if s in names)
+
+
 def _lidar_mode(args: argparse.Namespace) -> str | None:
     """The RPLIDAR scan mode ``--lidar-mode`` names (None: the densest)."""
     from jackson.host.lidar.rplidar import start_mode
@@ -604,7 +687,7 @@ def build_parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=helptext)
         missions = ["square", "figure8", "maze"] + (
-            ["ofat", "robustness", "faults", "worlds"] if name == "campaign" else []
+            ["ofat", "robustness", "faults", "worlds", "fidelity"] if name == "campaign" else []
         )
         p.add_argument("mission", choices=missions)
         p.add_argument(
@@ -671,6 +754,31 @@ def build_parser() -> argparse.ArgumentParser:
                 metavar="NAME",
                 help=f"faults: only this case (repeatable; {', '.join(CASE_NAMES)})",
             )
+            p.add_argument(
+                "--docs",
+                type=Path,
+                metavar="PATH",
+                help="fidelity: also write the page to PATH (a .md) and its PNG beside it, "
+                "e.g. docs/fidelity.md",
+            )
+            p.add_argument(
+                "--ablation",
+                action="store_true",
+                help="fidelity: also run the square and figure-eight with each of the twin's "
+                "mechanisms switched off in turn",
+            )
+            p.add_argument(
+                "--notes",
+                type=Path,
+                metavar="FILE",
+                help="fidelity: markdown appended verbatim at the end of the page",
+            )
+            p.add_argument(
+                "--stages",
+                type=_stages_arg,
+                metavar="LIST",
+                help="fidelity: the stages to run, a comma list (default square,figure8,maze)",
+            )
         p.add_argument(
             "--robot",
             help="twin robot file (default jackson_physical; campaign worlds: a comma list, "
@@ -696,9 +804,11 @@ def build_parser() -> argparse.ArgumentParser:
             type=Path,
             metavar="FILE",
             help="host YAML the robot runs with, e.g. one jackson calibrate --write made "
-            "(default: the paper's robot)",
+            "(default: the paper's robot; campaign fidelity: host/config/jackson_bringup.yaml)",
         )
-        p.add_argument("--out", type=Path, help="output folder")
+        p.add_argument(
+            "--out", type=Path, help="output folder (campaign fidelity: default build/fidelity)"
+        )
         p.set_defaults(func=_cmd_run if name == "run" else _cmd_campaign)
 
     from jackson.calibration import cli as calibrate_cli

@@ -49,6 +49,7 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from jackson.common.errors import JacksonError
 from jackson.experiments import metrics as m
 from jackson.experiments.trial import (
     cut_reason,
@@ -75,6 +76,10 @@ from jackson.sim.faults import FaultSpec, schedule
 STAGE3_START = Pose2D(-0.6909, -0.0364, 0.0)  # REFERENCE: Stage 3
 STAGE3_GOAL = Pose2D(1.2091, -0.0364, 0.0)
 STAGE3_WORLD = "maze"
+
+
+class MappingError(JacksonError, RuntimeError):
+    """A Stage 3 campaign's mapping run did not complete: there is no map to navigate on."""
 
 
 @dataclass(frozen=True)
@@ -489,7 +494,7 @@ def run_stage3_campaign(
         survey = mapping_spec(robot, world, seed, out / "map", config)
         mapping = run_nav_trial(dataclasses.replace(survey, lidar_mode=lidar_mode))
         if not mapping["completed"]:
-            raise RuntimeError(f"the mapping run failed: {mapping['failure']}")
+            raise MappingError(f"the mapping run failed: {mapping['failure']}")
         map_yaml = out / "map" / "built_map.yaml"
     goals = world_goals(load_world(world))
     specs = [
