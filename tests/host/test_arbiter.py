@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.control.arbiter import CommandArbiter, Conditions
 from jackson.host.control.base import NavState
@@ -63,7 +65,7 @@ def test_a_done_mission_stops_through_the_limiter_and_brakes_once_still() -> Non
     # rad/s at 0.8 rad/s^2 in 4
     assert 8 <= len(ramp) <= 9
     assert ramp[3][1] < 1e-9 < ramp[2][1]
-    assert all(w1 <= w0 for (_, w0), (_, w1) in zip(ramp, ramp[1:], strict=False))
+    assert all(w1 <= w0 for (_, w0), (_, w1) in itertools.pairwise(ramp))
     assert ramp[-1] == (0.0, 0.0)
     # once still it stays braked
     assert arbiter.command(t, conditions((0.0, 0.0)), None, lambda _: None, state)[2]
