@@ -818,7 +818,7 @@ def regenerate_command(
     parts = ["jackson campaign fidelity", f"--trials {trials}", f"--seed {seed}"]
     if robot != DEFAULT_ROBOT:
         parts.append(f"--robot {robot_shown(robot)}")
-    if config is not None:
+    if config is not None and config.resolve() != BRINGUP_CONFIG.resolve():  # the default
         parts.append(f"--config {shown(config)}")
     if tuple(stages) != STAGES:
         parts.append(f"--stages {','.join(stages)}")

@@ -15,6 +15,7 @@ import yaml
 
 from jackson.experiments import fidelity as fd
 from jackson.experiments.fidelity import (
+    BRINGUP_CONFIG,
     FIGURES,
     MECHANISMS,
     STAGE3_FIGURES,
@@ -258,14 +259,22 @@ def test_deep_merge_merges_mappings_and_replaces_the_rest() -> None:
 
 
 def test_every_mechanism_switches_off_something_of_jackson_physical() -> None:
-    ablated = ablate(MECHANISMS, "jackson_physical")
+    ablated = ablate(MECHANISMS, "jackson_physical", BRINGUP_CONFIG)
     assert [a.mechanism.name for a in ablated] == [m.name for m in MECHANISMS]
     by_name = {a.mechanism.name: a for a in ablated}
     assert by_name["tyre_creep_scrub"].robot["tyre"]["longitudinal_compliance"] == 0.0
     assert by_name["tyre_creep_scrub"].robot["tyre"]["scrub_saturation_curvature_1_m"] == 12.5
     assert by_name["left_drive_weaker"].robot["motor"]["gain"] == {"left": 1.0, "right": 1.0}
     assert by_name["trial_variation"].robot["variation"]["floor_patch_size_m"] == 5.0
-    assert all(a.config == {} for a in ablated)
+    bringup = yaml.safe_load(BRINGUP_CONFIG.read_text())
+    robot_only = [a for a in ablated if not a.mechanism.config_patch]
+    assert robot_only and all(a.config == bringup for a in robot_only)
+    assert by_name["deceleration_limits"].config["limits"] == {
+        "max_decel_m_s2": 1.0,
+        "max_alpha_decel_rad_s2": 6.0,
+    }
+    assert by_name["navigation_top_speed"].config["navigation"] == {"max_vel_x_m_s": None}
+    assert by_name["navigation_top_speed"].robot == by_name["deceleration_limits"].robot
 
 
 @pytest.mark.parametrize(
@@ -338,6 +347,7 @@ def test_the_ablation_runs_each_mechanism_on_its_own_files_with_the_same_seeds(
         ("maze", "out/maze", 7),
         ("square", "out/ablation/caster_drag/square", 7),
         ("figure8", "out/ablation/caster_drag/figure8", 7),
+        ("maze", "out/ablation/caster_drag/maze", 7),
         ("square", "out/ablation/left_drive_weaker/square", 7),
         ("figure8", "out/ablation/left_drive_weaker/figure8", 7),
         ("square", "out/ablation/latency_maze/square", 7),
@@ -352,7 +362,7 @@ def test_the_ablation_runs_each_mechanism_on_its_own_files_with_the_same_seeds(
     duration = 3  # the square's duration
     assert report.figures[duration].within and not columns["caster_drag"].figures[duration].within
     assert columns["left_drive_weaker"].figures[duration].within
-    assert columns["caster_drag"].figures[16].missing == "not run"  # no maze
+    assert columns["left_drive_weaker"].figures[16].missing == "not run"  # no maze
     assert columns["latency_maze"].figures[16].n == 3
     page = (tmp_path / "out" / "fidelity.md").read_text()
     assert (
