@@ -34,12 +34,20 @@ def test_every_quoted_figure_is_in_its_doc_with_its_command() -> None:
 def test_a_drifted_quote_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     dc = docs_check()
     entries = dc.load()
-    changed = [dict(entries[0], quote=entries[0]["quote"].replace("0.31", "0.29"))]
+    first = entries[0]
+    value = f"{first['value']:.2f}"
+    assert value in first["quote"]
+    changed = [dict(first, quote=first["quote"].replace(value, "99.99"))]
     problems = dc.static_problems(changed)
     assert len(problems) == 1 and "no longer says" in problems[0]
-    again = [dict(e) for e in entries if "same_as" in e][:1]
-    again[0]["value"] = 99.0
-    problems = dc.static_problems([*entries, dict(again[0], name="repeated")])
+    again = {
+        "name": "repeated",
+        "doc": first["doc"],
+        "quote": first["quote"],
+        "same_as": first["name"],
+        "value": 99.0,
+    }
+    problems = dc.static_problems([*entries, again])
     assert any("quotes 99.0 where" in p for p in problems)
 
 
