@@ -449,6 +449,10 @@ class Daemon:
                     if item.kind == "down":
                         self.link_downs += 1
                         core.brake()
+                        if core.mission is not None and core.mission.done:
+                            # nothing left to drive: not waiting for the robot to rest
+                            self.tell(f"serial link down ({item.detail}) after the mission")
+                            break
                         self.tell(f"serial link down ({item.detail}): braked, reconnecting")
                     elif item.kind == "up":
                         core.link_up()
