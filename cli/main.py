@@ -574,7 +574,7 @@ def _cmd_campaign_fidelity(args: argparse.Namespace) -> int:
             check_docs(args.docs)
         if args.ablation:
             option = "--ablation:"
-            ablate(MECHANISMS, args.robot, config)
+            ablate(MECHANISMS, args.robot, config, [])
     except FidelityError as exc:
         raise CliError(f"{option} {one_line(exc)}") from exc
     trials = args.trials if args.trials is not None else 10

@@ -591,7 +591,10 @@ class Ablated:
 
 
 def ablate(
-    mechanisms: Sequence[Mechanism], robot: str, config: Path | None = None
+    mechanisms: Sequence[Mechanism],
+    robot: str,
+    config: Path | None = None,
+    inactive: list[str] | None = None,
 ) -> list[Ablated]:
     """Every mechanism's patched robot file and host configuration, checked by the real loaders.
 
@@ -603,6 +606,9 @@ def ablate(
         The robot name or YAML path the campaigns run.
     config : Path or None
         The host configuration YAML (None: the packaged defaults, an empty document).
+    inactive : list of str or None
+        Where to put the names of mechanisms this robot and configuration already lack
+        (switching them off changes nothing); None: such a mechanism is an error.
 
     Returns
     -------
@@ -612,8 +618,8 @@ def ablate(
     ------
     MechanismError
         A name repeats or is no folder name, a patch names a field the loader refuses or
-        gives it a value it refuses, or a mechanism switches nothing off in this robot and
-        configuration.
+        gives it a value it refuses, or (without ``inactive``) a mechanism switches nothing
+        off in this robot and configuration.
     """
     path = robot_file(robot)
     _, robot_doc = read_yaml(path, "robot")
@@ -629,6 +635,8 @@ def ablate(
                 f"mechanism {m.name!r}: a name must be unique and of letters, digits and _"
             )
         seen.add(m.name)
+        if not m.robot_patch and not m.config_patch:
+            raise MechanismError(f"mechanism {m.name}: its patch is empty")
         robot_off = deep_merge(robot_doc, m.robot_patch)
         config_off = deep_merge(config_doc, m.config_patch)
         try:
@@ -637,6 +645,9 @@ def ablate(
         except ConfigError as exc:
             raise MechanismError(f"mechanism {m.name}: {exc}") from exc
         if spec == base_robot and cfg == base_config:
+            if inactive is not None:
+                inactive.append(m.name)
+                continue
             raise MechanismError(
                 f"mechanism {m.name}: its patch switches nothing off in robot {path.name} and "
                 f"{where} ({', '.join(dotted(m.robot_patch) + dotted(m.config_patch)) or 'empty'})"
@@ -743,6 +754,7 @@ class FidelityReport:
     config: str = ""
     robot_doc: Mapping[str, Any] = field(default_factory=dict)
     config_doc: Mapping[str, Any] = field(default_factory=dict)
+    inactive: tuple[str, ...] = ()  # mechanisms this robot and configuration already lack
 
     @property
     def agreement(self) -> Agreement:
@@ -947,7 +959,14 @@ def _ablation_lines(report: FidelityReport) -> list[str]:
     lines = [
         "Each mechanism switched off alone (the patch above), on the full model's seeds; "
         "means over the completed trials. **Bold**: the figure leaves or enters the paper's "
-        "band (±1 SD; Stage 3 ±2 SD) against the full model.",
+        "band (±1 SD; Stage 3 ±2 SD) against the full model."
+        + (
+            " Not in this robot and configuration, so not ablated: "
+            + ", ".join(f"`{n}`" for n in report.inactive)
+            + "."
+            if report.inactive
+            else ""
+        ),
         "",
         "| stage | figure [unit] (paper table) | paper | full model | "
         + " | ".join(f"`{c.mechanism.name}` off" for c in columns)
@@ -1418,7 +1437,8 @@ def run_fidelity(
     stages = tuple(s for s in STAGES if s in stages)
     notes_text = read_notes(notes) if notes is not None else ""
     docs_png = check_docs(docs) if docs is not None else None
-    ablated = ablate(mechanisms, robot, config) if ablation else []
+    inactive: list[str] = []
+    ablated = ablate(mechanisms, robot, config, inactive) if ablation else []
     robot_doc = dict(read_yaml(robot_file(robot), "robot")[1])
     config_doc = dict(read_yaml(config, "config")[1]) if config is not None else {}
     if cluster is not None:
@@ -1482,6 +1502,7 @@ def run_fidelity(
         config=shown(config) if config is not None else "",
         robot_doc=robot_doc,
         config_doc=config_doc,
+        inactive=tuple(inactive),
     )
     _phase(progress, f"report -> {out / 'fidelity.md'} ({time.perf_counter() - wall0:.0f} s)")
     write_report_files(out, report, notes_text)

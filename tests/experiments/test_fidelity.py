@@ -295,8 +295,7 @@ def test_every_mechanism_switches_off_something_of_jackson_physical() -> None:
             {"limits": {"no_such_limit": 1.0}},
             "mechanism bad: config (the defaults): limits.no_such_limit: unknown field",
         ),
-        ({"actuation_latency_s": 0.05}, {}, "mechanism bad: its patch switches nothing off"),
-        ({}, {}, "mechanism bad: its patch switches nothing off"),
+        ({}, {}, "mechanism bad: its patch is empty"),
     ],
 )
 def test_a_patch_that_does_not_fit_is_refused_before_anything_runs(
@@ -447,3 +446,16 @@ def test_a_failed_mapping_run_is_reported_not_raised(
     assert "No navigation ran: the mapping run failed: lockstep stalled." in page
     assert "| success (P_success) (T14) | 10/10 | 10/10 | 0/0 | — | **no** |" in page
     assert all(r.missing == "not run" for r in report.figures)
+
+
+def test_mechanisms_a_configuration_lacks_are_left_out_of_its_ablation() -> None:
+    """With the packaged configuration (no bringup limits, no top speed) those two mechanisms
+    are not ablated, and said so; without the list to collect them they are an error."""
+    inactive: list[str] = []
+    ablated = ablate(MECHANISMS, "jackson_physical", None, inactive)
+    assert inactive == ["deceleration_limits", "navigation_top_speed"]
+    assert [a.mechanism.name for a in ablated] == [
+        m.name for m in MECHANISMS if m.name not in inactive
+    ]
+    with pytest.raises(MechanismError, match="deceleration_limits: its patch switches nothing"):
+        ablate(MECHANISMS, "jackson_physical", None)
