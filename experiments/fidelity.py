@@ -1342,35 +1342,23 @@ def _run_stages(
     navigate (its mapping run failed), if so."""
     results: dict[str, list[dict[str, Any]]] = {}
     failure = None
+    common: dict[str, Any] = {
+        "robot": robot,
+        "seed": seed,
+        "workers": workers,
+        "config": config,
+        "progress": progress,
+        "cluster": cluster,
+    }
     for stage in stages:
         _phase(progress, f"{label}{stage}, {_trials_text(trials, seed)} -> {out / stage}")
         if stage == "maze":
             try:
-                results[stage] = run_stage3_campaign(
-                    "maze",
-                    trials,
-                    out / stage,
-                    robot=robot,
-                    seed=seed,
-                    workers=workers,
-                    config=config,
-                    progress=progress,
-                    cluster=cluster,
-                )
+                results[stage] = run_stage3_campaign("maze", trials, out / stage, **common)
             except MappingError as exc:  # no map: no navigation
                 results[stage], failure = [], str(exc)
         else:
-            results[stage] = run_campaign(
-                stage,
-                trials,
-                out / stage,
-                robot=robot,
-                seed=seed,
-                workers=workers,
-                config=config,
-                progress=progress,
-                cluster=cluster,
-            )
+            results[stage] = run_campaign(stage, trials, out / stage, **common)
     return results, failure
 
 
