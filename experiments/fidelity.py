@@ -48,6 +48,7 @@ import yaml
 from jackson.common.errors import JacksonError
 from jackson.common.fields import ConfigError, read_yaml
 from jackson.experiments.campaign import run_campaign
+from jackson.experiments.metrics import median_iqr
 from jackson.experiments.stage3 import MappingError, run_stage3_campaign
 from jackson.host.config import DEFAULT_CONFIG, parse_config
 from jackson.sim.config import ROBOTS_DIR, RobotSpec, load_robot, resolve
@@ -231,8 +232,8 @@ class FigureResult:
         """Median, first and third quartile (NaN without a value)."""
         if not self.values:
             return math.nan, math.nan, math.nan
-        q1, med, q3 = np.percentile(self.values, [25.0, 50.0, 75.0])
-        return float(med), float(q1), float(q3)
+        q = median_iqr(self.values)  # the paper's Stage 3 summary, as every campaign's
+        return q.median, q.q1, q.q3
 
     @property
     def missing(self) -> str | None:

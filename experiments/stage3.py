@@ -727,7 +727,7 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]]) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title("Stage 3 on the twin: map, true paths, dropped cylinder")
+    ax.set_title("Stage 3 on the twin: map, true paths" + (", dropped cylinder" if drawn else ""))
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()
     from jackson.common.figures import save_figure

@@ -135,11 +135,13 @@ class CommandArbiter:
             if not c.bias_known:
                 return 0.0, 0.0, True  # stand still until the gyro bias is known
             v, w = mission.command(nav_state())
-            if c.lidar_blind and not mission.done:
+            if mission.done:
+                # the stop is shaped by the limiter's deceleration like any command, and
+                # braked once the wheels are commanded still
+                return 0.0, 0.0, c.wheel_cmd == (0.0, 0.0)
+            if c.lidar_blind:
                 return 0.0, 0.0, True  # no usable scan for too long: braked until one comes
-            # done: the stop is shaped by the limiter's deceleration like any command, and
-            # braked once the wheels are commanded still
-            return v, w, mission.done and c.wheel_cmd == (0.0, 0.0)
+            return v, w, False
         if self.watchdog.expired(t_s) or c.sensors_lost is not None:
             return 0.0, 0.0, True
         return self.external[0], self.external[1], False
