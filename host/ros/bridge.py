@@ -165,7 +165,10 @@ NOT_PUBLISHED = ("telemetry",)  # the raw frames are the bag's own record
 
 
 CLOCK_DISCOVERY_S = 3.0  # [s] the node looks this long for a /clock publisher with no other node
-CLOCK_ENDPOINTS_S = 2.0  # [s] the other nodes' publishers known and unchanged this long: no /clock
+# [s] the other nodes' publishers known and unchanged this long: no /clock. Longer than Fast
+# DDS's 3 s participant announcement period, so a participant whose first announcements a
+# loaded machine missed (the twin's, started before the daemon) is heard again within it
+CLOCK_ENDPOINTS_S = 3.5
 CLOCK_DISCOVERY_MAX_S = 15.0  # [s] the longest the search lasts while other nodes are found
 
 
