@@ -23,7 +23,7 @@ from jackson.common.spin import contention
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
-from jackson.host.control import MISSIONS, Mission
+from jackson.host.control import Mission, make_mission
 from jackson.host.core import DutySource, HostCore
 from jackson.host.core.results import CoreListener
 from jackson.host.cpu import CpuMeter
@@ -205,7 +205,7 @@ class Daemon:
         self.recorder = RunRecorder(run_folder, meta) if run_folder is not None else None
         self.commands = CommandTracker(transport.encode, self._send_frame)
         if mission is None and mission_name:
-            mission = MISSIONS[mission_name]()
+            mission = make_mission(mission_name, cfg)
         self.lidar = lidar  # a started RplidarDriver (its raw bytes go to the core), or None
         self.output = output_factory(self._send)
         self.core = HostCore(

@@ -167,7 +167,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     """
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import DEFAULT_CONFIG, load_config
-    from jackson.host.control import MISSIONS
+    from jackson.host.control import make_mission
     from jackson.host.core import HostCore
     from jackson.protocol import Telemetry
 
@@ -185,7 +185,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     if mission == "navigate":
         the_mission = _mission_from_meta(run, meta, cfg.navigation_limits())
     elif mission:
-        the_mission = MISSIONS[mission]()
+        the_mission = make_mission(mission, cfg)
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
     core.lidar.expect(_lidar_answer_type(meta, run))
     for t_ns, item in records:

@@ -30,6 +30,8 @@ from jackson.host.actuation.settings import Actuator as Actuator
 from jackson.host.actuation.settings import Pca9685Settings as Pca9685Settings
 from jackson.host.actuation.settings import parse_actuator, parse_pca9685
 from jackson.host.actuation.wheel_pi import WheelPiConfig
+from jackson.host.control.figure8 import FigureEightConfig
+from jackson.host.control.square import SquareConfig
 from jackson.host.estimation.ekf import EkfConfig, ProcessNoise
 from jackson.host.estimation.health import POLICIES, HealthConfig
 from jackson.host.estimation.odometry import OdometryCovariance, RobotGeometry
@@ -94,6 +96,8 @@ class HostConfig:
     limits: LimiterConfig = field(default_factory=LimiterConfig)
     # the local planner's top speed (Nav2 DWB's max_vel_x) [m/s]; None: limits.max_v_m_s
     navigation_max_v_m_s: float | None = None
+    square: SquareConfig = field(default_factory=SquareConfig)  # Stage 1's waypoint controller
+    figure8: FigureEightConfig = field(default_factory=FigureEightConfig)  # Stage 2's profile
     deadband: DeadbandConfig = field(default_factory=DeadbandConfig)
     wheel_pi: WheelPiConfig = field(default_factory=WheelPiConfig)
     health: HealthConfig = field(default_factory=HealthConfig)
@@ -163,6 +167,8 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         ekf=_ekf(top.section("ekf")),
         limits=_limits(top.section("limits")),
         navigation_max_v_m_s=_navigation(top.section("navigation")),
+        square=_square(top.section("square")),
+        figure8=_positive(top.section("figure8"), FigureEightConfig()),
         deadband=_deadband(top.section("deadband")),
         wheel_pi=_wheel_pi(top.section("wheel_pi")),
         health=_health(top.section("health")),
@@ -249,6 +255,29 @@ def _limits(s: Fields) -> LimiterConfig:
 def _navigation(s: Fields) -> float | None:
     out = s.optional_number("max_vel_x_m_s", 0.0, lo_open=True)
     s.finish()
+    return out
+
+
+def _positive(s: Fields, d: Any) -> Any:
+    """A dataclass of numbers, each above 0, defaulting to ``d``'s."""
+    out = replace(
+        d, **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
+    )
+    s.finish()
+    return out
+
+
+def _square(s: Fields) -> SquareConfig:
+    out: SquareConfig = _positive(s, SquareConfig())
+    if out.v_min_m_s > out.v_max_m_s:
+        raise s.fail(
+            "v_min_m_s", f"must not exceed v_max_m_s ({out.v_max_m_s:g}), got {out.v_min_m_s:g}"
+        )
+    if out.w_min_rad_s > out.w_max_rad_s:
+        raise s.fail(
+            "w_min_rad_s",
+            f"must not exceed w_max_rad_s ({out.w_max_rad_s:g}), got {out.w_min_rad_s:g}",
+        )
     return out
 
 
@@ -462,6 +491,8 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
         },
         "limits": {f.name: getattr(cfg.limits, f.name) for f in fields(LimiterConfig)},
         "navigation": {"max_vel_x_m_s": cfg.navigation_max_v_m_s},
+        "square": {f.name: getattr(cfg.square, f.name) for f in fields(SquareConfig)},
+        "figure8": {f.name: getattr(cfg.figure8, f.name) for f in fields(FigureEightConfig)},
         "deadband": {
             "left": {"forward": db.forward_left, "reverse": db.reverse_left},
             "right": {"forward": db.forward_right, "reverse": db.reverse_right},

@@ -390,3 +390,39 @@ def test_navigation_top_speed_caps_only_the_local_planner(tmp_path: Path) -> Non
     assert error_of(tmp_path, {"navigation": {"max_vel_x_m_s": 0}}).endswith(
         "navigation.max_vel_x_m_s: expected a number > 0 or null, got 0"
     )
+
+
+# ------------------------------------------------------------------------- missions
+
+
+def test_mission_sections_reach_the_daemons_missions(tmp_path: Path) -> None:
+    from jackson.host.control import FigureEight, SquareMission, make_mission
+
+    cfg = load_with(
+        tmp_path,
+        {"square": {"heading_tolerance_rad": 0.02, "k_cross": 1.5}, "figure8": {"w_rad_s": 0.2}},
+    )
+    assert cfg.square.heading_tolerance_rad == 0.02
+    assert cfg.square.k_cross == 1.5
+    assert cfg.square.v_max_m_s == HostConfig().square.v_max_m_s  # the rest default
+    assert parse_config(dump_config(cfg)) == cfg
+    square = make_mission("square", cfg)
+    assert isinstance(square, SquareMission) and square.cfg == cfg.square
+    eight = make_mission("figure8", cfg)
+    assert isinstance(eight, FigureEight) and eight.cfg.w_rad_s == 0.2
+
+
+@pytest.mark.parametrize(
+    ("data", "tail"),
+    [
+        ({"square": {"k_cross": 0}}, "square.k_cross: expected a number > 0, got 0"),
+        ({"square": {"tolerance": 1}}, "square.tolerance: unknown field (check the spelling)"),
+        (
+            {"square": {"v_min_m_s": 0.2}},
+            "square.v_min_m_s: must not exceed v_max_m_s (0.15), got 0.2",
+        ),
+        ({"figure8": {"v_m_s": -0.08}}, "figure8.v_m_s: expected a number > 0, got -0.08"),
+    ],
+)
+def test_bad_mission_fields_name_the_field(tmp_path: Path, data: dict[str, Any], tail: str) -> None:
+    assert error_of(tmp_path, data).endswith(tail)
