@@ -165,6 +165,15 @@ STAGE3_FIGURES: tuple[Figure, ...] = (
 )  # fmt: skip
 """Stage 3's continuous outcomes on the physical robot (Table 14; the Isaac twin beside)."""
 
+CHECKS: tuple[Figure, ...] = (
+    Figure("square", "ekf_path_m", "EKF path length [m]", "T5", 4.133, 0.020, decimals=3),
+    Figure("figure8", "ekf_path_m", "EKF path length [m]", "T6", 6.96, 0.11),
+    Figure("figure8", "ekf_max_cross_track_cm",
+           "EKF largest cross-track deviation [cm]", "T7", 22.52, 3.04),
+)  # fmt: skip
+"""Further figures of the physical robot that no value of the twin or the configuration was
+identified from: the page shows them as checks, outside the count of 16."""
+
 PAPER_STAGE3_SUCCESS = (10, 10)  # goals reached / runs, physical and Isaac alike (T14)
 PAPER_STAGE3_CONTACTS = 0
 
@@ -756,6 +765,7 @@ class FidelityReport:
     robot_doc: Mapping[str, Any] = field(default_factory=dict)
     config_doc: Mapping[str, Any] = field(default_factory=dict)
     inactive: tuple[str, ...] = ()  # mechanisms this robot and configuration already lack
+    checks: tuple[FigureResult, ...] = ()  # CHECKS: shown, not counted
 
     @property
     def agreement(self) -> Agreement:
@@ -903,6 +913,25 @@ def _median_iqr(row: FigureResult) -> str:
     return f"{f.number(med)} [{f.number(q1)}, {f.number(q3)}]"
 
 
+def _check_lines(report: FidelityReport) -> list[str]:
+    rows = [r for r in report.checks if r.n > 0]
+    if not rows:
+        return []
+    lines = [
+        "Further figures of the paper, checks outside the count: no value of the twin or of the "
+        "configuration was identified from them.",
+        "",
+        "| stage | figure [unit] (paper table) | paper, physical | ours | z (within ±1 SD) |",
+        "|---|---|---|---|---|",
+    ]
+    for row in rows:
+        f = row.figure
+        lines.append(
+            f"| {f.stage} | {f.heading} | {f.paper_text} | {_ours(row)} | {_z_cell(row)} |"
+        )
+    return [*lines, ""]
+
+
 def _stage3_lines(report: FidelityReport) -> list[str]:
     if "maze" not in report.stages:
         return ["Not run (`--stages` without `maze`)."]
@@ -1047,6 +1076,7 @@ def fidelity_markdown(
         "",
         f"**{agreement_line(report.agreement)}.**",
         "",
+        *_check_lines(report),
         "## Stage 3: the maze with the dropped cylinder",
         "",
         *_stage3_lines(report),
@@ -1090,6 +1120,7 @@ def report_json(report: FidelityReport) -> dict[str, Any]:
         "sd_ratio_range": list(SD_RATIO_RANGE),
         "agreement": {"within": a.within, "within_and_sd": a.within_and_sd, "total": a.total},
         "figures": [r.as_json() for r in report.figures],
+        "checks": [r.as_json() for r in report.checks],
         "stage3": {
             "attempted": nav.attempted,
             "completed": nav.completed,
@@ -1492,6 +1523,7 @@ def run_fidelity(
         robot_doc=robot_doc,
         config_doc=config_doc,
         inactive=tuple(inactive),
+        checks=tuple(figure_result(f, results.get(f.mission, ())) for f in CHECKS),
     )
     _phase(progress, f"report -> {out / 'fidelity.md'} ({time.perf_counter() - wall0:.0f} s)")
     write_report_files(out, report, notes_text)

@@ -136,6 +136,8 @@ METRICS: dict[str, MetricSpec] = {
     "ekf_cross_track_rmse_cm": MetricSpec("EKF cross-track RMSE", "cm", "positive"),
     "gt_cross_track_rmse_cm": MetricSpec("Ground-truth cross-track RMSE", "cm", "positive"),
     "odom_cross_track_rmse_cm": MetricSpec("Raw-odometry cross-track RMSE", "cm", "positive"),
+    "ekf_max_cross_track_cm": MetricSpec("EKF largest cross-track deviation", "cm", "positive"),
+    "ekf_path_m": MetricSpec("EKF path length", "m", "positive"),
     "ekf_position_rmse_vs_gt_cm": MetricSpec("EKF position RMSE vs ground truth", "cm", "positive"),
     "ekf_yaw_rmse_vs_gt_deg": MetricSpec("EKF yaw RMSE vs ground truth", "deg", "positive"),
     "gt_loop_diameter_ccw_m": MetricSpec("CCW loop diameter, ground truth", "m", "positive"),
@@ -158,6 +160,10 @@ PAPER: dict[str, dict[str, tuple[PaperFigure | None, PaperFigure | None]]] = {
         "ekf_cross_track_rmse_cm": (PaperFigure(2.46, 0.36), None),
         "ekf_position_rmse_vs_gt_cm": (None, PaperFigure(1.70, 0.55)),
         "ekf_yaw_rmse_vs_gt_deg": (None, PaperFigure(0.97, 0.24)),
+        "ekf_path_m": (
+            PaperFigure(4.133, 0.020, decimals=3),
+            PaperFigure(3.9877, 0.0109, decimals=4),
+        ),
         "duration_s": (PaperFigure(47.52, 0.26), PaperFigure(67.17, 0.15)),
     },
     "figure8": {
@@ -174,6 +180,8 @@ PAPER: dict[str, dict[str, tuple[PaperFigure | None, PaperFigure | None]]] = {
         "odom_closure_cm": (PaperFigure(207.0, 26.0, decimals=0), None),
         "optimism_gap_cm": (PaperFigure(_GAP_MEAN_CM, _GAP_SD_CM), PaperFigure(5.16, 0.41)),
         "ekf_final_heading_deg": (PaperFigure(1.42, 0.22), PaperFigure(1.41, 0.15)),
+        "ekf_max_cross_track_cm": (PaperFigure(22.52, 3.04), None),
+        "ekf_path_m": (PaperFigure(6.96, 0.11), None),
         "duration_s": (PaperFigure(96.43, 2.07), PaperFigure(98.26, 0.04)),
     },
 }

@@ -388,6 +388,8 @@ def trial_metrics(run_dir: Path, mission: str) -> dict[str, Any]:
     out["gt_cross_track_rmse_cm"] = m.cross_track_rmse(gxy, path) * 100
     out["ekf_cross_track_rmse_cm"] = m.cross_track_rmse(exy, path) * 100
     out["odom_cross_track_rmse_cm"] = m.cross_track_rmse(oxy, path) * 100
+    out["ekf_max_cross_track_cm"] = m.max_cross_track(exy, path) * 100
+    out["ekf_path_m"] = float(np.sum(np.hypot(np.diff(ex), np.diff(ey))))
     if mission == "figure8":
         split = m.figure_eight_split(gyaw)
         ccw, cw = m.loop_diameters(gxy, split)

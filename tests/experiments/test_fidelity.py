@@ -3,6 +3,7 @@ mechanisms' patches, the ablation's runs, and one real run on the twin through t
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -459,3 +460,21 @@ def test_mechanisms_a_configuration_lacks_are_left_out_of_its_ablation() -> None
     ]
     with pytest.raises(MechanismError, match="deceleration_limits: its patch switches nothing"):
         ablate(MECHANISMS, "jackson_physical", None)
+
+
+def test_the_checks_are_shown_but_not_counted() -> None:
+    runs = _synthetic(0.5, 1.0)
+    for r in runs["square"]:
+        r["ekf_path_m"] = 4.133 + 0.1  # +5 SD: outside, and the count must not move
+    report = dataclasses.replace(
+        _report(runs),
+        checks=tuple(figure_result(f, runs.get(f.mission, ())) for f in fd.CHECKS),
+    )
+    assert report.agreement.total == 16 and report.agreement.within == 16
+    lines = fidelity_markdown(report).splitlines()
+    assert (
+        "| square | EKF path length [m] (T5) | 4.133 ± 0.020 | 4.233 ± 0.000 | **+5.00 (no)** |"
+        in lines
+    )
+    assert not any(line.startswith("| figure-eight | EKF path length") for line in lines)  # none
+    assert fd.report_json(report)["checks"][0]["key"] == "ekf_path_m"

@@ -212,3 +212,13 @@ def test_on_a_terminal_the_bar_prints_no_lines_and_disabled_prints_nothing() -> 
     with TrialProgress("square x2", 2, enabled=False, stream=quiet) as bar:
         bar.advance("square seed 0: completed")
     assert quiet.getvalue() == ""
+
+
+def test_ekf_path_length_and_largest_deviation(report: tuple[Path, list[dict[str, Any]]]) -> None:
+    # the synthetic EKF runs the 1 m square drifting to a few millimetres off its start
+    _, results = report
+    for r in results:
+        assert r["ekf_path_m"] == pytest.approx(4.0, abs=0.02)
+        assert 0.0 < r["ekf_max_cross_track_cm"] < 0.6
+    summary = json.loads((report[0] / "summary.json").read_text())
+    assert summary["metrics"]["ekf_path_m"]["paper"]["physical"]["mean"] == 4.133
