@@ -372,6 +372,7 @@ def nav_metrics(
         after = t >= t_ins
         if after.any():
             d_min = m.d_min(poses[after], (cyl.x, cyl.y, cyl.radius))
+    d_min_est = math.nan
     # the mission's belief against the truth at its ticks
     err = []
     yaw_err = []
@@ -382,6 +383,9 @@ def nav_metrics(
         gyaw = np.interp(ts, t, np.unwrap(poses[:, 2]))
         err = np.hypot(est[:, 0] - gx, est[:, 1] - gy).tolist()
         yaw_err = np.abs(m.wrap_angle(est[:, 2] - gyaw)).tolist()
+        if cylinder is not None and (ts >= t_ins).any():
+            # the physical robot's d_min (T14) is of its own (AMCL) estimate: this one
+            d_min_est = m.d_min(est[ts >= t_ins], tuple(cylinder))
     return {
         "completed": bool(success),
         "reached": bool(reached),
@@ -391,6 +395,7 @@ def nav_metrics(
         "duration_s": float(t1 - t0),
         "path_length_m": path_m,
         "d_min_m": d_min,
+        "d_min_estimate_m": d_min_est,
         "t_insert_s": t_ins,
         "t_start_s": t0,
         "cylinder": cylinder,
