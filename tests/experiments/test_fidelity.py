@@ -450,11 +450,12 @@ def test_a_failed_mapping_run_is_reported_not_raised(
 
 
 def test_mechanisms_a_configuration_lacks_are_left_out_of_its_ablation() -> None:
-    """With the packaged configuration (no bringup limits, no top speed) those two mechanisms
-    are not ablated, and said so; without the list to collect them they are an error."""
+    """With the packaged configuration (no bringup limits, square controller or top speed)
+    those mechanisms are not ablated, and said so; without the list to collect them they are an
+    error."""
     inactive: list[str] = []
     ablated = ablate(MECHANISMS, "jackson_physical", None, inactive)
-    assert inactive == ["deceleration_limits", "navigation_top_speed"]
+    assert inactive == ["deceleration_limits", "square_controller", "navigation_top_speed"]
     assert [a.mechanism.name for a in ablated] == [
         m.name for m in MECHANISMS if m.name not in inactive
     ]
