@@ -205,7 +205,7 @@ class Daemon:
         self.recorder = RunRecorder(run_folder, meta) if run_folder is not None else None
         self.commands = CommandTracker(transport.encode, self._send_frame)
         if mission is None and mission_name:
-            mission = make_mission(mission_name, cfg)
+            mission = make_mission(mission_name, cfg.square, cfg.figure8)
         self.lidar = lidar  # a started RplidarDriver (its raw bytes go to the core), or None
         self.output = output_factory(self._send)
         self.core = HostCore(

@@ -185,7 +185,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     if mission == "navigate":
         the_mission = _mission_from_meta(run, meta, cfg.navigation_limits())
     elif mission:
-        the_mission = make_mission(mission, cfg)
+        the_mission = make_mission(mission, cfg.square, cfg.figure8)
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
     core.lidar.expect(_lidar_answer_type(meta, run))
     for t_ns, item in records:

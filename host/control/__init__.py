@@ -2,24 +2,20 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from jackson.host.control.base import Mission, NavState, wrap_angle
 from jackson.host.control.figure8 import FigureEight, FigureEightConfig
 from jackson.host.control.square import SquareConfig, SquareMission
 
-if TYPE_CHECKING:
-    from jackson.host.config import HostConfig
-
 MISSIONS = {"square": SquareMission, "figure8": FigureEight}
 
 
-def make_mission(name: str, cfg: HostConfig) -> Mission:
-    """The mission ``name`` (a key of MISSIONS) with its section of the host configuration."""
+def make_mission(name: str, square: SquareConfig, figure8: FigureEightConfig) -> Mission:
+    """The mission ``name`` (a key of MISSIONS) with its section of the host configuration
+    (``HostConfig.square`` or ``HostConfig.figure8``)."""
     if name == "square":
-        return SquareMission(cfg.square)
+        return SquareMission(square)
     if name == "figure8":
-        return FigureEight(cfg.figure8)
+        return FigureEight(figure8)
     raise KeyError(name)
 
 

@@ -406,9 +406,9 @@ def test_mission_sections_reach_the_daemons_missions(tmp_path: Path) -> None:
     assert cfg.square.k_cross == 1.5
     assert cfg.square.v_max_m_s == HostConfig().square.v_max_m_s  # the rest default
     assert parse_config(dump_config(cfg)) == cfg
-    square = make_mission("square", cfg)
+    square = make_mission("square", cfg.square, cfg.figure8)
     assert isinstance(square, SquareMission) and square.cfg == cfg.square
-    eight = make_mission("figure8", cfg)
+    eight = make_mission("figure8", cfg.square, cfg.figure8)
     assert isinstance(eight, FigureEight) and eight.cfg.w_rad_s == 0.2
 
 
