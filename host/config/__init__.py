@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from jackson.common.fields import ConfigError as ConfigError  # re-exported
 from jackson.common.fields import Fields, read_yaml, show
@@ -50,6 +50,8 @@ MAX_TELEMETRY_RATE_HZ = TELEMETRY_RATE_HZ_RANGE[1]  # SET_RATE limit (protocol/s
 WATCHDOG_RANGE_S = (FAILSAFE_MS_RANGE[0] / 1000.0, FAILSAFE_MS_RANGE[1] / 1000.0)
 ROTATION_TOLERANCE = 1e-3  # the firmware's test for a proper rotation
 MAX_GYRO_BIAS_RAD_S = GYRO_BIAS_RAD_S_RANGE[1]  # the firmware refuses a bias of this or more
+
+_Numbers = TypeVar("_Numbers", LimiterConfig, SquareConfig, FigureEightConfig)
 
 Rotation = tuple[float, float, float, float, float, float, float, float, float]  # row-major 3x3
 IDENTITY: Rotation = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
@@ -244,12 +246,7 @@ def _ekf(s: Fields) -> EkfConfig:
 
 
 def _limits(s: Fields) -> LimiterConfig:
-    d = LimiterConfig()
-    out = LimiterConfig(
-        **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
-    )
-    s.finish()
-    return out
+    return _positive(s, LimiterConfig())
 
 
 def _navigation(s: Fields) -> float | None:
@@ -258,7 +255,7 @@ def _navigation(s: Fields) -> float | None:
     return out
 
 
-def _positive(s: Fields, d: Any) -> Any:
+def _positive(s: Fields, d: _Numbers) -> _Numbers:
     """A dataclass of numbers, each above 0, defaulting to ``d``'s."""
     out = replace(
         d, **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
@@ -268,7 +265,7 @@ def _positive(s: Fields, d: Any) -> Any:
 
 
 def _square(s: Fields) -> SquareConfig:
-    out: SquareConfig = _positive(s, SquareConfig())
+    out = _positive(s, SquareConfig())
     if out.v_min_m_s > out.v_max_m_s:
         raise s.fail(
             "v_min_m_s", f"must not exceed v_max_m_s ({out.v_max_m_s:g}), got {out.v_min_m_s:g}"
