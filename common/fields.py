@@ -137,6 +137,16 @@ class Fields:
             raise self.fail(key, f"expected a non-empty text, got {show(v)}")
         return v
 
+    def optional_text(self, key: str) -> str | None:
+        """A non-empty text, or None when absent or null."""
+        self.used.add(key)
+        v = self.data.get(key)
+        if v is None:
+            return None
+        if not isinstance(v, str) or not v.strip():
+            raise self.fail(key, f"expected a non-empty text or null, got {show(v)}")
+        return v
+
     def section(self, key: str) -> Fields:
         """A nested mapping; absent or null reads as empty (all defaults)."""
         self.used.add(key)

@@ -60,13 +60,21 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument(
         "--map",
         type=Path,
-        help="localise on this map (map_server YAML); without it, map as it goes",
+        help="localise on this map (map_server YAML); with --lidar and no --goal, serve goal "
+        "after goal (the navigation service, docs/host.md); with --goal and without --map, map "
+        "as it goes",
     )
     p.add_argument(
         "--start",
         metavar="X,Y[,YAW]",
-        default="0,0,0",
-        help="the robot's pose in the map frame at the start (default 0,0,0)",
+        help="the robot's pose in the map frame at the start (default: service.start of the "
+        "config, 0,0,0)",
+    )
+    p.add_argument(
+        "--socket",
+        type=Path,
+        help="the navigation service's control socket (default: service.socket of the config; "
+        "auto: /run/jackson/daemon.sock as root or under systemd, else $XDG_RUNTIME_DIR/jackson/)",
     )
     p.add_argument("--run-dir", type=Path, help="run folder (default: RECORDING/<time>-<mission>)")
     p.add_argument("--no-record", action="store_true", help="do not write a run folder")
@@ -99,6 +107,8 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     )
     p.set_defaults(func=cmd_daemon)
 
+    _add_service_parsers(sub)
+
     p = sub.add_parser("monitor", help="live view of the link: rate, errors, counts, IMU, health")
     p.add_argument("--port", required=True, help="serial port (the robot's or the twin's)")
     p.add_argument("--baudrate", type=positive_int, default=921600)
@@ -109,6 +119,221 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
     p.add_argument("run", type=Path, help="run folder written by jackson daemon")
     p.add_argument("--out", type=Path, help="where to write the replayed outputs (default: temp)")
     p.set_defaults(func=cmd_replay)
+
+
+def _add_service_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """``jackson goal``, ``cancel``, ``status``, ``localise``: a running navigation service."""
+
+    def socket_option(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--socket",
+            type=Path,
+            help="the daemon's control socket (default: $JACKSON_SOCKET, else the daemon's "
+            "default: /run/jackson/daemon.sock, or $XDG_RUNTIME_DIR/jackson/daemon.sock)",
+        )
+        p.add_argument("--config", type=Path, help="host YAML naming service.socket")
+
+    p = sub.add_parser("goal", help="send a running robot to a map pose (the navigation service)")
+    p.add_argument("pose", metavar="X,Y[,YAW]", help="the goal in the map frame [m, m, rad]")
+    p.add_argument(
+        "--wait",
+        action="store_true",
+        help="wait for the goal's end, showing progress; exit 0 when reached, 1 otherwise",
+    )
+    socket_option(p)
+    p.set_defaults(func=cmd_goal)
+    p = sub.add_parser("cancel", help="cancel the running robot's goal: it brakes and idles")
+    p.add_argument("--id", type=positive_int, default=0, help="the goal's id (default: the active)")
+    socket_option(p)
+    p.set_defaults(func=cmd_cancel)
+    p = sub.add_parser(
+        "status", help="the running robot: state, goal, pose, health, CPU, disk (one screen)"
+    )
+    p.add_argument("--json", action="store_true", help="print the daemon's answer as JSON")
+    socket_option(p)
+    p.set_defaults(func=cmd_status)
+    p = sub.add_parser(
+        "localise", help="tell the running robot where it is (as RViz's 2D Pose Estimate)"
+    )
+    p.add_argument("pose", metavar="X,Y[,YAW]", help="the robot's pose in the map frame")
+    socket_option(p)
+    p.set_defaults(func=cmd_localise)
+
+
+def _socket(args: argparse.Namespace) -> Path:
+    from jackson.host.service.settings import ServiceSettings, socket_path
+
+    if args.socket is not None:
+        return Path(args.socket)
+    if args.config is not None:
+        cfg = _load(args.config)
+        return socket_path(cfg.service)  # type: ignore[attr-defined]
+    return socket_path(ServiceSettings())
+
+
+def _ask(args: argparse.Namespace, request: dict[str, Any], timeout_s: float | None = 10.0) -> Any:
+    from jackson.host.service.control import ControlError, ask
+
+    try:
+        yield from ask(_socket(args), request, timeout_s)
+    except ControlError as exc:
+        raise HostCliError(str(exc)) from exc
+
+
+def _pose_arg(text: str) -> Any:
+    from jackson.host.control.navigate import parse_pose
+
+    try:
+        return parse_pose(text)
+    except ValueError as exc:
+        raise HostCliError(f"pose: {exc}") from exc
+
+
+def _goal_line(g: dict[str, Any]) -> str:
+    where = f"({g['x']:.2f}, {g['y']:.2f}, {g['yaw']:.2f})"
+    text = f"goal {g['id']} {where}: {g['status']}"
+    if g.get("reason"):
+        text += f": {g['reason']}"
+    if g.get("t_end_s") is not None and g.get("t_start_s") is not None:
+        text += f" ({g['navigation_time_s']:.1f} s"
+        text += f", {g['recoveries']} recoveries)" if g.get("recoveries") else ")"
+    return text
+
+
+def cmd_goal(args: argparse.Namespace) -> int:
+    import contextlib
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    pose = _pose_arg(args.pose)
+    request = {"op": "goal", "x": pose.x, "y": pose.y, "yaw": pose.yaw, "wait": args.wait}
+    result: dict[str, Any] | None = None
+    progress = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[left]}"),
+        TimeElapsedColumn(),
+        transient=True,
+        disable=not sys.stdout.isatty(),
+    )
+    task = None
+    with progress if args.wait else contextlib.nullcontext():
+        for answer in _ask(args, request, None if args.wait else 10.0):
+            if "ok" in answer:
+                if not answer["ok"]:
+                    raise HostCliError(answer["error"])
+                progress.console.print(_goal_line(answer["goal"]))
+            elif "feedback" in answer:
+                fb = answer["feedback"]
+                left = fb.get("distance_remaining_m")
+                if left is None:
+                    continue
+                if task is None:
+                    task = progress.add_task(f"goal {fb['id']}", total=max(left, 0.01), left="")
+                eta = fb.get("eta_s")
+                progress.update(
+                    task,
+                    completed=max(0.0, (progress.tasks[0].total or 0.0) - left),
+                    left=f"{left:.1f} m left" + (f", ~{eta:.0f} s" if eta else ""),
+                )
+            elif "result" in answer:
+                result = answer["result"]
+    if not args.wait:
+        return 0
+    if result is None:
+        raise HostCliError("the daemon went away before the goal ended")
+    print(_goal_line(result), flush=True)
+    return 0 if result.get("status") == "succeeded" else 1
+
+
+def cmd_cancel(args: argparse.Namespace) -> int:
+    for answer in _ask(args, {"op": "cancel", "id": args.id}):
+        if not answer.get("ok"):
+            raise HostCliError(answer.get("error", "the daemon refused"))
+        print(f"canceling goal {answer['goal']['id']}: the robot brakes and idles", flush=True)
+    return 0
+
+
+def cmd_localise(args: argparse.Namespace) -> int:
+    pose = _pose_arg(args.pose)
+    for answer in _ask(args, {"op": "localise", "x": pose.x, "y": pose.y, "yaw": pose.yaw}):
+        if not answer.get("ok"):
+            raise HostCliError(answer.get("error", "the daemon refused"))
+        print(f"localising from ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})", flush=True)
+    return 0
+
+
+def cmd_status(args: argparse.Namespace) -> int:
+    import json
+
+    for answer in _ask(args, {"op": "status"}):
+        if not answer.get("ok"):
+            raise HostCliError(answer.get("error", "the daemon refused"))
+        st = answer["status"]
+        if args.json:
+            print(json.dumps(st, indent=2))
+            continue
+        for line in status_lines(st):
+            print(line)
+    return 0
+
+
+def status_lines(st: dict[str, Any]) -> list[str]:
+    """``jackson status`` as the operator reads it."""
+    out = []
+    t = st.get("t_s")
+    head = f"state: {st.get('state', 'velocity commands only')}"
+    if st.get("unavailable"):
+        head += f" (goals refused: {st['unavailable']})"
+    out.append(head + (f"; MCU time {t:.1f} s" if t is not None else "; no telemetry yet"))
+    pose = st.get("pose")
+    if pose is not None:
+        cov = pose["covariance"]
+        out.append(
+            f"pose: x {pose['x']:+.2f} m, y {pose['y']:+.2f} m, yaw {pose['yaw']:+.2f} rad "
+            f"(std {max(cov[0], 0) ** 0.5:.2f} m, {max(cov[4], 0) ** 0.5:.2f} m, "
+            f"{max(cov[8], 0) ** 0.5:.2f} rad)"
+        )
+    goal = st.get("goal")
+    if goal is not None:
+        left = goal.get("distance_remaining_m")
+        eta = st.get("eta_s")
+        extra = f", {left:.1f} m left" if left is not None else ""
+        extra += f", ~{eta:.0f} s" if eta is not None else ""
+        out.append(_goal_line(goal) + extra)
+    elif "goals" in st:
+        last = st.get("last_goal")
+        out.append("goal: none" + (f"; last {_goal_line(last)}" if last else ""))
+    if "goals" in st:
+        counts = ", ".join(f"{n} {k}" for k, n in st["goals"].items() if n)
+        out.append(f"goals so far: {counts or 'none'}")
+    sensors = st.get("sensors") or {}
+    if sensors:
+        out.append("sensors: " + ", ".join(f"{k} {v}" for k, v in sensors.items()))
+    out.append("link: " + ("; ".join(st.get("problems") or []) or "ok"))
+    cpu = st.get("cpu") or {}
+    out.append(
+        f"CPU: {cpu.get('share_of_core', 0) * 100:.1f} % of a core over "
+        f"{cpu.get('robot_s', 0):.0f} s of robot time "
+        f"(frame p99 {cpu.get('frame_p99_ms', 0):.1f} ms)"
+    )
+    d = st.get("disk") or {}
+    if d:
+        budget = f" of a {d['budget_mb']:.0f} MB budget" if d.get("budget_mb") else ""
+        out.append(
+            f"disk: recordings {d['used_mb']:.0f} MB{budget} in {d['folder']}; "
+            f"{d['free_mb'] / 1e3:.1f} GB free" + ("" if d.get("recording") else " (not recording)")
+        )
+    return out
+
+
+def _run_name(args: argparse.Namespace, navigate: Any) -> str:
+    """The run folder's name after its time stamp."""
+    from jackson.host.service.navigation import NavigationService
+
+    if isinstance(navigate, NavigationService):
+        return "service"
+    return str(args.mission or ("navigate" if navigate is not None else "drive"))
 
 
 def _load(path: Path | None) -> object:
@@ -163,7 +388,9 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     run_dir = None
     if not args.no_record:
         stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-        run_dir = args.run_dir or Path(cfg.recording_folder) / f"{stamp}-{args.mission or 'drive'}"
+        run_dir = (
+            args.run_dir or Path(cfg.recording_folder) / f"{stamp}-{_run_name(args, navigate)}"
+        )
         try:
             output_folder(run_dir, "--run-dir" if args.run_dir else "recording folder")
         except ValueError as exc:
@@ -209,27 +436,47 @@ def cmd_daemon(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 1
+    from jackson.host.service.control import ControlError
+    from jackson.host.service.navigation import NavigationService, service_meta
+    from jackson.host.service.settings import socket_path
+
+    service = navigate if isinstance(navigate, NavigationService) else None
+    nav_mission = service.nav if service is not None else navigate
     meta = {
-        "mission": "navigate" if navigate is not None else args.mission,
-        "navigate": navigate_meta(navigate.config) if navigate is not None else None,
+        "mission": "service"
+        if service is not None
+        else ("navigate" if navigate is not None else args.mission),
+        "navigate": navigate_meta(nav_mission.config) if nav_mission is not None else None,
+        "service": service_meta(service) if service is not None else None,
         "config": str(args.config or "default"),
         "port": cfg.serial.port,
         "started": dt.datetime.now().isoformat(),
     }
-    daemon = Daemon(
-        cfg,
-        output_factory,
-        transport,
-        mission_name=args.mission,
-        run_folder=run_dir,
-        meta=meta,
-        ros_args=(["--ros-args", *args.ros_args] if args.ros_args else []) if args.ros else None,
-        mission_timeout_s=args.mission_timeout,
-        notifier=notifier_from_env(),
-        mission=navigate,
-        lidar=lidar,
-        stall_s=args.stall_timeout,
-    )
+    try:
+        daemon = Daemon(
+            cfg,
+            output_factory,
+            transport,
+            mission_name=args.mission,
+            run_folder=run_dir,
+            meta=meta,
+            ros_args=(["--ros-args", *args.ros_args] if args.ros_args else [])
+            if args.ros
+            else None,
+            mission_timeout_s=args.mission_timeout,
+            notifier=notifier_from_env(),
+            mission=navigate,
+            lidar=lidar,
+            stall_s=args.stall_timeout,
+            control_socket=(args.socket or socket_path(cfg.service))
+            if service is not None
+            else None,
+        )
+    except ControlError as exc:
+        transport.close()
+        if lidar is not None:
+            lidar.close()
+        raise HostCliError(str(exc)) from exc
     if run_dir is not None:
         import yaml
 
@@ -237,8 +484,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / "config.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
-        if navigate is not None and navigate.static_map is not None:
-            navigate.static_map.save(run_dir / f"{MAP_NAME}.yaml")  # the replay's map
+        if nav_mission is not None and nav_mission.static_map is not None:
+            nav_mission.static_map.save(run_dir / f"{MAP_NAME}.yaml")  # the replay's map
     daemon.install_signals()
     print(
         f"daemon: {cfg.serial.port}, actuator {cfg.actuator}"
@@ -255,8 +502,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
         transport.close()
         if lidar is not None:
             lidar.close()
-        if navigate is not None and run_dir is not None:
-            built = navigate.built_map()
+        if nav_mission is not None and run_dir is not None:
+            built = nav_mission.built_map()
             if built is not None:
                 built.save(run_dir / "built_map.yaml")
                 print(f"map: {run_dir / 'built_map.yaml'}", flush=True)
@@ -271,6 +518,10 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             f"braked at EKF pose x={e.x_m:+.4f} m y={e.y_m:+.4f} m",
             flush=True,
         )
+        return status
+    if service is not None:
+        counts = ", ".join(f"{n} {k}" for k, n in service.book.counts.items() if n)
+        print(f"service stopped: goals {counts or 'none'}", flush=True)
         return status
     if navigate is not None:
         pose = navigate.pose_map()
@@ -306,9 +557,16 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
     if start_mode(args.lidar_mode) is not None and not args.lidar:
         raise HostCliError("--lidar-mode needs --lidar PORT (the RPLIDAR's port)")
     if not args.goal:
-        for name in ("map", "lidar"):
-            if name == "map" and getattr(args, name) is not None:
-                raise HostCliError("--map needs --goal (and --lidar)")
+        if args.mission and (args.lidar or args.map):
+            raise HostCliError(f"--mission {args.mission} drives without the LiDAR and map")
+        if args.mission is None and _serves(args, cfg):
+            return _service(args, cfg)
+        if args.map is not None:
+            raise HostCliError(
+                "--map needs --lidar PORT (or service.lidar in the config) to serve goals"
+            )
+        if args.start is not None:
+            raise HostCliError("--start needs --lidar and --map (or --goal)")
         return None
     if args.mission:
         raise HostCliError("--goal navigates: give it or --mission, not both")
@@ -318,7 +576,7 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
     from jackson.host.nav.grid import MapFileError, OccupancyGrid
 
     try:
-        start = parse_pose(args.start)
+        start = parse_pose(args.start or "0,0,0")
     except ValueError as exc:
         raise HostCliError(f"--start: {exc}") from exc
     try:
@@ -360,6 +618,41 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
         return NavigateMission(config, cfg.navigation_limits(), grid, keep_samples=False)
     except RouteError as exc:
         raise HostCliError(f"{exc} (--map {args.map})") from exc
+
+
+def _serves(args: argparse.Namespace, cfg: Any) -> bool:
+    """The daemon runs the navigation service: a LiDAR and a map, from the command line or
+    the config's ``service`` section."""
+    return bool((args.lidar or cfg.service.lidar) and (args.map or cfg.service.map))
+
+
+def _service(args: argparse.Namespace, cfg: Any) -> Any:
+    """The navigation service the command line and the config ask for (their LiDAR port is
+    in ``args.lidar`` afterwards), checked before anything opens."""
+    from jackson.host.control.navigate import NavigateConfig, parse_pose
+    from jackson.host.control.navigator import RouteError, check_route
+    from jackson.host.nav.grid import MapFileError, OccupancyGrid
+    from jackson.host.nav.types import Pose2D
+    from jackson.host.service.navigation import NavigationService
+
+    sv = cfg.service
+    args.lidar = args.lidar or sv.lidar
+    map_path = args.map or sv.map
+    where = "--map" if args.map else "service.map"
+    try:
+        start = parse_pose(args.start) if args.start is not None else Pose2D(*sv.start)
+    except ValueError as exc:
+        raise HostCliError(f"--start: {exc}") from exc
+    try:
+        grid = OccupancyGrid.load(map_path)
+    except MapFileError as exc:
+        raise HostCliError(f"{where}: {exc}") from exc
+    config = NavigateConfig(start=start, goals=(), localisation="amcl")
+    try:
+        check_route(grid, start, (), config.navigator)
+        return NavigationService(config, cfg.navigation_limits(), grid, sv)
+    except RouteError as exc:
+        raise HostCliError(f"{exc} ({where} {map_path}; give --start X,Y,YAW)") from exc
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ import dataclasses
 import gc
 import json
 import math
+import os
 import signal
 import threading
 import time
@@ -42,6 +43,7 @@ from jackson.protocol import (
 if TYPE_CHECKING:  # the seams' types only: the serial port and the LiDAR load when used
     from jackson.host.lidar.rplidar import LidarSource
     from jackson.host.sdnotify import Notifier
+    from jackson.host.service.control import ControlServer
     from jackson.host.transport import Link
 
 GC_GEN0_THRESHOLD = 20_000  # young objects allocated (less freed) between two collections
@@ -189,7 +191,9 @@ class Daemon:
         mission: Mission | None = None,
         lidar: LidarSource | None = None,
         stall_s: float | None = None,
+        control_socket: Path | None = None,
     ) -> None:
+        from jackson.host.service.navigation import NavigationService
         from jackson.host.transport import STALL_S
 
         self.cfg = cfg
@@ -284,6 +288,76 @@ class Daemon:
         self.core.listeners.append(_OperatorListener(self))
         self.stop = threading.Event()
         self.link_downs = 0
+        # the navigation service: goal after goal, the control socket (jackson goal/status)
+        self.service = mission if isinstance(mission, NavigationService) else None
+        self.control: ControlServer | None = None
+        if self.service is not None:
+            self.service.tell = self.tell  # called on the frame loop's thread
+            if control_socket is not None:
+                from jackson.host.service.control import ControlServer
+
+                self.control = ControlServer(control_socket, self.service, self.status, self._drive)
+
+    def _drive(self, v_m_s: float, w_rad_s: float) -> None:
+        """A velocity command from the control socket, as one on /cmd_vel."""
+        self.core.submit_velocity(v_m_s, w_rad_s, time.monotonic_ns())
+
+    def status(self) -> dict[str, Any]:
+        """What ``jackson status`` shows: the service's state, goal, pose with covariance,
+        sensor health, link problems, CPU and the recording folder's disk use. Safe from
+        another thread (it reads snapshots)."""
+        out: dict[str, Any] = {"t_s": self.core.t_s, "frames": self.core.frames}
+        svc = self.service
+        if svc is not None:
+            st = svc.status
+            out.update(
+                state=st.state.value,
+                unavailable=st.unavailable,
+                pose={
+                    "x": st.pose.x,
+                    "y": st.pose.y,
+                    "yaw": st.pose.yaw,
+                    "covariance": list(st.covariance),
+                },
+                goal=None if st.goal is None else st.goal.as_dict(),
+                eta_s=None if math.isnan(st.eta_s) else st.eta_s,
+                goals=dict(svc.book.counts),
+                last_goal=(lambda h: h[-1].as_dict() if h else None)(svc.book.history()),
+            )
+        hm = self.core.health
+        out["sensors"] = (
+            {name: state.value for name, state in hm.sensors.items()} if hm is not None else {}
+        )
+        out["problems"] = self.health().problems()
+        out["cpu"] = {
+            "share_of_core": self.cpu.share_of_core,
+            "robot_s": self.cpu.robot_s,
+            "frame_p99_ms": self.cpu.percentile_us(0.99) / 1e3,
+        }
+        out["disk"] = self.disk()
+        return out
+
+    def disk(self) -> dict[str, Any]:
+        """The recording folder's use and budget [MB] and the free space on its disk [MB]."""
+        import shutil
+
+        folder = self.cfg.recording_folder
+        if self.run_folder is not None:
+            folder = self.run_folder.parent
+        used = _folder_bytes(folder)
+        try:
+            free = shutil.disk_usage(folder).free
+        except OSError:
+            free = 0
+        budget = self.cfg.recording_budget_mb
+        return {
+            "folder": str(folder),
+            "recording": self.run_folder is not None,
+            "used_mb": used / 1e6,
+            "budget_mb": budget,
+            "left_mb": max(0.0, budget - used / 1e6) if budget > 0 else None,
+            "free_mb": free / 1e6,
+        }
 
     def _send(self, msg: Message) -> object:
         if isinstance(msg, Heartbeat):
@@ -424,6 +498,9 @@ class Daemon:
             if self.bridge.late_clock():  # before the first frame is stamped
                 self._say(self.bridge.notes[-1])
             self.bridge.start()
+        if self.control is not None:
+            self.control.start()
+            self._say(f"taking goals on {self.control.path} (jackson goal X,Y)")
         if self.notifier is not None:
             self.notifier.ready()
         if self._repairer is not None and not self._repairer.is_alive():
@@ -518,6 +595,10 @@ class Daemon:
             core.brake()
             if self.notifier is not None:
                 self.notifier.stopping()
+            if self.control is not None:
+                self.control.stop()
+            if self.service is not None:
+                self.service.book.end_all("the daemon stopped")
             if self.bridge is not None:
                 self.bridge.stop()
             self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
@@ -603,6 +684,26 @@ class Daemon:
             (self.run_folder / "health.json").write_text(json.dumps(doc, indent=2) + "\n")
         except OSError as exc:
             print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
+
+
+def _folder_bytes(folder: Path) -> int:
+    """Bytes of the files under ``folder`` (0 when it is not there)."""
+    total = 0
+    stack = [folder]
+    while stack:
+        try:
+            entries = list(os.scandir(stack.pop()))
+        except OSError:
+            continue
+        for e in entries:
+            try:
+                if e.is_dir(follow_symlinks=False):
+                    stack.append(Path(e.path))
+                elif e.is_file(follow_symlinks=False):
+                    total += e.stat(follow_symlinks=False).st_size
+            except OSError:
+                continue
+    return total
 
 
 def lidar_meta(lidar: LidarSource | None) -> dict[str, Any]:

@@ -26,6 +26,7 @@ from jackson.host.recording import (
     KIND_END,
     KIND_LIDAR,
     KIND_LINK,
+    KIND_REQUEST,
     KIND_RX,
     KINDS,
     RecordingError,
@@ -39,6 +40,9 @@ from jackson.protocol.rplidar import DataType
 if TYPE_CHECKING:  # the missions load when a run is replayed, not for jackson --help
     from jackson.host.actuation.limiter import LimiterConfig
     from jackson.host.control import Mission
+    from jackson.host.control.navigate import NavigateConfig
+    from jackson.host.nav.grid import OccupancyGrid
+    from jackson.host.service.navigation import NavigationService, Request
 
 COMPARED = ("odometry.csv", "ekf.csv", "commands.csv", "health.csv")
 STALL_RECORD = "lockstep stalled: "  # the daemon's link record when a stall ended the run
@@ -98,7 +102,7 @@ def _meta(run: Path) -> tuple[dict[str, object], str | None]:
     if not isinstance(meta, dict):
         raise RecordingError(f"{path}: expected a JSON object, got {type(meta).__name__}")
     mission = meta.get("mission")
-    if mission is not None and mission not in MISSIONS and mission != "navigate":
+    if mission is not None and mission not in MISSIONS and mission not in ("navigate", "service"):
         known = ", ".join(sorted(MISSIONS))
         raise RecordingError(f"{path}: mission {mission!r} is none of {known}")
     return meta, mission
@@ -106,12 +110,12 @@ def _meta(run: Path) -> tuple[dict[str, object], str | None]:
 
 def _checked_log(
     run: Path,
-) -> tuple[list[tuple[int, Frame | tuple[float, float] | bytes]], str | None]:
+) -> tuple[list[tuple[int, Frame | tuple[float, float] | bytes | Request]], str | None]:
     """The log's records, each received frame decoded and each command unpacked, and why the
     run is cut (None: closed cleanly); or one line naming the first damaged record."""
     from jackson.protocol import ProtocolError, decode_message
 
-    records: list[tuple[int, Frame | tuple[float, float] | bytes]] = []
+    records: list[tuple[int, Frame | tuple[float, float] | bytes | Request]] = []
     complete = False
     stalled: str | None = None
     for k, r in enumerate(read_log(run)):
@@ -137,6 +141,13 @@ def _checked_log(
             records.append((r.host_time_ns, unpack_command(r.payload)))
         elif r.kind == KIND_LIDAR:
             records.append((r.host_time_ns, r.payload))
+        elif r.kind == KIND_REQUEST:
+            from jackson.host.service.navigation import Request
+
+            try:
+                records.append((r.host_time_ns, Request.decode(r.payload)))
+            except ValueError as exc:
+                raise RecordingError(f"{where}: {exc}") from exc
         elif r.kind == KIND_LINK and r.payload.startswith(STALL_RECORD.encode()):
             stalled = r.payload.decode("utf-8", "replace")
         elif r.kind == KIND_END:
@@ -169,6 +180,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     from jackson.host.config import DEFAULT_CONFIG, load_config
     from jackson.host.control import make_mission
     from jackson.host.core import HostCore
+    from jackson.host.service.navigation import NavigationService, Request
     from jackson.protocol import Telemetry
 
     meta, mission = _meta(run)
@@ -184,6 +196,8 @@ def replay(run: Path, out: Path) -> ReplayResult:
     the_mission: Mission | None = None
     if mission == "navigate":
         the_mission = _mission_from_meta(run, meta, cfg.navigation_limits())
+    elif mission == "service":
+        the_mission = _service_from_meta(run, meta, cfg.navigation_limits())
     elif mission:
         the_mission = make_mission(mission, cfg.square, cfg.figure8)
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
@@ -191,6 +205,9 @@ def replay(run: Path, out: Path) -> ReplayResult:
     for t_ns, item in records:
         if isinstance(item, bytes):
             core.on_lidar(item, t_ns)
+        elif isinstance(item, Request):
+            assert isinstance(the_mission, NavigationService)
+            the_mission.put(item)
         elif isinstance(item, Frame):
             core.on_frame(item, t_ns)
             if item.type == Telemetry.TYPE:
@@ -212,22 +229,24 @@ def replay(run: Path, out: Path) -> ReplayResult:
     return result
 
 
-def _mission_from_meta(run: Path, meta: Mapping[str, object], limits: LimiterConfig) -> Mission:
-    """The mission a navigation run folder was driven by (its ``meta.json`` and map).
+def _navigation_from_meta(
+    run: Path, meta: Mapping[str, object]
+) -> tuple[NavigateConfig, OccupancyGrid | None]:
+    """The navigation settings and map a run folder recorded (``meta.json``'s ``navigate``).
 
     Raises
     ------
     RecordingError
         The ``navigate`` entry or the map is missing or damaged.
     """
-    from jackson.host.control.navigate import NavigateConfig, NavigateMission
+    from jackson.host.control.navigate import NavigateConfig
     from jackson.host.nav.grid import MapFileError, OccupancyGrid
     from jackson.host.nav.types import Pose2D
 
     where = run / "meta.json"
     nav = meta.get("navigate")
     if not isinstance(nav, Mapping):
-        raise RecordingError(f"{where}: a navigate run without its navigate entry")
+        raise RecordingError(f"{where}: a navigation run without its navigate entry")
     try:
         config = NavigateConfig(
             start=Pose2D(*nav["start"]),
@@ -245,4 +264,50 @@ def _mission_from_meta(run: Path, meta: Mapping[str, object], limits: LimiterCon
             grid = OccupancyGrid.load(run / str(nav["map"]))
         except MapFileError as exc:
             raise RecordingError(str(exc)) from exc
+    return config, grid
+
+
+def _mission_from_meta(run: Path, meta: Mapping[str, object], limits: LimiterConfig) -> Mission:
+    """The mission a navigation run folder was driven by (its ``meta.json`` and map).
+
+    Raises
+    ------
+    RecordingError
+        The ``navigate`` entry or the map is missing or damaged.
+    """
+    from jackson.host.control.navigate import NavigateMission
+
+    config, grid = _navigation_from_meta(run, meta)
     return NavigateMission(config, limits, grid)
+
+
+def _service_from_meta(
+    run: Path, meta: Mapping[str, object], limits: LimiterConfig
+) -> NavigationService:
+    """The navigation service a run folder was recorded by (``navigate`` and ``service``).
+
+    Raises
+    ------
+    RecordingError
+        An entry or the map is missing or damaged.
+    """
+    from jackson.host.service.navigation import NavigationService
+    from jackson.host.service.settings import ServiceSettings
+
+    config, grid = _navigation_from_meta(run, meta)
+    where = run / "meta.json"
+    if grid is None:
+        raise RecordingError(f"{where}: a service run without its map")
+    entry = meta.get("service")
+    if not isinstance(entry, Mapping):
+        raise RecordingError(f"{where}: a service run without its service entry")
+    try:
+        settings = ServiceSettings(
+            goal_timeout_s=float(entry["goal_timeout_s"]),
+            lost_std_m=float(entry["lost_std_m"]),
+            lost_confirm_s=float(entry["lost_confirm_s"]),
+            history=int(entry["history"]),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise RecordingError(f"{where}: service: {exc}") from exc
+    return NavigationService(config, limits, grid, settings)

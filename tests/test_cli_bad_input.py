@@ -379,7 +379,19 @@ CASES: dict[str, Case] = {
         "daemon --goal 1,0 --mission square --lidar robot_tty --no-record", "--mission"
     ),
     "daemon_start_short": c("daemon --goal 1,0 --lidar robot_tty --start 1 --no-record", "--start"),
-    "daemon_map_no_goal": c("daemon --map maps/good.yaml --no-record", "--goal"),
+    "daemon_map_no_lidar": c("daemon --map maps/good.yaml --no-record", "--lidar"),
+    "daemon_start_no_map": c("daemon --start 1,0 --no-record", "--start"),
+    "daemon_service_map_missing": c(
+        f"daemon --lidar robot_tty --map {MISSING} --no-record", "missing.yaml"
+    ),
+    "daemon_service_start_in_wall": c(
+        "daemon --lidar robot_tty --map maps/good.yaml --start 1000,0 --no-record", "outside"
+    ),
+    "goal_no_daemon": c("goal 1,2 --socket nowhere.sock", "no jackson daemon"),
+    "goal_bad_pose": c("goal 1,x --socket nowhere.sock", "pose"),
+    "cancel_no_daemon": c("cancel --socket nowhere.sock", "no jackson daemon"),
+    "status_no_daemon": c("status --socket nowhere.sock", "no jackson daemon"),
+    "localise_bad_pose": c("localise nan,0 --socket nowhere.sock", "pose"),
     "daemon_map_missing": c(
         f"daemon --goal 1,0 --lidar robot_tty --map {MISSING} --no-record", "missing.yaml"
     ),

@@ -35,6 +35,7 @@ from jackson.host.control.square import SquareConfig
 from jackson.host.estimation.ekf import EkfConfig, ProcessNoise
 from jackson.host.estimation.health import POLICIES, HealthConfig
 from jackson.host.estimation.odometry import OdometryCovariance, RobotGeometry
+from jackson.host.service.settings import LiveViewSettings, ServiceSettings
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,
     FAILSAFE_MS_DEFAULT,
@@ -112,6 +113,10 @@ class HostConfig:
     recording_folder: Path = Path("runs")
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
     bag_compression: str = "zstd"  # the bag's MCAP chunk compression: zstd, lz4 or none
+    recording_split: str = "goal"  # a service's run folders: one per goal, per split_s, or none
+    recording_split_s: float = 3600.0  # [s] of MCU time per run folder (split: duration)
+    recording_budget_mb: float = 4000.0  # beyond it the oldest run folders go (0: never)
+    service: ServiceSettings = field(default_factory=ServiceSettings)
 
     def navigation_limits(self) -> LimiterConfig:
         """The bounds the local planner samples within: ``limits`` with the navigation's top
@@ -123,6 +128,7 @@ class HostConfig:
 
 
 BAG_COMPRESSIONS = ("zstd", "lz4", "none")
+RECORDING_SPLITS = ("goal", "duration", "none")
 """``recording.bag_compression``: the MCAP chunk compressions a run's bag may use."""
 
 DEFAULTS = HostConfig()
@@ -180,6 +186,7 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         serial=_serial(top.section("serial")),
         watchdog_s=top.number("watchdog_s", DEFAULTS.watchdog_s, *WATCHDOG_RANGE_S),
         **_recording(top.section("recording")),
+        service=_service(top.section("service")),
     )
     top.finish()
     return cfg
@@ -433,11 +440,45 @@ def _recording(s: Fields) -> dict[str, Any]:
         "bag_max_mb": s.number("bag_max_mb", DEFAULTS.bag_max_mb, 0.0),
         "bag_compression": s.text("bag_compression", DEFAULTS.bag_compression),
     }
+    out["recording_split"] = s.text("split", DEFAULTS.recording_split)
+    if out["recording_split"] not in RECORDING_SPLITS:
+        raise s.fail(
+            "split", f"{out['recording_split']!r} is not one of {', '.join(RECORDING_SPLITS)}"
+        )
+    out["recording_split_s"] = s.number("split_s", DEFAULTS.recording_split_s, 0.0, lo_open=True)
+    out["recording_budget_mb"] = s.number("budget_mb", DEFAULTS.recording_budget_mb, 0.0)
     if out["bag_compression"] not in BAG_COMPRESSIONS:
         raise s.fail(
             "bag_compression",
             f"{out['bag_compression']!r} is not one of {', '.join(BAG_COMPRESSIONS)}",
         )
+    s.finish()
+    return out
+
+
+def _service(s: Fields) -> ServiceSettings:
+    d = ServiceSettings()
+    map_file = s.optional_text("map")
+    lv = s.section("live_view")
+    dv = LiveViewSettings()
+    live_view = LiveViewSettings(
+        enabled=lv.boolean("enabled", dv.enabled),
+        host=lv.text("host", dv.host),
+        port=lv.integer("port", dv.port, 1, 65535),
+    )
+    lv.finish()
+    out = ServiceSettings(
+        lidar=s.optional_text("lidar"),
+        lidar_mode=s.text("lidar_mode", d.lidar_mode),
+        map=None if map_file is None else Path(map_file),
+        start=tuple(s.vector("start", d.start, 3)),  # type: ignore[arg-type]
+        socket=s.text("socket", d.socket),
+        goal_timeout_s=s.number("goal_timeout_s", d.goal_timeout_s, 0.0, lo_open=True),
+        lost_std_m=s.number("lost_std_m", d.lost_std_m, 0.0, lo_open=True),
+        lost_confirm_s=s.number("lost_confirm_s", d.lost_confirm_s, 0.0),
+        history=s.integer("history", d.history, 1, 100_000),
+        live_view=live_view,
+    )
     s.finish()
     return out
 
@@ -455,6 +496,7 @@ def _per_direction(forward: float, reverse: float | None) -> float | dict[str, f
 
 def dump_config(cfg: HostConfig) -> dict[str, Any]:
     """The configuration in the layout of the YAML file; ``parse_config`` reads it back equal."""
+    sv = cfg.service
     robot, odo, ekf, db, pca, imu = (
         cfg.robot,
         cfg.odometry,
@@ -524,6 +566,25 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "folder": str(cfg.recording_folder),
             "bag_max_mb": cfg.bag_max_mb,
             "bag_compression": cfg.bag_compression,
+            "split": cfg.recording_split,
+            "split_s": cfg.recording_split_s,
+            "budget_mb": cfg.recording_budget_mb,
+        },
+        "service": {
+            "lidar": sv.lidar,
+            "lidar_mode": sv.lidar_mode,
+            "map": None if sv.map is None else str(sv.map),
+            "start": list(sv.start),
+            "socket": sv.socket,
+            "goal_timeout_s": sv.goal_timeout_s,
+            "lost_std_m": sv.lost_std_m,
+            "lost_confirm_s": sv.lost_confirm_s,
+            "history": sv.history,
+            "live_view": {
+                "enabled": sv.live_view.enabled,
+                "host": sv.live_view.host,
+                "port": sv.live_view.port,
+            },
         },
     }
     if imu.calibration is not None:

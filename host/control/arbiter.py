@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from jackson.host.actuation.watchdog import CommandWatchdog
-from jackson.host.control.base import Mission, NavState
+from jackson.host.control.base import Mission, NavState, ServiceMission
 from jackson.host.control.guard import MissionGuard
 
 
@@ -69,9 +69,10 @@ class CommandArbiter:
         sensor_rules: bool,
     ) -> None:
         self.mission = mission
+        # a service's goals have their own timeout and end, not the process
         self.guard = (
             MissionGuard(mission.name, mission_timeout_s, sensor_rules=sensor_rules)
-            if mission is not None
+            if mission is not None and not isinstance(mission, ServiceMission)
             else None
         )
         self.watchdog = CommandWatchdog(watchdog_s)
@@ -121,6 +122,8 @@ class CommandArbiter:
             self._taken = None
             self.watchdog.feed(t_s)
         mission = self.mission
+        if isinstance(mission, ServiceMission):
+            return self._serve(mission, t_s, c, nav_state)
         if mission is not None:
             if abort_reason is not None:
                 return 0.0, 0.0, True
@@ -145,3 +148,26 @@ class CommandArbiter:
         if self.watchdog.expired(t_s) or c.sensors_lost is not None:
             return 0.0, 0.0, True
         return self.external[0], self.external[1], False
+
+    def _serve(
+        self, service: ServiceMission, t_s: float, c: Conditions, nav_state: Callable[[], NavState]
+    ) -> tuple[float, float, bool]:
+        """The navigation service's frame (as twist_mux in a Nav2 bringup): velocity commands
+        in force win and end an active goal; lost sensors brake and end it; else the service's
+        command, braked while it is idle (once the limiter has ramped the wheels to zero)."""
+        external = not self.watchdog.expired(t_s) and c.sensors_lost is None
+        service.sensors(t_s, c.sensors_lost)
+        service.external(t_s, external)
+        if not c.bias_known and not external:
+            service.command(nav_state())  # the requests are taken; the robot stands still
+            return 0.0, 0.0, True
+        v, w = service.command(nav_state())
+        if c.sensors_lost is not None:
+            return 0.0, 0.0, True
+        if external:
+            return self.external[0], self.external[1], False
+        if service.idle:
+            return 0.0, 0.0, c.wheel_cmd == (0.0, 0.0)
+        if c.lidar_blind:
+            return 0.0, 0.0, True  # no usable scan for too long: braked until one comes
+        return v, w, False

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 from jackson.common.geometry import wrap_angle as wrap_angle  # re-exported
 from jackson.host.nav.types import Scan
@@ -38,4 +39,39 @@ class ScanMission(Mission, Protocol):
 
     def on_scan(self, scan: Scan, s: NavState) -> None:
         """One revolution, with the estimate at its MCU time."""
+        ...
+
+
+@runtime_checkable
+class ServiceMission(ScanMission, Protocol):
+    """A mission that lasts as long as the daemon and takes requests from other threads (the
+    navigation service, :mod:`jackson.host.service.navigation`). It is never ``done``; the
+    command arbiter gives velocity commands precedence over it and holds it braked while
+    ``idle``."""
+
+    @property
+    def idle(self) -> bool:
+        """No goal is active: the robot is held braked."""
+        ...
+
+    @property
+    def navigating(self) -> bool:
+        """A goal is active: the LiDAR is needed."""
+        ...
+
+    def take_requests(self) -> Sequence[Any]:
+        """The requests the coming telemetry frame applies (each has ``encode() -> bytes``,
+        which the run's log keeps)."""
+        ...
+
+    def external(self, t_s: float, live: bool) -> None:
+        """Whether velocity commands are in force at this frame."""
+        ...
+
+    def sensors(self, t_s: float, lost: str | None) -> None:
+        """The health policy's reason to brake at this frame, or None."""
+        ...
+
+    def lidar_lost(self, reason: str) -> None:
+        """The LiDAR's port failed."""
         ...

@@ -64,7 +64,8 @@ class NavigateConfig:
     start : Pose2D
         The robot's pose in the map frame when the daemon starts (its odometry origin).
     goals : tuple of Pose2D
-        Visited in order; the mission is done when the last is reached.
+        Visited in order; the mission is done when the last is reached. Empty for the
+        navigation service (:mod:`jackson.host.service`), which takes its goals as they come.
     localisation : str
         ``amcl`` (needs a map) or ``slam`` (builds one).
     extent : tuple of 4 float
@@ -92,8 +93,6 @@ class NavigateConfig:
     mapping: MappingConfig = field(default_factory=MappingConfig)
 
     def __post_init__(self) -> None:
-        if not self.goals:
-            raise ValueError("NavigateConfig.goals: at least one goal")
         if self.localisation not in ("amcl", "slam"):
             raise ValueError(
                 f"NavigateConfig.localisation must be amcl or slam, got {self.localisation!r}"
@@ -207,7 +206,10 @@ class NavigateMission:
             check_route(
                 static_map, config.start, config.goals, nav_config, self.navigator.static_costmap
             )
-        self.navigator.set_goal(config.goals[0])
+        if config.goals:
+            self.navigator.set_goal(config.goals[0])
+        else:
+            self.done = True  # idle until a goal is given
         self.last: NavCommand | None = None
 
     # ------------------------------------------------------------------ inputs
@@ -239,6 +241,21 @@ class NavigateMission:
         """A new single goal (map frame), taken at the next tick; safe from another thread."""
         self._requested = goal
 
+    def track(self, s: MissionState) -> Pose2D:
+        """Follow the odometry to this tick (the localiser's motion update, without a scan);
+        the robot's pose in the map frame."""
+        self._odom = self._odom_pose(s)
+        if self.filter is not None:
+            self.filter.update(self._odom, None, self.config.lidar_mount)
+        return self.pose_map()
+
+    def relocalise(self, pose: Pose2D) -> None:
+        """The robot is at ``pose`` (map frame) now: the localiser starts again around it
+        (``/initialpose``, ``jackson localise``); with the mapper, the correction jumps there."""
+        self.map_to_odom = pose.compose(self._odom.inverse())
+        if self.filter is not None:
+            self.filter.initialise(pose)
+
     def command(self, s: MissionState) -> tuple[float, float]:
         """(v [m/s], w [rad/s]) for this tick, from the navigator."""
         requested, self._requested = self._requested, None
@@ -251,10 +268,7 @@ class NavigateMission:
             self.navigator.set_goal(requested)
         if self.done:
             return 0.0, 0.0
-        self._odom = self._odom_pose(s)
-        if self.filter is not None:
-            self.filter.update(self._odom, None, self.config.lidar_mount)
-        pose = self.pose_map()
+        pose = self.track(s)
         cmd = self.navigator.step(s.t_s, pose, (s.v_m_s, s.w_rad_s), self._scan_points)
         self._scan_points = None
         self.last = cmd

@@ -36,7 +36,7 @@ from jackson.host.actuation.watchdog import CommandWatchdog
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
 from jackson.host.control.arbiter import CommandArbiter, Conditions
-from jackson.host.control.base import ScanMission
+from jackson.host.control.base import ScanMission, ServiceMission
 from jackson.host.core.chain import ActuationChain
 from jackson.host.core.frontend import FrontEnd
 from jackson.host.core.fusion import Fusion
@@ -123,6 +123,9 @@ class RunFolderListener(CoreListener):
 
     def on_frame(self, frame: Frame, host_time_ns: int) -> None:
         self.recorder.rx(host_time_ns, frame.type, frame.seq, frame.payload)
+
+    def on_request(self, data: bytes, host_time_ns: int) -> None:
+        self.recorder.request(host_time_ns, data)
 
     def on_event(self, host_time_ns: int, text: str) -> None:
         self.recorder.link(host_time_ns, text)
@@ -343,7 +346,15 @@ class HostCore:
 
     def on_frame(self, frame: Frame, host_time_ns: int = 0) -> None:
         """One decoded frame from the MCU."""
-        taken = self.arbiter.take(frame.type == Telemetry.TYPE)
+        telemetry = frame.type == Telemetry.TYPE
+        mission = self.mission
+        if telemetry and isinstance(mission, ServiceMission):
+            # the service's requests this frame applies, logged before it (as commands are)
+            for request in mission.take_requests():
+                data = request.encode()
+                for listener in self.listeners:
+                    listener.on_request(data, host_time_ns)
+        taken = self.arbiter.take(telemetry)
         if taken is not None:
             # taken once, on this thread; logged before the frame that applies it, so a replay
             # applies it to the same frame
@@ -384,7 +395,9 @@ class HostCore:
         if hm is not None:
             hm.lidar_gone(t_s, reason)
             self.fusion.report_health()
-        if isinstance(self.mission, ScanMission) and not self.mission.done:
+        if isinstance(self.mission, ServiceMission):
+            self.mission.lidar_lost(reason)  # goals end and are refused; the service stays up
+        elif isinstance(self.mission, ScanMission) and not self.mission.done:
             self.abort(f"LiDAR lost: {reason}")
             self.brake()
 
@@ -463,7 +476,13 @@ class HostCore:
                 hm.lidar_bytes(t_s, *report)
         navigating = isinstance(self.mission, ScanMission)
         if hm is not None:
-            hm.lidar_needed = navigating and self.mission is not None and not self.mission.done
+            mission = self.mission
+            hm.lidar_needed = (
+                navigating
+                and mission is not None
+                and not mission.done
+                and (not isinstance(mission, ServiceMission) or mission.navigating)
+            )
         for rev in revolutions:
             scan = self.intake.scan(t_s, rev)
             # a scan too noisy to trust, or from an excluded LiDAR, is published (the

@@ -69,6 +69,9 @@ class CoreListener:
     def on_frame(self, frame: Frame, host_time_ns: int) -> None:
         """Every frame received, before it is handled."""
 
+    def on_request(self, data: bytes, host_time_ns: int) -> None:
+        """A navigation service's request (encoded), before the telemetry frame applying it."""
+
     def on_event(self, host_time_ns: int, text: str) -> None:
         """Something the operator should know (an MCU reset, an abort)."""
 

@@ -18,7 +18,9 @@ then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity
 (payload: two f64, v [m/s] and w [rad/s]), 4 link event (payload: UTF-8 text), 5 end of run
 (empty payload; written by a clean close, so a log without it was cut by a kill or power loss),
 6 LiDAR bytes (payload: bytes as read from the RPLIDAR's port, at most 65535 per record; they
-precede the telemetry frame whose MCU time stamps the scans they complete).
+precede the telemetry frame whose MCU time stamps the scans they complete), 7 a navigation
+service's request (payload: UTF-8 JSON ``{"kind", "id", "x", "y", "yaw", "source"}``, kind
+``goal``, ``cancel`` or ``pose``; it precedes the telemetry frame that applies it).
 """
 
 from __future__ import annotations
@@ -43,7 +45,8 @@ KIND_CMD = 3
 KIND_LINK = 4
 KIND_END = 5
 KIND_LIDAR = 6
-KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END, KIND_LIDAR)
+KIND_REQUEST = 7
+KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END, KIND_LIDAR, KIND_REQUEST)
 MAX_PAYLOAD = 0xFFFF
 _HEADER = struct.Struct("<BQH")
 _CMD = struct.Struct("<dd")
@@ -144,6 +147,9 @@ class RunRecorder:
 
     def link(self, host_time_ns: int, text: str) -> None:
         self.record(KIND_LINK, host_time_ns, text.encode())
+
+    def request(self, host_time_ns: int, data: bytes) -> None:
+        self.record(KIND_REQUEST, host_time_ns, data)
 
     def lidar(self, host_time_ns: int, data: bytes) -> None:
         for pos in range(0, len(data), MAX_PAYLOAD):
