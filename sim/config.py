@@ -254,10 +254,62 @@ class Cylinder:
 
 @dataclass(frozen=True)
 class Trigger:
-    """Inserts a cylinder once the robot is ``when_moved_m`` from its start position."""
+    """Inserts a cylinder once the robot is ``when_moved_m`` from its start position, or at
+    ``at_s`` of MCU time; a timed one may leave again at ``remove_at_s``.
 
-    when_moved_m: float
+    Exactly one of ``when_moved_m`` and ``at_s`` is set. A timed drop never lands on the
+    robot: while the robot's body (its radius plus ``DROP_CLEARANCE_M``) overlaps the cylinder
+    the drop waits, and a drop still waiting at ``remove_at_s`` never happens
+    (:meth:`jackson.sim.world.World.check_triggers`).
+
+    Attributes
+    ----------
+    when_moved_m : float or None
+        Distance of the robot from its start position that inserts the cylinder [m].
+    cylinder : Cylinder
+        The obstacle.
+    at_s : float or None
+        MCU time at which the cylinder appears [s].
+    remove_at_s : float or None
+        MCU time at which it disappears again (None: it stays) [s]; after ``at_s``.
+    """
+
+    when_moved_m: float | None
     cylinder: Cylinder
+    at_s: float | None = None
+    remove_at_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if (self.when_moved_m is None) == (self.at_s is None):
+            raise ValueError(
+                f"trigger: give when_moved_m or at_s, exactly one, got {self.when_moved_m} "
+                f"and {self.at_s}"
+            )
+        if self.remove_at_s is not None and (self.at_s is None or not self.remove_at_s > self.at_s):
+            raise ValueError(
+                f"trigger: remove_at_s must follow at_s ({self.at_s}), got {self.remove_at_s}"
+            )
+
+
+DROP_CLEARANCE_M = 0.1  # [m] a timed drop waits while the robot is within this of the cylinder
+
+
+@dataclass(frozen=True)
+class PatrolSpec:
+    """Where a patrol generator may drop obstacles on a floor, and what it must never reach.
+
+    Attributes
+    ----------
+    drop_spots : tuple of (float, float)
+        Points in wide open space (at least 2.5 m across), where a dropped cylinder of 0.15 m
+        radius never cuts a route [m].
+    unreachable : tuple of (float, float)
+        Points in free space enclosed with no way in (a storeroom without a door, a fenced
+        cage): goals the navigator must refuse [m].
+    """
+
+    drop_spots: tuple[tuple[float, float], ...] = ()
+    unreachable: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -266,7 +318,8 @@ class WorldSpec:
 
     ``goal`` (the default goal of ``jackson run maze`` in this world) and ``survey`` (the
     waypoints ``jackson map`` drives through before it returns to the start) are optional;
-    without them the Stage 3 goal of the paper is both.
+    without them the Stage 3 goal of the paper is both. ``patrol`` (optional) tells a patrol
+    generator where obstacles may drop and which points no route reaches.
     """
 
     name: str
@@ -278,6 +331,7 @@ class WorldSpec:
     start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     goal: tuple[float, float] | None = None
     survey: tuple[tuple[float, float], ...] = ()
+    patrol: PatrolSpec | None = None
 
 
 # ------------------------------------------------------------------------- validation
@@ -508,52 +562,23 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
             )
         walls.append((float(w[0]), float(w[1]), float(w[2]), float(w[3])))
 
-    def cylinder(reader: Fields) -> Cylinder:
-        c = Cylinder(
-            reader.number("x", math.nan),
-            reader.number("y", math.nan),
-            reader.number("radius", math.nan, 0, lo_open=True),
-        )
-        for key in ("x", "y", "radius"):
-            if not reader.has(key):
-                raise reader.fail(key, "missing")
-        reader.finish()
-        return c
-
     cylinders = []
     for k, c in enumerate(r.items("cylinders")):
         if not isinstance(c, Mapping):
             raise r.fail(f"cylinders[{k}]", f"expected {{x, y, radius}}, got {show(c)}")
-        cylinders.append(cylinder(Fields(where, c, f"cylinders[{k}].")))
-    triggers = []
-    for k, t in enumerate(r.items("triggers")):
-        if not isinstance(t, Mapping):
-            expected = "expected {when_moved_m, add_cylinder}"
-            raise r.fail(f"triggers[{k}]", f"{expected}, got {show(t)}")
-        tr = Fields(where, t, f"triggers[{k}].")
-        if not tr.has("when_moved_m") or not tr.has("add_cylinder"):
-            raise tr.fail(
-                "when_moved_m" if not tr.has("when_moved_m") else "add_cylinder", "missing"
-            )
-        triggers.append(
-            Trigger(tr.number("when_moved_m", 0.0, 0), cylinder(tr.section("add_cylinder")))
-        )
-        tr.finish()
+        cylinders.append(_cylinder(Fields(where, c, f"cylinders[{k}].")))
+    triggers = [_trigger(r, k, t) for k, t in enumerate(r.items("triggers"))]
     start = r.vector("start_pose", d.start_pose, 3)
     goal = None
     if r.has("goal"):
         gx, gy = r.vector("goal", (0.0, 0.0), 2)
         goal = (gx, gy)
-    survey = []
-    for k, w in enumerate(r.items("survey")):
-        if (
-            not isinstance(w, list)
-            or len(w) != 2
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
-            or not all(math.isfinite(x) for x in w)
-        ):
-            raise r.fail(f"survey[{k}]", f"expected [x, y] in metres, got {show(w)}")
-        survey.append((float(w[0]), float(w[1])))
+    survey = _points(r, "survey")
+    patrol = None
+    if r.has("patrol"):
+        p = r.section("patrol")
+        patrol = PatrolSpec(_points(p, "drop_spots"), _points(p, "unreachable"))
+        p.finish()
     spec = WorldSpec(
         name=r.text("name", path.stem),
         mu_static=mu_s,
@@ -563,7 +588,62 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
         triggers=tuple(triggers),
         start_pose=(start[0], start[1], start[2]),
         goal=goal,
-        survey=tuple(survey),
+        survey=survey,
+        patrol=patrol,
     )
     r.finish()
     return spec
+
+
+def _cylinder(reader: Fields) -> Cylinder:
+    """A ``{x, y, radius}`` mapping."""
+    c = Cylinder(
+        reader.number("x", math.nan),
+        reader.number("y", math.nan),
+        reader.number("radius", math.nan, 0, lo_open=True),
+    )
+    for key in ("x", "y", "radius"):
+        if not reader.has(key):
+            raise reader.fail(key, "missing")
+    reader.finish()
+    return c
+
+
+def _trigger(r: Fields, k: int, t: object) -> Trigger:
+    """``triggers[k]``: ``{when_moved_m, add_cylinder}`` or ``{at_s, remove_at_s?,
+    add_cylinder}``."""
+    if not isinstance(t, Mapping):
+        expected = "expected {when_moved_m or at_s, remove_at_s?, add_cylinder}"
+        raise r.fail(f"triggers[{k}]", f"{expected}, got {show(t)}")
+    tr = Fields(r.where, t, f"{r.prefix}triggers[{k}].")
+    if tr.has("when_moved_m") and tr.has("at_s"):
+        raise tr.fail("at_s", "give when_moved_m or at_s, not both")
+    if not tr.has("when_moved_m") and not tr.has("at_s"):
+        raise tr.fail("when_moved_m", "missing (or at_s, the MCU time of a timed drop)")
+    if not tr.has("add_cylinder"):
+        raise tr.fail("add_cylinder", "missing")
+    if tr.data.get("remove_at_s") is not None and not tr.has("at_s"):
+        raise tr.fail("remove_at_s", "only a timed drop (at_s) is removed, not when_moved_m")
+    moved = tr.number("when_moved_m", 0.0, 0) if tr.has("when_moved_m") else None
+    at_s = tr.number("at_s", 0.0, 0) if tr.has("at_s") else None
+    remove_at_s = tr.optional_number("remove_at_s", 0)
+    if at_s is not None and remove_at_s is not None and not remove_at_s > at_s:
+        raise tr.fail("remove_at_s", f"expected a time after at_s ({at_s:g}), got {remove_at_s:g}")
+    trigger = Trigger(moved, _cylinder(tr.section("add_cylinder")), at_s, remove_at_s)
+    tr.finish()
+    return trigger
+
+
+def _points(r: Fields, key: str) -> tuple[tuple[float, float], ...]:
+    """The list ``key`` of ``[x, y]`` points in metres, each finite."""
+    out = []
+    for k, w in enumerate(r.items(key)):
+        if (
+            not isinstance(w, list)
+            or len(w) != 2
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
+            or not all(math.isfinite(x) for x in w)
+        ):
+            raise r.fail(f"{key}[{k}]", f"expected [x, y] in metres, got {show(w)}")
+        out.append((float(w[0]), float(w[1])))
+    return tuple(out)

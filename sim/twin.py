@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 
 from jackson.sim.config import ConfigError, RobotSpec, Sides, WorldSpec
 from jackson.sim.faults import FaultInjector, FaultSpec
-from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
+from jackson.sim.lidar import Lidar, LidarSpec
 from jackson.sim.mcu import SensorSample
 from jackson.sim.physics import TruthRow
 from jackson.sim.robot import DiffDriveRobot, WheelDrive
@@ -300,7 +300,7 @@ class Twin:
             mount_y_m=m.mount_y_m,
             mount_yaw_rad=m.mount_yaw_rad,
         )
-        self._obstacles = Obstacles(self.world.segments, self.world.circles)
+        self._obstacles = self.world.obstacles
         self.scan_period_s = spec.scan_period_s
         return Lidar(spec, np.random.default_rng(self.rng.integers(1 << 62)))
 
@@ -352,7 +352,7 @@ class Twin:
                 steps = model.run_free(
                     dt,
                     steps,
-                    steps + 1 if world._pending else end,  # a trigger is checked every step
+                    min(end, world.next_check_step(steps, dt)),  # when a trigger may act
                     self._next_slip_step,
                     pending[0][0] if pending else math.inf,
                     self._next_scan_s if lidar else math.inf,
@@ -367,9 +367,9 @@ class Twin:
                 self._step_near_obstacles(space, dt)
                 steps += 1
                 model.record(steps, raw)
-            if world._pending or (lidar and steps * dt + 1e-9 >= self._next_scan_s):
+            if world.pending or (lidar and steps * dt + 1e-9 >= self._next_scan_s):
                 self.steps = steps
-                if world._pending:
+                if world.pending:
                     self._check_triggers()
                 if lidar and steps * dt + 1e-9 >= self._next_scan_s:
                     self._take_scan()
@@ -393,13 +393,14 @@ class Twin:
     def _check_triggers(self) -> None:
         r = self.robot
         fired = self.world.check_triggers(
-            math.hypot(r.x - self.start_xy[0], r.y - self.start_xy[1]), self.t_s
+            math.hypot(r.x - self.start_xy[0], r.y - self.start_xy[1]),
+            self.t_s,
+            robot_xy=(r.x, r.y),
+            robot_radius_m=self._radius,
         )
         if fired:
             self._free_budget = -1.0
-            if self._lidar is not None:
-                for c in fired:
-                    self._obstacles.add_circle(c.x, c.y, c.radius)
+        self._obstacles = self.world.obstacles  # a removal replaces it
 
     @property
     def truth_log(self) -> list[Truth]:

@@ -1,25 +1,45 @@
-"""The twin's static world in pymunk: walls, cylinders, obstacles that appear on a trigger;
-and the floor's friction patches of one trial."""
+"""The twin's world in pymunk: walls, cylinders, obstacles that appear on a trigger (and timed
+ones that leave again); and the floor's friction patches of one trial."""
 
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 import pymunk
 
-from jackson.sim.config import Cylinder, WorldSpec
+from jackson.sim.config import DROP_CLEARANCE_M, Cylinder, Trigger, WorldSpec
+from jackson.sim.lidar import Obstacles
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
+_DUE_S = 1e-9  # [s] an event this close after the check's instant is due at it
 
 
 class World:
-    """Static geometry in a pymunk space, and the count of robot collisions with it.
+    """Static geometry in a pymunk space and for the ray caster, and the count of robot
+    collisions with it.
 
-    Walls are radius-0 segments and cylinders are static circles, as the paper's maze; a
-    trigger inserts its cylinder once the robot is ``when_moved_m`` from its start position.
+    Walls are radius-0 segments and cylinders are static circles, as the paper's maze. A
+    trigger inserts its cylinder once the robot is ``when_moved_m`` from its start position,
+    or at ``at_s`` of MCU time; a timed drop waits while the robot's body (its radius plus
+    :data:`~jackson.sim.config.DROP_CLEARANCE_M`) overlaps the cylinder, and leaves again at
+    ``remove_at_s`` (a drop still waiting then never happens). :meth:`check_triggers` does
+    all of it; :meth:`next_check_step` tells the twin when it next has something to do.
+
+    Attributes
+    ----------
+    segments, circles : list of tuple
+        The walls ``(x1, y1, x2, y2)`` and the cylinders present now ``(x, y, r)`` [m].
+    obstacles : Obstacles
+        The same for the LiDAR's ray caster; a removal replaces the object, an insertion
+        extends it.
+    inserted, removed : list of (float, Cylinder)
+        Each triggered cylinder when it appeared, and each timed one when it left [s].
+    cancelled : list of Trigger
+        Timed drops that waited for the robot until their ``remove_at_s`` and never happened.
     """
 
     def __init__(self, spec: WorldSpec) -> None:
@@ -31,12 +51,22 @@ class World:
         self.segments: list[tuple[float, float, float, float]] = []
         self.circles: list[tuple[float, float, float]] = []
         self.collisions = 0
-        self._pending = sorted(spec.triggers, key=lambda t: t.when_moved_m)
+        triggers = spec.triggers
+        self._by_distance = sorted(
+            (t for t in triggers if t.when_moved_m is not None), key=lambda t: t.when_moved_m or 0.0
+        )
+        self._by_time = sorted(
+            (t for t in triggers if t.at_s is not None), key=lambda t: t.at_s or 0.0
+        )
+        self._leaving: list[tuple[float, Cylinder, pymunk.Circle]] = []  # sorted by time
         self.inserted: list[tuple[float, Cylinder]] = []  # (time, cylinder)
+        self.removed: list[tuple[float, Cylinder]] = []
+        self.cancelled: list[Trigger] = []
         for x1, y1, x2, y2 in spec.walls:
             seg = pymunk.Segment(self.space.static_body, (x1, y1), (x2, y2), 0.0)
             self._add_static(seg)
             self.segments.append((x1, y1, x2, y2))
+        self.obstacles = Obstacles(self.segments)
         for c in spec.cylinders:
             self.add_cylinder(c)
         self.space.on_collision(ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE, begin=self._begin)
@@ -50,9 +80,20 @@ class World:
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         self.collisions += 1
 
-    def add_cylinder(self, c: Cylinder) -> None:
-        self._add_static(pymunk.Circle(self.space.static_body, c.radius, (c.x, c.y)))
+    def add_cylinder(self, c: Cylinder) -> pymunk.Circle:
+        """Insert a cylinder into the space, the clearance and the ray caster; return its
+        shape."""
+        shape = pymunk.Circle(self.space.static_body, c.radius, (c.x, c.y))
+        self._add_static(shape)
         self.circles.append((c.x, c.y, c.radius))
+        self.obstacles.add_circle(c.x, c.y, c.radius)
+        return shape
+
+    def remove_cylinder(self, c: Cylinder, shape: pymunk.Circle) -> None:
+        """Take a cylinder ``add_cylinder`` inserted (its ``shape``) out of the world again."""
+        self.space.remove(shape)
+        self.circles.remove((c.x, c.y, c.radius))
+        self.obstacles = Obstacles(self.segments, self.circles)
 
     def clearance(self, x: float, y: float) -> float:
         """Distance from a point to the nearest wall or cylinder surface (inf when none)."""
@@ -71,15 +112,101 @@ class World:
             best = min(best, float((np.hypot(c[:, 0] - x, c[:, 1] - y) - c[:, 2]).min()))
         return best
 
-    def check_triggers(self, moved_m: float, t_s: float) -> list[Cylinder]:
-        """Insert every triggered obstacle whose distance has been reached; return them."""
+    @property
+    def pending(self) -> bool:
+        """Whether a trigger has yet to insert or remove a cylinder."""
+        return bool(self._by_distance or self._by_time or self._leaving)
+
+    @property
+    def _pending(self) -> bool:  # the twin's loop before next_check_step: check every step
+        return self.pending
+
+    def next_check_step(self, step: int, dt: float) -> int:
+        """The first physics step after ``step`` at which :meth:`check_triggers` may change
+        the world (``sys.maxsize``: never).
+
+        A distance trigger, or a timed drop waiting for the robot to move off, needs every
+        step; otherwise the next ``at_s`` or ``remove_at_s``.
+
+        Parameters
+        ----------
+        step : int
+            The physics step now.
+        dt : float
+            The physics step [s].
+
+        Returns
+        -------
+        int
+            That step.
+        """
+        if self._by_distance:
+            return step + 1
+        due_s = min(
+            (self._by_time[0].at_s or 0.0) if self._by_time else math.inf,
+            self._leaving[0][0] if self._leaving else math.inf,
+        )
+        if due_s == math.inf:
+            return sys.maxsize
+        return max(step + 1, math.ceil(due_s / dt - 1e-6))
+
+    def check_triggers(
+        self,
+        moved_m: float,
+        t_s: float,
+        robot_xy: tuple[float, float] | None = None,
+        robot_radius_m: float = 0.0,
+    ) -> list[Cylinder]:
+        """Insert every triggered obstacle that is due, remove every timed one whose time
+        has come; return the ones inserted.
+
+        Parameters
+        ----------
+        moved_m : float
+            Distance of the robot from its start position [m].
+        t_s : float
+            MCU time now [s].
+        robot_xy : tuple of float or None
+            Where the robot is [m]; a timed drop waits while its body overlaps the cylinder
+            (None: the caller does not say, and no drop waits).
+        robot_radius_m : float
+            The robot's outer radius about ``robot_xy`` [m].
+
+        Returns
+        -------
+        list of Cylinder
+            The cylinders inserted now.
+        """
         fired = []
-        while self._pending and moved_m >= self._pending[0].when_moved_m:
-            trig = self._pending.pop(0)
-            self.add_cylinder(trig.cylinder)
-            self.inserted.append((t_s, trig.cylinder))
-            fired.append(trig.cylinder)
+        while self._by_distance and moved_m >= (self._by_distance[0].when_moved_m or 0.0):
+            fired.append(self._insert(self._by_distance.pop(0), t_s))
+        waiting = []
+        while self._by_time and (self._by_time[0].at_s or 0.0) <= t_s + _DUE_S:
+            trig = self._by_time.pop(0)
+            c = trig.cylinder
+            if trig.remove_at_s is not None and trig.remove_at_s <= t_s + _DUE_S:
+                self.cancelled.append(trig)
+            elif robot_xy is not None and (
+                math.hypot(c.x - robot_xy[0], c.y - robot_xy[1])
+                < c.radius + robot_radius_m + DROP_CLEARANCE_M
+            ):
+                waiting.append(trig)
+            else:
+                fired.append(self._insert(trig, t_s))
+        self._by_time[:0] = waiting
+        while self._leaving and self._leaving[0][0] <= t_s + _DUE_S:
+            _, c, shape = self._leaving.pop(0)
+            self.remove_cylinder(c, shape)
+            self.removed.append((t_s, c))
         return fired
+
+    def _insert(self, trig: Trigger, t_s: float) -> Cylinder:
+        shape = self.add_cylinder(trig.cylinder)
+        self.inserted.append((t_s, trig.cylinder))
+        if trig.remove_at_s is not None:
+            self._leaving.append((trig.remove_at_s, trig.cylinder, shape))
+            self._leaving.sort(key=lambda e: e[0])
+        return trig.cylinder
 
     @staticmethod
     def distance(x0: float, y0: float, x1: float, y1: float) -> float:

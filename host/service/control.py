@@ -16,6 +16,8 @@ request                                         answer
 ``{"op": "cancel", "id"}``                      ``{"ok": true, "goal": {...}}`` (id 0 or
                                                 absent: the active goal)
 ``{"op": "localise", "x", "y", "yaw"}``         ``{"ok": true}``
+``{"op": "wait", "id"}``                        ``{"ok": true, "goal": {...}}``, then feedback
+                                                and result lines as ``goal`` with ``wait``
 ``{"op": "drive", "v", "w"}``                   ``{"ok": true}``: one velocity command, as a
                                                 ``/cmd_vel`` message (braked 0.6 s after the
                                                 last)
@@ -193,6 +195,16 @@ class ControlServer:
                 yield {"ok": True, "status": self.status()}
             elif op == "goal":
                 yield from self._goal(req)
+            elif op == "wait":
+                goal_id = req.get("id")
+                if isinstance(goal_id, bool) or not isinstance(goal_id, int) or goal_id < 1:
+                    raise ValueError(f"id: expected a goal id (an integer >= 1), got {goal_id!r}")
+                rec = self.service.book.get(goal_id)
+                if rec is None:
+                    yield {"ok": False, "error": f"no goal {goal_id} (unknown or forgotten)"}
+                else:
+                    yield {"ok": True, "goal": rec.as_dict()}
+                    yield from self._follow(goal_id)
             elif op == "cancel":
                 goal_id = req.get("id", 0) or 0
                 if isinstance(goal_id, bool) or not isinstance(goal_id, int) or goal_id < 0:
@@ -212,7 +224,7 @@ class ControlServer:
                 yield {"ok": True}
             else:
                 raise ValueError(
-                    f"op: expected status, goal, cancel, localise or drive, got {op!r}"
+                    f"op: expected status, goal, wait, cancel, localise or drive, got {op!r}"
                 )
         except (ValueError, UnicodeDecodeError, RouteError) as exc:
             self.errors += 1
@@ -225,13 +237,16 @@ class ControlServer:
             yield {"ok": False, "error": f"goal refused: {rec.reason}", "goal": rec.as_dict()}
             return
         yield {"ok": True, "goal": rec.as_dict()}
-        if not req.get("wait"):
-            return
+        if req.get("wait"):
+            yield from self._follow(rec.goal_id)
+
+    def _follow(self, goal_id: int) -> Iterator[dict[str, Any]]:
+        """Feedback lines until the goal ends, then its result line."""
         book = self.service.book
         while not self._stop.is_set():
-            now = book.wait(rec.goal_id, FEEDBACK_PERIOD_S)
+            now = book.wait(goal_id, FEEDBACK_PERIOD_S)
             if now is None:
-                yield {"result": {"id": rec.goal_id, "status": "unknown", "reason": "forgotten"}}
+                yield {"result": {"id": goal_id, "status": "unknown", "reason": "forgotten"}}
                 return
             if now.status.ended:
                 yield {"result": now.as_dict()}
@@ -244,7 +259,7 @@ class ControlServer:
                     "pose": [st.pose.x, st.pose.y, st.pose.yaw],
                 }
             }
-        yield {"result": {"id": rec.goal_id, "status": "aborted", "reason": "the daemon stopped"}}
+        yield {"result": {"id": goal_id, "status": "aborted", "reason": "the daemon stopped"}}
 
 
 def ask(

@@ -322,12 +322,12 @@ class NavigationService:
     def command(self, s: MissionState) -> tuple[float, float]:
         """(v [m/s], w [rad/s]) for this frame: the requests taken, then the navigator."""
         t_s = s.t_s
+        pose = self.nav.track(s)  # the odometry to this frame, before a pose is given
         taken, self._taken = self._taken, []
         for req in taken:
             self._apply(req, t_s)
         if self.active is None:
-            pose = self.nav.track(s)
-            self._publish(t_s, pose)
+            self._publish(t_s, self.nav.pose_map())
             return 0.0, 0.0
         v, w = self.nav.command(s)
         pose = self.nav.pose_map()
