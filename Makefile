@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 NATIVE := build/native
 JOBS   ?= 2
 
-.PHONY: help setup test lint typecheck generated native native-test pytest bench demo clean \
+.PHONY: help setup test lint typecheck generated native native-test pytest bench demo clean soak \
         firmware flash firmware-test docs-check
 
 help:
@@ -15,6 +15,7 @@ help:
 	@echo "make test    set up, then ruff, mypy, generated-code check, C++ tests (ASan+UBSan), pytest"
 	@echo "make bench   benchmarks: table on screen, JSON in build/bench.json"
 	@echo "make docs-check  re-run the commands behind the figures the docs quote (docs/figures.yaml)"
+	@echo "make soak    8 robot-hours of the navigation service on the twin (docs/patrol.md; about 1 h)"
 	@echo "make setup   only install what is missing (.venv, Debian packages)"
 	@echo "make firmware        build the ESP32-S3 firmware (PlatformIO)"
 	@echo "make flash PORT=...  build and flash it (default PORT=/dev/ttyACM0)"
@@ -64,6 +65,13 @@ bench: setup
 # ALL=1 also runs the long ones.
 docs-check: setup
 	$(BIN)/python tools/docs_check.py $(if $(ALL),--all,)
+
+# The navigation service for 8 robot-hours on the twin: one daemon process, goal after goal; its
+# memory, CPU and disk over time (docs/patrol.md). HOURS=1 for a shorter one.
+HOURS ?= 8
+soak: setup
+	$(BIN)/jackson patrol --world warehouse --robot-hours $(HOURS) --seed 8 --sample-s 30 --budget-mb 1000 \
+	  --out build/soak
 
 # The newcomer's first command: the twin and the real host daemon over a pty drive the paper's
 # 1 m square, then Stage 3: the host maps the maze with the twin's RPLIDAR and navigates around

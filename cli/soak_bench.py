@@ -1,22 +1,20 @@
 """Memory over a long run: the resident memory of ``jackson daemon`` and ``jackson sim`` while
-the robot navigates the maze back and forth, recording on (``jackson bench`` suite ``soak``).
+the navigation service serves goal after goal, recording on (``jackson bench`` suite ``soak``).
 
-Both processes run as users run them (the daemon on the twin's pty, lockstep, the twin's
-RPLIDAR in its densest mode, a map of the maze); the daemon is given goals at the maze's two
-ends in turn, as many as the soak needs, and stopped with SIGTERM (it brakes, closes its run
-folder) once the robot's clock reaches the soak's length. Once per wall second the soak reads
-each process's resident set (``VmRSS`` of ``/proc/PID/status``) and the robot's time (the last
-row of the run's ``ekf.csv``, flushed once per second of MCU time). The figure is the slope of
-a least-squares line through the resident set against the robot's time after the first tenth
-of the soak (start-up, the first map and plan), in MB per robot-hour: flat memory is 0, a list
-that keeps every 20 Hz sample grows by megabytes. Target: 1 MB per robot-hour, each process.
+The soak is a patrol (:mod:`jackson.experiments.patrol`, docs/patrol.md): both processes run as
+users run them (the daemon in service mode on the twin's pty, lockstep, the twin's RPLIDAR in
+its densest mode, a map of the floor, recording split per goal under its budget); one daemon
+process takes random goals, cancels, preemptions and teleop bursts on the office floor while
+obstacles drop and leave, until the robot's clock reaches the soak's length. Every two wall
+seconds the patrol reads each process's resident set (``VmRSS`` of ``/proc/PID/status``) and
+the robot's time (``jackson status``). The figure is the slope of a least-squares line through
+the resident set against the robot's time after the first tenth of the soak (start-up, the first
+map and plan), in MB per robot-hour: flat memory is 0, a list that keeps every 20 Hz sample
+grows by megabytes. Target: 1 MB per robot-hour, each process.
 
-``jackson bench`` soaks 30 robot-minutes (``--quick``: 5). For the 8-hour soak::
-
-    .venv/bin/python -m jackson.soak_bench --robot-hours 8 --out build/soak
-
-which writes ``rss.csv`` as it goes (a soak cut short keeps its samples), ``rss.png`` and the
-figures at the end.
+``jackson bench`` soaks 30 robot-minutes (``--quick``: 5). For the 8-hour soak: ``make soak``
+(``jackson patrol --robot-hours 8``), or ``python -m jackson.soak_bench --robot-hours 8 --out
+build/soak``, which writes ``rss.csv``, ``rss.png`` and the figures at the end.
 """
 
 from __future__ import annotations
@@ -24,23 +22,18 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import signal
-import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from jackson.common.bench import BenchResult, reference_loop_us
-from jackson.daemon_bench import GOAL, START, _jackson, _maze_map, _ports
 
 GROWTH_TARGET_MB_H = 1.0
 WARM_UP_FRACTION = 0.1
-LEG_S = 6.0  # robot seconds a leg takes at least (the maze's route takes about 8 s)
-SAMPLE_S = 1.0
+SAMPLE_S = 2.0  # [s] of wall time between samples
 
 
 @dataclass(frozen=True)
@@ -74,92 +67,30 @@ def rss_mb(pid: int) -> float:
     return math.nan
 
 
-def robot_time_s(ekf_csv: Path) -> float | None:
-    """The MCU time of the last whole row of a growing ``ekf.csv`` (None before one)."""
-    try:
-        with ekf_csv.open("rb") as f:
-            f.seek(0, 2)
-            size = f.tell()
-            f.seek(max(0, size - 4096))
-            tail = f.read().decode(errors="replace")
-    except OSError:
-        return None
-    for line in reversed(tail.splitlines()[:-1] if not tail.endswith("\n") else tail.splitlines()):
-        head = line.split(",", 1)[0]
-        try:
-            return float(head)
-        except ValueError:
-            continue
-    return None
-
-
 def soak(robot_s: float, out: Path, progress: bool = True) -> Soak:
-    """Navigate the maze back and forth for ``robot_s`` of robot time; ``out/rss.csv`` as it goes.
+    """A patrol of ``robot_s`` of robot time on the office floor; ``out/rss.csv`` at its end.
 
     Raises
     ------
     RuntimeError
-        A process ended early or the robot's clock stopped.
+        The patrol failed (a process ended early, the daemon stopped answering).
     """
-    from rich.progress import Progress
+    from jackson.experiments.patrol import Patrol, PatrolSpec
 
-    out.mkdir(parents=True, exist_ok=True)
-    map_yaml = _maze_map(out)
-    legs = math.ceil(robot_s / LEG_S) + 2
-    goals = [f"--goal={GOAL if i % 2 == 0 else START}" for i in range(legs)]
-    sim = subprocess.Popen(
-        [_jackson(), "sim", "--world", "maze"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
+    spec = PatrolSpec("office_floor", out, seed=3, robot_hours=robot_s / 3600.0, sample_s=SAMPLE_S)
+    result = Patrol(spec).run()
+    if result.failure is not None:
+        raise RuntimeError(f"soak: {result.failure}")
+    samples = Soak(
+        [x.robot_s for x in result.samples],
+        [x.daemon_rss_mb for x in result.samples],
+        [x.twin_rss_mb for x in result.samples],
     )
-    daemon: subprocess.Popen[bytes] | None = None
-    samples = Soak([], [], [])
-    run = out / "run"
-    try:
-        ports = _ports(sim, lidar=True)
-        argv = [_jackson(), "daemon", "--port", ports["serial"], "--i2c", ports["i2c"]]
-        argv += ["--lidar", ports["lidar"], "--map", str(map_yaml), f"--start={START}", *goals]
-        argv += ["--run-dir", str(run), "--mission-timeout", str(robot_s + 600.0)]
-        daemon = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        bar = Progress(disable=not progress)
-        task = bar.add_task("soak (robot seconds)", total=robot_s)
-        bar.start()
-        last_t, last_change = -1.0, time.monotonic()
-        with (out / "rss.csv").open("w", newline="") as f:
-            writer = csv.writer(f)
-            writer.writerow(["robot_s", "daemon_rss_mb", "twin_rss_mb"])
-            while True:
-                time.sleep(SAMPLE_S)  # the sampling period of a measurement, not a wait
-                if daemon.poll() is not None:
-                    err = daemon.stderr.read().decode() if daemon.stderr else ""
-                    raise RuntimeError(f"soak: jackson daemon ended early: {err.strip()[-500:]}")
-                t = robot_time_s(run / "ekf.csv")
-                if t is None:
-                    continue
-                if t != last_t:
-                    last_t, last_change = t, time.monotonic()
-                elif time.monotonic() - last_change > 60.0:
-                    raise RuntimeError("soak: the robot's clock stopped for 60 s")
-                row = (t, rss_mb(daemon.pid), rss_mb(sim.pid))
-                writer.writerow([f"{row[0]:.2f}", f"{row[1]:.2f}", f"{row[2]:.2f}"])
-                f.flush()
-                samples.robot_s.append(row[0])
-                samples.daemon_mb.append(row[1])
-                samples.twin_mb.append(row[2])
-                bar.update(task, completed=min(t, robot_s))
-                if t >= robot_s:
-                    break
-        bar.stop()
-    finally:
-        if daemon is not None and daemon.poll() is None:
-            daemon.send_signal(signal.SIGTERM)  # (SIGINT is ignored by background jobs)
-            try:
-                daemon.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                daemon.kill()
-        sim.terminate()
-        sim.wait(timeout=30)
+    with (out / "rss.csv").open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["robot_s", "daemon_rss_mb", "twin_rss_mb"])
+        for row in zip(samples.robot_s, samples.daemon_mb, samples.twin_mb, strict=True):
+            writer.writerow([f"{row[0]:.2f}", f"{row[1]:.2f}", f"{row[2]:.2f}"])
     return samples
 
 
@@ -178,7 +109,7 @@ def plot(s: Soak, path: Path) -> None:
     ax.axvline(WARM_UP_FRACTION * t_h[-1], color="0.6", ls=":", lw=1, label="end of warm-up")
     ax.set_xlabel("robot time [h]")
     ax.set_ylabel("resident set [MB]")
-    ax.set_title("Memory while navigating the maze back and forth, recording on")
+    ax.set_title("Memory while the navigation service serves goals, recording on")
     ax.legend(loc="lower right")
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -195,8 +126,9 @@ def figures(s: Soak, loop_us: float) -> list[BenchResult]:
             GROWTH_TARGET_MB_H,
             "lower",
             f"the robot's clock: the least-squares slope of the {which} process's resident set "
-            f"over {hours * 60:.0f} robot-minutes of navigating the maze back and forth, "
-            f"recording on, after the first tenth",
+            f"over {hours * 60:.0f} robot-minutes of one navigation service's patrol of the "
+            f"office floor (goals, cancels, preemptions, teleop), recording on, after the "
+            f"first tenth",
             series[-1],
             "MB at the end",
             series[0],
@@ -218,8 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m jackson.soak_bench``: a soak of any length, its CSV, plot and figures."""
     parser = argparse.ArgumentParser(
         prog="python -m jackson.soak_bench",
-        description="Navigate the twin's maze back and forth with recording on and follow the "
-        "resident memory of jackson daemon and jackson sim.",
+        description="Patrol the twin's office floor with the navigation service, recording on, "
+        "and follow the resident memory of jackson daemon and jackson sim.",
     )
     parser.add_argument("--robot-hours", type=float, default=8.0, help="soak length (8)")
     parser.add_argument("--out", type=Path, required=True, help="folder for rss.csv, rss.png")

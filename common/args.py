@@ -81,6 +81,29 @@ def int_in(lo: int, hi: int) -> Callable[[str], int]:
     return lambda text: int(check(text))
 
 
+def host_port(text: str) -> tuple[str, int]:
+    """``[HOST:]PORT`` as (host, port) for a server to bind (``--live-view``); without a host,
+    127.0.0.1: this machine only, a network is opened on purpose (``0.0.0.0:8765``). Port 0:
+    any free one (the server says which).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a port in 0-65535 after an optional host.
+    """
+    host, sep, port = text.rpartition(":")
+    host = host.strip("[]") if sep else "127.0.0.1"
+    try:
+        number = int(port)
+    except ValueError:
+        number = -1
+    if not 0 <= number <= 65535 or (sep and not host):
+        raise argparse.ArgumentTypeError(
+            f"expected [HOST:]PORT with a port in 0-65535 (e.g. 8765 or 0.0.0.0:8765), got {text!r}"
+        )
+    return host, number
+
+
 def output_folder(path: Path, option: str = "--out") -> Path:
     """``path`` as a place to write a new folder: refused if it is a file, lies under a file,
     or is a folder that already holds files (a run or report is never written over another).

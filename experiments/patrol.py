@@ -589,18 +589,25 @@ class Patrol:
         assert self.daemon is not None and self.sim is not None
         self._last_sample = now
         st = self.status()
-        self.result.samples.append(
-            Sample(
-                now,
-                float(st.get("t_s") or 0.0),
-                _rss_mb(self.daemon.pid),
-                _rss_mb(self.sim.pid),
-                _cpu_s(self.daemon.pid),
-                _cpu_s(self.sim.pid),
-                float((st.get("disk") or {}).get("used_mb") or 0.0),
-                len(self.result.outcomes),
-            )
+        sample = Sample(
+            now,
+            float(st.get("t_s") or 0.0),
+            _rss_mb(self.daemon.pid),
+            _rss_mb(self.sim.pid),
+            _cpu_s(self.daemon.pid),
+            _cpu_s(self.sim.pid),
+            float((st.get("disk") or {}).get("used_mb") or 0.0),
+            len(self.result.outcomes),
         )
+        self.result.samples.append(sample)
+        path = self.out / "soak.csv"  # as it goes: a soak cut short keeps its samples
+        cols = [f.name for f in dataclasses.fields(Sample)]
+        new = not path.exists() or len(self.result.samples) == 1
+        with path.open("w" if new else "a", newline="") as f:
+            w = csv.writer(f)
+            if new:
+                w.writerow(cols)
+            w.writerow([getattr(sample, c) for c in cols])
 
     # ------------------------------------------------------------------ the whole patrol
 
@@ -681,12 +688,6 @@ class Patrol:
 
     def write(self) -> dict[str, Any]:
         self._write_outcomes()
-        cols = [f.name for f in dataclasses.fields(Sample)]
-        with (self.out / "soak.csv").open("w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(cols)
-            for s in self.result.samples:
-                w.writerow([getattr(s, c) for c in cols])
         summary = summarise(self.spec, self.result)
         (self.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         plot_patrol(self.out / "patrol.png", self, summary)
@@ -770,6 +771,7 @@ def plot_patrol(png: Path, patrol: Patrol, summary: dict[str, Any]) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle
 
     r = patrol.result
     world = patrol.world
@@ -779,7 +781,7 @@ def plot_patrol(png: Path, patrol: Patrol, summary: dict[str, Any]) -> None:
     for x0, y0, x1, y1 in world.walls:
         ax.plot([x0, x1], [y0, y1], color="0.2", lw=1.2)
     for c in world.cylinders:
-        ax.add_patch(plt.Circle((c.x, c.y), c.radius, color="0.4"))
+        ax.add_patch(Circle((c.x, c.y), c.radius, color="0.4"))
     if world.patrol is not None:
         for k, (x, y) in enumerate(world.patrol.drop_spots):
             ax.plot(x, y, "s", color="tab:purple", ms=7, mfc="none",
@@ -806,7 +808,7 @@ def plot_patrol(png: Path, patrol: Patrol, summary: dict[str, Any]) -> None:
         f"{summary['unreachable_answered']} unreachable answered, "
         f"{summary['contacts']} contacts"
     )
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     if soak:
         h = [x.robot_s / 3600.0 for x in r.samples]
         axes[1].plot(h, [x.daemon_rss_mb for x in r.samples], label="daemon")

@@ -5,12 +5,21 @@ that crashed, was killed by the watchdog or exited leaves the PCA9685 holding it
 and the MCU's interlock (docs/firmware.md) is then the only thing stopping the wheels. This puts
 both TB6612FNG bridges into short brake (IN1 = IN2 = high, PWM off) on the PCA9685 itself,
 re-initialising the chip first if it was reset or asleep, and reads the registers back.
+
+It says in one line how long it took from the process's start (what systemd waits for, the
+interpreter's start and the imports included) and how much of it on the bus. What it takes is
+the interpreter (on an x86_64 machine with the ROS 2 wheels twice: their start-up hook
+re-executes it), the imports and the configuration's YAML; so it imports only the motor
+output's modules (not the CLI's, not the estimator), and reads each contiguous run of channels
+back in one block read (each I2C transaction waits for the bus's other end: the twin's server
+thread on a busy machine).
 """
 
 from __future__ import annotations
 
 import argparse
 import errno
+import os
 import sys
 import time
 from pathlib import Path
@@ -24,8 +33,7 @@ from jackson.host.actuation.i2c import (
     check_bus_spec,
     open_bus,
 )
-from jackson.host.actuation.output import Pca9685Output
-from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, led_registers
+from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, block_runs, led_registers
 from jackson.host.actuation.settings import DEFAULT_CONFIG, Pca9685Settings, load_motor_settings
 from jackson.host.actuation.tb6612 import bridge_duties
 
@@ -60,11 +68,15 @@ def brake_once(p: Pca9685Settings) -> None:
         pca = Pca9685(bus, p.address)
         if not pca.registers_ok(p.frequency_hz):
             pca.init(p.frequency_hz)
-        Pca9685Output(pca, p.left, p.right, p.stby_channel).brake()
-        for ch, duty in sorted(brake_duties(p).items()):
-            got = bus.read_i2c_block_data(p.address, LED0_ON_L + 4 * ch, 4)
-            if list(got) != led_registers(duty):
-                raise BrakeError(f"channel {ch} reads {bytes(got).hex()} after the brake")
+        duties = brake_duties(p)
+        pca.set_duties(duties)  # what Pca9685Output.brake() writes
+        # read back a run of channels at a time (auto-increment: the chip is set up now)
+        for run in block_runs(tuple(sorted(duties))):
+            got = bus.read_i2c_block_data(p.address, LED0_ON_L + 4 * run[0], 4 * len(run))
+            for k, ch in enumerate(run):
+                if list(got[4 * k : 4 * k + 4]) != led_registers(duties[ch]):
+                    regs = bytes(got[4 * k : 4 * k + 4]).hex()
+                    raise BrakeError(f"channel {ch} reads {regs} after the brake")
         if not pca.registers_ok(p.frequency_hz):
             raise BrakeError("MODE1/MODE2/PRE_SCALE do not hold their values")
     finally:
@@ -109,6 +121,19 @@ def brake(p: Pca9685Settings, attempts: int = ATTEMPTS) -> int:
     )
 
 
+def process_age_s() -> float | None:
+    """Seconds since this process started (Linux: its start time in ``/proc/self/stat``, in
+    clock ticks since boot, against ``CLOCK_BOOTTIME``; 10 ms resolution); None without
+    ``/proc``. An ``exec`` keeps the start time: a re-executed interpreter counts from the
+    first."""
+    try:
+        stat = Path("/proc/self/stat").read_text(encoding="ascii")
+        start_ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22, starttime
+        return time.clock_gettime(time.CLOCK_BOOTTIME) - start_ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
 def bus_spec(text: str) -> str:
     """argparse type: ``/dev/i2c-N``, ``N`` or ``unix:/path/to.sock``."""
     try:
@@ -135,31 +160,36 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.set_defaults(func=cmd_brake)
 
 
+class BrakeUsageError(JacksonError, ValueError):
+    """Braking a PCA9685 that the configuration says the MCU drives (one line, exit 2)."""
+
+
 def cmd_brake(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from jackson.common.fields import ConfigError
-    from jackson.host.cli import HostCliError
-
     # only the motor output's sections: no estimator to import, and a broken section elsewhere
-    # in the file does not keep the robot from braking
-    try:
-        actuator, p = load_motor_settings(args.config or DEFAULT_CONFIG)
-    except ConfigError as exc:
-        raise HostCliError(str(exc)) from exc
+    # in the file does not keep the robot from braking (a ConfigError is one line, exit 2)
+    actuator, p = load_motor_settings(args.config or DEFAULT_CONFIG)
     if args.i2c:
         p = dataclasses.replace(p, bus=args.i2c)
     if args.address is not None:
         p = dataclasses.replace(p, address=args.address)
     if actuator != "pca9685" and not args.i2c:
-        raise HostCliError(
+        raise BrakeUsageError(
             f"actuator is {actuator}: the MCU drives the motors and brakes them itself; "
             "give --i2c to brake a PCA9685 anyway"
         )
+    on_bus = time.perf_counter()
     try:
         n = brake(p)
     except BrakeError as exc:
         print(f"jackson brake: {exc}", file=sys.stderr)
         return 1
-    print(f"braked: PCA9685 at {p.address:#04x} on {p.bus} (attempt {n})")
+    on_bus = time.perf_counter() - on_bus
+    age = process_age_s()
+    since = f"{age:.2f} s after the command started, " if age is not None else ""
+    print(
+        f"braked: PCA9685 at {p.address:#04x} on {p.bus} (attempt {n}): "
+        f"{since}{on_bus * 1e3:.1f} ms on the bus"
+    )
     return 0

@@ -13,6 +13,7 @@ from typing import Any
 from jackson.common.args import (
     MAX_SECONDS,
     float_upto,
+    host_port,
     output_folder,
     positive_float,
     positive_int,
@@ -93,6 +94,14 @@ def add_parsers(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
         type=float_upto(MAX_SECONDS),
         help="abort the mission after this many seconds of MCU time "
         "(default: square 150, figure8 300)",
+    )
+    p.add_argument(
+        "--live-view",
+        type=host_port,
+        metavar="[HOST:]PORT",
+        help="serve the navigation service live over the Foxglove WebSocket protocol (map, "
+        "scan, pose, plans, goal, health; docs/host.md, The live view) on this port, bound "
+        "to 127.0.0.1 unless HOST is given (default: service.live_view of the config)",
     )
     p.add_argument(
         "--ros",
@@ -319,7 +328,11 @@ def status_lines(st: dict[str, Any]) -> list[str]:
     )
     d = st.get("disk") or {}
     if d:
-        budget = f" of a {d['budget_mb']:.0f} MB budget" if d.get("budget_mb") else ""
+        budget = (
+            f" of a {d['budget_mb']:.0f} MB budget ({d['left_mb']:.0f} MB left)"
+            if d.get("budget_mb")
+            else ""
+        )
         out.append(
             f"disk: recordings {d['used_mb']:.0f} MB{budget} in {d['folder']}; "
             f"{d['free_mb'] / 1e3:.1f} GB free" + ("" if d.get("recording") else " (not recording)")
@@ -368,6 +381,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             raise HostCliError(problem)
     cfg = with_port(cfg, args.port)
     navigate = _navigate(args, cfg)
+    live_view = _live_view(args, cfg, navigate)
     if args.i2c:
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=args.i2c))
 
@@ -460,6 +474,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             mission_name=args.mission,
             run_folder=run_dir,
             meta=meta,
+            rotate=True,  # split into run folders, kept under the budget (docs/recording.md)
             ros_args=(["--ros-args", *args.ros_args] if args.ros_args else [])
             if args.ros
             else None,
@@ -471,6 +486,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             control_socket=(args.socket or socket_path(cfg.service))
             if service is not None
             else None,
+            live_view=live_view,
         )
     except ControlError as exc:
         transport.close()
@@ -504,9 +520,10 @@ def cmd_daemon(args: argparse.Namespace) -> int:
             lidar.close()
         if nav_mission is not None and run_dir is not None:
             built = nav_mission.built_map()
+            last = daemon.run_folder or run_dir  # the last folder of a split run
             if built is not None:
-                built.save(run_dir / "built_map.yaml")
-                print(f"map: {run_dir / 'built_map.yaml'}", flush=True)
+                built.save(last / "built_map.yaml")
+                print(f"map: {last / 'built_map.yaml'}", flush=True)
     if daemon.cpu.frames > 1:
         print(daemon.cpu.line(), flush=True)
     core = daemon.core
@@ -620,6 +637,25 @@ def _navigate(args: argparse.Namespace, cfg: Any) -> Any:
         raise HostCliError(f"{exc} (--map {args.map})") from exc
 
 
+def _live_view(args: argparse.Namespace, cfg: Any, navigate: Any) -> Any:
+    """The live view's settings: the config's ``service.live_view``, or ``--live-view``'s
+    (which needs the navigation service)."""
+    import dataclasses
+
+    from jackson.host.service.navigation import NavigationService
+
+    settings = cfg.service.live_view
+    if args.live_view is None:
+        return settings
+    if not isinstance(navigate, NavigationService):
+        raise HostCliError(
+            "--live-view shows the navigation service: give --lidar PORT and --map MAP (or "
+            "service.lidar and service.map in the config), without --goal or --mission"
+        )
+    host, port = args.live_view
+    return dataclasses.replace(settings, enabled=True, host=host, port=port)
+
+
 def _serves(args: argparse.Namespace, cfg: Any) -> bool:
     """The daemon runs the navigation service: a LiDAR and a map, from the command line or
     the config's ``service`` section."""
@@ -687,6 +723,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
         f"replayed {r.frames} telemetry frames and {r.commands} commands of {args.run}, "
         f"{r.span()}; the run was {how}"
     )
+    if r.snapshot is not None:
+        print(
+            f"  started from the core's snapshot of the split ({r.snapshot.get('reason')}) "
+            f"after frame {r.snapshot.get('frames')}"
+        )
     for name, (kept, made) in r.rows.items():
         extra = "" if r.complete or made == kept else f" (the log held {made - kept:+d} more)"
         print(f"  {name}: {kept} rows in the run, {made} replayed{extra}")

@@ -6,13 +6,14 @@ health, commands acknowledged, the motor path watched, systemd told, signals han
 from __future__ import annotations
 
 import dataclasses
+import datetime as dt
 import gc
-import json
 import math
-import os
+import shutil
 import signal
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +30,10 @@ from jackson.host.core import DutySource, HostCore
 from jackson.host.core.results import CoreListener
 from jackson.host.cpu import CpuMeter
 from jackson.host.estimation.health import Transition
-from jackson.host.recording import RunRecorder, run_in_progress
+from jackson.host.recording import RunRecorder, run_in_progress, write_json
+from jackson.host.recording.budget import Deleted, DiskUse, prune
+from jackson.host.recording.snapshot import SNAPSHOT_NAME, encode_snapshot, write_snapshot
+from jackson.host.recording.split import FolderWorker, SplitPolicy, carry_files, part_folder
 from jackson.protocol import (
     PROTOCOL_VERSION,
     FrameVersionError,
@@ -42,10 +46,13 @@ from jackson.protocol import (
 
 if TYPE_CHECKING:  # the seams' types only: the serial port and the LiDAR load when used
     from jackson.host.lidar.rplidar import LidarSource
+    from jackson.host.liveview import LiveView
     from jackson.host.sdnotify import Notifier
     from jackson.host.service.control import ControlServer
+    from jackson.host.service.settings import LiveViewSettings
     from jackson.host.transport import Link
 
+EVENTS_KEPT = 1000  # operator lines a daemon keeps for health.json
 GC_GEN0_THRESHOLD = 20_000  # young objects allocated (less freed) between two collections
 
 
@@ -172,6 +179,12 @@ class Daemon:
     the run on the abort path (braked, SHUTDOWN heartbeat, exit status 1) with one line,
     ``lockstep stalled: the host waited 10.0 s for a telemetry frame after frame N (MCU time
     T s)``, kept in :attr:`stalled` and in the run's log, where ``jackson replay`` finds it.
+
+    With ``rotate`` (``jackson daemon``: a robot's daemon runs for hours), the recording
+    splits into run folders as ``recording.split`` says (a navigation service, or a daemon
+    without a mission) and the recording folder is kept under ``recording.budget_mb``
+    (docs/recording.md); without it (a trial's, a calibration's daemon) it writes its one run
+    folder and deletes nothing.
     """
 
     def __init__(
@@ -183,6 +196,7 @@ class Daemon:
         mission_name: str | None = None,
         run_folder: Path | None = None,
         meta: dict[str, Any] | None = None,
+        rotate: bool = False,
         ros_args: list[str] | None = None,
         mission_timeout_s: float | None = None,
         notifier: Notifier | None = None,
@@ -192,6 +206,7 @@ class Daemon:
         lidar: LidarSource | None = None,
         stall_s: float | None = None,
         control_socket: Path | None = None,
+        live_view: LiveViewSettings | None = None,
     ) -> None:
         from jackson.host.service.navigation import NavigationService
         from jackson.host.transport import STALL_S
@@ -207,6 +222,13 @@ class Daemon:
         self.run_folder = run_folder
         meta = {**(meta or {}), **lidar_meta(lidar)}
         self.recorder = RunRecorder(run_folder, meta) if run_folder is not None else None
+        # the run folders of a daemon that runs for hours (rotate): split, kept under a budget
+        self.first_folder = run_folder
+        self.disk_use = DiskUse(run_folder.parent if run_folder else cfg.recording_folder)
+        self.split: SplitPolicy | None = None
+        self.budget_bytes = round(cfg.recording_budget_mb * 1e6) if rotate else 0
+        self.folders = FolderWorker(self._say)
+        self._part = 1  # the run folder's number (1: the first)
         self.commands = CommandTracker(transport.encode, self._send_frame)
         if mission is None and mission_name:
             mission = make_mission(mission_name, cfg.square, cfg.figure8)
@@ -227,7 +249,8 @@ class Daemon:
         self.notifier = notifier  # systemd sd_notify (host/sdnotify.py), or None
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
-        self.events: list[str] = []  # what the operator was told, in order
+        # what the operator was told, in order (the newest EVENTS_KEPT: a service runs for days)
+        self.events: deque[str] = deque(maxlen=EVENTS_KEPT)
         self.cpu = CpuMeter()  # the daemon's own CPU per robot-second and per frame
         self._hello_retries = 0  # HELLOs re-sent before the first INFO
         self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
@@ -242,7 +265,13 @@ class Daemon:
         if ros_args is not None:  # --ros: rclpy is imported only here
             from jackson.host.ros.bridge import RosBridge
 
-            self.bridge = RosBridge(self.core, args=ros_args)
+            self.bridge = RosBridge(
+                self.core,
+                args=ros_args,
+                # the service takes /goal_pose, navigate_to_pose and /initialpose
+                service=mission if isinstance(mission, NavigationService) else None,
+                say=self._say,
+            )
             for note in self.bridge.notes:
                 self._say(note)
             if self.bridge.missing:
@@ -251,23 +280,16 @@ class Daemon:
                     + ", ".join(sorted(set(self.bridge.missing)))
                 )
         if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
-            from jackson.host.ros.bag import BagRecorder
-
             # earlier runs' unfinished bags are repaired beside the running daemon: READY and
             # the watchdog's pings must not wait for a long repair
             self._repairer = threading.Thread(
                 target=self._repair_earlier_runs, args=(run_folder,), name="bag-repair", daemon=True
             )
-            max_bytes = int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None
             # the bag records what the node publishes: its names, offsets and clock
-            self.bag = BagRecorder(
-                run_folder / "bag",
+            self.bag = self._open_bag(
+                run_folder,
                 self.bridge.settings if self.bridge is not None else RosSettings.for_config(cfg),
-                odometry=cfg.odometry,
-                clock=self.bridge.clock if self.bridge is not None else None,
-                max_bytes=max_bytes,
-                compression=cfg.bag_compression,
-                flush_interval_s=None,  # flushed with the run folder's files, on MCU time
+                self.bridge.clock if self.bridge is not None else None,
             )
             if self.recorder is not None:
                 self.recorder.flush_with.append(self.bag)
@@ -290,6 +312,10 @@ class Daemon:
         self.link_downs = 0
         # the navigation service: goal after goal, the control socket (jackson goal/status)
         self.service = mission if isinstance(mission, NavigationService) else None
+        # teleop or the service: a mission ends by itself, a duty source is a calibration's
+        teleop_or_service = mission is None or self.service is not None
+        if rotate and run_folder is not None and duty_source is None and teleop_or_service:
+            self.split = SplitPolicy(cfg.recording_split, cfg.recording_split_s)
         self.control: ControlServer | None = None
         if self.service is not None:
             self.service.tell = self.tell  # called on the frame loop's thread
@@ -297,6 +323,33 @@ class Daemon:
                 from jackson.host.service.control import ControlServer
 
                 self.control = ControlServer(control_socket, self.service, self.status, self._drive)
+        # the live view (Foxglove WebSocket): served from run(), published from the frame loop
+        self.live: LiveView | None = None
+        if live_view is not None and live_view.enabled:
+            self.live = self._live_view(live_view)
+
+    def _live_view(self, settings: LiveViewSettings) -> LiveView | None:
+        """The live view's listener on the core (not serving yet), or None with one line when
+        it cannot be (no navigation service, foxglove-sdk missing)."""
+        if self.service is None:
+            self._say("live view: needs the navigation service (--lidar and --map); not served")
+            return None
+        try:
+            from jackson.common.liveview import LiveServer
+            from jackson.host.liveview import LiveView
+        except ImportError as exc:  # a broken install: the robot goes on without it
+            self._say(f"live view: cannot load foxglove-sdk ({exc}); make setup installs it")
+            return None
+        server = LiveServer("jackson daemon", settings.host, settings.port)
+        live = LiveView(
+            self.service,
+            server,
+            sensors=self.sensor_states,
+            problems=lambda: self.health().problems(),
+            tell=self.tell,
+        )
+        self.core.listeners.append(live)
+        return live
 
     def _drive(self, v_m_s: float, w_rad_s: float) -> None:
         """A velocity command from the control socket, as one on /cmd_vel."""
@@ -324,10 +377,7 @@ class Daemon:
                 goals=dict(svc.book.counts),
                 last_goal=(lambda h: h[-1].as_dict() if h else None)(svc.book.history()),
             )
-        hm = self.core.health
-        out["sensors"] = (
-            {name: state.value for name, state in hm.sensors.items()} if hm is not None else {}
-        )
+        out["sensors"] = self.sensor_states()
         out["problems"] = self.health().problems()
         out["cpu"] = {
             "share_of_core": self.cpu.share_of_core,
@@ -337,19 +387,22 @@ class Daemon:
         out["disk"] = self.disk()
         return out
 
-    def disk(self) -> dict[str, Any]:
-        """The recording folder's use and budget [MB] and the free space on its disk [MB]."""
-        import shutil
+    def sensor_states(self) -> dict[str, str]:
+        """Each sensor's health state now (empty with the monitor off)."""
+        hm = self.core.health
+        return {name: state.value for name, state in hm.sensors.items()} if hm is not None else {}
 
-        folder = self.cfg.recording_folder
-        if self.run_folder is not None:
-            folder = self.run_folder.parent
-        used = _folder_bytes(folder)
+    def disk(self) -> dict[str, Any]:
+        """The recording folder's use and budget [MB] and the free space on its disk [MB]. Cheap
+        (:class:`~jackson.host.recording.budget.DiskUse`): the folder is walked after each split
+        and once a minute, the run folder being written at each call."""
+        folder = self.disk_use.root
+        used = self.disk_use.used_bytes(self.run_folder)
         try:
             free = shutil.disk_usage(folder).free
         except OSError:
             free = 0
-        budget = self.cfg.recording_budget_mb
+        budget = self.budget_bytes / 1e6
         return {
             "folder": str(folder),
             "recording": self.run_folder is not None,
@@ -358,6 +411,144 @@ class Daemon:
             "left_mb": max(0.0, budget - used / 1e6) if budget > 0 else None,
             "free_mb": free / 1e6,
         }
+
+    def _open_bag(self, folder: Path, settings: Any, clock: Any) -> Any:
+        """The rosbag2 (MCAP) of the run folder ``folder``, with the node's names, offsets and
+        clock (``clock`` None: MCU time)."""
+        from jackson.host.ros.bag import BagRecorder
+
+        cfg = self.cfg
+        return BagRecorder(
+            folder / "bag",
+            settings,
+            odometry=cfg.odometry,
+            clock=clock,
+            max_bytes=int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None,
+            compression=cfg.bag_compression,
+            flush_interval_s=None,  # flushed with the run folder's files, on MCU time
+        )
+
+    def _split_if_due(self) -> None:
+        """Before a telemetry frame (and its LiDAR bytes): the next run folder starts now if
+        ``recording.split`` says so (:mod:`jackson.host.recording.split`)."""
+        split = self.split
+        assert split is not None
+        goal = self.service.stage() if self.service is not None and split.by_goal else None
+        reason = split.reason(self.core.t_s, goal)
+        if reason is None:
+            return
+        try:
+            self._split(reason)
+        except Exception as exc:  # a recording that cannot split must not stop the robot
+            self.split = None
+            self.tell(
+                f"recording: cannot split ({type(exc).__name__}: {exc}); recording goes on in "
+                f"{self.run_folder}, unsplit"
+            )
+
+    def _split(self, reason: str) -> None:
+        """Start the next run folder between two telemetry frames (docs/recording.md). Here,
+        on the frame loop: the core's snapshot pickled, the new folder's recorder and bag
+        swapped in. On :attr:`folders`' thread: the snapshot compressed and written, the
+        config and the map copied, the previous folder closed, the budget kept."""
+        from jackson.host.core import RunFolderListener
+
+        t0, cpu0 = time.perf_counter(), time.thread_time()
+        core, old_rec, old_bag = self.core, self.recorder, self.bag
+        first, split = self.first_folder, self.split
+        assert old_rec is not None and first is not None and split is not None
+        pickled = core.snapshot()
+        pickle_ms = (time.perf_counter() - t0) * 1e3
+        old = old_rec.folder
+        new = part_folder(first, self._part + 1)
+        at = {"reason": reason, "part": self._part + 1, "t_s": core.t_s, "frames": core.frames}
+        meta = {k: v for k, v in old_rec.meta.items() if k not in ("next", "split")}
+        meta.update(
+            started=dt.datetime.now().isoformat(),
+            previous=old.name,
+            split=at,
+            snapshot=SNAPSHOT_NAME,
+        )
+        rec = RunRecorder(new, meta)
+        try:
+            bag = (
+                None
+                if old_bag is None
+                else self._open_bag(new, old_bag.settings, old_bag.builder.clock)
+            )
+            if bag is not None and self.ros is not None and self.service is not None:
+                # the latched /map again (/tf_static: the bag itself): each bag plays alone
+                t_s = core.t_s or 0.0
+                grid = self.service.nav.static_map
+                bag.write("map", t_s, self.ros.builder.occupancy(t_s, grid))
+        except Exception:
+            rec.close()
+            shutil.rmtree(new, ignore_errors=True)
+            raise
+        # nothing fails from here on: the new folder takes over
+        self._part += 1
+        health = self._health_doc()
+        self.events.clear()
+        for listener in core.listeners:
+            if isinstance(listener, RunFolderListener):
+                listener.recorder = rec
+        self.recorder, self.run_folder = rec, new
+        if bag is not None:
+            self.bag = bag
+            rec.flush_with.append(bag)
+            if self.ros is not None:
+                self.ros.sinks = [bag if s is old_bag else s for s in self.ros.sinks]
+        split.started()
+        old_rec.meta["next"] = new.name
+        old_rec.link(time.monotonic_ns(), f"recording: continued in {new.name} ({reason})")
+        data = {"frames": core.frames, "t_s": core.t_s, "reason": reason}
+        self.folders.submit(
+            f"the snapshot of {new}",
+            lambda: write_snapshot(new / SNAPSHOT_NAME, encode_snapshot(pickled, data)),
+        )
+        self.folders.submit(f"copying {old}'s files", lambda: carry_files(old, new))
+        self.folders.submit(f"closing {old}", lambda: self._close_folder(old_rec, old_bag, health))
+        self.folders.submit("the recording folder's budget", lambda: self._keep_budget(new))
+        ms, cpu_ms = (time.perf_counter() - t0) * 1e3, (time.thread_time() - cpu0) * 1e3
+        self.tell(
+            f"recording: {new} ({reason}), after {old.name}; split in {ms:.1f} ms on the "
+            f"frame loop ({cpu_ms:.1f} ms CPU; snapshot {len(pickled) / 1e6:.1f} MB pickled in "
+            f"{pickle_ms:.1f} ms)"
+        )
+
+    def _close_folder(self, rec: RunRecorder, bag: Any, health: dict[str, Any]) -> None:
+        """A split's previous folder finished (on :attr:`folders`' thread): its bag, health.json,
+        meta.json with ``next``, its log's end record."""
+        try:
+            if bag is not None:
+                bag.close()
+        finally:  # a bag that did not finish (jackson bag repair) leaves the rest complete
+            try:
+                write_json(rec.folder / "health.json", health)
+                rec.write_meta()
+            finally:
+                rec.close()  # complete now: its lock released
+
+    def _keep_budget_at_start(self) -> None:
+        if self._repairer is not None:
+            self._repairer.join()
+        self._keep_budget(self.run_folder)
+
+    def _keep_budget(self, keep: Path | None) -> None:
+        """Delete the oldest complete run folders until the recording folder is under
+        ``recording.budget_mb`` (on :attr:`folders`' thread), one line each."""
+        budget = self.budget_bytes
+        if budget <= 0 or keep is None:
+            return
+
+        def told(d: Deleted) -> None:
+            self._say(
+                f"recording: deleted {d.folder.name} ({d.size_bytes / 1e6:.0f} MB) to stay "
+                f"under the {budget / 1e6:g} MB budget"
+            )
+
+        total = prune(keep.parent, budget, keep, told)
+        self.disk_use.others(total, keep)
 
     def _send(self, msg: Message) -> object:
         if isinstance(msg, Heartbeat):
@@ -501,10 +692,23 @@ class Daemon:
         if self.control is not None:
             self.control.start()
             self._say(f"taking goals on {self.control.path} (jackson goal X,Y)")
+        if self.live is not None:
+            from jackson.common.liveview import LiveViewError
+
+            try:
+                url = self.live.start()
+            except LiveViewError as exc:  # the robot goes on without it
+                self.core.listeners.remove(self.live)
+                self.live = None
+                self._say(f"{exc}; going on without it")
+            else:
+                self._say(f"live view on {url} (Foxglove: Open connection, Foxglove WebSocket)")
         if self.notifier is not None:
             self.notifier.ready()
         if self._repairer is not None and not self._repairer.is_alive():
             self._repairer.start()
+        if self.budget_bytes > 0:  # at start-up, once the earlier runs' bags are repaired
+            self.folders.submit("the recording folder's budget", self._keep_budget_at_start)
         settled = GcSettled()
         try:
             while not self.stop.is_set():
@@ -554,6 +758,8 @@ class Daemon:
                     continue
                 rx_ns, frame = item
                 cpu0 = time.thread_time_ns() - round(contention.spun_s * 1e9)
+                if self.split is not None and frame.type == Telemetry.TYPE:
+                    self._split_if_due()
                 if self.lidar is not None and frame.type == Telemetry.TYPE:
                     self._read_lidar()
                 try:
@@ -587,6 +793,8 @@ class Daemon:
                     spun_ns = round(contention.spun_s * 1e9)
                     self.cpu.frame((time.thread_time_ns() - spun_ns - cpu0) / 1e3)
                     self.cpu.robot_time(core.t_s)
+                    if self.split is not None:
+                        self.split.frame(core.t_s)
                 if core.finished:  # the mission done, braked, the robot at rest
                     break
                 if core.duty_source is not None and core.duty_source.done:
@@ -597,6 +805,8 @@ class Daemon:
                 self.notifier.stopping()
             if self.control is not None:
                 self.control.stop()
+            if self.live is not None:
+                self.live.stop()
             if self.service is not None:
                 self.service.book.end_all("the daemon stopped")
             if self.bridge is not None:
@@ -604,6 +814,7 @@ class Daemon:
             self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
             if self._repairer is not None and self._repairer.is_alive():
                 self._repairer.join()  # a repair replaces the bag only once complete
+            self.folders.join()  # earlier run folders closed, snapshots written
             if self.recorder is not None:
                 self._write_health()
             # the bag is finished before the recorder lets go of the run's lock: until then
@@ -665,13 +876,21 @@ class Daemon:
 
     def _write_health(self) -> None:
         assert self.run_folder is not None
+        try:
+            write_json(self.run_folder / "health.json", self._health_doc())
+        except OSError as exc:
+            print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
+
+    def _health_doc(self) -> dict[str, Any]:
+        """health.json of the run folder being written: the link, the sensors, what the
+        operator was told, CPU, commands."""
         h = self.health()
-        doc = {
+        return {
             "link": dataclasses.asdict(h),
             "problems": h.problems(),
             "abort_reason": self.core.abort_reason,
             "sensors": self._sensor_health(),
-            "events": self.events,
+            "events": list(self.events),
             "cpu": self.cpu.report(1.0 / self.cfg.serial.telemetry_rate_hz),
             "commands": {
                 "acked": self.commands.counters.acked,
@@ -680,30 +899,6 @@ class Daemon:
                 "errors": self.commands.counters.errors,
             },
         }
-        try:
-            (self.run_folder / "health.json").write_text(json.dumps(doc, indent=2) + "\n")
-        except OSError as exc:
-            print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
-
-
-def _folder_bytes(folder: Path) -> int:
-    """Bytes of the files under ``folder`` (0 when it is not there)."""
-    total = 0
-    stack = [folder]
-    while stack:
-        try:
-            entries = list(os.scandir(stack.pop()))
-        except OSError:
-            continue
-        for e in entries:
-            try:
-                if e.is_dir(follow_symlinks=False):
-                    stack.append(Path(e.path))
-                elif e.is_file(follow_symlinks=False):
-                    total += e.stat(follow_symlinks=False).st_size
-            except OSError:
-                continue
-    return total
 
 
 def lidar_meta(lidar: LidarSource | None) -> dict[str, Any]:

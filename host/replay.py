@@ -7,6 +7,10 @@ a kill or a power loss is compared on what both hold: every complete row the run
 reproduced; the replay says how far the log went (frames, MCU time) and how many rows each file
 kept.
 
+A run folder that began at a split of a long-running daemon's recording (docs/recording.md)
+starts from the core's snapshot it holds (``core.snapshot``, named by ``meta.json``'s
+``snapshot``) instead of a fresh core: the state the live core had between the two frames.
+
 A run the daemon ended on a lockstep stall (the twin stopped sending, :mod:`jackson.host.
 transport`) has its end record, but did not end: its log holds the daemon's link record
 ``lockstep stalled: ...``, and the replay counts it as cut, with that line as the reason
@@ -59,6 +63,7 @@ class ReplayResult:
     rows: dict[str, tuple[int, int]] = field(default_factory=dict)  # file: (run, replay)
     differ: list[str] = field(default_factory=list)
     cut_reason: str | None = None  # why the run is cut (None when closed cleanly)
+    snapshot: dict[str, object] | None = None  # the snapshot's header, when it started from one
 
     def how(self) -> str:
         """How the run ended, for the user: ``closed cleanly`` or ``cut (REASON)``."""
@@ -180,28 +185,40 @@ def replay(run: Path, out: Path) -> ReplayResult:
     from jackson.host.config import DEFAULT_CONFIG, load_config
     from jackson.host.control import make_mission
     from jackson.host.core import HostCore
+    from jackson.host.recording.snapshot import load_error
     from jackson.host.service.navigation import NavigationService, Request
     from jackson.protocol import Telemetry
 
     meta, mission = _meta(run)
     cfg_path = run / "config.yaml"
-    cfg = load_config(cfg_path if cfg_path.exists() else DEFAULT_CONFIG)
+    snapshot = _snapshot(run, meta)
     records, cut_reason = _checked_log(run)
     complete = cut_reason is None
     for name in COMPARED:
         if not (run / name).is_file():
             raise RecordingError(f"{run / name}: missing; the run folder is incomplete")
     result = ReplayResult(complete=complete, cut_reason=cut_reason)
-    rec = RunRecorder(out, meta)
-    the_mission: Mission | None = None
-    if mission == "navigate":
-        the_mission = _mission_from_meta(run, meta, cfg.navigation_limits())
-    elif mission == "service":
-        the_mission = _service_from_meta(run, meta, cfg.navigation_limits())
-    elif mission:
-        the_mission = make_mission(mission, cfg.square, cfg.figure8)
-    core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
-    core.lidar.expect(_lidar_answer_type(meta, run))
+    if snapshot is not None:  # the core as the daemon had it when this folder began
+        path, result.snapshot, pickled = snapshot
+        rec = RunRecorder(out, meta)
+        try:
+            core = HostCore.restore(pickled, NullOutput(), lambda m: None, rec)
+        except Exception as exc:  # whatever a pickle of another version raises
+            rec.close()
+            raise load_error(path, result.snapshot, exc) from exc
+        the_mission = core.mission
+    else:
+        cfg = load_config(cfg_path if cfg_path.exists() else DEFAULT_CONFIG)
+        rec = RunRecorder(out, meta)
+        the_mission = None
+        if mission == "navigate":
+            the_mission = _mission_from_meta(run, meta, cfg.navigation_limits())
+        elif mission == "service":
+            the_mission = _service_from_meta(run, meta, cfg.navigation_limits())
+        elif mission:
+            the_mission = make_mission(mission, cfg.square, cfg.figure8)
+        core = HostCore(cfg, NullOutput(), lambda m: None, mission=the_mission, recorder=rec)
+        core.lidar.expect(_lidar_answer_type(meta, run))
     for t_ns, item in records:
         if isinstance(item, bytes):
             core.on_lidar(item, t_ns)
@@ -227,6 +244,28 @@ def replay(run: Path, out: Path) -> ReplayResult:
         if not same:
             result.differ.append(name)
     return result
+
+
+def _snapshot(
+    run: Path, meta: Mapping[str, object]
+) -> tuple[Path, dict[str, object], bytes] | None:
+    """The core's snapshot the run folder starts from (its path, header and pickle), or None
+    for a folder that began with the daemon.
+
+    Raises
+    ------
+    RecordingError
+        ``meta.json`` names a snapshot that is missing or damaged.
+    """
+    from jackson.host.recording.snapshot import read_snapshot
+
+    name = meta.get("snapshot")
+    if name is None:
+        return None
+    if not isinstance(name, str) or "/" in name:
+        raise RecordingError(f"{run / 'meta.json'}: snapshot {name!r} is not a file name")
+    header, pickled = read_snapshot(run / name)
+    return run / name, header, pickled
 
 
 def _navigation_from_meta(

@@ -70,6 +70,7 @@ with numpy, as the host decodes about 8000 of them a second.
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -1158,6 +1159,11 @@ class CapsuleFormat:
     capsule_bytes: int
     samples: int
 
+    def __reduce__(self) -> tuple[Callable[[int], CapsuleFormat], tuple[int]]:
+        """Pickled as its answer type, so a copy is the module's own format (the decoder tells
+        the formats apart by identity): a core's snapshot (docs/recording.md) decodes on."""
+        return capsule_format, (int(self.answer_type),)
+
     @property
     def descriptor(self) -> bytes:
         """The response descriptor of EXPRESS_SCAN in this format (multiple)."""
@@ -1177,6 +1183,12 @@ DENSE_CAPSULED = CapsuleFormat(DataType.MEASUREMENT_DENSE_CAPSULED, 84, 40)
 CAPSULE_FORMATS: dict[int, CapsuleFormat] = {
     f.answer_type: f for f in (CAPSULED, ULTRA_CAPSULED, DENSE_CAPSULED)
 }
+
+
+def capsule_format(answer_type: int) -> CapsuleFormat:
+    """The capsule format of ``answer_type`` (a key of :data:`CAPSULE_FORMATS`)."""
+    return CAPSULE_FORMATS[answer_type]
+
 
 I64Array = npt.NDArray[np.int64]
 
@@ -1534,7 +1546,6 @@ class CapsuleDecoder:
         raw_q16 = (first_q8 << 8)[:, None] + np.arange(fmt.samples, dtype=np.int64) * inc_q16[
             :, None
         ]
-        wrapped = (raw_q16 + inc_q16[:, None]) % ANGLE_Q16_TURN
         dist_q2: I64Array
         angle_q6: I64Array
         body = wide[:, CAPSULE_HEADER_BYTES:]
@@ -1576,13 +1587,19 @@ class CapsuleDecoder:
             )
             angle_q6 = raw_q16 >> 10
         if fmt is DENSE_CAPSULED:  # a sync flag is raised once per turn, along the stream
+            wrapped = (raw_q16 + inc_q16[:, None]) % ANGLE_Q16_TURN
             sync = np.zeros(wrapped.shape, dtype=bool)
             flat = sync.reshape(-1)
             for k, near in enumerate((wrapped < 2 * inc_q16[:, None]).ravel().tolist()):
                 flat[k] = near and not self._last_sync
                 self._last_sync = bool(flat[k])
         else:
-            sync = wrapped < inc_q16[:, None]
+            # the SDK's test, (raw + inc) mod 360 deg < inc, but with the next capsule's own
+            # start angle after a capsule's last sample: inc is truncated, so a capsule that
+            # starts at exactly 0 deg left its turn unflagged and two turns merged
+            nxt = raw_q16 + inc_q16[:, None]
+            nxt[:, -1] = (first_q8 + diff_q8) << 8
+            sync = (raw_q16 < ANGLE_Q16_TURN) & (nxt >= ANGLE_Q16_TURN)
         angle_q6 = np.where(angle_q6 < 0, angle_q6 + ANGLE_Q6_TURN, angle_q6)
         angle_q6 = np.where(angle_q6 >= ANGLE_Q6_TURN, angle_q6 - ANGLE_Q6_TURN, angle_q6)
         return SampleBatch(sync.ravel(), angle_q6.ravel(), dist_q2.ravel())

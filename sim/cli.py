@@ -21,12 +21,15 @@ import signal
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from jackson.common.args import (
     MAX_SECONDS,
     float_upto,
+    host_port,
     int_in,
     nonneg_float,
     nonneg_int,
@@ -39,6 +42,10 @@ from jackson.sim.faults import FaultError, FaultSpec, format_fault, parse_fault,
 from jackson.sim.fil import FirmwareError
 from jackson.sim.firmware_core import McuBuildError
 from jackson.sim.i2c_server import I2cServerError
+
+if TYPE_CHECKING:
+    from jackson.sim.liveview import TwinLiveView
+    from jackson.sim.twin import Twin
 
 
 def fault_arg(text: str) -> FaultSpec:
@@ -120,6 +127,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="publish /twin/scan, /ground_truth/odom and /clock (sim time) over ROS 2",
     )
     p.add_argument(
+        "--live-view",
+        type=host_port,
+        metavar="[HOST:]PORT",
+        help="serve the ground truth live over the Foxglove WebSocket protocol (world, true "
+        "pose, true scan; docs/sim.md) on this port, bound to 127.0.0.1 unless HOST is given",
+    )
+    p.add_argument(
         "--truth",
         type=Path,
         metavar="PATH",
@@ -172,6 +186,21 @@ def _replaceable_truth(path: Path) -> bool:
     except OSError:
         return False
     return head in (b"", TRUTH_MAGIC.encode("ascii"))
+
+
+def _live_view(twin: Twin, where: tuple[str, int]) -> TwinLiveView | None:
+    """The twin's live view, serving; None (with one line on stderr) when it cannot be: the
+    twin goes on without it."""
+    from jackson.common.liveview import LiveServer, LiveViewError
+    from jackson.sim.liveview import TwinLiveView
+
+    try:
+        live = TwinLiveView(twin, LiveServer("jackson sim", *where))
+        live.start()
+    except LiveViewError as exc:
+        print(f"jackson sim: {exc}; going on without it", file=sys.stderr, flush=True)
+        return None
+    return live
 
 
 def run(args: argparse.Namespace) -> int:
@@ -239,6 +268,17 @@ def run(args: argparse.Namespace) -> int:
         from jackson.sim.ros import TwinRosPublisher
 
         publisher = TwinRosPublisher(twin)
+    live = _live_view(twin, args.live_view) if args.live_view is not None else None
+    observers: list[Callable[[Twin], None]] = []
+    if publisher is not None:
+        observers.append(publisher.on_advance)
+    if live is not None:
+        observers.append(live.on_advance)
+
+    def observe(t: Twin) -> None:
+        for observer in observers:
+            observer(t)
+
     try:
         runner = TwinRunner(
             twin,
@@ -248,7 +288,7 @@ def run(args: argparse.Namespace) -> int:
             mcu_motors=args.mcu_motors,
             heartbeat_timeout_s=args.heartbeat_timeout,
             serial_link=args.link,
-            observer=publisher.on_advance if publisher is not None else None,
+            observer=observe if len(observers) > 1 else (observers[0] if observers else None),
             spin_s=0.0 if args.realtime else max(0.0, args.spin_us) / 1e6,
             boot_id=args.boot_id,
             lidar=not args.no_lidar,
@@ -259,6 +299,8 @@ def run(args: argparse.Namespace) -> int:
     except (I2cServerError, FirmwareError, McuBuildError, FaultError, OSError) as exc:
         if publisher is not None:
             publisher.close()
+        if live is not None:
+            live.stop()
         if tmp is not None:
             tmp.cleanup()
         text = os_error_line(exc) if isinstance(exc, OSError) else str(exc)
@@ -280,6 +322,8 @@ def run(args: argparse.Namespace) -> int:
     if twin.faults is not None:
         for f in twin.faults.faults:
             print(f"fault: {format_fault(f)}", flush=True)
+    if live is not None:
+        print(f"live view: {live.server.url} (Foxglove: Open connection)", flush=True)
     mode = "real time" if args.realtime else "lockstep"
     mcu = "POSIX firmware process" if args.firmware else "firmware core in process"
     from jackson.sim.compiled import SELECTION
@@ -300,6 +344,8 @@ def run(args: argparse.Namespace) -> int:
         runner.close()
         if publisher is not None:
             publisher.close()
+        if live is not None:
+            live.stop()
         if tmp is not None:
             tmp.cleanup()
     print(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import termios
 import tty
 from pathlib import Path
 
@@ -71,6 +72,12 @@ class PtyLink:
         self._queue += frame
         self.flush()
         return True
+
+    def discard(self) -> None:
+        """Drop what was written and not yet read by the host (queued here or in the pty)."""
+        self._queue.clear()
+        with contextlib.suppress(OSError):
+            termios.tcflush(self._slave, termios.TCIFLUSH)
 
     def read(self) -> bytes:
         """Whatever the host has written (b"" when nothing)."""

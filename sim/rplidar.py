@@ -10,6 +10,10 @@ prints a boot banner after RESET, the twin does not). As on the device, any requ
 running scan first. A GET_LIDAR_CONF entry the A1 does not describe (the SDK asks for the
 motor's desired speed, 0x01) gets no answer, and neither does a command the twin does not know.
 
+Time is the caller's: the twin's runner advances a scan on the wall clock before the MCU's
+session (the world standing still) and on the simulation's clock from the session's start,
+where :meth:`RplidarEmulator.resume` takes the scan over to the new clock.
+
 The motor needs no DTR: on the A1's USB adapter DTR switches MOTOCTL, but a pty has no modem
 lines, so the twin's head always turns and a scan starts on its request alone.
 
@@ -423,6 +427,7 @@ class RplidarEmulator:
         self.scan_mode: ScanMode | None = None
         self._stream: _SampleStream | None = None  # None: SCAN with the twin's beams
         self._next_turn = 0  # index k of the next revolution to end, at k * scan_period_s
+        self._turns_scheduled = 0  # revolutions that ended since the scan (re)started
         self._own_start_node = True  # the next revolution must carry its own S node
         self._inject: deque[bytes] = deque()
         self.requests = 0
@@ -498,13 +503,33 @@ class RplidarEmulator:
         # in scan state before the descriptor leaves: a host that has read it sees the mode
         self.scanning = True
         self.scan_mode = mode
+        self._schedule(mode, t_s)
+        self.link.write(SCAN_DESCRIPTOR if fmt is None else fmt.descriptor)
+
+    def _schedule(self, mode: ScanMode, t_s: float) -> None:
+        """The scan's revolutions from the first that begins at or after ``t_s``."""
         period = self.spec.scan_period_s
         self._next_turn = math.ceil(t_s / period - TIME_TOLERANCE_S) + 1
         self._own_start_node = True
-        device_rate = fmt is not None or self.device_standard_scan
+        self._turns_scheduled = 0
+        device_rate = mode.answer_type in CAPSULE_FORMATS or self.device_standard_scan
         t0_s = (self._next_turn - 1) * period
         self._stream = _SampleStream(self.spec, mode, t0_s) if device_rate else None
-        self.link.write(SCAN_DESCRIPTOR if fmt is None else fmt.descriptor)
+
+    def resume(self, t_s: float) -> None:
+        """Go on with the running scan on another clock from ``t_s``, as if it had been asked
+        for then (without a second descriptor): its next revolution is the first that begins
+        at or after ``t_s``. Bytes of its earlier revolutions still on the line are dropped.
+
+        The twin's runner calls it when the MCU's session starts: until then the scan ran on
+        the wall clock over a world standing still, and a lockstep run is then the same however
+        long the LiDAR ran before it, or whether anyone read it.
+        """
+        if not self.scanning or self.scan_mode is None:
+            return
+        if self._turns_scheduled:
+            self.link.discard()
+        self._schedule(self.scan_mode, t_s)
 
     @property
     def malformed_request_bytes(self) -> int:
@@ -574,6 +599,7 @@ class RplidarEmulator:
                 else:
                     self._write_stream(self._stream.revolution(end_s, r))
             self._next_turn += 1
+            self._turns_scheduled += 1
             ended += 1
         return ended
 

@@ -39,7 +39,11 @@ When the twin has a LiDAR, an emulated RPLIDAR A1M8 (:mod:`jackson.sim.rplidar`)
 pty of its own (``lidar_path``), served with the serial link and the I2C bus in every wait.
 Its revolutions are the twin's own scans (same noise, same dropout), written before the MCU
 acts at each instant: a revolution that ended at or before a telemetry frame reaches the
-host ahead of that frame.
+host ahead of that frame. Before the MCU's session the LiDAR does not wait for it, as a real
+A1M8 does not: it answers, and a scan streams revolutions of the world standing still on the
+wall clock (its own noise stream, so the twin's are not drawn from); at the HELLO the scan
+goes on with the twin's clock (:meth:`~jackson.sim.rplidar.RplidarEmulator.resume`), and the
+session's revolutions are the ones a scan asked for at that instant would give.
 
 The twin's link faults (``frame_loss``, ``corrupt_bytes``: :mod:`jackson.sim.faults`) act on
 the line between the in-process MCU and its pty: a telemetry frame the MCU sent is lost, or
@@ -74,6 +78,7 @@ from jackson.common.spin import contention, spin_poll
 from jackson.sim.faults import LINK_KINDS, FaultError, format_fault
 from jackson.sim.fil import FeedStatus, FirmwareProcess
 from jackson.sim.i2c_server import I2cSocketServer
+from jackson.sim.lidar import Lidar
 from jackson.sim.link import PtyLink
 from jackson.sim.mcu import Mcu, SensorSample
 from jackson.sim.pca9685 import Pca9685
@@ -354,6 +359,10 @@ class TwinRunner:
         self.lidar: RplidarEmulator | None = None
         self.lidar_path: str | None = None
         self.lidar_scans_missing = 0  # revolutions with no scan of the twin's (sent empty)
+        # before the MCU's session the LiDAR scans the world standing still on the wall clock
+        # (since this monotonic time; None once the session started), with its own noise
+        self._still_since: float | None = time.monotonic()
+        self._still_lidar: Lidar | None = None
         if lidar and twin._lidar is not None:
             try:
                 # an A1M8's SCAN at 508 us a sample; lidar_twin_beams: the twin's exact 1080
@@ -366,6 +375,7 @@ class TwinRunner:
                 raise
             self.lidar_path = self.lidar.path
             self._sel.register(self.lidar, selectors.EVENT_READ, "lidar")
+            self._still_lidar = Lidar(twin._lidar.spec, np.random.default_rng(self.boot_id))
         if truth is not None:
             try:
                 self.truth = TruthStream(truth, twin, self.boot_id)
@@ -514,12 +524,43 @@ class TwinRunner:
                     lidar.inject(garbage)
         lidar.advance(self.twin.t_s, self._scan_for)
 
+    def _lidar_t(self) -> float:
+        """The LiDAR's clock [s]: the twin's once the MCU's session started; before, the
+        twin's standing time plus the wall time since the twin started (its head turns)."""
+        if self._still_since is None:
+            return self.twin.t_s
+        return self.twin.t_s + (time.monotonic() - self._still_since)
+
+    def _still_ranges(self, end_s: float) -> NDArray[np.float32]:
+        """Before the session: a revolution of the world standing still, from where the robot
+        stands (its own noise stream: the twin's scans are not drawn from)."""
+        assert self._still_lidar is not None
+        s = self.twin.truth()
+        return self._still_lidar.scan(s.x, s.y, s.yaw, self.twin.world.obstacles)
+
+    def _advance_still_lidar(self) -> float:
+        """Before the session: write the revolutions that ended by the wall clock; the wall
+        seconds until the next one ends (at most 0.05)."""
+        lidar = self.lidar
+        if lidar is None or self._still_since is None:
+            return 0.05
+        now = self._lidar_t()
+        lidar.advance(now, self._still_ranges)
+        due = lidar.next_revolution_end_s()
+        return 0.05 if due is None else max(0.0, min(0.05, due - now))
+
+    def _session_starts(self) -> None:
+        """The host's HELLO: the LiDAR goes on with the twin's clock (RplidarEmulator.resume)."""
+        self._still_since = None
+        if self.lidar is not None:
+            self.lidar.resume(self.twin.t_s)
+
     def _service_side(self) -> None:
         """Serve the I2C bus and the LiDAR's requests without blocking (the compiled
         firmware's waits)."""
         self.i2c.service(0.0)
         if self.lidar is not None:
-            self.lidar.serve(self.twin.t_s)
+            self.lidar.serve(self._lidar_t())
 
     # ------------------------------------------------------------------ serving the host
 
@@ -536,7 +577,7 @@ class TwinRunner:
                 bus = self.i2c.service(0.0) > 0 or bus
             elif key.data == "lidar":
                 assert self.lidar is not None
-                self.lidar.serve(self.twin.t_s)
+                self.lidar.serve(self._lidar_t())
             elif self.link is not None and self.mcu is not None and self._outage_until is None:
                 data = self.link.read()
                 if data:
@@ -653,7 +694,8 @@ class TwinRunner:
         while not mcu.session:  # the clock stands still until the host says HELLO
             if stop is not None and stop.is_set():
                 return
-            self._serve(0.05)
+            self._serve(self._advance_still_lidar())
+        self._session_starts()
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
         self._start_session(wall0)
@@ -709,7 +751,9 @@ class TwinRunner:
         while not status.session:  # time stands still until HELLO, as in process
             if stop is not None and stop.is_set():
                 return
-            status = fw.wait_heartbeat(256, 50, on_wait=self._service_side)
+            wait_ms = max(1, round(1000 * self._advance_still_lidar()))
+            status = fw.wait_heartbeat(256, wait_ms, on_wait=self._service_side)
+        self._session_starts()
         end_s = None if duration_s is None else self.twin.t_s + duration_s
         wall0, sim0 = time.monotonic(), self.twin.t_s
         self._start_session(wall0)

@@ -44,6 +44,10 @@ FIELDS = {
 }
 
 
+STATS = {"mean": statistics.fmean, "median": statistics.median, "sd": statistics.stdev}
+"""How a figure is made of the runs' values (``stat``)."""
+
+
 class RegistryError(ValueError):
     """docs/figures.yaml cannot be used: one line naming the entry and the field."""
 
@@ -73,8 +77,8 @@ def load(path: Path = REGISTRY) -> list[dict[str, Any]]:
         names.add(e["name"])
         if "metric" in e and not {"command", "stat", "spread"} <= set(e):
             raise RegistryError(f"{where}: a metric needs command, stat and spread")
-        if e.get("stat", "mean") not in ("mean", "sd"):
-            raise RegistryError(f"{where}: stat must be mean or sd")
+        if e.get("stat", "mean") not in STATS:
+            raise RegistryError(f"{where}: stat must be one of {', '.join(STATS)}")
     for e in entries:
         if "same_as" in e and e["same_as"] not in names:
             raise RegistryError(f"{e['name']}: same_as names no entry ({e['same_as']!r})")
@@ -125,7 +129,7 @@ def recompute(entries: list[dict[str, Any]], every: bool) -> list[tuple[dict[str
             results[command] = _run(command, Path(tmp) / f"c{k}")
     for e in todo:
         values = [float(r[e["metric"]]) for r in results[_flat(e["command"])]]
-        got = statistics.fmean(values) if e["stat"] == "mean" else statistics.stdev(values)
+        got = STATS[e["stat"]](values)
         out.append((e, got))
     return out
 

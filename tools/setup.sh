@@ -83,16 +83,20 @@ if [ "$(cat "$VENV/.files-key" 2>/dev/null)" != "$files_key" ]; then
   echo "$files_key" > "$VENV/.files-key"
 fi
 
-# tf2_msgs (/tf, /tf_static) has no wheel: generated from tools/ros_interfaces with the `ros`
-# extra's rosidl tool chain and compiled here; rebuilt when the wheels or its sources change.
-# A sourced ROS 2 has its own (sudo apt-get install ros-$ROS_DISTRO-tf2-msgs).
+# tf2_msgs (/tf, /tf_static) and nav2_msgs (the navigate_to_pose action) have no wheel:
+# generated from tools/ros_interfaces with the `ros` extra's rosidl tool chain and compiled
+# here; each is rebuilt when the wheels, the script or its sources change. A sourced ROS 2 has
+# its own (sudo apt-get install ros-$ROS_DISTRO-tf2-msgs ros-$ROS_DISTRO-nav2-msgs).
 if [ "$extras" = dev,ros ]; then
-  tf2_key=$( (echo "$deps_key"; cat tools/build_tf2_msgs.py; find tools/ros_interfaces/tf2_msgs -type f | sort | xargs cat) | sha256sum | cut -c1-16)
-  if [ "$(cat "$VENV/.tf2-msgs-key" 2>/dev/null)" != "$tf2_key" ]; then
-    say "building tf2_msgs from its interface definitions (about half a minute)"
-    err=$("$VENV/bin/python" tools/build_tf2_msgs.py 2>&1 >/dev/null) || die "$err"
-    echo "$tf2_key" > "$VENV/.tf2-msgs-key"
-  fi
+  for pkg in tf2_msgs nav2_msgs; do
+    key=$( (echo "$deps_key"; cat tools/build_ros_msgs.py; find "tools/ros_interfaces/$pkg" -type f | sort | xargs cat) | sha256sum | cut -c1-16)
+    stamp="$VENV/.${pkg//_/-}-key"
+    if [ "$(cat "$stamp" 2>/dev/null)" != "$key" ]; then
+      say "building $pkg from its interface definitions (5-30 s)"
+      err=$("$VENV/bin/python" tools/build_ros_msgs.py "$pkg" 2>&1 >/dev/null) || die "$err"
+      echo "$key" > "$stamp"
+    fi
+  done
 fi
 
 # The twin's per-step model (sim/physics.py) compiled with mypyc into build/compiled/<digest>

@@ -16,6 +16,16 @@ threshold is a brake: the integrator resets and the correction is 0, so the PI n
 fights the brake.
 
 Time comes in as an argument (MCU seconds, the encoder sample's time): no clock is read.
+
+Where it runs (:class:`WheelPiConfig`): on external velocity commands (``/cmd_vel``, a teleop,
+what a user expects to be driven at) by default, and on the missions only with ``enabled``.
+Open loop, the deadband stage's feed-forward assumes the motors' no-load speed (100 RPM at full
+duty) and the loaded wheels of the default twin run 10-11 % slower (0.134 m/s for 0.15 m/s,
+0.450 rad/s for 0.5 rad/s); closed, they track within 0.1 % in steady state, within 3 % after
+0.5-0.8 s (tests/sil/test_wheel_speed.py). The paper's Stage 1-2 robot ran open loop, with its
+deadband compensation and a static right-side PWM scale (Sec. 2.2.3), and the twin's missions
+reproduce its figures that way (their durations follow its 7 % slower wheels): the missions keep
+it off.
 """
 
 from __future__ import annotations
@@ -32,7 +42,11 @@ class WheelPiConfig:
     Attributes
     ----------
     enabled : bool
-        Whether the daemon runs the PI on each wheel (off: open-loop deadband feed-forward).
+        Whether the daemon runs the PI on each wheel for every command, the missions' included
+        (off: the missions drive on the open-loop deadband feed-forward, as the paper's robot).
+    external : bool
+        Whether it runs the PI on external velocity commands (``/cmd_vel``) even when
+        ``enabled`` is off: a command of 0.15 m/s then drives at 0.15 m/s.
     kp : float
         K_p, proportional gain [duty per rad/s].
     ki : float
@@ -44,6 +58,7 @@ class WheelPiConfig:
     """
 
     enabled: bool = False
+    external: bool = True
     kp: float = 0.05
     ki: float = 0.5
     integral_limit: float = 0.5

@@ -330,6 +330,7 @@ def _wheel_pi(s: Fields) -> WheelPiConfig:
     d = WheelPiConfig()
     out = WheelPiConfig(
         enabled=s.boolean("enabled", d.enabled),
+        external=s.boolean("external", d.external),
         kp=s.number("kp", d.kp, 0.0),
         ki=s.number("ki", d.ki, 0.0),
         integral_limit=s.number("integral_limit", d.integral_limit, 0.0, 1.0),

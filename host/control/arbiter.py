@@ -79,6 +79,15 @@ class CommandArbiter:
         self.external: tuple[float, float] = (0.0, 0.0)  # the newest external command in force
         self._pending: tuple[float, float, int] | None = None  # submitted, not yet taken
         self._taken: tuple[float, float, int] | None = None  # taken at this frame
+        # the last frame's command was an external one (the wheel-speed loop's rule)
+        self.external_in_force = False
+
+    def __getstate__(self) -> dict[str, object]:
+        """The arbiter's state for a core's snapshot (docs/recording.md): a command submitted
+        and not yet taken stays out (the next frame takes it, logged in the next run folder)."""
+        state = dict(self.__dict__)
+        state["_pending"] = None
+        return state
 
     def submit(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
         """An external velocity command; safe from another thread. A NaN is dropped: it must
@@ -121,6 +130,7 @@ class CommandArbiter:
             self.external = (self._taken[0], self._taken[1])
             self._taken = None
             self.watchdog.feed(t_s)
+        self.external_in_force = False
         mission = self.mission
         if isinstance(mission, ServiceMission):
             return self._serve(mission, t_s, c, nav_state)
@@ -147,6 +157,7 @@ class CommandArbiter:
             return v, w, False
         if self.watchdog.expired(t_s) or c.sensors_lost is not None:
             return 0.0, 0.0, True
+        self.external_in_force = True
         return self.external[0], self.external[1], False
 
     def _serve(
@@ -165,6 +176,7 @@ class CommandArbiter:
         if c.sensors_lost is not None:
             return 0.0, 0.0, True
         if external:
+            self.external_in_force = True
             return self.external[0], self.external[1], False
         if service.idle:
             return 0.0, 0.0, c.wheel_cmd == (0.0, 0.0)

@@ -48,6 +48,7 @@ from jackson.host.lidar.intake import ScanIntake
 from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.nav.types import Scan
 from jackson.host.recording import RunRecorder
+from jackson.host.recording.snapshot import pickle_state, unpickle_state
 from jackson.protocol import (
     Frame,
     Heartbeat,
@@ -337,6 +338,40 @@ class HostCore:
         """INFO frames with another boot_id: counts and clock re-anchored."""
         return self.frontend.resets
 
+    # ------------------------------------------------------------------ snapshot
+
+    def snapshot(self) -> bytes:
+        """The core's computing state, pickled between two frames (a run folder's split,
+        docs/recording.md): every stage and the mission, without the I/O (the motor output,
+        ``send``, the listeners), which :meth:`restore` is given anew. Requests and commands
+        submitted and not yet taken stay out: the next frame takes them into the next folder.
+        """
+        return pickle_state(
+            self, {"output": self.output, "send": self.send, "listeners": self.listeners}
+        )
+
+    @classmethod
+    def restore(
+        cls,
+        pickled: bytes,
+        output: MotorOutput,
+        send: Callable[[Message], object],
+        recorder: RunRecorder | None = None,
+    ) -> HostCore:
+        """The core :meth:`snapshot` pickled, with this output, ``send`` and a recorder.
+
+        Raises
+        ------
+        Exception
+            Whatever unpickling raises (a snapshot of another version); the caller names it.
+        """
+        core = unpickle_state(pickled, {"output": output, "send": send, "listeners": []})
+        if not isinstance(core, cls):
+            raise TypeError(f"the snapshot holds a {type(core).__name__}, not a HostCore")
+        if recorder is not None:
+            core.listeners.append(RunFolderListener(recorder, core.fusion.health))
+        return core
+
     # ------------------------------------------------------------------ inputs
 
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None:
@@ -436,7 +471,9 @@ class HostCore:
             brake = duties == (0.0, 0.0)
         else:
             v_cmd, w_cmd, brake = self._command(t_s, t)
-            v, w, duties = self.actuation.apply(t_s, v_cmd, w_cmd, brake, odo)
+            v, w, duties = self.actuation.apply(
+                t_s, v_cmd, w_cmd, brake, odo, external=self.arbiter.external_in_force
+            )
         self.send(Heartbeat(ack_seq=seq, host_state=self.host_state))
         result = FrameResult(
             t_s, t, odo, v_cmd, w_cmd, v, w, duties, brake, self.frames, self.verdict,

@@ -1,9 +1,12 @@
 """The actuation chain as one stage: a velocity command in, wheel duties on the motor output.
 
 Per telemetry frame (docs/host.md, "What happens per telemetry frame", step 4): velocity and
-acceleration limits, inverse kinematics, optional wheel-speed PI, per-wheel and per-direction
-deadband compensation, then the motor output. A brake resets the limiter and the PIs and
-short-brakes the motors. Calibration's raw duties bypass all of it (:meth:`ActuationChain.raw`).
+acceleration limits, inverse kinematics, per-wheel and per-direction deadband compensation (the
+feed-forward), the wheel-speed PI on the encoders where it runs (external commands by default,
+every command with ``wheel_pi.enabled``: :mod:`jackson.host.actuation.wheel_pi`), then the motor
+output. A brake resets the limiter and the PIs and short-brakes the motors; the PIs also start
+again from 0 whenever the loop closes or opens (a mission after a teleop keeps nothing of its
+correction). Calibration's raw duties bypass all of it (:meth:`ActuationChain.raw`).
 """
 
 from __future__ import annotations
@@ -34,14 +37,16 @@ class ActuationChain:
         self.limiter = VelocityLimiter(cfg.limits)
         self.deadband = cfg.deadband
         zero = cfg.deadband.zero_threshold_rad_s  # the PI brakes where the deadband stage does
+        self.wheel_pi = cfg.wheel_pi
         self.pi = (
             (
                 WheelSpeedPi(cfg.wheel_pi, zero_threshold_rad_s=zero),
                 WheelSpeedPi(cfg.wheel_pi, zero_threshold_rad_s=zero),
             )
-            if cfg.wheel_pi.enabled
+            if cfg.wheel_pi.enabled or cfg.wheel_pi.external
             else None
         )
+        self.closed_loop = False  # the PIs ran at the last frame
         self.braked = True
         self.wheel_cmd: tuple[float, float] = (0.0, 0.0)  # [rad/s] commanded at the last frame
 
@@ -51,7 +56,14 @@ class ActuationChain:
         return self.braked or self.wheel_cmd == (0.0, 0.0)
 
     def apply(
-        self, t_s: float, v_cmd: float, w_cmd: float, brake: bool, odo: OdometryState
+        self,
+        t_s: float,
+        v_cmd: float,
+        w_cmd: float,
+        brake: bool,
+        odo: OdometryState,
+        *,
+        external: bool = False,
     ) -> tuple[float, float, tuple[float, float]]:
         """One frame's command through the chain.
 
@@ -65,6 +77,9 @@ class ActuationChain:
             Brake instead.
         odo : OdometryState
             This frame's wheel speeds (the PI's feedback).
+        external : bool
+            The command is an external velocity command (``/cmd_vel``), not a mission's: the
+            wheel-speed PI runs on it with ``wheel_pi.external``.
 
         Returns
         -------
@@ -89,7 +104,12 @@ class ActuationChain:
         self.wheel_cmd = (om_l, om_r)
         d_l = wheel_duty(om_l, "left", self.deadband)
         d_r = wheel_duty(om_r, "right", self.deadband)
-        if self.pi is not None:
+        closed = self.wheel_pi.enabled or (external and self.wheel_pi.external)
+        if self.pi is not None and closed != self.closed_loop:
+            for pi in self.pi:
+                pi.reset()
+        self.closed_loop = closed
+        if self.pi is not None and closed:
             fb_l, fb_r = odo.wheel_velocity_left_rad_s, odo.wheel_velocity_right_rad_s
             d_l = max(
                 -1.0, min(1.0, d_l + self.pi[0].update(om_l, fb_l, t_s, feedforward_duty=d_l))

@@ -704,6 +704,33 @@ class _SensorState:
         self.state, self.since_s, self.reason = new, t_s, reason
 
 
+TRANSITIONS_KEPT = 1000  # the newest health transitions a monitor keeps (a daemon runs for days)
+
+
+class Recent(list):  # type: ignore[type-arg]
+    """A list that keeps only its newest ``maxlen`` items (appended or added with ``+=``); it
+    compares, indexes and pickles as a list."""
+
+    maxlen = TRANSITIONS_KEPT  # until __init__ (or unpickling) sets the instance's own
+
+    def __init__(self, maxlen: int) -> None:
+        super().__init__()
+        self.maxlen = maxlen
+
+    def _trim(self) -> None:
+        if len(self) > self.maxlen:
+            del self[: len(self) - self.maxlen]
+
+    def append(self, item: object) -> None:
+        super().append(item)
+        self._trim()
+
+    def __iadd__(self, items: object) -> Recent:  # type: ignore[misc]
+        super().__iadd__(items)  # type: ignore[arg-type]
+        self._trim()
+        return self
+
+
 class HealthMonitor:
     """The health of the IMU and the two encoders, per telemetry frame (module docstring).
 
@@ -734,7 +761,7 @@ class HealthMonitor:
         self._gate = cfg.gate_nis
         self._z = cfg.window_z
         self._s = {name: _SensorState(name) for name in SENSORS}
-        self.transitions: list[Transition] = []
+        self.transitions: list[Transition] = Recent(TRANSITIONS_KEPT)
         self.nis = {"yaw_rate": 0.0, "window": 0.0}
         self.counts = {"gated": 0, "excluded": 0, "zupt": 0}
         self._imu_ok_s: float | None = None

@@ -10,7 +10,14 @@ A run folder holds
 - ``health.csv`` (one row per telemetry frame): the sensor health monitor's yaw-rate NIS,
   windowed test, learned wheel yaw model (scale, yaw per metre), each sensor's state, the
   standstill flag and the last LiDAR scan's estimated range noise;
-- ``meta.json``: mission, configuration file, start time, versions.
+- ``meta.json``: mission, configuration file, start time, versions; for a folder of a split
+  recording (a long-running daemon, :mod:`jackson.host.recording.split`), ``previous``,
+  ``next``, ``split`` (why and where it began) and ``snapshot``;
+- ``core.snapshot`` (a split's folder): the daemon's core pickled between the two frames of
+  the split, which the folder's replay starts from (:mod:`jackson.host.recording.snapshot`).
+
+docs/recording.md says when folders split, what the snapshot holds and how the recording folder
+is kept under its disk budget (:mod:`jackson.host.recording.budget`).
 
 ``log.jrec`` is a little-endian binary file: the 8-byte magic ``b"JREC0001"``, then records of
 ``u8 kind, u64 host_time_ns, u16 length, payload``. Kinds: 1 frame received (payload: TYPE, SEQ,
@@ -87,6 +94,21 @@ HEALTH_COLUMNS = (
 )
 
 
+RECORDED = frozenset(
+    {
+        "log.jrec",
+        "meta.json",
+        "health.json",
+        "odometry.csv",
+        "ekf.csv",
+        "commands.csv",
+        "health.csv",
+    }
+)
+"""The files of a run folder its recording writes (and the daemon's health.json); the others
+(config.yaml, the map) are the caller's."""
+
+
 class RecordingError(JacksonError, ValueError):
     """A run folder is missing or damaged."""
 
@@ -112,7 +134,8 @@ class RunRecorder:
     def __init__(self, folder: Path, meta: dict[str, Any]) -> None:
         self.folder = folder
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        self.meta = dict(meta)  # meta.json (a split adds ``next`` to it: write_meta())
+        self.write_meta()
         self._log: IO[bytes] = open(folder / "log.jrec", "wb", buffering=BUFFER_BYTES)  # noqa: SIM115 - closed in close()
         # held while recording, released by the kernel when the process ends however it ends:
         # what tells a live run from a killed one (run_in_progress)
@@ -125,6 +148,10 @@ class RunRecorder:
         self.health = self._csv("health.csv", HEALTH_COLUMNS)
         self._flushed_s: float | None = None  # MCU time of the last flush
         self.flush_with: list[Any] = []  # flushed together with the files (the bag)
+
+    def write_meta(self) -> None:
+        """Write :attr:`meta` to ``meta.json``, whole or not at all."""
+        write_json(self.folder / "meta.json", self.meta)
 
     def _csv(self, name: str, columns: tuple[str, ...]) -> Any:
         f = open(self.folder / name, "w", newline="", encoding="utf-8", buffering=BUFFER_BYTES)  # noqa: SIM115
@@ -179,6 +206,13 @@ class RunRecorder:
         self._log.close()
         for f in self._files:
             f.close()
+
+
+def write_json(path: Path, doc: Any) -> None:
+    """``doc`` as indented JSON in ``path``, replacing it whole (a kill leaves the old one)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
 
 
 def run_in_progress(folder: Path) -> bool:

@@ -317,7 +317,7 @@ class BagRecorder:
         self.flush_interval_ns = (
             None if flush_interval_s is None else stamp_ns(max(flush_interval_s, 0.0))
         )
-        self._store = get_typestore(Stores.ROS2_JAZZY)
+        self._store = _jazzy()
         self._state = _State()
         specs = _topic_specs(self.settings)
         self._names = {key: name for key, (name, _) in specs.items()}
@@ -786,11 +786,29 @@ def _qos_profiles(text: str) -> list[Any]:
     return copy.deepcopy(_QOS_PROFILES[text])
 
 
+_QOS_TEXTS: dict[_TopicSpec, str] = {}  # a topic's offered QoS -> its text
+_JAZZY: list[Typestore] = []  # the process's one type store
+
+
+def _jazzy() -> Typestore:
+    """Jazzy's types, one store per process: rosbags builds a type's serializer once per
+    store (7 ms for /map's), and a long-running daemon opens a bag at each split of its run
+    folders (docs/recording.md)."""
+    if not _JAZZY:
+        _JAZZY.append(get_typestore(Stores.ROS2_JAZZY))
+    return _JAZZY[0]
+
+
 def _bag_topics(specs: Mapping[str, _TopicSpec], store: Typestore) -> list[BagTopic]:
     out = []
     for name, spec in specs.items():
         msgdef, type_hash = _type_info(spec.msgtype, store)
-        out.append(BagTopic(name, spec.msgtype, _qos_text([_qos(spec)]), type_hash, msgdef))
+        # the QoS text once per process too: yaml takes 2 ms a topic, and a long-running
+        # daemon opens a bag at each split of its run folders (docs/recording.md)
+        qos = _QOS_TEXTS.get(spec)
+        if qos is None:
+            qos = _QOS_TEXTS[spec] = _qos_text([_qos(spec)])
+        out.append(BagTopic(name, spec.msgtype, qos, type_hash, msgdef))
     return out
 
 

@@ -2,7 +2,7 @@
 
 The daemon computes; :class:`~jackson.host.ros.messages.RosOutput` builds each message once
 (:class:`~jackson.host.ros.messages.MessageBuilder`) for this node and for the run's bag; this
-node publishes their CDR bytes and hands ``/cmd_vel`` (and ``/goal_pose``) back:
+node publishes their CDR bytes and hands ``/cmd_vel`` (and a navigation's inputs) back:
 
 | topic              | type                            | when                         | QoS        |
 |--------------------|---------------------------------|------------------------------|------------|
@@ -16,6 +16,15 @@ node publishes their CDR bytes and hands ``/cmd_vel`` (and ``/goal_pose``) back:
 | /scan              | sensor_msgs/LaserScan           | each LiDAR revolution        | b. eff. 5  |
 | /map, /plan, /local_plan | nav_msgs                  | navigation missions          | docs       |
 | /cmd_vel (in)      | geometry_msgs/Twist[Stamped]    | to ``core.submit_velocity``  | rel. 1     |
+| /goal_pose (in)    | geometry_msgs/PoseStamped       | a navigation's next goal     | rel. 1     |
+| /initialpose (in)  | geometry_msgs/PoseWithCov.St.   | the service: ``set_pose``    | rel. 1     |
+| navigate_to_pose   | nav2_msgs/action/NavigateToPose | the service's goals (action) | default    |
+
+With the navigation service (``jackson daemon --lidar --map``) ``/goal_pose`` and the
+``navigate_to_pose`` action submit goals to it, ``/initialpose`` relocalises it, and
+/diagnostics carries its state; a one-shot navigation (``--goal``) takes ``/goal_pose`` as its
+next goal. Either way /plan, /local_plan, map -> odom and /map show its navigator
+(:func:`~jackson.host.ros.messages.navigation_of`).
 
 Stamps follow the node's ``use_sim_time``: true (the twin, which publishes /clock on MCU
 time), MCU time itself; false (the robot), MCU time mapped onto the host's system clock
@@ -39,16 +48,23 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import importlib.util
-import math
 import threading
 import time
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Protocol
 
 from jackson.common.ros_env import missing_ros
 from jackson.host.ros import messages
-from jackson.host.ros.messages import TOPIC_TYPES, DiagnosticValues, RosSettings, StampClock
+from jackson.host.ros.messages import (
+    TOPIC_TYPES,
+    DiagnosticValues,
+    NavigationValues,
+    RosSettings,
+    StampClock,
+    navigation_of,
+    planar_pose,
+)
 from jackson.host.ros.qos import (
     cmd_vel_qos,
     map_qos,
@@ -61,10 +77,17 @@ from jackson.protocol import Telemetry, TelemetryFlags
 
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
+    from jackson.host.control.base import Mission
     from jackson.host.core import HostCore
     from jackson.host.estimation.odometry import OdometryState
+    from jackson.host.ros.navigate_action import NavigateToPoseServer
+    from jackson.host.service.navigation import NavigationService
 
 SPIN_TIMEOUT_S = 0.1  # [s] an executor wait; bounds how long stop() takes
+# threads of the executor with the navigation service: the subscriptions' callbacks, and one
+# per navigate_to_pose goal waiting for its end (a preempted one ends within a frame)
+EXECUTOR_THREADS = 4
+MAP_FRAME = "map"  # the frame of goals and initial poses (the service's map)
 
 # The packages the bridge needs (import name -> what provides it with the PyPI wheels).
 REQUIRED_MODULES = ("rclpy", "nav_msgs.msg", "sensor_msgs.msg", "geometry_msgs.msg")
@@ -81,6 +104,9 @@ class CoreLike(Protocol):
 
     @property
     def last_odometry(self) -> OdometryState | None: ...
+
+    @property
+    def mission(self) -> Mission | None: ...
 
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None: ...
 
@@ -118,13 +144,30 @@ def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:
     return q.x, q.y, q.z, q.w
 
 
+def navigation_values(service: NavigationService) -> NavigationValues:
+    """The navigation service's state for /diagnostics (its snapshots: any thread)."""
+    st = service.status
+    history = service.book.history()
+    return NavigationValues(
+        state=st.state.value,
+        unavailable=st.unavailable,
+        goal=st.goal,
+        last=history[-1] if history else None,
+        counts=tuple(service.book.counts.items()),
+        eta_s=st.eta_s,
+    )
+
+
 def diagnostic_values(
     core: HostCore, telemetry: Telemetry | None, *, link: Any
 ) -> DiagnosticValues:
     """The diagnostics of a running core; ``link`` is the daemon's ``LinkHealth``."""
+    from jackson.host.service.navigation import NavigationService
+
     t_s = core.t_s or 0.0
     flags = telemetry.flags if telemetry is not None else 0
     hm = core.health
+    service = core.mission if isinstance(core.mission, NavigationService) else None
     return DiagnosticValues(
         t_s=t_s,
         link_up=link.link_up,
@@ -140,6 +183,15 @@ def diagnostic_values(
         sensors=tuple((name, state.value) for name, state in hm.sensors.items())
         if hm is not None
         else (),
+        reasons=tuple((name, hm.reason(name)) for name in hm.sensors) if hm is not None else (),
+        lidar=(
+            *hm.lidar_counts.items(),
+            ("roughness_m", f"{hm.lidar_roughness_m:.4f}"),
+            ("missing_fraction", f"{hm.lidar_missing:.3f}"),
+        )
+        if hm is not None
+        else (),
+        navigation=navigation_values(service) if service is not None else None,
     )
 
 
@@ -160,7 +212,7 @@ QOS = {
     "latched": tf_static_qos,
     "map": map_qos,
 }
-INPUTS = ("cmd_vel", "goal_pose")  # topics the node receives: recorded, never published
+INPUTS = ("cmd_vel", "goal_pose", "initialpose")  # topics it receives: recorded, not published
 NOT_PUBLISHED = ("telemetry",)  # the raw frames are the bag's own record
 
 
@@ -174,26 +226,35 @@ CLOCK_DISCOVERY_MAX_S = 15.0  # [s] the longest the search lasts while other nod
 
 class RosBridge:
     """The daemon's ROS 2 node: publishes the messages :class:`RosOutput` built, feeds the core
-    /cmd_vel (and /goal_pose).
+    /cmd_vel, and a navigation its goals (/goal_pose; with the service ``navigate_to_pose``
+    and /initialpose too).
 
     A sink of :class:`~jackson.host.ros.messages.RosOutput`: :meth:`write` publishes a built
     message's CDR bytes on its topic, the same bytes' message the run's bag records. The rclpy
     node is :attr:`node` (the same API on Humble and Jazzy). It has its own rclpy context and
     installs no signal handlers: the daemon's SIGINT/SIGTERM handlers stay in charge and end
     with :meth:`stop`. :meth:`write` may be called from the daemon's thread while
-    :meth:`start`'s executor thread runs the subscriptions' callbacks.
+    :meth:`start`'s executor thread runs the subscriptions' callbacks (with the service, a
+    multi-threaded executor: each ``navigate_to_pose`` goal waits for its end on a thread).
 
     Parameters
     ----------
     core : CoreLike
         The daemon's core; its configuration gives the defaults of the covariances and the
-        base_link height, and /cmd_vel goes to its ``submit_velocity``.
+        base_link height, and /cmd_vel goes to its ``submit_velocity``. A one-shot navigation
+        mission of it (``--goal``) takes /goal_pose as its next goal.
     node_name, namespace : str
         Of the node.
     args : sequence of str, optional
         Command-line arguments for rclpy (``--ros-args -p cmd_vel_stamped:=true -r ...``).
     parameter_overrides : mapping, optional
         Parameter values that replace the defaults (tests, the daemon's configuration).
+    service : NavigationService, optional
+        The daemon's navigation service: /goal_pose and ``navigate_to_pose`` submit goals to
+        it, /initialpose sets its pose.
+    say : callable, optional
+        One line for the operator (a goal or a pose refused); default: the node's logger.
+        Such lines also go to the node's logger (/rosout).
     """
 
     def __init__(
@@ -204,16 +265,24 @@ class RosBridge:
         namespace: str = "",
         args: Sequence[str] | None = None,
         parameter_overrides: Mapping[str, Any] | None = None,
+        service: NavigationService | None = None,
+        say: Callable[[str], None] | None = None,
     ) -> None:
         import rclpy
         from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
         from rclpy.node import Node
         from rclpy.parameter import Parameter
         from rclpy.signals import SignalHandlerOptions
         from rosbags.typesys import Stores, get_typestore
 
         self.core = core
+        self.service = service
+        self._say = say
+        self._stop = threading.Event()
+        # messages received on the executor's threads, recorded on the core's (the bag's)
+        self.received: deque[tuple[str, Any]] = deque()
+        self.action: NavigateToPoseServer | None = None
         self._store = get_typestore(Stores.ROS2_JAZZY)
         self.context = Context()
         rclpy.init(
@@ -257,15 +326,16 @@ class RosBridge:
         except BaseException:
             self.context.try_shutdown()
             raise
-        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor: Any = (
+            MultiThreadedExecutor(num_threads=EXECUTOR_THREADS, context=self.context)
+            if self.action is not None
+            else SingleThreadedExecutor(context=self.context)
+        )
         self.executor.add_node(self.node)
-        self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
         self.commands_received = 0
         self.published: dict[str, int] = {}
-        # messages received on the executor's thread, recorded on the core's (the bag's)
-        self.received: deque[tuple[str, Any]] = deque()
 
     # ------------------------------------------------------------------ set-up
 
@@ -388,16 +458,31 @@ class RosBridge:
                 continue
             qos = tf_qos() if key == "tf" else QOS[kind]()
             self.publishers[key] = node.create_publisher(cls, p.topic(key), qos)
-        self.nav: Any = getattr(self.core, "mission", None)
-        if not hasattr(self.nav, "navigator"):
-            self.nav = None
-        if self.nav is not None:  # Stage 3: RViz's "2D Goal Pose"
+        # a one-shot navigation (--goal) takes /goal_pose as its next goal; the service takes
+        # goals from it, from navigate_to_pose and poses from /initialpose
+        self.nav = navigation_of(self.core.mission) if self.service is None else None
+        if self.nav is not None or self.service is not None:  # RViz's "2D Goal Pose"
             self.goal_sub = node.create_subscription(
-                _message_class("geometry_msgs/msg/PoseStamped"),
-                "/goal_pose",
+                _message_class(p.topic_type("goal_pose")),
+                p.topic("goal_pose"),
                 self._on_goal,
                 cmd_vel_qos(),
             )
+        if self.service is not None:
+            self.initial_pose_sub = node.create_subscription(  # RViz's "2D Pose Estimate"
+                _message_class(p.topic_type("initialpose")),
+                p.topic("initialpose"),
+                self._on_initial_pose,
+                cmd_vel_qos(),
+            )
+            if _optional("nav2_msgs.action") is None:
+                self.missing.append("nav2_msgs/action/NavigateToPose")
+            else:
+                from jackson.host.ros.navigate_action import NavigateToPoseServer
+
+                self.action = NavigateToPoseServer(
+                    node, self.service, self.clock, self.say, self._stop
+                )
         self.cmd_vel_sub = node.create_subscription(
             _message_class(p.topic_type("cmd_vel")),
             p.cmd_vel_topic,
@@ -446,6 +531,8 @@ class RosBridge:
             self._thread.join(timeout=5.0)
         with self._lock:
             self.executor.shutdown(timeout_sec=1.0)
+            if self.action is not None:
+                self.action.destroy()
             node: Any = self.node
             node.destroy_node()
             self.context.try_shutdown()
@@ -466,16 +553,53 @@ class RosBridge:
             float(twist.linear.x), float(twist.angular.z), time.monotonic_ns()
         )
 
-    def _on_goal(self, msg: Any) -> None:
-        """A goal from RViz's "2D Goal Pose" (map frame): the navigator takes it at the next
-        control tick; the bag records it then."""
-        from jackson.host.nav.types import Pose2D
+    def say(self, text: str) -> None:
+        """One line for the operator (the daemon's console) and the node's log (/rosout)."""
+        logger: Any = self.node.get_logger  # untyped in rclpy
+        logger().warning(text)
+        if self._say is not None:
+            self._say(text)
 
-        q = msg.pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-        x, y = float(msg.pose.position.x), float(msg.pose.position.y)
-        self.received.append(("goal_pose", (x, y, yaw, msg.header.frame_id)))
-        self.nav.request_goal(Pose2D(x, y, yaw))
+    def _on_goal(self, msg: Any) -> None:
+        """A goal from RViz's "2D Goal Pose" (map frame); the bag records it at the next frame.
+        The service checks it at once (refused: one line with the reason) and takes it at the
+        next frame, preempting the active goal; a one-shot navigator takes it at its next
+        control tick."""
+        pose = planar_pose(msg.pose)
+        frame = msg.header.frame_id
+        self.received.append(("goal_pose", (pose.x, pose.y, pose.yaw, frame)))
+        if self.service is None:
+            assert self.nav is not None
+            self.nav.request_goal(pose)
+            return
+        where = f"({pose.x:.2f}, {pose.y:.2f})"
+        if frame != MAP_FRAME:
+            self.say(f"ROS: /goal_pose {where} refused: in frame {frame!r}, not {MAP_FRAME!r}")
+            return
+        rec = self.service.submit_goal(pose, "goal_pose")
+        if rec.status.ended:
+            self.say(f"ROS: /goal_pose {where} rejected: {rec.reason}")
+
+    def _on_initial_pose(self, msg: Any) -> None:
+        """A pose to localise from (RViz's "2D Pose Estimate", map frame): the service's
+        localiser starts again there at the next frame; a pose off the map, in an obstacle or
+        in another frame is refused with one line and changes nothing. Its covariance is
+        recorded, not used: the localiser spreads its particles its own way."""
+        from jackson.host.control.navigator import RouteError
+
+        assert self.service is not None
+        pose = planar_pose(msg.pose.pose)
+        frame = msg.header.frame_id
+        cov = tuple(float(c) for c in msg.pose.covariance)
+        self.received.append(("initialpose", (pose.x, pose.y, pose.yaw, frame, cov)))
+        where = f"({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})"
+        if frame != MAP_FRAME:
+            self.say(f"ROS: /initialpose {where} refused: in frame {frame!r}, not {MAP_FRAME!r}")
+            return
+        try:
+            self.service.set_pose(pose, "initialpose")
+        except RouteError as exc:
+            self.say(f"ROS: /initialpose {where} refused: {exc}")
 
     # ------------------------------------------------------------------ outputs
 

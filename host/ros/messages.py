@@ -27,15 +27,19 @@ import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
 from jackson.host.core.results import CoreListener, FrameResult
+from jackson.host.nav.types import Pose2D
 from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:
     from jackson.host.config import HostConfig
+    from jackson.host.control.base import Mission
+    from jackson.host.control.navigate import NavigateMission
     from jackson.host.estimation.ekf import EkfState
     from jackson.host.estimation.odometry import OdometryCovariance, OdometryState
     from jackson.host.nav.types import Scan
+    from jackson.host.service.goals import GoalRecord
 
 Header = jazzy.std_msgs__msg__Header
 Time = jazzy.builtin_interfaces__msg__Time
@@ -49,6 +53,7 @@ TransformStamped = jazzy.geometry_msgs__msg__TransformStamped
 Twist = jazzy.geometry_msgs__msg__Twist
 TwistStamped = jazzy.geometry_msgs__msg__TwistStamped
 PoseWithCovariance = jazzy.geometry_msgs__msg__PoseWithCovariance
+PoseWithCovarianceStamped = jazzy.geometry_msgs__msg__PoseWithCovarianceStamped
 TwistWithCovariance = jazzy.geometry_msgs__msg__TwistWithCovariance
 Odometry = jazzy.nav_msgs__msg__Odometry
 Path = jazzy.nav_msgs__msg__Path
@@ -67,13 +72,22 @@ Clock = jazzy.rosgraph_msgs__msg__Clock
 
 NS_PER_S = 1_000_000_000
 LEVEL_OK, LEVEL_WARN, LEVEL_ERROR = 0, 1, 2  # diagnostic_msgs/DiagnosticStatus levels
+# a sensor's health state (docs/health.md) as a diagnostic level
+HEALTH_LEVELS = {
+    "ok": LEVEL_OK,
+    "recovered": LEVEL_OK,
+    "suspect": LEVEL_WARN,
+    "excluded": LEVEL_ERROR,
+}
 SCAN_PERIOD_S = 0.13465  # [s] the A1M8's turn (REFERENCE: LiDAR)
 SCAN_RANGE_M = (0.15, 8.0)  # [m] the A1M8's minimum and the robot's software cap
 CLOCK_WINDOW_S = 10.0  # [s] of MCU time over which the least transport delay is found
 CLOCK_SLEW = 0.1  # the offset in use moves at most this fraction of the MCU time passed
-SCAN_TIMER_WINDOW = 200  # revolutions the LiDAR's period is averaged over (about 27 s)
-SCAN_TIMER_MIN = 30  # revolutions before the average replaces the A1M8's nominal period: the
-# frames' 50 ms quantisation then errs by under 1.3 % of it
+SCAN_TIMER_WINDOW = 200  # revolutions the LiDAR's sample period is fitted over (about 27 s)
+SCAN_TIMER_MIN = 30  # revolutions before the fitted period replaces the A1M8's nominal one: the
+# frames' 50 ms quantisation then errs by about 0.2 % of it
+SCAN_TIMER_SLEW_S = 0.003  # [s] a revolution's end moves at most this far from back to back
+SCAN_TIMER_DRIFT_S = 0.0002  # [s] per revolution: how far earlier windows' bounds loosen
 
 # topic key -> (ROS type, QoS: "reliable" | "sensor" | "latched" | "map", depth)
 TOPIC_TYPES: dict[str, tuple[str, str, int]] = {
@@ -90,6 +104,7 @@ TOPIC_TYPES: dict[str, tuple[str, str, int]] = {
     "local_plan": ("nav_msgs/msg/Path", "reliable", 10),
     "cmd_vel": ("geometry_msgs/msg/Twist", "reliable", 1),
     "goal_pose": ("geometry_msgs/msg/PoseStamped", "reliable", 1),
+    "initialpose": ("geometry_msgs/msg/PoseWithCovarianceStamped", "reliable", 1),
     "telemetry": ("std_msgs/msg/UInt8MultiArray", "reliable", 10),
 }
 """Every topic a run has, by its key in :meth:`RosSettings.topic`."""
@@ -201,6 +216,7 @@ class RosSettings:
             "plan": "/plan",
             "local_plan": "/local_plan",
             "goal_pose": "/goal_pose",
+            "initialpose": "/initialpose",
             "telemetry": TOPICS.telemetry,
         }[key]
 
@@ -239,6 +255,12 @@ class DiagnosticValues:
         What the operator should look at (empty when all is well).
     sensors : tuple of (str, str)
         Each sensor's health state (docs/health.md), empty without the monitor.
+    reasons : tuple of (str, str)
+        Why each sensor is in its state ('' while it never left ``ok``).
+    lidar : tuple of (str, object)
+        The LiDAR's counters as the monitor keeps them (scans, unused, roughness, missing).
+    navigation : NavigationValues or None
+        The navigation service's state (None without the service).
     """
 
     t_s: float
@@ -253,6 +275,77 @@ class DiagnosticValues:
     link: tuple[tuple[str, object], ...] = field(default=())
     problems: tuple[str, ...] = field(default=())
     sensors: tuple[tuple[str, str], ...] = field(default=())
+    reasons: tuple[tuple[str, str], ...] = field(default=())
+    lidar: tuple[tuple[str, object], ...] = field(default=())
+    navigation: NavigationValues | None = None
+
+
+@dataclass(frozen=True)
+class NavigationValues:
+    """The navigation service's part of a /diagnostics sample.
+
+    Attributes
+    ----------
+    state : str
+        ``idle``, ``navigating`` or ``teleop``.
+    unavailable : str or None
+        Why goals are refused now, else None.
+    goal : GoalRecord or None
+        The active goal.
+    last : GoalRecord or None
+        The goal that ended last (its status and reason: the last result).
+    counts : tuple of (str, int)
+        Goals ended so far, per end (succeeded, aborted, canceled, rejected).
+    eta_s : float
+        Estimated time remaining of the active goal [s] (nan without one).
+    """
+
+    state: str
+    unavailable: str | None = None
+    goal: GoalRecord | None = None
+    last: GoalRecord | None = None
+    counts: tuple[tuple[str, int], ...] = field(default=())
+    eta_s: float = math.nan
+
+
+def navigation_status(n: NavigationValues) -> tuple[int, str, dict[str, object]]:
+    """The ``jackson: navigation`` status: (level, message, key/values). An error while goals
+    are refused (sensors or the LiDAR lost), a warning while the last goal's end was an abort
+    and no goal is active, else OK."""
+    kv: dict[str, object] = {"state": n.state}
+    level = LEVEL_OK
+    if n.unavailable is not None:
+        level, text = LEVEL_ERROR, f"goals refused: {n.unavailable}"
+    elif n.goal is not None:
+        g = n.goal
+        text = f"navigating to goal {g.goal_id} ({g.pose.x:.2f}, {g.pose.y:.2f}) from {g.source}"
+    elif n.state == "teleop":
+        text = "teleop: velocity commands drive the robot"
+    else:
+        text = "idle, braked"
+    if n.goal is not None:
+        g = n.goal
+        kv.update(
+            goal_id=g.goal_id,
+            goal=f"{g.pose.x:.3f}, {g.pose.y:.3f}, {g.pose.yaw:.3f}",
+            goal_source=g.source,
+            navigation_time_s=f"{g.navigation_time_s:.1f}",
+            distance_remaining_m=f"{g.distance_remaining_m:.2f}",
+            eta_s=f"{n.eta_s:.1f}",
+            recoveries=g.recoveries,
+        )
+    if n.last is not None:
+        last = n.last
+        text += f"; last goal {last.goal_id} {last.status.value}: {last.reason}"
+        if n.goal is None and last.status.value == "aborted":
+            level = max(level, LEVEL_WARN)
+        kv.update(
+            last_goal_id=last.goal_id,
+            last_status=last.status.value,
+            last_reason=last.reason,
+        )
+    kv.update({f"goals_{end}": count for end, count in n.counts})
+    return level, text, kv
 
 
 class StampClock:
@@ -323,50 +416,154 @@ class StampClock:
 class ScanTimer:
     """When each LiDAR revolution was measured, on MCU time.
 
-    The host reads the LiDAR's port at each telemetry frame, so a revolution is known to have
-    ended between the previous frame and the one it arrived with; on the twin (lockstep or
-    not) and on the robot alike that window is all the arrival says. The revolutions of a
-    spinning LiDAR follow each other back to back, each lasting its samples times the
-    sample period, so their ends advance by a period that the arrivals average out:
+    The host reads the LiDAR's port at each telemetry frame, so a revolution that arrives alone
+    with a frame is known to have ended between the previous frame and that one (its window):
+    on the twin in lockstep exactly, on the robot give or take the bytes' way over USB. A
+    spinning LiDAR's revolutions follow each other back to back, each lasting its samples
+    times the sample period, so the timer keeps a timeline of their ends and lets the windows
+    correct only its phase, a little at a time:
 
-    - the period is the mean spacing of the arrival windows' ends per sample over the last
-      :data:`SCAN_TIMER_WINDOW` revolutions (the frames' quantisation averages out);
-    - each end is the previous end plus its duration, clamped into its arrival window: a
-      first guess at the window's end runs late, and every window that closes before the
-      prediction pulls it earlier, until it rides the true phase within a frame's jitter;
-    - a prediction a whole period before its window (revolutions lost) starts again at the
-      window's end.
+    - the sample period is the least-squares slope of the windows' ends over the samples
+      counted, over the last :data:`SCAN_TIMER_WINDOW` revolutions that came alone since the
+      last gap, once :data:`SCAN_TIMER_MIN` have (the frames' quantisation averages out);
+      before the first fit, a revolution lasts the A1M8's :data:`SCAN_PERIOD_S`;
+    - each end is predicted as the previous end plus this revolution's duration; the windows
+      of the last revolutions are intersected (each bounds where the timeline's phase may be,
+      loosened by :data:`SCAN_TIMER_DRIFT_S` a revolution), and the prediction moves towards
+      the middle of what they allow by at most :data:`SCAN_TIMER_SLEW_S`: consecutive stamps
+      are one revolution apart within it from the first, while the phase settles;
+    - a window half a period or more past the prediction (revolutions lost: nothing came for
+      them) moves the timeline on by whole revolutions, and the revolution after the gap lasts
+      as the one before it (its first samples may be the lost turn's); windows that disagree
+      with all before (the robot's bytes late) start the intersection again;
+    - revolutions that arrive together with one frame cannot all have ended in its window:
+      the pairing is lost (a lockstep twin that ran on in real time while the host was kept
+      from reading, a port read late); they follow back to back and tell nothing of the phase.
+      Before the timeline has a phase (the first revolutions, or a first frame that brought
+      several) they are held, and stamped back to back before the first revolution that comes
+      alone in a window; held revolutions that cannot have followed each other up to it (the
+      first would have started before the MCU's clock did, at time 0: some were lost between
+      them) start at the frame the first of them came with instead, so no stamp is 0.
 
-    The stamp (the LaserScan convention) is the revolution's first measurement: end less
-    its duration. Before :data:`SCAN_TIMER_MIN` revolutions the period is :data:`SCAN_PERIOD_S`.
+    The stamp (the LaserScan convention) is the revolution's first measurement: its end less
+    its duration.
     """
 
     def __init__(self) -> None:
-        self._arrivals: deque[tuple[float, int]] = deque(maxlen=SCAN_TIMER_WINDOW)
-        self._end_s: float | None = None
+        self._points: deque[tuple[float, int]] = deque(maxlen=SCAN_TIMER_WINDOW)
+        self._sample_s = 0.0  # the last fit of the sample period [s] (0: none yet)
+        self._last_duration_s = SCAN_PERIOD_S  # the last revolution's
+        self._samples = 0  # samples of the revolutions stamped (the fit's abscissa)
+        self._end_s: float | None = None  # the last revolution's end on the timeline
+        self._held: list[int] = []  # samples of revolutions waiting for the timeline's phase
+        self._held_since_s = 0.0  # the frame the first of them came with
+        # the corrections of the last end that the windows allow (low, high) [s]; None: unknown
+        self._allowed: tuple[float, float] | None = None
 
     def sample_s(self) -> float:
-        """The sample period [s]: mean arrival spacing per sample over the window."""
-        a = self._arrivals
-        if len(a) < SCAN_TIMER_MIN:
-            return 0.0
-        samples = sum(n for _, n in list(a)[1:])
-        return (a[-1][0] - a[0][0]) / samples if samples else 0.0
+        """The sample period [s]: fitted over the revolutions that came alone since the last
+        gap once :data:`SCAN_TIMER_MIN` have, else the fit before the gap (0: none yet)."""
+        pts = self._points
+        if len(pts) >= SCAN_TIMER_MIN:
+            t = np.fromiter((p[0] for p in pts), np.float64, len(pts))
+            n = np.fromiter((p[1] for p in pts), np.float64, len(pts))
+            n -= n.mean()
+            spread = float(n @ n)
+            if spread > 0.0:
+                self._sample_s = float(n @ (t - t.mean())) / spread
+        return self._sample_s
 
-    def stamp(self, samples: int, arrived_s: float, since_s: float | None) -> tuple[float, float]:
-        """(start [s], duration [s]) of a revolution of ``samples`` that arrived with the frame
-        of MCU time ``arrived_s``, the previous frame being at ``since_s`` (None: unknown)."""
-        self._arrivals.append((arrived_s, samples))
+    def _gap(self) -> None:
+        """Revolutions lost, or their pairing with the frames: the sample count no longer
+        tells the time since the earlier windows, whose fit is kept until a new one has
+        enough."""
+        self._points.clear()
+        self._allowed = None
+
+    def _duration(self, samples: int) -> float:
         per = self.sample_s()
-        duration = per * samples if per > 0.0 else SCAN_PERIOD_S
-        lo = since_s if since_s is not None and since_s < arrived_s else arrived_s - duration
-        end = arrived_s
-        if self._end_s is not None:
-            predicted = self._end_s + duration
-            if predicted >= lo - duration:  # else revolutions were lost: start again
-                end = min(max(predicted, lo), arrived_s)
-        self._end_s = end
-        return end - duration, duration
+        return per * samples if per > 0.0 else SCAN_PERIOD_S
+
+    def stamp(
+        self, samples: Sequence[int], arrived_s: float, since_s: float | None
+    ) -> list[tuple[float, float]]:
+        """(start [s], duration [s]) of each revolution held so far and of ``samples``, the
+        revolutions that arrived with the frame of MCU time ``arrived_s`` (their sample
+        counts, in order), the previous frame being at ``since_s`` (None: none); empty while
+        they are held."""
+        if not samples:
+            return []
+        alone = len(samples) == 1 and since_s is not None and since_s < arrived_s
+        if self._end_s is None:
+            if not self._held:
+                self._held_since_s = arrived_s
+            self._held += samples
+            return self._anchor(arrived_s, since_s) if alone else []
+        out = []
+        for n in samples:
+            duration = self._duration(n)
+            end = self._end_s + duration
+            if alone:
+                assert since_s is not None
+                end, duration = self._correct(end, duration, n, since_s, arrived_s)
+                self._points.append((arrived_s, self._samples + n))
+            else:  # the window said nothing true
+                self._gap()
+            self._samples += n
+            self._end_s, self._last_duration_s = end, duration
+            out.append((end - duration, duration))
+        return out
+
+    def _anchor(self, arrived_s: float, since_s: float | None) -> list[tuple[float, float]]:
+        """The first revolution alone in a window ends at the window's end; the revolutions
+        held before it end back to back before it."""
+        durations = [self._duration(n) for n in self._held]
+        ends = arrived_s - np.concatenate((np.cumsum(durations[:0:-1])[::-1], [0.0]))
+        first_start = float(ends[0]) - durations[0]
+        if first_start <= 0.0:  # they cannot all have followed each other: some were lost
+            ends += max(self._held_since_s, first_start) - first_start
+        lo = since_s if since_s is not None else -math.inf
+        self._allowed = (lo - arrived_s, 0.0)
+        self._samples = sum(self._held)
+        if ends[-1] == arrived_s:
+            self._points.append((arrived_s, self._samples))
+        else:
+            self._gap()
+        self._end_s, self._last_duration_s = float(ends[-1]), durations[-1]
+        self._held = []
+        return [(float(e) - d, d) for e, d in zip(ends, durations, strict=True)]
+
+    def _correct(
+        self, end: float, duration: float, samples: int, since_s: float, arrived_s: float
+    ) -> tuple[float, float]:
+        """(end, duration) of a revolution alone in the window (since_s, arrived_s], predicted
+        to end at ``end``."""
+        low, high = since_s - end, arrived_s - end  # the corrections this window allows
+        if low >= 0.5 * duration:  # revolutions lost: the timeline moves on by whole turns
+            # the samples before the gap that this revolution holds (the lost turn's first,
+            # sent with the turn before it) are not this turn's: it lasts as the one before
+            turn = self._last_duration_s
+            lost = math.floor(low / turn + 0.5)
+            end += lost * turn + turn - duration
+            duration = turn
+            low, high = since_s - end, arrived_s - end
+            self._gap()
+        if self._allowed is not None:
+            a_low = self._allowed[0] - SCAN_TIMER_DRIFT_S
+            a_high = self._allowed[1] + SCAN_TIMER_DRIFT_S
+            if max(low, a_low) <= min(high, a_high):
+                low, high = max(low, a_low), min(high, a_high)
+        step = min(SCAN_TIMER_SLEW_S, max(-SCAN_TIMER_SLEW_S, 0.5 * (low + high)))
+        self._allowed = (low - step, high - step)
+        return end + step, duration
+
+
+def planar_pose(pose: Any) -> Pose2D:
+    """A geometry_msgs/Pose (any object with ``position`` and ``orientation``) as a planar
+    pose: its x, y and its rotation's yaw."""
+    q = pose.orientation
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    return Pose2D(float(pose.position.x), float(pose.position.y), yaw)
 
 
 def yaw_quaternion(yaw_rad: float) -> Quaternion:
@@ -653,6 +850,28 @@ class MessageBuilder:
             ),
         )
 
+    def initial_pose(
+        self,
+        t_s: float,
+        x: float,
+        y: float,
+        yaw: float,
+        covariance: Sequence[float],
+        frame: str = "map",
+    ) -> Any:
+        """A pose to localise from as /initialpose carries it (RViz's "2D Pose Estimate"),
+        with its 6 x 6 covariance, row-major."""
+        return PoseWithCovarianceStamped(
+            header=self.header(t_s, frame),
+            pose=PoseWithCovariance(
+                pose=Pose(
+                    position=Point(x=float(x), y=float(y), z=0.0),
+                    orientation=yaw_quaternion(yaw),
+                ),
+                covariance=np.asarray(covariance, dtype=np.float64).reshape(36),
+            ),
+        )
+
     def raw_frame(self, data: bytes) -> Any:
         """/jackson/telemetry: a received frame's bytes."""
         payload = np.frombuffer(bytes(data), dtype=np.uint8).copy()
@@ -669,18 +888,34 @@ class MessageBuilder:
         )
 
     def diagnostics(self, v: DiagnosticValues) -> Any:
-        """/diagnostics: the link, the IMU, the EKF, the command watchdog (and the sensors'
-        health when the monitor runs)."""
+        """/diagnostics: the serial link, one status per sensor (the IMU, the encoders, the
+        LiDAR: their flags and the health monitor's states), the EKF, the command watchdog,
+        the clock (robot time) and the navigation service."""
+        health, reasons = dict(v.sensors), dict(v.reasons)
+
+        def judged(sensor: str) -> tuple[int, str]:
+            """The monitor's level of a sensor and what to say of it ('' while it is ok)."""
+            state = health.get(sensor)
+            if state is None or state == "ok":
+                return LEVEL_OK, ""
+            why = reasons.get(sensor, "")
+            return HEALTH_LEVELS.get(state, LEVEL_WARN), f"{state}: {why}" if why else state
+
         if not v.link_up:
             link_level, link_text = LEVEL_ERROR, "down"
         elif v.problems:
             link_level, link_text = LEVEL_WARN, "up; " + "; ".join(v.problems)
         else:
             link_level, link_text = LEVEL_OK, "up"
+        level, text = judged("link")
+        link_level, link_text = max(link_level, level), link_text + (f"; {text}" if text else "")
         imu_level = LEVEL_ERROR if not v.imu_ok else (LEVEL_OK if v.imu_calibrated else LEVEL_WARN)
         imu_text = "ok" if v.imu_ok else "no data"
         if v.imu_ok and not v.imu_calibrated:
             imu_text = "not calibrated"
+        level, text = judged("imu")
+        imu_level, imu_text = max(imu_level, level), imu_text + (f"; {text}" if text else "")
+        monitor = {"health": health["link"]} if "link" in health else {}
         rejected = sum(n for _, n in v.rejected)
         statuses = [
             self.status(
@@ -690,6 +925,7 @@ class MessageBuilder:
                 frames=v.frames,
                 crc_errors=v.crc_errors,
                 **{k: x for k, x in v.link if k != "crc_errors"},
+                **monitor,
             ),
             self.status(
                 "jackson: imu",
@@ -697,7 +933,31 @@ class MessageBuilder:
                 imu_text,
                 imu_ok=v.imu_ok,
                 imu_calibrated=v.imu_calibrated,
+                **({"health": health["imu"]} if "imu" in health else {}),
             ),
+        ]
+        if "encoder_left" in health:  # the monitor runs
+            sides = [(side, *judged(f"encoder_{side}")) for side in ("left", "right")]
+            said = [f"{side} {text}" for side, _, text in sides if text]
+            statuses.append(
+                self.status(
+                    "jackson: encoders",
+                    max(level for _, level, _ in sides),
+                    "; ".join(said) if said else "ok",
+                    left=health["encoder_left"],
+                    right=health["encoder_right"],
+                )
+            )
+        if "lidar" in health:
+            level, text = judged("lidar")
+            counts = dict(v.lidar)
+            if not text:
+                scans = counts.get("scans", 0)
+                text = f"ok, {scans} scans" if scans else "no scans (no LiDAR read)"
+            statuses.append(
+                self.status("jackson: lidar", level, text, health=health["lidar"], **counts)
+            )
+        statuses += [
             self.status(
                 "jackson: ekf",
                 LEVEL_OK if rejected == 0 else LEVEL_WARN,
@@ -728,17 +988,24 @@ class MessageBuilder:
                     jitter_max_ms=f"{float(jitter.max()):.3f}",
                 )
             )
-        if v.sensors:
-            worst = max(
-                (
-                    {"ok": 0, "recovered": 0, "suspect": 1, "excluded": 2}.get(state, 1)
-                    for _, state in v.sensors
-                ),
-                default=0,
-            )
-            text = ", ".join(f"{name} {state}" for name, state in v.sensors)
-            statuses.append(self.status("jackson: sensor health", worst, text, **dict(v.sensors)))
+        if v.navigation is not None:
+            level, text, kv = navigation_status(v.navigation)
+            statuses.append(self.status("jackson: navigation", level, text, **kv))
         return DiagnosticArray(header=self.header(v.t_s, ""), status=statuses)
+
+
+def navigation_of(mission: Mission | None) -> NavigateMission | None:
+    """The navigation a mission drives with, whose plans, map -> odom and map the navigation
+    topics show: a one-shot navigation (``--goal``) is its own; the navigation service keeps
+    one for its whole run (``NavigationService.nav``); other missions have none."""
+    from jackson.host.control.navigate import NavigateMission
+    from jackson.host.service.navigation import NavigationService
+
+    if isinstance(mission, NavigationService):
+        return mission.nav
+    if isinstance(mission, NavigateMission):
+        return mission
+    return None
 
 
 class RosSink(Protocol):
@@ -762,7 +1029,8 @@ class RosOutput(CoreListener):
         Also send each received frame's bytes (/jackson/telemetry: the bag's raw record).
     received : deque or None
         Messages the live node received on its own thread, ``(key, value)``, recorded here on
-        the core's: ``("goal_pose", (x, y, yaw, frame))``.
+        the core's: ``("goal_pose", (x, y, yaw, frame))``, ``("initialpose", (x, y, yaw,
+        frame, covariance))``.
     """
 
     def __init__(
@@ -779,13 +1047,17 @@ class RosOutput(CoreListener):
         self.received = received
         self._pending: list[bytes] = []
         self._static_sent = False
-        self._held_scans: list[Scan] = []  # scans before the first frame set the clock
+        self._frame_scans: list[Scan] = []  # this frame's scans, stamped at its result
+        self._held_scans: list[Scan] = []  # scans the timer holds until it knows their phase
         self._frames = 0  # frames seen (on_result)
         self.scan_timer = ScanTimer()
         self._plan_version = -1
         self._map_sent_s: float | None = None
         self._t_s = 0.0
+        self._t_prev_s: float | None = None  # the frame before the last one
         self._next_diagnostics_s: float | None = None
+        self._mission: Mission | None = None  # the last frame's mission
+        self._nav: NavigateMission | None = None  # its navigation (navigation_of)
 
     def send(self, key: str, t_s: float, msg: Any) -> None:
         """Hand one message to every sink."""
@@ -807,17 +1079,20 @@ class RosOutput(CoreListener):
 
     def on_result(self, result: FrameResult) -> None:
         b, t_s, odo, t = self.builder, result.t_s, result.odometry, result.telemetry
+        self._t_prev_s = self._t_s if self._frames else None
         self._t_s = t_s
         self._frames += 1
         b.clock.observe(t_s, time.time_ns())
         self._static(t_s)
-        while self._held_scans:  # the clock is set now
-            self._send_scan(self._held_scans.pop(0))
+        self._send_scans(t_s)
         while self.received:
             key, value = self.received.popleft()
             if key == "goal_pose":
                 x, y, yaw, frame = value
                 self.send(key, t_s, b.goal(t_s, x, y, yaw, frame or "map"))
+            elif key == "initialpose":
+                x, y, yaw, frame, cov = value
+                self.send(key, t_s, b.initial_pose(t_s, x, y, yaw, cov, frame or "map"))
         for raw in self._pending:
             self.send("telemetry", t_s, b.raw_frame(raw))
         self._pending.clear()
@@ -843,18 +1118,23 @@ class RosOutput(CoreListener):
             self.send("tf", t_s, b.odom_tf(t_s, state.x_m, state.y_m, state.yaw_rad))
 
     def on_scan(self, scan: Scan) -> None:
-        if len(scan.angles_rad) < 2:
-            return
-        if not self.builder.clock.ready:  # no frame yet to map MCU time onto the ROS clock
-            self._held_scans.append(scan)
-            return
-        self._send_scan(scan)
+        if len(scan.angles_rad) >= 2:
+            self._frame_scans.append(scan)  # before this frame's result
 
-    def _send_scan(self, scan: Scan) -> None:
-        # called before this frame's on_result: self._t_s is still the previous frame's
-        since = self._t_s if self._frames else None
-        start_s, period_s = self.scan_timer.stamp(len(scan.angles_rad), scan.t_s, since)
-        self.send("scan", scan.t_s, self.builder.scan(scan, start_s, period_s))
+    def _send_scans(self, t_s: float) -> None:
+        """This frame's scans (and those held), stamped together: once the clock is set, and
+        knowing how many came with the frame (:class:`ScanTimer`)."""
+        if not self._frame_scans:
+            return
+        since = self._t_prev_s  # the frame before this one (None: this is the first)
+        scans, self._frame_scans = self._frame_scans, []
+        self._held_scans += scans
+        stamps = self.scan_timer.stamp([len(s.angles_rad) for s in scans], t_s, since)
+        if not stamps:
+            return
+        for scan, (start_s, period_s) in zip(self._held_scans, stamps, strict=True):
+            self.send("scan", scan.t_s, self.builder.scan(scan, start_s, period_s))
+        self._held_scans.clear()
 
     def diagnostics_due(self, t_s: float) -> bool:
         """Whether :meth:`diagnostics` would send at MCU time ``t_s`` (the daemon gathers the
@@ -886,8 +1166,11 @@ class RosOutput(CoreListener):
         """After a control tick of a navigation mission: /plan (each new global plan),
         /local_plan, map -> odom on /tf, and /map (once on a known map; every
         :data:`MAP_PERIOD_S` while mapping)."""
-        nav: Any = result.mission
-        if nav is None or not hasattr(nav, "navigator"):
+        if result.mission is not self._mission:  # a new mission: look once what it navigates with
+            self._mission = result.mission
+            self._nav = navigation_of(result.mission)
+        nav = self._nav
+        if nav is None:
             return
         b = self.builder
         replans = nav.navigator.replans

@@ -22,7 +22,6 @@ has ended.
 
 from __future__ import annotations
 
-import itertools
 import threading
 from collections import OrderedDict, deque
 from dataclasses import dataclass, replace
@@ -126,15 +125,29 @@ class GoalBook:
 
     def __init__(self, history: int = 32) -> None:
         self._lock = threading.Condition()
-        self._ids = itertools.count(1)
+        self._next_id = 1  # the next goal's id
         self._open: OrderedDict[int, GoalRecord] = OrderedDict()
         self._ended: deque[GoalRecord] = deque(maxlen=max(1, history))
         self.counts: dict[str, int] = {s.value: 0 for s in GoalStatus if s.ended}
 
+    def __getstate__(self) -> dict[str, object]:
+        """Copied under the lock, without it (a core's snapshot, docs/recording.md)."""
+        with self._lock:
+            state = dict(self.__dict__)
+            del state["_lock"]
+            state["_open"] = OrderedDict(self._open)
+            state["_ended"] = deque(self._ended, maxlen=self._ended.maxlen)
+            state["counts"] = dict(self.counts)
+            return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Condition()
+
     def new(self, pose: Pose2D, source: str) -> GoalRecord:
         """A new pending goal with its id."""
         with self._lock:
-            rec = GoalRecord(next(self._ids), pose, source)
+            rec = GoalRecord(self._take_id(), pose, source)
             self._open[rec.goal_id] = rec
             self._lock.notify_all()
             return rec
@@ -142,9 +155,13 @@ class GoalBook:
     def reject(self, pose: Pose2D, source: str, reason: str) -> GoalRecord:
         """A goal refused at once (it never reaches the frame loop)."""
         with self._lock:
-            rec = GoalRecord(next(self._ids), pose, source, GoalStatus.REJECTED, reason)
+            rec = GoalRecord(self._take_id(), pose, source, GoalStatus.REJECTED, reason)
             self._finish(rec)
             return rec
+
+    def _take_id(self) -> int:
+        goal_id, self._next_id = self._next_id, self._next_id + 1
+        return goal_id
 
     def update(self, rec: GoalRecord) -> None:
         """The frame loop's new record of a goal (an end is moved to the history)."""

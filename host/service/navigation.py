@@ -209,6 +209,7 @@ class NavigationService:
         self.status = ServiceStatus(pose=config.start)
         self.requests_taken = 0
         self._inbox: deque[Request] = deque()
+        self._staged: list[Request] | None = None  # what the next frame takes (stage())
         self._taken: list[Request] = []
         self._lost_since_s: float | None = None
         self._travelled_m = 0.0
@@ -264,14 +265,36 @@ class NavigationService:
             self.book.update(GoalRecord(request.goal_id, request.pose, request.source))
         self._inbox.append(request)
 
+    def __getstate__(self) -> dict[str, object]:
+        """The service's state for a core's snapshot (docs/recording.md): the requests not yet
+        taken (the inbox, the staged ones) and the operator's console (``tell``) stay out; the
+        next frame takes the requests, and logs them in the next run folder."""
+        state = dict(self.__dict__)
+        state.update(_inbox=deque(), _staged=None, tell=None)
+        return state
+
     # ------------------------------------------------------------------ the frame loop
+
+    def stage(self) -> int | None:
+        """Before a telemetry frame (the daemon): fix the requests that frame takes (those
+        arriving from now on wait for the next one); the first goal's id among them, if any
+        (the daemon starts the goal's run folder first, docs/recording.md)."""
+        staged = self._staged if self._staged is not None else []
+        while self._inbox:
+            staged.append(self._inbox.popleft())
+        self._staged = staged
+        return next((r.goal_id for r in staged if r.kind == "goal"), None)
 
     def take_requests(self) -> list[Request]:
         """At a telemetry frame, before it is handled: the requests it applies (the core logs
-        them first)."""
+        them first): the staged ones (:meth:`stage`), else every one waiting."""
         taken = self._taken
-        while self._inbox:
-            taken.append(self._inbox.popleft())
+        if self._staged is not None:
+            taken.extend(self._staged)
+            self._staged = None
+        else:
+            while self._inbox:
+                taken.append(self._inbox.popleft())
         self.requests_taken += len(taken)
         return list(taken)
 

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -71,6 +73,27 @@ def test_brake_leaves_both_bridges_in_short_brake(
     out = subprocess.run([JACKSON, "brake", "--i2c", spec], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "braked" in out.stdout
+    assert modes(server) == (BridgeMode.SHORT_BRAKE, BridgeMode.SHORT_BRAKE)
+
+
+def test_it_says_in_one_line_how_long_the_brake_took(bus: tuple[I2cSocketServer, str]) -> None:
+    server, spec = bus
+    drive(spec)
+    t0 = time.monotonic()
+    out = subprocess.run([JACKSON, "brake", "--i2c", spec], capture_output=True, text=True)
+    wall_s = time.monotonic() - t0
+    assert out.returncode == 0, out.stderr
+    (line,) = out.stdout.splitlines()
+    said = re.fullmatch(
+        r"braked: PCA9685 at 0x40 on unix:\S+ \(attempt 1\): "
+        r"([0-9.]+) s after the command started, ([0-9.]+) ms on the bus",
+        line,
+    )
+    assert said is not None, line
+    since_start_s, on_bus_s = float(said[1]), float(said[2]) / 1e3
+    # its own process's age (10 ms ticks): within what this test saw from outside, and more
+    # than the bus took (the interpreter's start and the imports come first)
+    assert 0.0 < on_bus_s < since_start_s <= wall_s + 0.01, (line, wall_s)
     assert modes(server) == (BridgeMode.SHORT_BRAKE, BridgeMode.SHORT_BRAKE)
 
 

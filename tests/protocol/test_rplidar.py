@@ -385,3 +385,34 @@ def test_the_assembler_rebuilds_revolutions_from_any_chunking() -> None:
         assert np.allclose(a.ranges_m, k + 1.0)
         assert a.angles_rad[0] >= -math.pi and a.angles_rad[-1] < math.pi
     assert chunked.partial_nodes == 1 and chunked.decoder.malformed_bytes == 0
+
+
+@pytest.mark.parametrize("answer_type", [0x82, 0x84])
+def test_a_capsule_that_starts_at_exactly_zero_degrees_still_ends_its_turn(
+    answer_type: int,
+) -> None:
+    """The SDK's sync test adds a truncated increment to a capsule's last sample: a capsule
+    starting at exactly 0 deg left the turn before it unflagged, and two turns merged (the
+    twin's LiDAR did so every 207 s of MCU time; an A1M8's start angle lands on 0 as often)."""
+    import itertools
+
+    from jackson.protocol.rplidar import (
+        CapsuleDecoder,
+        encode_capsule,
+        encode_ultra_capsule,
+    )
+
+    step_q6 = 2086  # about 32.6 deg a capsule, as the A1M8's Sensitivity mode
+    starts = [(k * step_q6) % (360 * 64) for k in range(-30, 40)]
+    starts = [(a - starts[30]) % (360 * 64) for a in starts]  # capsule 30 starts at 0 deg
+    assert starts[30] == 0
+    dec = CapsuleDecoder(answer_type)
+    if answer_type == 0x84:
+        stream = b"".join(
+            encode_ultra_capsule(a, k == 0, [1000] * 97) for k, a in enumerate(starts)
+        )
+    else:
+        stream = b"".join(encode_capsule(a, k == 0, [1000] * 32) for k, a in enumerate(starts))
+    batch = dec.feed(stream)
+    turns = sum(1 for a, b in itertools.pairwise(starts) if b < a)
+    assert int(batch.start.sum()) == turns

@@ -5,8 +5,8 @@ default), and a third process (``stamp_client.py``) that hears the clock and the
 The daemon finds the twin's /clock and follows it; every stamp it publishes is MCU time, which
 is the twin's sim time: never 0, never going back on a topic, within the /clock's span; each
 scan is stamped at its own revolution's start, one LiDAR period (0.13465 s) after the one before
-(not at the telemetry frame it arrived with, which alternated 0.10 and 0.15 s); /local_plan is
-in odom (Nav2's controller frame); /tf_static has one publisher."""
+within 5 ms from the first (not at the telemetry frame it arrived with, which alternated 0.10
+and 0.15 s); /local_plan is in odom (Nav2's controller frame); /tf_static has one publisher."""
 
 from __future__ import annotations
 
@@ -123,7 +123,9 @@ def test_sim_and_daemon_on_ros_navigate_on_one_clock(
     assert client.returncode == 0, c_err
     report: dict[str, Any] = json.loads(c_out.strip().splitlines()[-1])
     clock = np.array(report["clock"], np.int64)
-    assert len(clock) > 100 and np.all(np.diff(clock) >= 0)
+    # at least a second of /clock (20 Hz; how much of the run the client hears depends on when
+    # discovery matches it to the twin on a busy machine), never going back
+    assert len(clock) > 20 and np.all(np.diff(clock) >= 0)
     stamps = {k: np.array(v, np.int64) for k, v in report["stamps"].items()}
     for topic in ("/scan", "/odometry/filtered", "/wheel/odom", "/imu/data", "/local_plan"):
         s = stamps[topic]
@@ -139,10 +141,8 @@ def test_sim_and_daemon_on_ros_navigate_on_one_clock(
     periods = np.round(gaps / LIDAR_PERIOD_S)
     assert np.all(periods >= 1)
     error = np.abs(gaps - periods * LIDAR_PERIOD_S)
-    # the first revolution's end is known to within the frame it arrived with (50 ms); the
-    # timer then pulls the phase in as the windows close (ScanTimer), within three turns
-    assert np.max(error[:3]) < 0.05, gaps
-    assert np.max(error[3:]) < 0.012, gaps
+    # from the first: the timer moves its phase by at most 3 ms a revolution (ScanTimer)
+    assert np.max(error) < 0.005, gaps
     timing = np.array(report["scan_timing"])
     assert np.allclose(timing[:, 1], LIDAR_PERIOD_S, rtol=0.02)  # scan_time
     assert np.allclose(timing[:, 0] * timing[:, 2], timing[:, 1])  # time_increment x beams

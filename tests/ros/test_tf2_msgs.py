@@ -1,4 +1,4 @@
-"""tf2_msgs (``make setup`` builds it with tools/build_tf2_msgs.py) carries /tf between processes.
+"""tf2_msgs (``make setup`` builds it with tools/build_ros_msgs.py) carries /tf between processes.
 
 The PyPI wheels of the ``ros`` extra have no tf2_msgs; ``make setup`` generates and compiles it
 from its interface definitions. A publisher in a subprocess and an rclpy subscriber in this

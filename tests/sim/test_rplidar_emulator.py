@@ -739,6 +739,90 @@ def test_jackson_sim_prints_the_lidar_port_third(tmp_path: Path) -> None:
     assert not link.is_symlink()
 
 
+def test_jackson_sims_lidar_scans_on_its_own_before_any_host_opens_the_mcus_port() -> None:
+    """A real A1M8 answers and scans on its own port whatever the MCU does: the host's driver
+    alone on the LiDAR pty of a lockstep ``jackson sim`` nobody else talks to reads whole
+    revolutions of the world standing still, one a turn of the wall clock, and the twin's
+    clock does not move."""
+    proc, lines = _sim("--world", "square_room")
+    try:
+        assert lines[2].startswith("lidar: "), lines
+        revolutions: list[tuple[float, Revolution]] = []
+        with RplidarDriver(lines[2].split(": ", 1)[1]) as driver:
+            driver.start()  # the densest mode: Sensitivity
+            assert driver.mode is not None and driver.mode.name == "Sensitivity"
+            deadline = time.monotonic() + 60.0  # a hang guard only
+            while len(revolutions) < 4:
+                assert time.monotonic() < deadline, f"{len(revolutions)} revolutions in 60 s"
+                now = time.monotonic()
+                revolutions += [(now, r) for r in driver.poll()]
+                threading.Event().wait(0.01)
+        assert proc.poll() is None
+    finally:
+        code, out = _stop_output(proc)
+    assert code == 0
+    assert "0 telemetry frames" in out, out  # no HELLO: the world stood still
+    rev = revolutions[-1][1]
+    assert 1055 <= rev.nodes <= 1066  # 0.13465 s of 127 us samples
+    assert abs(rev.angles_rad[0] + math.pi) < 0.02 and abs(rev.angles_rad[-1] - math.pi) < 0.02
+    # the room's walls all round (a few edge samples without a return)
+    assert np.isfinite(rev.ranges_m).mean() > 0.95 and np.nanmax(rev.ranges_m[:]) < 8.0
+    # paced by the wall clock, not a flood of turns: three more turns took most of 3 x 0.135 s
+    assert revolutions[-1][0] - revolutions[0][0] > 0.25
+
+
+def _stop_output(proc: subprocess.Popen[str]) -> tuple[int, str]:
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=20)
+    return proc.returncode, out
+
+
+def test_a_scan_before_the_session_leaves_the_lockstep_run_as_it_was(tmp_path: Path) -> None:
+    """The revolutions the LiDAR made on the wall clock before the HELLO are dropped from
+    the line when the twin's clock starts: the session's revolutions are the ones of a scan
+    started at the HELLO, at each frame as in lockstep, whoever read the line before."""
+    world = tmp_path / "lidar_box.yaml"
+    world.write_text(WORLD)
+    twin = Twin(load_world(world), load_robot("jackson"), seed=5)
+    sock = tmp_path / "i2c.sock"
+    runner = TwinRunner(twin, i2c_path=sock, lidar_twin_beams=True, heartbeat_timeout_s=30.0)
+    stop = threading.Event()
+    thread = threading.Thread(target=lambda: runner.run(None, stop), daemon=True)
+    thread.start()
+    assert runner.lidar_path is not None
+    driver = RplidarDriver(runner.lidar_path)
+    peer = WirePeer(runner.serial_path, f"unix:{sock}")
+    s = Session(twin, runner, driver, peer, [])
+    try:
+        driver.start()
+        emulator = runner.lidar
+        assert emulator is not None
+        deadline = time.monotonic() + 30.0  # a hang guard only
+        while emulator.revolutions_written < 3:  # three turns on the line, nobody reading
+            assert time.monotonic() < deadline
+            threading.Event().wait(0.01)
+        assert twin.t_s == 0.0
+        peer.connect()
+        drive(s, 40)  # asserts, frame by frame, the turns that ended by it and no more
+    finally:
+        driver.close()
+        stop.set()
+        peer.close()
+        thread.join(timeout=30)
+        runner.close()
+    assert [r.nodes for _, r in s.revolutions] == [BEAMS] * 14
+    assert driver.partial_nodes == 0 and driver.malformed_bytes == 0
+    # the twin's own scans, as in a run whose scan started at the HELLO
+    lidar = twin._lidar
+    assert lidar is not None
+    scans = {round(sc.t_s / PERIOD_S): sc.ranges.astype(np.float64) for sc in twin.scans}
+    first = int(np.argmin(np.mod(-lidar.angles(), 2 * math.pi)))  # the beam at heading 0
+    for k, (_, rev) in enumerate(s.revolutions, start=1):
+        expected = scans[k].copy()
+        expected[first] = scans[max(k - 1, 1)][first]  # its S node went out a turn earlier
+        np.testing.assert_allclose(rev.ranges_m, expected, atol=1.3e-4, rtol=0)
+
+
 def test_jackson_sim_without_lidar_prints_no_lidar_line() -> None:
     proc, lines = _sim("--no-lidar")
     try:

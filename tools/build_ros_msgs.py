@@ -1,21 +1,27 @@
-"""Build the ROS 2 interface package tf2_msgs into this virtual environment.
+"""Build a ROS 2 interface package (tf2_msgs, nav2_msgs) into this virtual environment.
 
-/tf and /tf_static carry ``tf2_msgs/msg/TFMessage``, and the PyPI wheels of the ``ros`` extra
-(Jazzy) have no tf2_msgs. They do have the rosidl tool chain, so ``make setup`` builds the
-package here, the way ``rosidl_generate_interfaces`` does in a ROS workspace:
+/tf and /tf_static carry ``tf2_msgs/msg/TFMessage`` and the navigation service's action is
+``nav2_msgs/action/NavigateToPose``, and the PyPI wheels of the ``ros`` extra (Jazzy) have
+neither package. They do have the rosidl tool chain, so ``make setup`` builds each package
+here, the way ``rosidl_generate_interfaces`` does in a ROS workspace:
 
-1. the interface definitions in ``tools/ros_interfaces/tf2_msgs`` (msg, srv, action) are
+1. the interface definitions in ``tools/ros_interfaces/<package>`` (msg, srv, action) are
    translated to IDL and their type hashes (RIHS01) computed;
 2. the C structures, the Python classes and the three C type supports rclpy and Fast DDS use
    (``rosidl_typesupport_c`` dispatching to ``rosidl_typesupport_fastrtps_c`` and
    ``rosidl_typesupport_introspection_c``) are generated;
 3. the system's C and C++ compilers build them against the wheels' headers and libraries;
-4. the result is installed with the wheels' own layout: ``<venv>/lib/libtf2_msgs__*.so``,
-   ``<site-packages>/tf2_msgs`` (the Python package and its ``tf2_msgs_s__*`` extension
-   modules), ``<venv>/include/tf2_msgs``, ``<venv>/share/tf2_msgs`` and the ament index.
+4. the result is installed with the wheels' own layout: ``<venv>/lib/lib<package>__*.so``,
+   ``<site-packages>/<package>`` (the Python package and its ``<package>_s__*`` extension
+   modules), ``<venv>/include/<package>``, ``<venv>/share/<package>`` and the ament index.
 
-Run it with the environment's interpreter (``.venv/bin/python tools/build_tf2_msgs.py``). A
-failure prints one line on stderr (the full compiler output goes to a log file) and exits 1.
+A package's definitions are those of its ROS 2 Jazzy release; a package may hold only the
+interfaces the project uses (nav2_msgs: ``NavigateToPose``), since a type's hash depends on
+its own fields and the types they name, never on the rest of its package.
+
+Run it with the environment's interpreter (``.venv/bin/python tools/build_ros_msgs.py
+tf2_msgs``). A failure prints one line on stderr (the full compiler output goes to a log
+file) and exits 1.
 """
 
 from __future__ import annotations
@@ -33,16 +39,9 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-PACKAGE = "tf2_msgs"
-VERSION = "0.36.4"  # the Jazzy release whose definitions tools/ros_interfaces holds
-SOURCE = Path(__file__).resolve().parent / "ros_interfaces" / PACKAGE
-INTERFACES = (
-    "msg/TF2Error.msg",
-    "msg/TFMessage.msg",
-    "srv/FrameGraph.srv",
-    "action/LookupTransform.action",
-)
-# Interface packages the definitions use, directly or through services and actions.
+DEFINITIONS = Path(__file__).resolve().parent / "ros_interfaces"
+# Interface packages the definitions use, directly or through services and actions (every one
+# comes with the wheels: action_msgs and unique_identifier_msgs with rclpy's rcl_action).
 DEPENDENCIES = (
     "builtin_interfaces",
     "geometry_msgs",
@@ -51,6 +50,81 @@ DEPENDENCIES = (
     "action_msgs",
     "unique_identifier_msgs",
 )
+
+
+@dataclass(frozen=True)
+class InterfacePackage:
+    """One interface package to build: its definitions in ``tools/ros_interfaces/<name>``.
+
+    Attributes
+    ----------
+    name : str
+        The ROS package (``tf2_msgs``).
+    version : str
+        The Jazzy release whose definitions ``tools/ros_interfaces/<name>`` holds.
+    interfaces : tuple of str
+        The definitions built, relative to the package (``msg/TFMessage.msg``).
+    smoke_test : str
+        Python run in a fresh interpreter once it is installed: it must import the package,
+        load its type supports and round-trip a message through the RMW's serializer.
+    """
+
+    name: str
+    version: str
+    interfaces: tuple[str, ...]
+    smoke_test: str
+
+    @property
+    def source(self) -> Path:
+        return DEFINITIONS / self.name
+
+
+# The installed package must import, load its type support and round-trip a message through
+# the RMW's serializer (which loads the Fast DDS type support through the C dispatch).
+TF2_MSGS = InterfacePackage(
+    "tf2_msgs",
+    "0.36.4",
+    (
+        "msg/TF2Error.msg",
+        "msg/TFMessage.msg",
+        "srv/FrameGraph.srv",
+        "action/LookupTransform.action",
+    ),
+    """
+from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.type_support import check_for_type_support
+from geometry_msgs.msg import TransformStamped
+from tf2_msgs.msg import TF2Error, TFMessage
+from tf2_msgs.srv import FrameGraph
+from tf2_msgs.action import LookupTransform
+for t in (TFMessage, TF2Error, FrameGraph, LookupTransform):
+    check_for_type_support(t)
+msg = TFMessage(transforms=[TransformStamped(child_frame_id="base_link")])
+msg.transforms[0].transform.translation.x = 1.5
+assert deserialize_message(serialize_message(msg), TFMessage) == msg
+""",
+)
+NAV2_MSGS = InterfacePackage(
+    "nav2_msgs",
+    "1.3.13",
+    ("action/NavigateToPose.action",),
+    """
+from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.type_support import check_for_type_support
+from nav2_msgs.action import NavigateToPose
+check_for_type_support(NavigateToPose)
+impl = NavigateToPose.Impl
+fb = impl.FeedbackMessage()
+fb.feedback.distance_remaining = 1.5
+fb.feedback.number_of_recoveries = 2
+assert deserialize_message(serialize_message(fb), impl.FeedbackMessage) == fb
+res = impl.GetResultService.Response(status=4)
+res.result.error_msg = "unreachable"
+assert deserialize_message(serialize_message(res), impl.GetResultService.Response) == res
+assert NavigateToPose.Result.NONE == 0
+""",
+)
+PACKAGES = {p.name: p for p in (TF2_MSGS, NAV2_MSGS)}
 # The C type supports the Python extension modules are built for (rclpy imports the first).
 TYPESUPPORTS = (
     "rosidl_typesupport_c",
@@ -103,11 +177,13 @@ def _quiet(log: io.StringIO) -> Iterator[None]:
         yield
 
 
-def translate(work: Path) -> list[str]:
+def translate(pkg: InterfacePackage, work: Path) -> list[str]:
     """Translate the interface definitions to IDL (``rosidl_adapter``).
 
     Parameters
     ----------
+    pkg : InterfacePackage
+        The package.
     work : Path
         The build's scratch folder; the IDL files go to ``work/idl/<msg|srv|action>``.
 
@@ -124,18 +200,20 @@ def translate(work: Path) -> list[str]:
     convert[".action"] = convert_action_to_idl
     out = work / "idl"
     idl: list[str] = []
-    for name in INTERFACES:
+    for name in pkg.interfaces:
         rel = Path(name)
-        convert[rel.suffix](SOURCE, PACKAGE, rel, out / rel.parent)
+        convert[rel.suffix](pkg.source, pkg.name, rel, out / rel.parent)
         idl.append(f"{out}:{rel.with_suffix('.idl').as_posix()}")
     return idl
 
 
-def generate(prefix: Prefix, work: Path, idl: list[str]) -> Path:
+def generate(pkg: InterfacePackage, prefix: Prefix, work: Path, idl: list[str]) -> Path:
     """Compute the type hashes and generate the sources of every layer.
 
     Parameters
     ----------
+    pkg : InterfacePackage
+        The package.
     prefix : Prefix
         The wheels' prefix: the dependencies' ``.idl`` and type descriptions (``share/<pkg>``).
     work : Path
@@ -146,7 +224,7 @@ def generate(prefix: Prefix, work: Path, idl: list[str]) -> Path:
     Returns
     -------
     Path
-        ``work/gen``, holding ``<layer>/tf2_msgs/...`` for each generator and type support.
+        ``work/gen``, holding ``<layer>/<package>/...`` for each generator and type support.
     """
     from rosidl_generator_c.cli import GenerateC
     from rosidl_generator_py.cli import GeneratePython
@@ -156,25 +234,26 @@ def generate(prefix: Prefix, work: Path, idl: list[str]) -> Path:
     from rosidl_typesupport_introspection_c.cli import GenerateIntrospectionCTypesupport
 
     gen = work / "gen"
+    name = pkg.name
     includes = [str(prefix.share / dep) for dep in DEPENDENCIES]
     hashes = HashTypeDescription("type_description").generate_type_hashes(
-        PACKAGE, idl, includes, gen / "rosidl_generator_type_description" / PACKAGE
+        name, idl, includes, gen / "rosidl_generator_type_description" / name
     )
     GenerateC("c").generate(
-        PACKAGE, idl, includes, gen / "rosidl_generator_c" / PACKAGE, type_description_files=hashes
+        name, idl, includes, gen / "rosidl_generator_c" / name, type_description_files=hashes
     )
     supports = list(TYPESUPPORTS[1:])
     GenerateCTypesupport("c", typesupport_implementations=supports).generate(
-        PACKAGE, idl, includes, gen / "rosidl_typesupport_c" / PACKAGE
+        name, idl, includes, gen / "rosidl_typesupport_c" / name
     )
     GenerateFastRTPSCTypesupport("fastrtps_c").generate(
-        PACKAGE, idl, includes, gen / "rosidl_typesupport_fastrtps_c" / PACKAGE
+        name, idl, includes, gen / "rosidl_typesupport_fastrtps_c" / name
     )
     GenerateIntrospectionCTypesupport("introspection_c").generate(
-        PACKAGE, idl, includes, gen / "rosidl_typesupport_introspection_c" / PACKAGE
+        name, idl, includes, gen / "rosidl_typesupport_introspection_c" / name
     )
     GeneratePython("py", typesupport_implementations=list(TYPESUPPORTS)).generate(
-        PACKAGE, idl, includes, gen / "rosidl_generator_py" / PACKAGE
+        name, idl, includes, gen / "rosidl_generator_py" / name
     )
     return gen
 
@@ -186,6 +265,7 @@ def generate(prefix: Prefix, work: Path, idl: list[str]) -> Path:
 class Library:
     """One shared library of the package: its generated sources and what it links against."""
 
+    package: str
     layer: str  # the generator or type support, e.g. rosidl_typesupport_fastrtps_c
     sources: tuple[Path, ...]
     own: tuple[str, ...]  # the package's own layers it needs, built before it
@@ -195,20 +275,28 @@ class Library:
 
     @property
     def name(self) -> str:
-        return f"lib{PACKAGE}__{self.layer}.so"
+        return f"lib{self.package}__{self.layer}.so"
 
 
-def libraries(gen: Path) -> list[Library]:
+def libraries(package: str, gen: Path) -> list[Library]:
     """The package's libraries in link order, as ``rosidl_generate_interfaces`` defines them."""
 
     def sources(layer: str, pattern: str) -> tuple[Path, ...]:
-        return tuple(sorted((gen / layer / PACKAGE).rglob(pattern)))
+        return tuple(sorted((gen / layer / package).rglob(pattern)))
 
     runtime = ("rosidl_runtime_c", "rcutils")
-    py = gen / "rosidl_generator_py" / PACKAGE
+    py = gen / "rosidl_generator_py" / package
     return [
-        Library("rosidl_generator_c", sources("rosidl_generator_c", "*.c"), (), (), runtime),
         Library(
+            package,
+            "rosidl_generator_c",
+            sources("rosidl_generator_c", "*.c"),
+            (),
+            (),
+            runtime,
+        ),
+        Library(
+            package,
             "rosidl_typesupport_introspection_c",
             sources("rosidl_typesupport_introspection_c", "*.c"),
             ("rosidl_generator_c",),
@@ -216,6 +304,7 @@ def libraries(gen: Path) -> list[Library]:
             ("rosidl_typesupport_introspection_c", *runtime),
         ),
         Library(
+            package,
             "rosidl_typesupport_fastrtps_c",
             sources("rosidl_typesupport_fastrtps_c", "*.cpp"),
             ("rosidl_generator_c",),
@@ -230,6 +319,7 @@ def libraries(gen: Path) -> list[Library]:
             ),
         ),
         Library(
+            package,
             "rosidl_typesupport_c",
             sources("rosidl_typesupport_c", "*.cpp"),
             ("rosidl_generator_c",),
@@ -237,6 +327,7 @@ def libraries(gen: Path) -> list[Library]:
             ("rosidl_typesupport_c", *runtime),
         ),
         Library(
+            package,
             "rosidl_generator_py",
             tuple(sorted(py.glob("*/_*_s.c"))),
             ("rosidl_typesupport_c", "rosidl_generator_c"),
@@ -247,13 +338,13 @@ def libraries(gen: Path) -> list[Library]:
     ]
 
 
-def extension_name(typesupport: str) -> str:
+def extension_name(package: str, typesupport: str) -> str:
     """The file name of the Python extension module for one C type support."""
-    return f"{PACKAGE}_s__{typesupport}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    return f"{package}_s__{typesupport}{sysconfig.get_config_var('EXT_SUFFIX')}"
 
 
 def _include_dirs(prefix: Prefix, gen: Path, python: bool) -> list[str]:
-    dirs = [str(d) for d in sorted(gen.iterdir())]  # <layer>/tf2_msgs/... as "tf2_msgs/..."
+    dirs = [str(d) for d in sorted(gen.iterdir())]  # <layer>/<pkg>/... as "<pkg>/..."
     # the wheels' headers: <pkg>/<pkg>/... for ROS packages, fastcdr/... for Fast DDS
     dirs += [str(d) for d in sorted(prefix.include.iterdir()) if d.is_dir()]
     dirs.append(str(prefix.include))
@@ -278,6 +369,7 @@ def _run(cmd: Sequence[str], what: str, log: io.StringIO) -> None:
 
 
 def link(
+    package: str,
     prefix: Prefix,
     gen: Path,
     out: Path,
@@ -292,6 +384,8 @@ def link(
 
     Parameters
     ----------
+    package : str
+        The package the sources are of (its symbols are exported).
     prefix : Prefix
         The wheels' prefix: headers from ``include``, libraries from ``lib``.
     gen : Path
@@ -320,7 +414,7 @@ def link(
     cxx = any(s.suffix == ".cpp" for s in sources)
     compiler = os.environ.get("CXX", "c++") if cxx else os.environ.get("CC", "cc")
     cmd = [compiler, "-shared", "-fPIC", "-O2", "-std=c++17" if cxx else "-std=gnu11"]
-    cmd += [f"-D{m}_BUILDING_DLL_{PACKAGE}" for m in VISIBILITY_MACROS]
+    cmd += [f"-D{m}_BUILDING_DLL_{package}" for m in VISIBILITY_MACROS]
     cmd += _include_dirs(prefix, gen, python)
     cmd += [str(s) for s in sources]
     cmd += ["-o", str(out), f"-L{staged_lib}", f"-L{prefix.lib}", f"-Wl,-rpath,{rpath}"]
@@ -330,18 +424,19 @@ def link(
     _run(cmd, f"compiling {out.name}", log)
 
 
-def compile_package(prefix: Prefix, gen: Path, stage: Path, log: io.StringIO) -> None:
+def compile_package(package: str, prefix: Prefix, gen: Path, stage: Path, log: io.StringIO) -> None:
     """Build every library into ``stage/lib`` and the extension modules into ``stage/py``."""
     (stage / "lib").mkdir(parents=True)
     (stage / "py").mkdir(parents=True)
-    for lib in libraries(gen):
+    for lib in libraries(package, gen):
         if not lib.sources:
             raise BuildError(f"the generator wrote no sources for {lib.layer}")
-        libs = [f"{PACKAGE}__{layer}" for layer in lib.own]
+        libs = [f"{package}__{layer}" for layer in lib.own]
         layers = dict.fromkeys((*lib.per_dependency, "rosidl_generator_c"))
         libs += [f"{dep}__{layer}" for layer in layers for dep in DEPENDENCIES]
         libs += list(lib.system)
         link(
+            package,
             prefix,
             gen,
             stage / "lib" / lib.name,
@@ -352,15 +447,15 @@ def compile_package(prefix: Prefix, gen: Path, stage: Path, log: io.StringIO) ->
             "$ORIGIN",
             log,
         )
-    py = gen / "rosidl_generator_py" / PACKAGE
+    py = gen / "rosidl_generator_py" / package
     for typesupport in TYPESUPPORTS:
-        entry = py / f"_{PACKAGE}_s.ep.{typesupport}.c"
-        libs = [f"{PACKAGE}__rosidl_generator_py", f"{PACKAGE}__{typesupport}"]
-        libs += [f"{PACKAGE}__rosidl_generator_c", "rosidl_runtime_c", "rcutils"]
-        out = stage / "py" / extension_name(typesupport)
-        # site-packages/tf2_msgs -> <prefix>/lib
-        rpath = "$ORIGIN/" + os.path.relpath(prefix.lib, prefix.site_packages / PACKAGE)
-        link(prefix, gen, out, stage / "lib", [entry], libs, True, rpath, log)
+        entry = py / f"_{package}_s.ep.{typesupport}.c"
+        libs = [f"{package}__rosidl_generator_py", f"{package}__{typesupport}"]
+        libs += [f"{package}__rosidl_generator_c", "rosidl_runtime_c", "rcutils"]
+        out = stage / "py" / extension_name(package, typesupport)
+        # site-packages/<package> -> <prefix>/lib
+        rpath = "$ORIGIN/" + os.path.relpath(prefix.lib, prefix.site_packages / package)
+        link(package, prefix, gen, out, stage / "lib", [entry], libs, True, rpath, log)
 
 
 # ------------------------------------------------------------------------------ installation
@@ -382,11 +477,13 @@ def _write(dst: Path, text: str, installed: list[Path]) -> None:
     installed.append(dst)
 
 
-def install(work: Path, gen: Path, stage: Path, dest: Prefix) -> list[Path]:
+def install(pkg: InterfacePackage, work: Path, gen: Path, stage: Path, dest: Prefix) -> list[Path]:
     """Install the build with the wheels' layout, replacing an earlier build.
 
     Parameters
     ----------
+    pkg : InterfacePackage
+        The package.
     work : Path
         The build's scratch folder (``work/idl``).
     gen : Path
@@ -402,44 +499,45 @@ def install(work: Path, gen: Path, stage: Path, dest: Prefix) -> list[Path]:
         Every file written, as the distribution's RECORD lists them.
     """
     installed: list[Path] = []
+    name = pkg.name
     for so in sorted((stage / "lib").iterdir()):
         _put(so, dest.lib / so.name, installed)
 
-    pkg = dest.site_packages / PACKAGE
-    shutil.rmtree(pkg, ignore_errors=True)
-    py = gen / "rosidl_generator_py" / PACKAGE
-    _write(pkg / "__init__.py", "", installed)
+    pkg_dir = dest.site_packages / name
+    shutil.rmtree(pkg_dir, ignore_errors=True)
+    py = gen / "rosidl_generator_py" / name
+    _write(pkg_dir / "__init__.py", "", installed)
     for f in sorted(py.rglob("*.py")):
-        _put(f, pkg / f.relative_to(py), installed)
+        _put(f, pkg_dir / f.relative_to(py), installed)
     for so in sorted((stage / "py").iterdir()):
-        _put(so, pkg / so.name, installed)
+        _put(so, pkg_dir / so.name, installed)
 
-    headers = dest.include / PACKAGE / PACKAGE
+    headers = dest.include / name / name
     for layer in sorted(gen.iterdir()):
-        for h in sorted((layer / PACKAGE).rglob("*.h")):
-            _put(h, headers / h.relative_to(layer / PACKAGE), installed)
+        for h in sorted((layer / name).rglob("*.h")):
+            _put(h, headers / h.relative_to(layer / name), installed)
 
-    share = dest.share / PACKAGE
+    share = dest.share / name
     interfaces: list[str] = []
-    for name in INTERFACES:
-        rel = Path(name)
+    for interface in pkg.interfaces:
+        rel = Path(interface)
         idl = rel.with_suffix(".idl")
-        _put(SOURCE / rel, share / rel, installed)
+        _put(pkg.source / rel, share / rel, installed)
         _put(work / "idl" / idl, share / idl, installed)
         interfaces += [idl.as_posix(), rel.as_posix()]
-    descriptions = gen / "rosidl_generator_type_description" / PACKAGE
+    descriptions = gen / "rosidl_generator_type_description" / name
     for j in sorted(descriptions.rglob("*.json")):
         _put(j, share / j.relative_to(descriptions), installed)
     index = dest.share / "ament_index" / "resource_index"
-    _write(index / "packages" / PACKAGE, "", installed)
-    _write(index / "rosidl_interfaces" / PACKAGE, "\n".join(interfaces), installed)
+    _write(index / "packages" / name, "", installed)
+    _write(index / "rosidl_interfaces" / name, "\n".join(interfaces), installed)
 
     # A distribution record, so that pip lists the package and `pip uninstall` removes it.
-    dist = dest.site_packages / f"ros_{PACKAGE}-{VERSION}.dist-info"
+    dist = dest.site_packages / f"ros_{name}-{pkg.version}.dist-info"
     shutil.rmtree(dist, ignore_errors=True)
     metadata = (
-        f"Metadata-Version: 2.1\nName: ros-{PACKAGE.replace('_', '-')}\nVersion: {VERSION}\n"
-        f"Summary: {PACKAGE} for ROS 2 Jazzy, built by tools/build_tf2_msgs.py\n"
+        f"Metadata-Version: 2.1\nName: ros-{name.replace('_', '-')}\nVersion: {pkg.version}\n"
+        f"Summary: {name} for ROS 2 Jazzy, built by tools/build_ros_msgs.py\n"
     )
     _write(dist / "METADATA", metadata, installed)
     _write(dist / "INSTALLER", "jackson\n", installed)
@@ -449,45 +547,30 @@ def install(work: Path, gen: Path, stage: Path, dest: Prefix) -> list[Path]:
     return installed
 
 
-# The installed package must import, load its type support and round-trip a message through
-# the RMW's serializer (which loads the Fast DDS type support through the C dispatch).
-SMOKE_TEST = """
-from rclpy.serialization import deserialize_message, serialize_message
-from rclpy.type_support import check_for_type_support
-from geometry_msgs.msg import TransformStamped
-from tf2_msgs.msg import TF2Error, TFMessage
-from tf2_msgs.srv import FrameGraph
-from tf2_msgs.action import LookupTransform
-for t in (TFMessage, TF2Error, FrameGraph, LookupTransform):
-    check_for_type_support(t)
-msg = TFMessage(transforms=[TransformStamped(child_frame_id="base_link")])
-msg.transforms[0].transform.translation.x = 1.5
-assert deserialize_message(serialize_message(msg), TFMessage) == msg
-"""
-
-
-def smoke_test(dest: Prefix, log: io.StringIO) -> None:
-    """Run :data:`SMOKE_TEST` in a fresh interpreter that sees ``dest``."""
+def smoke_test(pkg: InterfacePackage, dest: Prefix, log: io.StringIO) -> None:
+    """Run the package's smoke test in a fresh interpreter that sees ``dest``."""
     env = dict(os.environ)
     for var, path in (("PYTHONPATH", dest.site_packages), ("LD_LIBRARY_PATH", dest.lib)):
         env[var] = os.pathsep.join(filter(None, [str(path), env.get(var)]))
     done = subprocess.run(
-        [sys.executable, "-c", SMOKE_TEST], capture_output=True, text=True, env=env, check=False
+        [sys.executable, "-c", pkg.smoke_test], capture_output=True, text=True, env=env, check=False
     )
     log.write(done.stdout + done.stderr)
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no output"])[-1]
-        raise BuildError(f"the installed {PACKAGE} does not work: {last}")
+        raise BuildError(f"the installed {pkg.name} does not work: {last}")
 
 
 # ------------------------------------------------------------------------------ command line
 
 
-def build(wheels: Prefix, dest: Prefix, log: io.StringIO) -> list[Path]:
+def build(pkg: InterfacePackage, wheels: Prefix, dest: Prefix, log: io.StringIO) -> list[Path]:
     """Generate, compile, install and check the package.
 
     Parameters
     ----------
+    pkg : InterfacePackage
+        The package.
     wheels : Prefix
         The environment whose rosidl wheels generate and whose libraries it links against.
     dest : Prefix
@@ -512,26 +595,27 @@ def build(wheels: Prefix, dest: Prefix, log: io.StringIO) -> list[Path]:
     # the generators find their templates through the ament index of the wheels' prefix
     ament = [str(wheels.root), os.environ.get("AMENT_PREFIX_PATH")]
     os.environ["AMENT_PREFIX_PATH"] = os.pathsep.join(filter(None, ament))
-    with tempfile.TemporaryDirectory(prefix=f"{PACKAGE}-") as tmp:
+    with tempfile.TemporaryDirectory(prefix=f"{pkg.name}-") as tmp:
         work = Path(tmp)
         try:
             with _quiet(log):
-                gen = generate(wheels, work, translate(work))
+                gen = generate(pkg, wheels, work, translate(pkg, work))
         except ImportError as e:
             raise BuildError(
                 f"the rosidl generators do not import ({e}); install the ros extra"
             ) from e
         except Exception as e:  # a generator's own error: name it in one line
             raise BuildError(f"generating the sources failed: {type(e).__name__}: {e}") from e
-        compile_package(wheels, gen, work / "stage", log)
-        installed = install(work, gen, work / "stage", dest)
-    smoke_test(dest, log)
+        compile_package(pkg.name, wheels, gen, work / "stage", log)
+        installed = install(pkg, work, gen, work / "stage", dest)
+    smoke_test(pkg, dest, log)
     return installed
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Build and install tf2_msgs; 0 on success, 1 with one line on stderr on failure."""
+    """Build and install one package; 0 on success, 1 with one line on stderr on failure."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("package", choices=sorted(PACKAGES), help="the package to build")
     parser.add_argument(
         "--prefix",
         type=Path,
@@ -539,18 +623,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="where to install (default: this interpreter's environment, whose wheels it uses)",
     )
     args = parser.parse_args(argv)
+    pkg = PACKAGES[args.package]
     wheels, dest = Prefix(Path(sys.prefix)), Prefix(args.prefix.resolve())
-    log_path = dest.root / f"{PACKAGE}-build.log"
+    log_path = dest.root / f"{pkg.name}-build.log"
     log = io.StringIO()
     try:
-        installed = build(wheels, dest, log)
+        installed = build(pkg, wheels, dest, log)
     except BuildError as e:
-        print(f"building {PACKAGE} failed: {e} (log: {log_path})", file=sys.stderr)
+        print(f"building {pkg.name} failed: {e} (log: {log_path})", file=sys.stderr)
         return 1
     finally:
         dest.root.mkdir(parents=True, exist_ok=True)
         log_path.write_text(log.getvalue(), encoding="utf-8")
-    print(f"{PACKAGE} {VERSION}: {len(installed)} files installed under {dest.root}")
+    print(f"{pkg.name} {pkg.version}: {len(installed)} files installed under {dest.root}")
     return 0
 
 
