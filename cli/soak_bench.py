@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -54,17 +53,6 @@ class Soak:
             raise RuntimeError("soak: too few samples after the warm-up to fit a slope")
         slope = float(np.polyfit(t[keep], mb[keep], 1)[0])
         return slope * 3600.0
-
-
-def rss_mb(pid: int) -> float:
-    """The resident set of process ``pid`` [MB] (``VmRSS``; NaN once it has ended)."""
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return math.nan
 
 
 def soak(robot_s: float, out: Path, progress: bool = True) -> Soak:

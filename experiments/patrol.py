@@ -268,7 +268,8 @@ class TruthTail:
         return math.hypot(self.rows[-1][1] - then[0], self.rows[-1][2] - then[1])
 
 
-def _rss_mb(pid: int) -> float:
+def rss_mb(pid: int) -> float:
+    """The resident set of process ``pid`` [MB] (``VmRSS``; NaN once it has ended)."""
     try:
         for line in Path(f"/proc/{pid}/status").read_text().splitlines():
             if line.startswith("VmRSS:"):
@@ -517,14 +518,24 @@ class Patrol:
                            first.get("error", ""), t0, t1, math.nan,
                            refused and t1 - t0 <= 15.0)  # fmt: skip
 
-    def _cancel(self, n: int, t0: float) -> GoalOutcome:
+    def _start(
+        self, n: int, kind: str, t0: float, most_s: float
+    ) -> tuple[int, float, float] | GoalOutcome:
+        """A random goal sent without waiting, then 3 to ``most_s`` s of MCU time: its id and
+        target, or the step's outcome when it was refused."""
         x, y = self.pick()
         first, _ = self.send(x, y, wait=False)
         if not first.get("ok"):
-            return GoalOutcome(n, "cancel", 0, x, y, "rejected", first.get("error", ""), t0, t0,
+            return GoalOutcome(n, kind, 0, x, y, "rejected", first.get("error", ""), t0, t0,
                                math.nan, False)  # fmt: skip
-        goal_id = first["goal"]["id"]
-        self.wait_mcu(t0 + float(self.rng.uniform(3.0, 10.0)))
+        self.wait_mcu(t0 + float(self.rng.uniform(3.0, most_s)))
+        return int(first["goal"]["id"]), x, y
+
+    def _cancel(self, n: int, t0: float) -> GoalOutcome:
+        started = self._start(n, "cancel", t0, 10.0)
+        if isinstance(started, GoalOutcome):
+            return started
+        goal_id, x, y = started
         for _ in self._ask({"op": "cancel", "id": goal_id}):
             pass
         result = self.follow(goal_id)
@@ -537,13 +548,10 @@ class Patrol:
                            t_end, math.nan, ok)  # fmt: skip
 
     def _preempt(self, n: int, t0: float) -> GoalOutcome:
-        x, y = self.pick()
-        first, _ = self.send(x, y, wait=False)
-        if not first.get("ok"):
-            return GoalOutcome(n, "preempt", 0, x, y, "rejected", first.get("error", ""), t0, t0,
-                               math.nan, False)  # fmt: skip
-        old_id = first["goal"]["id"]
-        self.wait_mcu(t0 + float(self.rng.uniform(3.0, 10.0)))
+        started = self._start(n, "preempt", t0, 10.0)
+        if isinstance(started, GoalOutcome):
+            return started
+        old_id, _, _ = started
         x2, y2 = self.pick()
         second = self._goal(n, "preempt", x2, y2, t0)
         old = self.follow(old_id)
@@ -553,13 +561,10 @@ class Patrol:
         return second
 
     def _teleop(self, n: int, t0: float) -> GoalOutcome:
-        x, y = self.pick()
-        first, _ = self.send(x, y, wait=False)
-        if not first.get("ok"):
-            return GoalOutcome(n, "teleop", 0, x, y, "rejected", first.get("error", ""), t0, t0,
-                               math.nan, False)  # fmt: skip
-        goal_id = first["goal"]["id"]
-        self.wait_mcu(t0 + float(self.rng.uniform(3.0, 8.0)))
+        started = self._start(n, "teleop", t0, 8.0)
+        if isinstance(started, GoalOutcome):
+            return started
+        goal_id, x, y = started
         t_burst = self.t_s()
         while self.t_s() < t_burst + 2.0:  # a turn on the spot: 2 s of MCU time
             for _ in self._ask({"op": "drive", "v": 0.0, "w": 0.6}):
@@ -592,8 +597,8 @@ class Patrol:
         sample = Sample(
             now,
             float(st.get("t_s") or 0.0),
-            _rss_mb(self.daemon.pid),
-            _rss_mb(self.sim.pid),
+            rss_mb(self.daemon.pid),
+            rss_mb(self.sim.pid),
             _cpu_s(self.daemon.pid),
             _cpu_s(self.sim.pid),
             float((st.get("disk") or {}).get("used_mb") or 0.0),

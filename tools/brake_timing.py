@@ -30,7 +30,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -39,6 +38,7 @@ from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.actuation.settings import Pca9685Settings
+from jackson.host_bench import serving
 from jackson.sim.i2c_server import I2cSocketServer
 
 JACKSON = str(Path(sys.executable).parent / "jackson")
@@ -66,16 +66,8 @@ def measure(starts: int, busy: int) -> list[dict[str, Any]]:
     try:
         with tempfile.TemporaryDirectory(prefix="jackson-brake-") as tmp:
             server = I2cSocketServer(Path(tmp) / "i2c.sock")
-            stop = threading.Event()
-
-            def serve() -> None:
-                while not stop.is_set():
-                    server.service(0.01)
-
-            thread = threading.Thread(target=serve, daemon=True)
-            thread.start()
             spec = f"unix:{server.path}"
-            try:
+            with serving(server):
                 for k in range(starts):
                     drive(spec)
                     t0 = time.perf_counter()
@@ -95,10 +87,7 @@ def measure(starts: int, busy: int) -> list[dict[str, Any]]:
                             "bus_ms": float(said["bus"]),
                         }
                     )
-            finally:
-                stop.set()
-                thread.join(timeout=5)
-                server.close()
+            server.close()
     finally:
         for hog in hogs:
             hog.kill()

@@ -113,3 +113,58 @@ def in_process_daemon(
         return Pca9685Output(pca, cfg.pca9685.left, cfg.pca9685.right, cfg.pca9685.stby_channel)
 
     return Daemon(cfg, output, transport, run_folder=run_folder, meta={"mission": None})
+
+
+def start_service(
+    tmp: Path,
+    world: str,
+    start: str,
+    seed: int,
+    run_dir: Path,
+    config: Path | None = None,
+    truth: bool = False,
+) -> tuple[subprocess.Popen[str], subprocess.Popen[bytes], Path]:
+    """``jackson sim`` and ``jackson daemon`` in service mode (``--lidar``, ``--map`` of the
+    world's raster saved in ``tmp``) as processes, lockstep waiting up to 120 s for each other;
+    returned once the daemon's control socket answers: (twin, daemon, socket)."""
+    from jackson.experiments.stage3 import world_grid
+    from jackson.host.service.control import ControlError, ask
+
+    world_grid(load_world(world)).save(tmp / "map.yaml")
+    sim = subprocess.Popen(
+        [
+            JACKSON, "sim", "--world", world, "--seed", str(seed), "--link", str(tmp / "mcu"),
+            "--lidar-link", str(tmp / "lidar"), "--i2c", str(tmp / "i2c.sock"),
+            "--heartbeat-timeout", "120", "--stall-timeout", "120",
+            *(["--truth", str(tmp / "truth.csv")] if truth else []),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )  # fmt: skip
+    assert sim.stdout is not None
+    for line in sim.stdout:
+        if "waiting for HELLO" in line:
+            break
+    sock = tmp / "daemon.sock"
+    log = (tmp / "daemon.log").open("wb")
+    daemon = subprocess.Popen(
+        [
+            JACKSON, "daemon", *(["--config", str(config)] if config is not None else []),
+            "--port", str(tmp / "mcu"), "--i2c", f"unix:{tmp / 'i2c.sock'}",
+            "--lidar", str(tmp / "lidar"), "--map", str(tmp / "map.yaml"), "--start", start,
+            "--socket", str(sock), "--run-dir", str(run_dir), "--stall-timeout", "120",
+        ],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )  # fmt: skip
+
+    def up() -> bool:
+        assert daemon.poll() is None, (tmp / "daemon.log").read_text()
+        try:
+            return bool(next(ask(sock, {"op": "status"}))["ok"])
+        except ControlError:
+            return False
+
+    wait_for(up, timeout_s=180, what="the daemon's control socket")
+    return sim, daemon, sock

@@ -13,11 +13,9 @@ from pathlib import Path
 import pytest
 
 from jackson.experiments.patrol import TruthTail
-from jackson.experiments.stage3 import world_grid
-from jackson.host.service.control import ControlError, ask
-from jackson.sim.config import load_world
+from jackson.host.service.control import ask
 
-from .harness import JACKSON, wait_for
+from .harness import JACKSON, start_service, wait_for
 
 WORLD = "hall_15m"
 START = "1.5,1.5,0.55"
@@ -55,42 +53,7 @@ class Robot:
 @pytest.fixture(scope="module")
 def robot(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Robot]:
     tmp = tmp_path_factory.mktemp("service")
-    world_grid(load_world(WORLD)).save(tmp / "map.yaml")
-    sim = subprocess.Popen(
-        [
-            JACKSON, "sim", "--world", WORLD, "--seed", "5", "--link", str(tmp / "mcu"),
-            "--lidar-link", str(tmp / "lidar"), "--i2c", str(tmp / "i2c.sock"),
-            "--truth", str(tmp / "truth.csv"), "--heartbeat-timeout", "120",
-            "--stall-timeout", "120",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )  # fmt: skip
-    assert sim.stdout is not None
-    for line in sim.stdout:
-        if "waiting for HELLO" in line:
-            break
-    sock = tmp / "daemon.sock"
-    log = (tmp / "daemon.log").open("wb")
-    daemon = subprocess.Popen(
-        [
-            JACKSON, "daemon", "--port", str(tmp / "mcu"), "--i2c", f"unix:{tmp / 'i2c.sock'}",
-            "--lidar", str(tmp / "lidar"), "--map", str(tmp / "map.yaml"), "--start", START,
-            "--socket", str(sock), "--run-dir", str(tmp / "run"), "--stall-timeout", "120",
-        ],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-    )  # fmt: skip
-
-    def up() -> bool:
-        assert daemon.poll() is None, (tmp / "daemon.log").read_text()
-        try:
-            return bool(next(ask(sock, {"op": "status"}))["ok"])
-        except ControlError:
-            return False
-
-    wait_for(up, timeout_s=180, what="the daemon's control socket")
+    sim, daemon, sock = start_service(tmp, WORLD, START, 5, tmp / "run", truth=True)
     r = Robot(tmp, sim, daemon, sock, tmp / "run", TruthTail(tmp / "truth.csv"))
     yield r
     for p in (daemon, sim):

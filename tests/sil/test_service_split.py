@@ -18,14 +18,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-from jackson.experiments.stage3 import world_grid
 from jackson.host.config import HostConfig, dump_config
 from jackson.host.recording import KIND_END, KIND_REQUEST, read_log
 from jackson.host.recording.snapshot import SNAPSHOT_NAME
-from jackson.host.service.control import ControlError, ask
-from jackson.sim.config import load_world
 
-from .harness import JACKSON, wait_for
+from .harness import JACKSON, start_service
 
 WORLD = "hall_15m"
 START = "1.5,1.5,0.55"
@@ -57,45 +54,12 @@ def _old_run(root: Path, name: str, age_s: float) -> None:
 @pytest.fixture(scope="module")
 def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     tmp = tmp_path_factory.mktemp("split")
-    world_grid(load_world(WORLD)).save(tmp / "map.yaml")
     runs = tmp / "runs"
     for k in range(3):
         _old_run(runs, f"old-{k + 1}", 3000.0 - 1000.0 * k)
     cfg = dataclasses.replace(HostConfig(), recording_split="goal", recording_budget_mb=BUDGET_MB)
     (tmp / "host.yaml").write_text(yaml.safe_dump(dump_config(cfg), sort_keys=False))
-    sim = subprocess.Popen(
-        [
-            JACKSON, "sim", "--world", WORLD, "--seed", "3", "--link", str(tmp / "mcu"),
-            "--lidar-link", str(tmp / "lidar"), "--i2c", str(tmp / "i2c.sock"),
-            "--heartbeat-timeout", "120", "--stall-timeout", "120",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )  # fmt: skip
-    assert sim.stdout is not None
-    for line in sim.stdout:
-        if "waiting for HELLO" in line:
-            break
-    sock = tmp / "daemon.sock"
-    log = (tmp / "daemon.log").open("wb")
-    daemon = subprocess.Popen(
-        [
-            JACKSON, "daemon", "--config", str(tmp / "host.yaml"), "--port", str(tmp / "mcu"),
-            "--i2c", f"unix:{tmp / 'i2c.sock'}", "--lidar", str(tmp / "lidar"),
-            "--map", str(tmp / "map.yaml"), "--start", START, "--socket", str(sock),
-            "--run-dir", str(runs / "run"), "--stall-timeout", "120",
-        ],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-    )  # fmt: skip
-
-    def up() -> bool:
-        assert daemon.poll() is None, (tmp / "daemon.log").read_text()
-        try:
-            return bool(next(ask(sock, {"op": "status"}))["ok"])
-        except ControlError:
-            return False
+    sim, daemon, sock = start_service(tmp, WORLD, START, 3, runs / "run", tmp / "host.yaml")
 
     def cli(*args: str) -> str:
         r = subprocess.run(
@@ -105,7 +69,6 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
         return r.stdout
 
     try:
-        wait_for(up, timeout_s=180, what="the daemon's control socket")
         goals = [cli("goal", g, "--wait") for g in GOALS]
         status = cli("status")
     finally:
@@ -114,7 +77,6 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
                 p.send_signal(signal.SIGINT)
         daemon.wait(60)
         sim.communicate(timeout=60)
-        log.close()
     yield Service(tmp, runs, (tmp / "daemon.log").read_text(), status, goals)
 
 
