@@ -786,19 +786,20 @@ def plot_patrol(png: Path, patrol: Patrol, summary: dict[str, Any]) -> None:
     for x0, y0, x1, y1 in world.walls:
         ax.plot([x0, x1], [y0, y1], color="0.2", lw=1.2)
     for c in world.cylinders:
-        ax.add_patch(Circle((c.x, c.y), c.radius, color="0.4"))
+        ax.add_patch(Circle((c.x, c.y), c.radius, color="0.2"))
     if world.patrol is not None:
         for k, (x, y) in enumerate(world.patrol.drop_spots):
             ax.plot(x, y, "s", color="tab:purple", ms=7, mfc="none",
                     label="drop spot" if k == 0 else None)  # fmt: skip
     colours = {"goal": "tab:green", "preempt": "tab:blue", "cancel": "tab:orange",
-               "teleop": "tab:cyan", "unreachable": "tab:gray"}  # fmt: skip
+               "teleop": "tab:cyan", "unreachable": "tab:brown"}  # fmt: skip
     for kind, colour in colours.items():
         os_ = [o for o in r.outcomes if o.kind == kind]
         good = [o for o in os_ if o.ok]
         bad = [o for o in os_ if not o.ok]
         if good:
-            ax.plot([o.x for o in good], [o.y for o in good], "o", color=colour, ms=4,
+            ax.plot([o.x for o in good], [o.y for o in good],
+                    "D" if kind == "unreachable" else "o", color=colour, ms=4,
                     label=f"{kind} ({len(good)})")  # fmt: skip
         if bad:
             ax.plot([o.x for o in bad], [o.y for o in bad], "x", color="red", ms=8,
@@ -809,7 +810,7 @@ def plot_patrol(png: Path, patrol: Patrol, summary: dict[str, Any]) -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(
-        f"{world.name}: {summary['reachable_reached']} reached, "
+        f"{world.name}: {summary['reachable_reached']} reached,\n"
         f"{summary['unreachable_answered']} unreachable answered, "
         f"{summary['contacts']} contacts"
     )
