@@ -31,7 +31,7 @@ from jackson.host.core.results import CoreListener
 from jackson.host.cpu import CpuMeter
 from jackson.host.estimation.health import Transition
 from jackson.host.recording import RunRecorder, run_in_progress, write_json
-from jackson.host.recording.budget import Deleted, DiskUse, prune
+from jackson.host.recording.budget import Deleted, DiskUse, folder_bytes, prune
 from jackson.host.recording.snapshot import SNAPSHOT_NAME, encode_snapshot, write_snapshot
 from jackson.host.recording.split import FolderWorker, SplitPolicy, carry_files, part_folder
 from jackson.protocol import (
@@ -227,6 +227,7 @@ class Daemon:
         self.disk_use = DiskUse(run_folder.parent if run_folder else cfg.recording_folder)
         self.split: SplitPolicy | None = None
         self.budget_bytes = round(cfg.recording_budget_mb * 1e6) if rotate else 0
+        self._room_bytes = 0  # kept free for the folder being written: the largest closed one
         self.folders = FolderWorker(self._say)
         self._part = 1  # the run folder's number (1: the first)
         self.commands = CommandTracker(transport.encode, self._send_frame)
@@ -508,7 +509,9 @@ class Daemon:
         )
         self.folders.submit(f"copying {old}'s files", lambda: carry_files(old, new))
         self.folders.submit(f"closing {old}", lambda: self._close_folder(old_rec, old_bag, health))
-        self.folders.submit("the recording folder's budget", lambda: self._keep_budget(new))
+        self.folders.submit(
+            "the recording folder's budget", lambda: self._keep_budget(new, folder_bytes(old))
+        )
         ms, cpu_ms = (time.perf_counter() - t0) * 1e3, (time.thread_time() - cpu0) * 1e3
         self.tell(
             f"recording: {new} ({reason}), after {old.name}; split in {ms:.1f} ms on the "
@@ -534,12 +537,16 @@ class Daemon:
             self._repairer.join()
         self._keep_budget(self.run_folder)
 
-    def _keep_budget(self, keep: Path | None) -> None:
+    def _keep_budget(self, keep: Path | None, closed_bytes: int = 0) -> None:
         """Delete the oldest complete run folders until the recording folder is under
-        ``recording.budget_mb`` (on :attr:`folders`' thread), one line each."""
+        ``recording.budget_mb`` (on :attr:`folders`' thread), one line each. After a split the
+        folder just closed (``closed_bytes``) is room kept free for the new one to grow into, up
+        to half the budget: the folder stays under its budget while the next folder is written,
+        not only at the splits."""
         budget = self.budget_bytes
         if budget <= 0 or keep is None:
             return
+        self._room_bytes = max(self._room_bytes, min(closed_bytes, budget // 2))
 
         def told(d: Deleted) -> None:
             self._say(
@@ -547,7 +554,7 @@ class Daemon:
                 f"under the {budget / 1e6:g} MB budget"
             )
 
-        total = prune(keep.parent, budget, keep, told)
+        total = prune(keep.parent, budget - self._room_bytes, keep, told)
         self.disk_use.others(total, keep)
 
     def _send(self, msg: Message) -> object:
