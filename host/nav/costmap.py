@@ -634,6 +634,21 @@ class Costmap:
         self.lethal_distance_m[kr0:kr1, kc0:kc1] = dist[keep]
         self.version += 1
 
+    def __getstate__(self) -> dict[str, object]:
+        """The state without :attr:`costs` and ``_costs_padded``, which are views of the padded
+        grid: a pickle would copy them apart from it, and a later partial update (which writes
+        the padded grid in place) would leave them stale (a core's snapshot,
+        docs/recording.md)."""
+        state = dict(self.__dict__)
+        state.pop("costs", None)
+        state.pop("_costs_padded", None)
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._costs_padded = self._costs_2d.ravel()
+        self.costs = self._costs_2d[1:-1, 1:-1]
+
     def _update_master(self) -> None:
         """Combine the layers (maximum, unknown yields to knowledge) and inflate, everywhere."""
         far = math.inf if self._collision_checks else self.config.inflation_radius_m

@@ -232,3 +232,21 @@ def test_clearing_beyond_a_range_keeps_the_obstacles_near_the_robot() -> None:
     cm.clear_obstacles(3.5, (-2.0, 0.0))
     assert cm.cost_at(1.0, 0.0) == LETHAL_OBSTACLE  # 3.0 m from the robot: kept
     assert cm.cost_at(2.4, 0.0) == FREE_SPACE  # 4.4 m: forgotten
+
+
+def test_a_pickled_costmap_updates_as_the_original_does() -> None:
+    """``costs`` is a view of the padded grid that a small update writes in place; a pickle (a
+    run folder's snapshot of the core) copied it apart, so a restored global costmap's costs
+    went stale and its replay differed from the run."""
+    import pickle
+
+    grid = OccupancyGrid.empty(20.0, 20.0, RES, -10.0, -10.0, FREE_SPACE)
+    live = Costmap.from_map(grid, CostmapConfig(), collision_checks=False)
+    live.update(ring(1.0), (0.0, 0.0))
+    restored = pickle.loads(pickle.dumps(live))
+    post = np.array([[2.0, 0.0], [2.02, 0.05], [2.0, 0.1]])  # a small change: updated in place
+    for cm in (live, restored):
+        cm.update(post, (0.0, 0.0))
+    assert np.shares_memory(restored.costs, restored._costs_2d)
+    assert np.array_equal(restored.costs, live.costs)
+    assert np.array_equal(restored.cost_at(*post.T), live.cost_at(*post.T))
