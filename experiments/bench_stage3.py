@@ -57,11 +57,12 @@ from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.mapping import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
+from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 from jackson.sim.config import WorldSpec, load_world
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
 from jackson.sim.raster import raster
 
-SCAN_PERIOD_S = 0.13465  # REFERENCE: LiDAR
+SCAN_PERIOD_S = A1M8_SCAN_PERIOD_S  # REFERENCE: LiDAR (protocol/rplidar.py)
 CONTROL_PERIOD_S = 0.05  # the daemon's tick: one telemetry frame at 20 Hz
 CAMPAIGN_WORKERS = 2
 NAV2_DWB_SHARE = 0.003 / CONTROL_PERIOD_S  # Nav2's C++ DWB, about 3 ms per cycle

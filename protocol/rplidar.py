@@ -80,6 +80,7 @@ import numpy.typing as npt
 from jackson.protocol.errors import EncodeError
 
 __all__ = [
+    "A1M8_SCAN_PERIOD_S",
     "CAPSULED",
     "CAPSULE_FORMATS",
     "DENSE_CAPSULED",
@@ -157,6 +158,9 @@ ANGLE_Q6_MAX = 0x7FFF  # 15 bits
 DISTANCE_Q2_MAX = 0xFFFF  # 16 bits
 QUALITY_MAX = 0x3F  # 6 bits
 SERIAL_BYTES = 16
+# [s] the A1M8's turn at 7.43 Hz (REFERENCE: LiDAR scan period): the host's scan stamps and
+# silence tests and the twin's emulator all take it from here
+A1M8_SCAN_PERIOD_S = 0.13465
 
 
 class Command(IntEnum):

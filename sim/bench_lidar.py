@@ -22,7 +22,8 @@ import pymunk
 from numpy.typing import ArrayLike, NDArray
 
 from jackson.common.bench import BenchResult, interleaved_slices
-from jackson.sim.lidar import A1M8_SCAN_PERIOD_S, Lidar, LidarSpec, Obstacles
+from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
+from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 
 REAL_TIME_FACTOR = 200
 SCANS_PER_S_TARGET = REAL_TIME_FACTOR / A1M8_SCAN_PERIOD_S  # [scans/s] 1485.3

@@ -21,12 +21,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from jackson.common.robot import LIDAR_RANGE_NOISE_M
+from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 
 __all__ = ["Lidar", "LidarSpec", "Obstacles", "cast"]
 
 A1M8_BEAMS = 1080
 A1M8_ANGLE_INCREMENT_RAD = 0.005807
-A1M8_SCAN_PERIOD_S = 0.13465  # [s] 7.43 Hz
 A1M8_RANGE_MIN_M = 0.15
 A1M8_RANGE_MAX_M = 12.0  # the robot's navigation stack caps it at 8 m in software
 A1M8_NOISE_SIGMA_M = LIDAR_RANGE_NOISE_M

@@ -80,6 +80,7 @@ import numpy.typing as npt
 from jackson.common.robot import LIDAR_RANGE_NOISE_M
 from jackson.common.window import SummedWindow
 from jackson.host.estimation.odometry import RobotGeometry
+from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 
 POLICIES = ("continue", "stop")
 SILENT_TICKS = 3.0  # a wheel expected to make this many counts in a frame and making none
@@ -92,7 +93,8 @@ LIDAR_LEARN_SCANS = 20  # the revolution period is learned over the first scans
 LIDAR_MIN_TRIPLETS = 30  # neighbouring returns needed to judge a scan's noise
 LIDAR_SILENCE_PERIODS = 1.5  # a silence shorter than this many revolutions is the stream's own
 # spacing (a revolution every 0.135 s, read at 50 ms frames: gaps of 0.10 and 0.15 s)
-LIDAR_PERIOD_S = 0.13465  # the A1M8's revolution, until the monitor has learned the sensor's
+# the A1M8's revolution, until the monitor has learned the sensor's own
+LIDAR_PERIOD_S = A1M8_SCAN_PERIOD_S
 LIDAR_MIN_SPAN_RAD = math.pi  # a revolution covering less than this is not a turn (garbage)
 LIDAR_JUNK_TURNS = 3  # that many such revolutions within lidar_garbage_s: garbage on the line
 SPIKE_AFTERMATH = 0.25  # a spike ends with a residual below half the gate's (NIS a quarter)

@@ -43,6 +43,7 @@ import serial
 from jackson.common.errors import JacksonError, PortKind, port_open_message
 from jackson.common.geometry import wrap_angles
 from jackson.protocol.rplidar import (
+    A1M8_SCAN_PERIOD_S,
     CAPSULE_FORMATS,
     DESCRIPTOR_BYTES,
     Q8,
@@ -93,7 +94,7 @@ READ_CHUNK = 65536
 MAX_READ_BYTES = 1 << 20  # one poll reads at most this much (a flood cannot hold it)
 Q6_TO_RAD = math.pi / (180.0 * 64.0)
 MM_Q2_TO_M = 1.0 / 4000.0
-SCAN_PERIOD_S = 0.13465  # [s] the A1M8's turn at 7.43 Hz (REFERENCE: LiDAR scan period)
+SCAN_PERIOD_S = A1M8_SCAN_PERIOD_S  # [s] the A1M8's turn (protocol/rplidar.py)
 A1M8_STANDARD_US = 508  # [us] the A1M8's standard sample time (docs/lidar.md, "Scan modes")
 FIRST_CONF_FIRMWARE = (1, 24)  # the first firmware that answers GET_LIDAR_CONF
 MAX_ANSWER_BYTES = 255  # a single answer longer than this is a damaged descriptor

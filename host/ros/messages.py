@@ -30,6 +30,7 @@ from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.nav.types import Pose2D
 from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.protocol import PROTOCOL_VERSION, Frame, Telemetry, TelemetryFlags, crc32c
+from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:
@@ -79,7 +80,7 @@ HEALTH_LEVELS = {
     "suspect": LEVEL_WARN,
     "excluded": LEVEL_ERROR,
 }
-SCAN_PERIOD_S = 0.13465  # [s] the A1M8's turn (REFERENCE: LiDAR)
+SCAN_PERIOD_S = A1M8_SCAN_PERIOD_S  # [s] the A1M8's turn (protocol/rplidar.py)
 SCAN_RANGE_M = (0.15, 8.0)  # [m] the A1M8's minimum and the robot's software cap
 CLOCK_WINDOW_S = 10.0  # [s] of MCU time over which the least transport delay is found
 CLOCK_SLEW = 0.1  # the offset in use moves at most this fraction of the MCU time passed

@@ -25,8 +25,9 @@ from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.likelihood import LikelihoodField, PointField
 from jackson.host.nav.mapping import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
+from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 from jackson.sim.config import Cylinder, WorldSpec, load_world
-from jackson.sim.lidar import A1M8_SCAN_PERIOD_S, Lidar, LidarSpec, Obstacles
+from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 from jackson.sim.raster import raster, reachable_free
 
 RES = 0.05
