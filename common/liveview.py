@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
+from collections.abc import Callable
 
 import foxglove
 import numpy as np
@@ -150,6 +151,49 @@ class LiveServer:
             server, self._server = self._server, None
         if server is not None:
             server.stop()
+
+
+class ServedView:
+    """What the daemon's and the twin's live views share: the server they publish on, whether
+    they still publish, and how they stop when publishing fails (the robot or the twin goes on
+    without its view; ``tell`` says why, once).
+
+    Attributes
+    ----------
+    server : LiveServer
+        The server.
+    off : str or None
+        Why the view stopped publishing (None while it serves).
+    published : dict of str to int
+        Messages sent per topic.
+    """
+
+    def __init__(
+        self, server: LiveServer, topics: tuple[str, ...], tell: Callable[[str], None]
+    ) -> None:
+        self.server = server
+        self.tell = tell
+        self.off: str | None = None
+        self.published: dict[str, int] = dict.fromkeys(topics, 0)
+
+    def start(self) -> str:
+        """Serve; the address to open in Foxglove.
+
+        Raises
+        ------
+        LiveViewError
+            The address cannot be bound.
+        """
+        return self.server.start()
+
+    def stop(self) -> None:
+        """Stop serving."""
+        self.server.stop()
+
+    def _fail(self, exc: Exception) -> None:
+        self.off = f"live view off: publishing failed: {type(exc).__name__}: {exc}"
+        self.server.stop()
+        self.tell(self.off)
 
 
 def stamp_ns(t_s: float) -> int:

@@ -66,6 +66,7 @@ from jackson.common.liveview import (
     POSE_PERIOD_S,
     Every,
     LiveServer,
+    ServedView,
     laser_scan,
     pose,
     stamp_ns,
@@ -208,7 +209,7 @@ def _finite(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-class LiveView(CoreListener):
+class LiveView(CoreListener, ServedView):
     """Publishes the navigation service over a :class:`LiveServer` (module docstring).
 
     Parameters
@@ -241,13 +242,10 @@ class LiveView(CoreListener):
         problems: Callable[[], list[str]],
         tell: Callable[[str], None],
     ) -> None:
+        super().__init__(server, TOPICS, tell)
         self.service = service
-        self.server = server
         self.sensors = sensors
         self.problems = problems
-        self.tell = tell
-        self.off: str | None = None
-        self.published: dict[str, int] = dict.fromkeys(TOPICS, 0)
         ctx = server.context
         self.map_ch = GridChannel("/map", context=ctx)
         self.scan_ch = LaserScanChannel("/scan", context=ctx)
@@ -269,27 +267,6 @@ class LiveView(CoreListener):
         self._plan: npt.NDArray[np.float64] | None = None  # the last /plan sent
         self._goal_id: int | None = -1  # the goal /goal shows (-1: none sent yet)
         self._local_plan_shown = False
-
-    # ------------------------------------------------------------------ lifecycle
-
-    def start(self) -> str:
-        """Serve; the address to open in Foxglove.
-
-        Raises
-        ------
-        LiveViewError
-            The address cannot be bound.
-        """
-        return self.server.start()
-
-    def stop(self) -> None:
-        """Stop serving."""
-        self.server.stop()
-
-    def _fail(self, exc: Exception) -> None:
-        self.off = f"live view off: publishing failed: {type(exc).__name__}: {exc}"
-        self.server.stop()
-        self.tell(self.off)
 
     # ------------------------------------------------------------------ the frame loop
 

@@ -35,6 +35,7 @@ from jackson.common.liveview import (
     POSE_PERIOD_S,
     Every,
     LiveServer,
+    ServedView,
     laser_scan,
     pose,
     stamp_ns,
@@ -127,7 +128,11 @@ def envelope_scene(x_m: tuple[float, float], y_m: tuple[float, float]) -> fm.Sce
     return fm.SceneUpdate(entities=[entity])
 
 
-class TwinLiveView:
+def _say(text: str) -> None:
+    print(f"jackson sim: {text}", file=sys.stderr, flush=True)
+
+
+class TwinLiveView(ServedView):
     """Publishes one twin's ground truth over a :class:`LiveServer` (module docstring).
 
     Parameters
@@ -146,10 +151,8 @@ class TwinLiveView:
     """
 
     def __init__(self, twin: Twin, server: LiveServer) -> None:
+        super().__init__(server, TOPICS, _say)
         self.twin = twin
-        self.server = server
-        self.off: str | None = None
-        self.published: dict[str, int] = dict.fromkeys(TOPICS, 0)
         ctx = server.context
         self.world_ch = channels.SceneUpdateChannel("/world", context=ctx)
         self.pose_ch = channels.PoseInFrameChannel("/pose", context=ctx)
@@ -165,20 +168,6 @@ class TwinLiveView:
         self._world_every = Every(MAP_PERIOD_S)
         self._pose_every = Every(POSE_PERIOD_S)
 
-    def start(self) -> str:
-        """Serve; the address to open in Foxglove.
-
-        Raises
-        ------
-        LiveViewError
-            The address cannot be bound.
-        """
-        return self.server.start()
-
-    def stop(self) -> None:
-        """Stop serving."""
-        self.server.stop()
-
     def on_advance(self, twin: Twin) -> None:
         """After an advance of sim time: new scans, the world when due, the pose at 10 Hz."""
         if self.off is not None:
@@ -186,9 +175,7 @@ class TwinLiveView:
         try:
             self._publish(twin)
         except Exception as exc:  # the twin goes on without its live view
-            self.off = f"live view off: publishing failed: {type(exc).__name__}: {exc}"
-            self.server.stop()
-            print(f"jackson sim: {self.off}", file=sys.stderr, flush=True)
+            self._fail(exc)
 
     def _publish(self, twin: Twin) -> None:
         t_s = twin.t_s

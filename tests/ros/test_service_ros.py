@@ -35,6 +35,7 @@ if platform.machine() != "x86_64":
 from jackson.experiments.stage3 import world_grid
 from jackson.sim.config import load_world
 
+from ..sil import harness
 from .conftest import private_ros_env
 
 # lark (pulled in by rosidl's parser) imports the deprecated sre_parse
@@ -87,12 +88,8 @@ def _read(stream: Any, lines: list[str]) -> None:
 
 
 def wait_for(condition: Callable[[], bool], what: str, timeout_s: float = DEADLINE_S) -> None:
-    """Poll ``condition`` (every 20 ms) until it holds; fail naming ``what``."""
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s:g} s waiting for {what}")
-        time.sleep(0.02)  # polls a condition another process changes
+    """:func:`tests.sil.harness.wait_for` with this module's deadline."""
+    harness.wait_for(condition, timeout_s=timeout_s, what=what)
 
 
 @pytest.fixture(scope="module")
