@@ -165,27 +165,22 @@ def _raw_frame(version: int, ftype: int, seq: int, payload: bytes) -> bytes:
     return b"\xa5\x5a" + body + struct.pack("<I", crc32c(body))
 
 
-def sample_streams() -> list[dict[str, Any]]:
-    """Named streams: (doc, chunks of (at_us, bytes), optional poll time)."""
-    rng = random.Random(2024)
-    t = [
-        encode_frame(
-            Telemetry(t_us=50_000 * k, enc_left=31 * k, enc_right=30 * k, flags=1), seq=k + 1
-        )
-        for k in range(6)
-    ]
-    ack = encode_frame(Ack(acked_type=0x83, acked_seq=9), seq=40)
+BOGUS_LONG = b"\xa5\x5a\x01\x01\x00\x64"  # a header of LEN 100: swallows what follows
+Stream = tuple[str, str, list[tuple[int, bytes]], int | None]  # name, doc, chunks, poll time
+
+
+def _flip(frame: bytes, byte: int, bit: int) -> bytes:
+    b = bytearray(frame)
+    b[byte] ^= 1 << bit
+    return bytes(b)
+
+
+def _damaged_streams(t: list[bytes]) -> list[Stream]:
+    """Frames with garbage around or inside them, cut short, or with a bit flipped, and
+    frames of an unknown version or type."""
     garbage = bytes([0x00, 0xA5, 0x11, 0xA5, 0x5A, 0x7F, 0xFF, 0x5A, 0xA5])
-
-    def flip(frame: bytes, byte: int, bit: int) -> bytes:
-        b = bytearray(frame)
-        b[byte] ^= 1 << bit
-        return bytes(b)
-
-    bogus_long = b"\xa5\x5a\x01\x01\x00\x64"  # LEN 100: swallows what follows
-    short_tel = _raw_frame(PROTOCOL_VERSION, Telemetry.TYPE, 60, Telemetry(t_us=7).pack()[:12])
-    long_ack = _raw_frame(PROTOCOL_VERSION, Ack.TYPE, 61, Ack(1, 2).pack() + b"\x99\x98")
-    streams: list[tuple[str, str, list[tuple[int, bytes]], int | None]] = [
+    flip = _flip
+    return [
         (
             "garbage_around_frames",
             "garbage (with stray SYNC bytes) before, between and after two frames",
@@ -207,7 +202,7 @@ def sample_streams() -> list[dict[str, Any]]:
         (
             "frame_inside_corrupt_one",
             "a header claiming 100 bytes whose span holds two real frames",
-            [(0, bogus_long + t[0] + t[1] + t[2] + t[3] + t[4])],
+            [(0, BOGUS_LONG + t[0] + t[1] + t[2] + t[3] + t[4])],
             None,
         ),
         (
@@ -246,6 +241,16 @@ def sample_streams() -> list[dict[str, Any]]:
             [(0, b"\xa5\x5a\x01\x01\x00\xc8" + t[0])],
             None,
         ),
+    ]
+
+
+def _timing_streams(t: list[bytes], rng: random.Random) -> list[Stream]:
+    """Sequence gaps and wraps, silences inside a frame, short and long payloads, byte-by-byte
+    delivery, noise, and one frame of every message."""
+    ack = encode_frame(Ack(acked_type=0x83, acked_seq=9), seq=40)
+    short_tel = _raw_frame(PROTOCOL_VERSION, Telemetry.TYPE, 60, Telemetry(t_us=7).pack()[:12])
+    long_ack = _raw_frame(PROTOCOL_VERSION, Ack.TYPE, 61, Ack(1, 2).pack() + b"\x99\x98")
+    return [
         (
             "sequence_gap",
             "SEQ 1, 2, 5, 6: one gap of two frames",
@@ -280,7 +285,7 @@ def sample_streams() -> list[dict[str, Any]]:
         (
             "timeout_rescues_inner_frame",
             "a header claiming 100 bytes holding one whole frame, then silence (poll)",
-            [(0, bogus_long + ack)],
+            [(0, BOGUS_LONG + ack)],
             30_000,
         ),
         (
@@ -314,33 +319,47 @@ def sample_streams() -> list[dict[str, Any]]:
             None,
         ),
     ]
-    out: list[dict[str, Any]] = []
-    for name, doc, chunks, poll_at in streams:
-        dec = FrameDecoder()
-        frames = []
-        for at_us, data in chunks:
-            frames += dec.feed(data, at_us)
-        if poll_at is not None:
-            frames += dec.poll(poll_at)
-        out.append(
+
+
+def _decoded(
+    name: str, doc: str, chunks: list[tuple[int, bytes]], poll_at: int | None
+) -> dict[str, Any]:
+    """A stream and what the decoder makes of it: frames, counters, pending bytes."""
+    dec = FrameDecoder()
+    frames = []
+    for at_us, data in chunks:
+        frames += dec.feed(data, at_us)
+    if poll_at is not None:
+        frames += dec.poll(poll_at)
+    return {
+        "name": name,
+        "doc": doc,
+        "chunks": [{"at_us": at, "hex": data.hex()} for at, data in chunks],
+        "poll_at_us": poll_at,
+        "frames": [
             {
-                "name": name,
-                "doc": doc,
-                "chunks": [{"at_us": at, "hex": data.hex()} for at, data in chunks],
-                "poll_at_us": poll_at,
-                "frames": [
-                    {
-                        "message": MESSAGES[f.type].NAME,
-                        "seq": f.seq,
-                        "fields": fields_of(decode_message(f)),
-                    }
-                    for f in frames
-                ],
-                "counters": dec.counters.as_dict(),
-                "pending": dec.pending,
+                "message": MESSAGES[f.type].NAME,
+                "seq": f.seq,
+                "fields": fields_of(decode_message(f)),
             }
+            for f in frames
+        ],
+        "counters": dec.counters.as_dict(),
+        "pending": dec.pending,
+    }
+
+
+def sample_streams() -> list[dict[str, Any]]:
+    """Named streams: (doc, chunks of (at_us, bytes), optional poll time)."""
+    rng = random.Random(2024)
+    t = [
+        encode_frame(
+            Telemetry(t_us=50_000 * k, enc_left=31 * k, enc_right=30 * k, flags=1), seq=k + 1
         )
-    return out
+        for k in range(6)
+    ]
+    streams = _damaged_streams(t) + _timing_streams(t, rng)
+    return [_decoded(*stream) for stream in streams]
 
 
 def render() -> dict[str, str]:

@@ -1,400 +1,54 @@
-"""``jackson calibrate``: the calibration procedures of Appendix A and B on the command line.
-
-Each procedure either records the runs it needs on a connected robot or twin
-(``--port P [--i2c BUS]``) or works from run folders recorded before (``--runs DIR...``),
-prints its result next to the paper's values, and with ``--write CONFIG`` writes the new values
-into the host YAML (showing the diff, keeping ``CONFIG.bak-<time>``, keeping the comments).
-
-    jackson calibrate encoders      straight floor runs and a tape measure: ticks_per_rev
-    jackson calibrate track         in-place rotations: wheel_separation_m
-    jackson calibrate imu           standing still and a spin: imu.calibration, yaw-sign audit
-    jackson calibrate deadband      raw duty staircases: deadband.{left,right}.{forward,reverse}
-    jackson calibrate characterise  a full-duty step and a brake: top speed, t90, stopping
-    jackson calibrate twin-fit      runs and reference trajectories: effective r, B, yaw scale
-
-On the twin, ``--twin-truth PATH`` (the file ``jackson sim --truth PATH`` writes) answers the
-tape measure and the turn count of ``encoders`` and ``track`` and is the reference of
-``twin-fit``, read for each run by its MCU time, from another process as well.
-
-Errors a user can cause end as one line and exit status 2; so does a result that is not a
-number (it is never printed or written as one).
-"""
+"""One command per calibration procedure: record or load its runs, run the procedure, print
+the result beside the paper's values, and write it with ``--write``."""
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import datetime as dt
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from jackson.calibration.yaml_update import Updates, YamlUpdateError, update_config
-from jackson.common.args import (
-    float_upto,
-    fraction,
-    int_in,
-    nonneg_float,
-    nonzero_float,
-    positive_float,
-)
-from jackson.common.errors import JacksonError
-from jackson.host.config import DEFAULT_CONFIG, IDENTITY, ConfigError, HostConfig, load_config
+from jackson.calibration.yaml_update import YamlUpdateError
+from jackson.host.config import IDENTITY, ConfigError
 from jackson.protocol import ProtocolMismatchError
 
 if TYPE_CHECKING:  # numpy, scipy and the host's daemon load when a procedure runs
     from jackson.calibration import procedures as proc
-    from jackson.calibration import runs
+
+
+from jackson.calibration.cli.errors import CalibrateCliError
+from jackson.calibration.cli.support import (
+    ask_float,
+    exclusive,
+    host_config,
+    load_runs,
+    measured,
+    open_link,
+    out_folder,
+    per_run,
+    run_source,
+    truth_references,
+    write_updates,
+)
 
 TWO_PI = 2.0 * math.pi
-
-
-class CalibrateCliError(JacksonError):
-    """A bad combination of options or answers: one line, exit status 2."""
-
-
-# ------------------------------------------------------------------------- the parser
-
-
-def _common(p: argparse.ArgumentParser, *, record: bool = True, truth: str = "") -> None:
-    src = p.add_argument_group("where the runs come from")
-    if record:
-        src.add_argument("--port", help="record on the robot (or twin) at this serial port")
-        src.add_argument(
-            "--i2c", help="the PCA9685's bus, e.g. /dev/i2c-7 or unix:/path (default: config)"
-        )
-        src.add_argument(
-            "--out", type=Path, help="where to write the recorded runs (default: RECORDING/...)"
-        )
-    src.add_argument(
-        "--runs", nargs="+", type=Path, metavar="DIR", help="use these recorded run folders"
-    )
-    if truth:
-        src.add_argument(
-            "--twin-truth",
-            type=Path,
-            metavar="PATH",
-            help=f"on the twin: take {truth} from the ground truth that jackson sim --truth "
-            "PATH writes (by each run's MCU time)",
-        )
-    p.add_argument(
-        "--config",
-        type=Path,
-        help="host YAML the robot runs with (default: the --write file, else the packaged one)",
-    )
-    p.add_argument(
-        "--write", type=Path, metavar="CONFIG", help="write the result into this host YAML"
-    )
-
-
-def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Add ``calibrate`` and its procedures to the ``jackson`` command's subparsers."""
-    p = sub.add_parser(
-        "calibrate",
-        help="calibrate encoders, track width, IMU, deadband; characterise; fit the twin",
-        description="Calibration procedures of the paper's Appendix A and B. Each records its "
-        "runs on a robot or twin (--port) or reads recorded run folders (--runs), prints the "
-        "result, and with --write updates the host YAML (diff shown, backup kept).",
-    )
-    procs = p.add_subparsers(dest="procedure", metavar="PROCEDURE", required=True)
-
-    e = procs.add_parser(
-        "encoders",
-        help="ticks per revolution per wheel from straight runs and a tape measure (Eq. A6)",
-        description="Drives straight runs (alternately forward and back) and asks for the "
-        "distance measured on the floor after each; C_cal = C_0 d_odom / d_meas per wheel.",
-    )
-    _common(e, truth="each run's distance (instead of a tape measure)")
-    e.add_argument(
-        "--count", type=int_in(1, 100), default=3, help="straight runs to record (default 3)"
-    )
-    e.add_argument(
-        "--length", type=float_upto(50.0), default=1.0, help="metres per run (default 1.0)"
-    )
-    e.add_argument("--speed", type=float_upto(2.0), default=0.15, help="m/s (default 0.15)")
-    e.add_argument(
-        "--distance",
-        type=positive_float,
-        nargs="+",
-        metavar="M",
-        help="measured floor distance [m]: one for all runs or one per run (else "
-        "--twin-truth, asked, or read from each run's calibration.json)",
-    )
-
-    t = procs.add_parser(
-        "track",
-        help="wheel separation from in-place rotations (Eq. A12)",
-        description="Turns the robot in place (alternately CCW and CW) by --turns by its gyro "
-        "and asks how many turns it really made; B = r (dphi_R - dphi_L) / dtheta.",
-    )
-    _common(t, truth="each run's true rotation (instead of counting turns)")
-    t.add_argument(
-        "--count", type=int_in(1, 100), default=2, help="rotations to record (default 2)"
-    )
-    t.add_argument(
-        "--turns", type=float_upto(100.0), default=2.0, help="turns per rotation (default 2)"
-    )
-    t.add_argument(
-        "--rate", type=float_upto(20.0), default=1.0, help="turn rate [rad/s] (default 1.0)"
-    )
-    t.add_argument(
-        "--true-turns",
-        type=nonzero_float,
-        nargs="+",
-        metavar="N",
-        help="the true rotation in turns: one for all runs or one per run (else "
-        "--twin-truth, asked, or read from each run's calibration.json)",
-    )
-
-    i = procs.add_parser(
-        "imu",
-        help="gyro bias, gravity scale, yaw-sign audit, noise sigmas",
-        description="Records the robot standing still, then spinning CCW; writes "
-        "imu.calibration (rotation, gyro_bias_rad_s, accel_scale).",
-    )
-    _common(i)
-    i.add_argument(
-        "--still", type=float_upto(3600.0), default=10.0, help="seconds standing still (10)"
-    )
-    i.add_argument("--spin", type=float_upto(600.0), default=4.0, help="seconds spinning CCW (4)")
-    i.add_argument(
-        "--rotation",
-        help="sensor-to-base rotation, 9 numbers row by row, comma separated (default identity)",
-    )
-
-    d = procs.add_parser(
-        "deadband",
-        help="breakaway duty per wheel and direction from raw duty staircases",
-        description="Raises one wheel's raw duty in steps (coarse, then finer) until its "
-        "encoder moves, for each wheel and direction; the host's compensation is bypassed.",
-    )
-    _common(d)
-    d.add_argument("--max-duty", type=fraction, default=0.6, help="give up above this duty (0.6)")
-    d.add_argument(
-        "--persist", type=int_in(1, 1000), default=3, help="frames a count change must persist (3)"
-    )
-
-    c = procs.add_parser(
-        "characterise",
-        help="top speed, time to 90 %% and stopping distance of a duty step",
-        description="Both wheels at --duty (raw) for --seconds, then a short brake. Needs about "
-        "1.5 m of free floor ahead. --write sets deadband.max_wheel_rad_s (full duty only).",
-    )
-    _common(c)
-    c.add_argument("--duty", type=fraction, default=1.0, help="step duty (default 1.0)")
-    c.add_argument(
-        "--seconds", type=float_upto(600.0), default=3.0, help="step length [s] (default 3)"
-    )
-    c.add_argument(
-        "--rate", type=int_in(1, 500), default=200, help="telemetry rate [Hz] while recording (200)"
-    )
-
-    st = procs.add_parser(
-        "step",
-        help="each wheel's motor model per direction from duty steps; per-wheel gains",
-        description="Raw duty steps from rest, forward then back, at each --duty (both wheels, "
-        "or --single-wheel one at a time), --seconds each; a first-order model is fitted per "
-        "wheel and direction. About 0.4 m of free floor ahead. --write sets "
-        "deadband.gain.<side>.<direction> and deadband.max_wheel_rad_s.",
-    )
-    _common(st)
-    st.add_argument(
-        "--duty", type=fraction, nargs="+", default=[0.35, 0.7], help="step duties (0.35 0.7)"
-    )
-    st.add_argument("--seconds", type=float_upto(600.0), default=1.5, help="step length [s] (1.5)")
-    st.add_argument(
-        "--single-wheel", action="store_true", help="one wheel at a time, the other braked"
-    )
-    st.add_argument(
-        "--hold-breakaway",
-        action="store_true",
-        help="use the config's breakaway duties as d_0 instead of fitting (one --duty suffices)",
-    )
-    st.add_argument(
-        "--rate", type=int_in(1, 500), default=200, help="telemetry rate [Hz] while recording (200)"
-    )
-
-    f = procs.add_parser(
-        "twin-fit",
-        help="effective wheel radius, track width, IMU yaw scale against references",
-        description="Least squares of the dead-reckoned trajectory (wheels, gyro x yaw scale) "
-        "against reference trajectories (CSV t_s,x_m,y_m,yaw_rad on the MCU clock). With "
-        "--port it records an excitation run to fit later.",
-    )
-    _common(f, truth="the reference trajectories (instead of --reference)")
-    f.add_argument("--reference", nargs="+", type=Path, metavar="CSV", help="one reference per run")
-    f.add_argument(
-        "--heading",
-        choices=["wheel", "gyro"],
-        default="wheel",
-        help="heading the position is integrated with (default wheel)",
-    )
-    f.add_argument(
-        "--yaw-weight",
-        type=nonneg_float,
-        default=0.5,
-        help="metres of position residual per radian of heading residual (0.5)",
-    )
-    f.add_argument(
-        "--fit-radius",
-        action="store_true",
-        help="also fit and write the wheel radius; by default it is held, so that the distance "
-        "per count calibrate encoders measured against a tape stays as it is",
-    )
-    p.set_defaults(func=run)
-
-
-# ------------------------------------------------------------------------- helpers
-
-
 TWIN_FIT_RADIUS_WARN = 0.01  # a held radius the trajectories contradict by more: say so
-
-
-def _config(args: argparse.Namespace) -> HostConfig:
-    path = args.config or args.write or DEFAULT_CONFIG
-    cfg = load_config(path)
-    if getattr(args, "i2c", None):
-        cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=args.i2c))
-    return cfg
-
-
-def _source(args: argparse.Namespace) -> str:
-    port = getattr(args, "port", None)
-    if port and args.runs:
-        raise CalibrateCliError("give either --port (record) or --runs (recorded), not both")
-    if not port and not args.runs:
-        raise CalibrateCliError("give --port PORT to record, or --runs DIR... to use recordings")
-    return "record" if port else "runs"
-
-
-def _link(args: argparse.Namespace, cfg: HostConfig) -> runs.Link:
-    from rich.console import Console
-
-    from jackson.calibration import runs
-
-    return runs.Link(args.port, cfg, Console(stderr=True))
-
-
-def _out(args: argparse.Namespace, cfg: HostConfig) -> Path:
-    if args.out is not None:
-        return Path(args.out)
-    stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    return Path(cfg.recording_folder) / f"{stamp}-calibrate-{args.procedure}"
-
-
-def _ask_float(prompt: str, default: float | None = None) -> float:
-    """A number from standard input (Enter takes the default)."""
-    while True:
-        try:
-            text = input(prompt).strip()
-        except EOFError as exc:
-            raise CalibrateCliError(
-                "no answer on standard input: give the value as an option"
-            ) from exc
-        if not text and default is not None:
-            return default
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if math.isfinite(value):
-            return value
-        print("  a number, please", file=sys.stderr)
-
-
-def _per_run(values: Sequence[float] | None, n: int, option: str) -> list[float] | None:
-    if values is None:
-        return None
-    if len(values) == 1:
-        return list(values) * n
-    if len(values) != n:
-        raise CalibrateCliError(
-            f"{option}: give one value, or one per run ({n}), not {len(values)}"
-        )
-    return list(values)
-
-
-def _measured(
-    data: Sequence[proc.RunData], given: list[float] | None, note: str, what: str, option: str
-) -> list[float]:
-    """Each run's measured value: from the command line, else from the note its recording
-    kept (the value the user typed in during the run)."""
-    if given is not None:
-        return given
-    missing = next((r for r in data if note not in r.notes), None)
-    if missing is not None:
-        raise CalibrateCliError(f"run {missing.name}: no {what}: give {option}")
-    return [float(r.notes[note]) for r in data]
-
-
-def _load(folders: Sequence[Path]) -> list[proc.RunData]:
-    from jackson.calibration import procedures as proc
-    from jackson.calibration import runs
-
-    data = [runs.load_run(f) for f in folders]
-    for run in data:
-        proc.check_frames(run)
-    return data
-
-
-def _truth_references(
-    folders: Sequence[Path], data: Sequence[proc.RunData], path: Path
-) -> list[proc.Reference]:
-    """Each run's true poses from the twin's ground-truth file (``jackson sim --truth``)."""
-    from jackson.calibration import runs
-
-    truth = runs.load_twin_truth(path)
-    return [
-        runs.truth_reference(run, truth, runs.run_boot_ids(folder))
-        for folder, run in zip(folders, data, strict=True)
-    ]
-
-
-def _exclusive(args: argparse.Namespace, option: str, dest: str) -> None:
-    if args.twin_truth is not None and getattr(args, dest) is not None:
-        raise CalibrateCliError(f"give either {option} or --twin-truth, not both")
-
-
-def _finite(updates: Updates) -> None:
-    """Refuse a result that is not a number: it is neither printed nor written as one."""
-    for key, value in updates.items():
-        values = value if isinstance(value, list) else [value]
-        if any(isinstance(v, float) and not math.isfinite(v) for v in values):
-            raise CalibrateCliError(f"{key}: the result is not a number ({value}); nothing written")
-
-
-def _write(args: argparse.Namespace, updates: Updates) -> None:
-    _finite(updates)
-    if args.write is None:
-        print("(not written: add --write CONFIG to update the host YAML)")
-        return
-    result = update_config(args.write, updates)
-    if result.backup is None:
-        print(f"{result.path} already holds these values: not written")
-        return
-    print(f"wrote {result.path} (backup {result.backup}):")
-    for line in result.changes:
-        print(f"  {line}")
-    if result.diff:
-        print(result.diff, end="" if result.diff.endswith("\n") else "\n")
-
-
-# ------------------------------------------------------------------------- procedures
 
 
 def cmd_encoders(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
+    cfg = host_config(args)
     if args.count < 1 or args.length <= 0 or args.speed <= 0:
         raise CalibrateCliError("--count, --length and --speed must be > 0")
-    _exclusive(args, "--distance", "distance")
+    exclusive(args, "--distance", "distance")
     truth = args.twin_truth
-    if _source(args) == "record":
-        given = _per_run(args.distance, args.count, "--distance")
+    if run_source(args) == "record":
+        given = per_run(args.distance, args.count, "--distance")
         print(
             f"Mark the floor under the axle midpoint. The robot drives {args.count} x "
             f"{args.length:g} m, alternately forward and back; measure each run with a tape."
@@ -408,13 +62,13 @@ def cmd_encoders(args: argparse.Namespace) -> int:
             if given is not None:
                 return given[index]
             if truth is not None:
-                (ref,) = _truth_references([folder], _load([folder]), truth)
+                (ref,) = truth_references([folder], load_runs([folder]), truth)
                 return runs.truth_distance_m(ref)
-            return _ask_float(f"run {index + 1}: distance the axle midpoint moved [m]: ")
+            return ask_float(f"run {index + 1}: distance the axle midpoint moved [m]: ")
 
         folders = runs.record_straight_runs(
-            _link(args, cfg),
-            _out(args, cfg),
+            open_link(args, cfg),
+            out_folder(args, cfg),
             measure,
             count=args.count,
             distance_m=args.length,
@@ -422,14 +76,14 @@ def cmd_encoders(args: argparse.Namespace) -> int:
         )
     else:
         folders = list(args.runs)
-    data = _load(folders)
+    data = load_runs(folders)
     if truth is not None:
-        refs = _truth_references(folders, data, truth)
+        refs = truth_references(folders, data, truth)
         distances = [runs.truth_distance_m(ref) for ref in refs]
         print(f"measured distances: the twin's ground truth {truth}")
     else:
-        given = _per_run(args.distance, len(data), "--distance")
-        distances = _measured(data, given, "measured_distance_m", "measured distance", "--distance")
+        given = per_run(args.distance, len(data), "--distance")
+        distances = measured(data, given, "measured_distance_m", "measured distance", "--distance")
     straight = [proc.straight_run(r, d) for r, d in zip(data, distances, strict=True)]
     g = cfg.robot
     res = proc.calibrate_encoders(straight, g)
@@ -445,7 +99,7 @@ def cmd_encoders(args: argparse.Namespace) -> int:
         f"spread {res.spread_right:.1f})"
     )
     print("  paper: 652 x 0.9525 = 621 TPR (Eq. A8), history 617 left / 621 right")
-    _write(
+    write_updates(
         args,
         {
             "robot.ticks_per_rev.left": round(res.ticks_per_rev_left, 1),
@@ -459,13 +113,13 @@ def cmd_track(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
+    cfg = host_config(args)
     if args.count < 1 or args.turns <= 0 or args.rate <= 0:
         raise CalibrateCliError("--count, --turns and --rate must be > 0")
-    _exclusive(args, "--true-turns", "true_turns")
+    exclusive(args, "--true-turns", "true_turns")
     truth = args.twin_truth
-    if _source(args) == "record":
-        given = _per_run(args.true_turns, args.count, "--true-turns")
+    if run_source(args) == "record":
+        given = per_run(args.true_turns, args.count, "--true-turns")
         print(
             f"Mark the robot's heading on the floor. It turns {args.count} x {args.turns:g} "
             "turns in place, alternately CCW and CW; count the turns it really makes."
@@ -479,16 +133,16 @@ def cmd_track(args: argparse.Namespace) -> int:
             if given is not None:
                 return given[index] * TWO_PI
             if truth is not None:
-                (ref,) = _truth_references([folder], _load([folder]), truth)
+                (ref,) = truth_references([folder], load_runs([folder]), truth)
                 return runs.truth_rotation_rad(ref)
-            turns = _ask_float(
+            turns = ask_float(
                 f"run {index + 1}: turns the robot really made [{args.turns:g}]: ", args.turns
             )
             return turns * TWO_PI
 
         folders = runs.record_rotation_runs(
-            _link(args, cfg),
-            _out(args, cfg),
+            open_link(args, cfg),
+            out_folder(args, cfg),
             true_rotation,
             count=args.count,
             turns=args.turns,
@@ -496,16 +150,16 @@ def cmd_track(args: argparse.Namespace) -> int:
         )
     else:
         folders = list(args.runs)
-    data = _load(folders)
+    data = load_runs(folders)
     if truth is not None:
-        refs = _truth_references(folders, data, truth)
+        refs = truth_references(folders, data, truth)
         true_rad = [runs.truth_rotation_rad(ref) for ref in refs]
         print(f"true rotations: the twin's ground truth {truth}")
     else:
-        given = _per_run(args.true_turns, len(data), "--true-turns")
+        given = per_run(args.true_turns, len(data), "--true-turns")
         if given is not None:
             given = [turns * TWO_PI for turns in given]
-        true_rad = _measured(data, given, "true_rotation_rad", "true rotation", "--true-turns")
+        true_rad = measured(data, given, "true_rotation_rad", "true rotation", "--true-turns")
     rotations = [proc.rotation_run(r, rot) for r, rot in zip(data, true_rad, strict=True)]
     g = cfg.robot
     res = proc.calibrate_track(rotations, g)
@@ -517,7 +171,7 @@ def cmd_track(args: argparse.Namespace) -> int:
         )
     print(f"  B = {res.wheel_separation_m:.5f} m (spread {res.spread_m * 1000:.2f} mm)")
     print("  paper: 0.033 x 37.70 / 2 pi = 0.198 m (Eq. A15); twin V16/V17 effective 0.210481 m")
-    _write(args, {"robot.wheel_separation_m": round(res.wheel_separation_m, 5)})
+    write_updates(args, {"robot.wheel_separation_m": round(res.wheel_separation_m, 5)})
     return 0
 
 
@@ -545,18 +199,18 @@ def cmd_imu(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
+    cfg = host_config(args)
     rotation = _parse_rotation(args.rotation)
-    if _source(args) == "record":
+    if run_source(args) == "record":
         if args.still <= 1.0 or args.spin <= 0:
             raise CalibrateCliError("--still must be > 1 s and --spin > 0 s")
         print("Leave the robot alone on a level floor; it then spins in place for a moment.")
         folders = runs.record_imu_runs(
-            _link(args, cfg), _out(args, cfg), still_s=args.still, spin_s=args.spin
+            open_link(args, cfg), out_folder(args, cfg), still_s=args.still, spin_s=args.spin
         )
     else:
         folders = list(args.runs)
-    data = _load(folders)
+    data = load_runs(folders)
     still = [r for r in data if r.still_frames > 0]
     moving = [r for r in data if r.moved]
     if not still:
@@ -611,7 +265,7 @@ def cmd_imu(args: argparse.Namespace) -> int:
             "the gyro's z axis points down in the base frame (yaw sign audit failed): give "
             "--rotation, e.g. 1,0,0,0,-1,0,0,0,-1 for an IMU mounted upside down"
         )
-    _write(
+    write_updates(
         args,
         {
             "imu.calibration.rotation": [float(x) for x in prof.rotation],
@@ -626,22 +280,22 @@ def cmd_deadband(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
+    cfg = host_config(args)
     if args.persist < 1 or not 0.0 < args.max_duty <= 1.0:
         raise CalibrateCliError("--persist must be >= 1 and --max-duty in (0, 1]")
-    if _source(args) == "record":
+    if run_source(args) == "record":
         print("Leave room around the robot: each wheel in turn creeps forward and back.")
         script = runs.DeadbandScript(max_duty=args.max_duty, persist_frames=args.persist)
-        folders = [runs.record_deadband_run(_link(args, cfg), _out(args, cfg), script)]
+        folders = [runs.record_deadband_run(open_link(args, cfg), out_folder(args, cfg), script)]
     else:
         folders = list(args.runs)
-    res = proc.calibrate_deadband(_load(folders), args.persist)
+    res = proc.calibrate_deadband(load_runs(folders), args.persist)
     print("PWM deadband: breakaway duty (between the last still and the first moving level)")
     for key in ("forward_left", "reverse_left", "forward_right", "reverse_right"):
         br = res.brackets[key]
         direction, side = key.split("_")
         print(f"  {side:5s} {direction:7s} {br.mid:.4f} (in {br.lo:.4f}..{br.hi:.4f})")
-    _write(
+    write_updates(
         args,
         {
             "deadband.left.forward": round(res.forward_left, 4),
@@ -662,20 +316,20 @@ def cmd_characterise(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
+    cfg = host_config(args)
     if not 0.0 < abs(args.duty) <= 1.0 or args.seconds <= 0.5:
         raise CalibrateCliError("--duty must be in (0, 1] and --seconds > 0.5")
-    if _source(args) == "record":
+    if run_source(args) == "record":
         print("The robot drives straight ahead at the step duty: leave 1.5 m of free floor.")
         script = runs.StepScript(args.duty, args.seconds)
         if not 1 <= args.rate <= 500:
             raise CalibrateCliError("--rate must be 1-500 Hz")
-        link = _link(args, cfg)
-        folders = [runs.record_step_run(link, _out(args, cfg), script, rate_hz=args.rate)]
+        link = open_link(args, cfg)
+        folders = [runs.record_step_run(link, out_folder(args, cfg), script, rate_hz=args.rate)]
     else:
         folders = list(args.runs)
     rotation = cfg.imu.calibration.rotation if cfg.imu.calibration is not None else IDENTITY
-    results = [proc.characterise(r, cfg.robot, rotation) for r in _load(folders)]
+    results = [proc.characterise(r, cfg.robot, rotation) for r in load_runs(folders)]
     for name, c in zip((Path(f).name for f in folders), results, strict=True):
         print(f"{name}: duty step {c.duty:+.2f}")
         print(
@@ -714,7 +368,7 @@ def cmd_characterise(args: argparse.Namespace) -> int:
         w = sum(
             abs(c.top_wheel_speed_left_rad_s) + abs(c.top_wheel_speed_right_rad_s) for c in full
         )
-        _write(args, {"deadband.max_wheel_rad_s": round(w / (2 * len(full)), 3)})
+        write_updates(args, {"deadband.max_wheel_rad_s": round(w / (2 * len(full)), 3)})
     return 0
 
 
@@ -722,18 +376,20 @@ def cmd_step(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
-    if _source(args) == "record":
+    cfg = host_config(args)
+    if run_source(args) == "record":
         print("The robot drives straight ahead and back at each duty: leave 0.4 m of free floor.")
         script = proc.WheelStepScript(
             proc.step_plan(args.duty, args.seconds, single_wheel=args.single_wheel)
         )
-        link = _link(args, cfg)
-        folders = [runs.record_wheel_step_run(link, _out(args, cfg), script, rate_hz=args.rate)]
+        link = open_link(args, cfg)
+        folders = [
+            runs.record_wheel_step_run(link, out_folder(args, cfg), script, rate_hz=args.rate)
+        ]
     else:
         folders = list(args.runs)
     ident = proc.identify_steps(
-        _load(folders),
+        load_runs(folders),
         cfg.robot,
         breakaway=cfg.deadband if args.hold_breakaway else None,
         expected=cfg.deadband,
@@ -752,7 +408,7 @@ def cmd_step(args: argparse.Namespace) -> int:
         f"{hg.max_wheel_rad_s:.3f}; "
         + ", ".join(f"{side} {d} {g:.4f}" for (side, d), g in hg.gains.items())
     )
-    _write(args, hg.yaml_updates())
+    write_updates(args, hg.yaml_updates())
     return 0
 
 
@@ -760,10 +416,10 @@ def cmd_twin_fit(args: argparse.Namespace) -> int:
     from jackson.calibration import procedures as proc
     from jackson.calibration import runs
 
-    cfg = _config(args)
-    _exclusive(args, "--reference", "reference")
-    if _source(args) == "record":
-        folder = runs.record_excitation_run(_link(args, cfg), _out(args, cfg))
+    cfg = host_config(args)
+    exclusive(args, "--reference", "reference")
+    if run_source(args) == "record":
+        folder = runs.record_excitation_run(open_link(args, cfg), out_folder(args, cfg))
         print(f"recorded {folder}")
         if not args.reference and args.twin_truth is None:
             print(f"fit it with: jackson calibrate twin-fit --runs {folder} --reference REF.csv")
@@ -771,9 +427,9 @@ def cmd_twin_fit(args: argparse.Namespace) -> int:
         folders = [folder]
     else:
         folders = list(args.runs)
-    data = _load(folders)
+    data = load_runs(folders)
     if args.twin_truth is not None:
-        references = _truth_references(folders, data, args.twin_truth)
+        references = truth_references(folders, data, args.twin_truth)
         print(f"references: the twin's ground truth {args.twin_truth}")
     elif not args.reference or len(args.reference) != len(folders):
         raise CalibrateCliError(
@@ -835,7 +491,7 @@ def cmd_twin_fit(args: argparse.Namespace) -> int:
         print("  (no IMU yaw scale in the host config: --write sets the radius and the separation)")
     else:
         print("  (no IMU yaw scale in the host config: --write sets the separation)")
-    _write(args, updates)
+    write_updates(args, updates)
     return 0
 
 
