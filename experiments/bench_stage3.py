@@ -398,18 +398,16 @@ def _campaign_s() -> tuple[float, float]:
         return wall, cpu
 
 
-def run(quick: bool = False) -> list[BenchResult]:
-    """The Stage 3 figures for ``jackson bench``.
-
-    Parameters
-    ----------
-    quick : bool
-        One round and no campaign.
+def cycle_figures(quick: bool) -> tuple[list[BenchResult], float]:
+    """The mapping update, the particle filter's update and the DWB cycle, each as a share of
+    its period, timed in interleaved rounds (best of 3; quick: 1).
 
     Returns
     -------
-    list[BenchResult]
-        Each cycle's share of its period (and the campaign's wall time against its budget).
+    figures : list[BenchResult]
+        The three shares, the ray caster's scan beside each as the reference.
+    loop_us : float
+        The machine's reference loop, best between the rounds [us].
     """
     grid, obstacles, poses, scans, cast_s = _scenario()
     best = {"mapping": math.inf, "amcl": math.inf, "dwb": math.inf}
@@ -427,7 +425,7 @@ def run(quick: bool = False) -> list[BenchResult]:
             name, ms / of_ms, unit, target, "lower", what, ms, "ms", cast_ms, loop_us
         )
 
-    out = [
+    return [
         fig(
             "stage3.mapping_update_share_of_scan_period",
             best["mapping"],
@@ -452,11 +450,16 @@ def run(quick: bool = False) -> list[BenchResult]:
             NAV2_DWB_SHARE,
             "the control period; Nav2's C++ DWB takes ~3 ms (reference: the ray caster's scan)",
         ),
-    ]
+    ], loop_us
+
+
+def planning_figures(quick: bool) -> list[BenchResult]:
+    """The replanning navigation's worst step and the 20 m global plan against the control
+    period, and the plan against the former pure-Python A* (best of 3 each; quick: 1)."""
     plan_ms, python_ms, plan_loop_us = _global_plan_ms(1 if quick else 3)
     control_ms = 1e3 * CONTROL_PERIOD_S
     worst_ms, mean_ms = min(_replanning_steps_ms() for _ in range(1 if quick else 3))
-    out += [
+    return [
         BenchResult(
             "stage3.replanning_step_worst_share_of_control_period",
             worst_ms / control_ms,
@@ -497,36 +500,59 @@ def run(quick: bool = False) -> list[BenchResult]:
             plan_loop_us,
         ),
     ]
+
+
+def campaign_figures(loop_us: float) -> list[BenchResult]:
+    """The 180-run OFAT + robustness set on 2 workers against its 10-minute budget: its CPU
+    time per core (judged) and its wall time (for information)."""
+    wall_s, cpu_s = _campaign_s()
+    loop = min(loop_us, reference_loop_us())
+    per_core_min = cpu_s / CAMPAIGN_WORKERS / 60.0
+    return [
+        BenchResult(
+            "stage3.ofat_robustness_180_runs_cpu_per_core_share_of_10_min",
+            per_core_min / 10.0,
+            "of 10 min",
+            1.0,
+            "lower",
+            "a 10-minute budget for the 180 runs on 2 cores of their own: their CPU time "
+            "over 2 (about the wall time when nothing else runs; other work on the machine "
+            "does not add to it)",
+            per_core_min,
+            "min",
+            None,
+            loop,
+        ),
+        BenchResult(
+            "stage3.ofat_robustness_180_runs_wall_share_of_10_min",
+            wall_s / 600.0,
+            "of 10 min",
+            None,
+            "lower",
+            "the same runs' wall time on 2 workers, with whatever else the machine runs",
+            wall_s / 60.0,
+            "min",
+            None,
+            loop,
+        ),
+    ]
+
+
+def run(quick: bool = False) -> list[BenchResult]:
+    """The Stage 3 figures for ``jackson bench``.
+
+    Parameters
+    ----------
+    quick : bool
+        One round and no campaign.
+
+    Returns
+    -------
+    list[BenchResult]
+        Each cycle's share of its period (and the campaign's wall time against its budget).
+    """
+    out, loop_us = cycle_figures(quick)
+    out += planning_figures(quick)
     if not quick:
-        wall_s, cpu_s = _campaign_s()
-        loop = min(loop_us, reference_loop_us())
-        per_core_min = cpu_s / CAMPAIGN_WORKERS / 60.0
-        out += [
-            BenchResult(
-                "stage3.ofat_robustness_180_runs_cpu_per_core_share_of_10_min",
-                per_core_min / 10.0,
-                "of 10 min",
-                1.0,
-                "lower",
-                "a 10-minute budget for the 180 runs on 2 cores of their own: their CPU time "
-                "over 2 (about the wall time when nothing else runs; other work on the machine "
-                "does not add to it)",
-                per_core_min,
-                "min",
-                None,
-                loop,
-            ),
-            BenchResult(
-                "stage3.ofat_robustness_180_runs_wall_share_of_10_min",
-                wall_s / 600.0,
-                "of 10 min",
-                None,
-                "lower",
-                "the same runs' wall time on 2 workers, with whatever else the machine runs",
-                wall_s / 60.0,
-                "min",
-                None,
-                loop,
-            ),
-        ]
+        out += campaign_figures(loop_us)
     return out

@@ -48,7 +48,11 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from jackson.sim.runner import TwinRunner
+    from jackson.sim.twin import Twin
 
 FAULT_AT_S = 6.0  # [s] MCU time: the robot drives the square's first side
 WINDOW_S = 4.0  # [s] MCU time watched after the fault
@@ -261,8 +265,6 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
         folder.mkdir(parents=True, exist_ok=True)
         return _mute_row(fault, folder)
     from jackson.sim.config import load_robot, load_world
-    from jackson.sim.i2c_server import I2cSocketServer
-    from jackson.sim.mcu import SensorSample
     from jackson.sim.runner import TwinRunner
     from jackson.sim.twin import Twin
 
@@ -292,12 +294,59 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
     mcu = runner.mcu
     assert mcu is not None
     frames_at_fault = [0]
-    killed = [False]
-    end_s = FAULT_AT_S + WINDOW_S
+    killed = False
 
     def mark() -> None:
         watch.fault_s = watch.now()
         frames_at_fault[0] = mcu.heartbeats
+
+    watch.at(FAULT_AT_S, mark)
+    end_s, main_thread_action = _schedule(fault, watch, runner, twin, sock, rng)
+    name = fault.name
+    output = ""
+    try:
+        if not _wait(lambda: watch.fault_s is not None or proc.poll() is not None, 120):
+            raise RuntimeError(f"{name}: the twin never reached {FAULT_AT_S} s of MCU time")
+        if main_thread_action:
+            watch.fault_s = watch.now()  # the fault is the signal, not the request for it
+            killed = _host_fault(name, proc, sock, twin.robot_spec.wiring.pca9685_address)
+        _wait(lambda: watch.now() >= end_s or (proc.poll() is not None and killed), 300)
+        if killed:
+            _wait(lambda: watch.now() >= end_s, 60)
+    finally:
+        alive = proc.poll() is None
+        if alive:
+            proc.send_signal(signal.SIGTERM)
+        try:
+            output, _ = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            output, _ = proc.communicate()
+        stop.set()
+        thread.join(timeout=30)
+        runner.close()
+    return _measure(fault, watch, run_dir, alive, proc.returncode, output, frames_at_fault[0], mcu)
+
+
+def _schedule(
+    fault: Fault, watch: _Watch, runner: TwinRunner, twin: Twin, sock: Path, rng: random.Random
+) -> tuple[float, list[str]]:
+    """Schedule the row's fault on the twin's MCU clock, from :data:`FAULT_AT_S` on.
+
+    Faults of the twin (its I2C server, serial port, MCU, IMU, line) run in the twin's thread
+    when due; a fault of the host (a signal) or of another I2C client is put, when due, in the
+    list returned, for the main thread to inject.
+
+    Returns
+    -------
+    tuple
+        The MCU time the row watches until [s], and that list.
+    """
+    from jackson.sim.i2c_server import I2cSocketServer
+    from jackson.sim.mcu import SensorSample
+
+    mcu = runner.mcu
+    assert mcu is not None
 
     def restart_i2c() -> None:
         runner._sel.unregister(runner.i2c)
@@ -337,7 +386,7 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
 
     main_thread_action: list[str] = []
     name = fault.name
-    watch.at(FAULT_AT_S, mark)
+    end_s = FAULT_AT_S + WINDOW_S
     if name.startswith("host") or name == "foreign MODE1 write":
         watch.at(FAULT_AT_S, lambda: main_thread_action.append(name))
     elif name == "I2C server restart":
@@ -358,44 +407,28 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
     elif name == "5 % frames corrupted":
         watch.at(FAULT_AT_S, corrupt_frames)
         end_s += 20.0
+    return end_s, main_thread_action
 
-    output = ""
-    try:
-        if not _wait(lambda: watch.fault_s is not None or proc.poll() is not None, 120):
-            raise RuntimeError(f"{name}: the twin never reached {FAULT_AT_S} s of MCU time")
-        if main_thread_action:
-            watch.fault_s = watch.now()  # the fault is the signal, not the request for it
-            if name == "host SIGKILL":
-                proc.send_signal(signal.SIGKILL)
-                killed[0] = True
-            elif name.startswith("host crash"):
-                proc.send_signal(signal.SIGSEGV)
-                killed[0] = True
-            elif name == "host SIGSTOP":
-                proc.send_signal(signal.SIGSTOP)
-                threading.Event().wait(STOP_WALL_S)
-                proc.send_signal(signal.SIGCONT)
-            elif name == "foreign MODE1 write":
-                from jackson.host.actuation.i2c import SocketI2cBus
 
-                with SocketI2cBus(sock) as bus:
-                    bus.write_byte_data(twin.robot_spec.wiring.pca9685_address, 0x00, 0x11)
-        _wait(lambda: watch.now() >= end_s or (proc.poll() is not None and killed[0]), 300)
-        if killed[0]:
-            _wait(lambda: watch.now() >= end_s, 60)
-    finally:
-        alive = proc.poll() is None
-        if alive:
-            proc.send_signal(signal.SIGTERM)
-        try:
-            output, _ = proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            output, _ = proc.communicate()
-        stop.set()
-        thread.join(timeout=30)
-        runner.close()
-    return _measure(fault, watch, run_dir, alive, proc.returncode, output, frames_at_fault[0], mcu)
+def _host_fault(name: str, proc: subprocess.Popen[str], sock: Path, pca9685_address: int) -> bool:
+    """Inject a fault of the host from the main thread: a signal to the daemon, or another I2C
+    client putting the PCA9685 to sleep. True when it killed the daemon."""
+    if name == "host SIGKILL":
+        proc.send_signal(signal.SIGKILL)
+        return True
+    if name.startswith("host crash"):
+        proc.send_signal(signal.SIGSEGV)
+        return True
+    if name == "host SIGSTOP":
+        proc.send_signal(signal.SIGSTOP)
+        threading.Event().wait(STOP_WALL_S)
+        proc.send_signal(signal.SIGCONT)
+    elif name == "foreign MODE1 write":
+        from jackson.host.actuation.i2c import SocketI2cBus
+
+        with SocketI2cBus(sock) as bus:
+            bus.write_byte_data(pca9685_address, 0x00, 0x11)
+    return False
 
 
 def _measure(

@@ -33,9 +33,10 @@ from jackson.host.actuation.i2c import (
     check_bus_spec,
     open_bus,
 )
-from jackson.host.actuation.pca9685 import LED0_ON_L, Pca9685, block_runs, led_registers
+from jackson.host.actuation.pca9685 import Pca9685, block_runs, led_registers
 from jackson.host.actuation.settings import DEFAULT_CONFIG, Pca9685Settings, load_motor_settings
 from jackson.host.actuation.tb6612 import bridge_duties
+from jackson.protocol.pca9685 import led_on_l
 
 ATTEMPTS = 4
 BACKOFF_S = (0.1, 0.3, 1.0)  # [s] before the 2nd, 3rd and 4th attempt
@@ -72,7 +73,7 @@ def brake_once(p: Pca9685Settings) -> None:
         pca.set_duties(duties)  # what Pca9685Output.brake() writes
         # read back a run of channels at a time (auto-increment: the chip is set up now)
         for run in block_runs(tuple(sorted(duties))):
-            got = bus.read_i2c_block_data(p.address, LED0_ON_L + 4 * run[0], 4 * len(run))
+            got = bus.read_i2c_block_data(p.address, led_on_l(run[0]), 4 * len(run))
             for k, ch in enumerate(run):
                 if list(got[4 * k : 4 * k + 4]) != led_registers(duties[ch]):
                     regs = bytes(got[4 * k : 4 * k + 4]).hex()

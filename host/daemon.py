@@ -1,21 +1,24 @@
 """The host daemon: the serial transport, the run folder and the process around
 :class:`jackson.host.core.HostCore` (which computes everything per frame, see there): link
 health, commands acknowledged, the motor path watched, systemd told, signals handled.
+
+The pieces live beside it: the run folders, their split and budget
+(:mod:`jackson.host.daemon_folders`), the link and motor-path watch
+(:mod:`jackson.host.daemon_link`), what is served beside the frame loop
+(:mod:`jackson.host.daemon_outlets`) and what the daemon reports of itself
+(:mod:`jackson.host.daemon_reports`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import datetime as dt
 import gc
 import math
-import shutil
 import signal
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Any
@@ -27,30 +30,34 @@ from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, make_mission
 from jackson.host.core import DutySource, HostCore
-from jackson.host.core.results import CoreListener
 from jackson.host.cpu import CpuMeter
-from jackson.host.estimation.health import Transition
-from jackson.host.recording import RunRecorder, run_in_progress, write_json
-from jackson.host.recording.budget import Deleted, DiskUse, folder_bytes, prune
-from jackson.host.recording.snapshot import SNAPSHOT_NAME, encode_snapshot, write_snapshot
-from jackson.host.recording.split import FolderWorker, SplitPolicy, carry_files, part_folder
-from jackson.protocol import (
-    PROTOCOL_VERSION,
-    FrameVersionError,
-    Heartbeat,
-    HostState,
-    Message,
-    Telemetry,
-    TelemetryFlags,
-)
+from jackson.host.daemon_folders import FolderSplit, RunFolders
+from jackson.host.daemon_link import VERSION_SILENCE_S, LinkHealth, LinkWatch
+from jackson.host.daemon_outlets import OperatorListener, Outlets, live_view, ros_outlets
+from jackson.host.daemon_reports import health_doc, sensor_states, status_doc
+from jackson.host.recording.split import SplitPolicy
+from jackson.protocol import Frame, Heartbeat, HostState, Message, Telemetry
 
 if TYPE_CHECKING:  # the seams' types only: the serial port and the LiDAR load when used
     from jackson.host.lidar.rplidar import LidarSource
     from jackson.host.liveview import LiveView
+    from jackson.host.ros.messages import RosOutput
     from jackson.host.sdnotify import Notifier
     from jackson.host.service.control import ControlServer
     from jackson.host.service.settings import LiveViewSettings
-    from jackson.host.transport import Link
+    from jackson.host.transport import Link, LinkEvent
+
+__all__ = [
+    "EVENTS_KEPT",
+    "GC_GEN0_THRESHOLD",
+    "VERSION_SILENCE_S",
+    "Daemon",
+    "DaemonError",
+    "GcSettled",
+    "LinkHealth",
+    "lidar_meta",
+    "with_port",
+]
 
 EVENTS_KEPT = 1000  # operator lines a daemon keeps for health.json
 GC_GEN0_THRESHOLD = 20_000  # young objects allocated (less freed) between two collections
@@ -80,91 +87,8 @@ class GcSettled:
         gc.unfreeze()
 
 
-class _OperatorListener(CoreListener):
-    """Tells the operator when a sensor's health changes (printed, kept for health.json; the
-    core has already logged it in the run)."""
-
-    def __init__(self, daemon: Daemon) -> None:
-        self.daemon = daemon
-
-    def on_health(self, transition: Transition) -> None:
-        tr = transition
-        self.daemon._say(
-            f"health: {tr.sensor} {tr.old.value} -> {tr.new.value} at {tr.t_s:.2f} s: {tr.reason}"
-        )
-
-    def on_event(self, host_time_ns: int, text: str) -> None:
-        if text.startswith(("health: braking", "health: the host config holds no calibration")):
-            self.daemon._say(text)
-
-
 class DaemonError(JacksonError, RuntimeError):
     """The daemon cannot go on (a device that refuses its commands, another protocol)."""
-
-
-@dataclass(frozen=True)
-class LinkHealth:
-    """What the link and the motor path went through, for /diagnostics and the run folder.
-
-    Attributes
-    ----------
-    link_up : bool
-        The serial port is open.
-    reconnects, silences : int
-        Port reopened after a loss; HELLO re-sent after a silent second on an open port.
-    frames_lost, crc_errors, resyncs, unknown_version : int
-        From the host's decoder: frames missing by SEQ, candidates failing their CRC, partial
-        frames dropped after 20 ms of silence, candidates of another frame version.
-    mcu_resets : int
-        INFO with another boot_id (counts and clock re-anchored).
-    nacks, retries, unanswered_motor : int
-        Commands refused, sent again, MOTOR_PWM without an ACK.
-    i2c_errors, i2c_reinits, i2c_foreign_writes : int
-        The PCA9685 path's faults (0 with the MCU driving the motors).
-    i2c_bus_up : bool
-        The PCA9685 path is working.
-    motor_enable : bool
-        The MCU's interlock line (telemetry MOTOR_ENABLE).
-    """
-
-    link_up: bool = False
-    reconnects: int = 0
-    silences: int = 0
-    frames_lost: int = 0
-    crc_errors: int = 0
-    resyncs: int = 0
-    unknown_version: int = 0
-    mcu_resets: int = 0
-    nacks: int = 0
-    retries: int = 0
-    unanswered_motor: int = 0
-    i2c_errors: int = 0
-    i2c_reinits: int = 0
-    i2c_foreign_writes: int = 0
-    i2c_bus_up: bool = True
-    motor_enable: bool = False
-
-    def problems(self) -> list[str]:
-        """What an operator should look at, one phrase each (empty when all is well)."""
-        out = [] if self.link_up else ["serial link down"]
-        for name, text in (
-            ("frames_lost", "frames lost"),
-            ("crc_errors", "CRC errors"),
-            ("resyncs", "partial frames dropped"),
-            ("mcu_resets", "MCU resets"),
-            ("nacks", "commands refused"),
-            ("i2c_errors", "I2C errors"),
-            ("i2c_foreign_writes", "PCA9685 registers changed by someone else"),
-        ):
-            n = getattr(self, name)
-            if n:
-                out.append(f"{n} {text}")
-        if not self.i2c_bus_up:
-            out.append("PCA9685 bus down: braked by the MCU interlock")
-        return out
-
-
-VERSION_SILENCE_S = 1.0  # [s] frames of another version and no INFO: report the mismatch
 
 
 class Daemon:
@@ -209,633 +133,290 @@ class Daemon:
         live_view: LiveViewSettings | None = None,
     ) -> None:
         from jackson.host.service.navigation import NavigationService
-        from jackson.host.transport import STALL_S
 
         self.cfg = cfg
         self.transport = transport
-        if stall_s is not None:
-            transport.stall_s = None if math.isinf(stall_s) else stall_s
-        elif transport.stall_s is None and transport.on_pty:
-            transport.stall_s = STALL_S  # a twin's pty: lockstep can stall
+        _set_stall(transport, stall_s)
         self.stalled: str | None = None  # the stall line, when a lockstep stall ended the run
         self.wall_limit_hit = False  # run(max_s) ended on its wall-clock limit
-        self.run_folder = run_folder
-        meta = {**(meta or {}), **lidar_meta(lidar)}
-        self.recorder = RunRecorder(run_folder, meta) if run_folder is not None else None
-        # the run folders of a daemon that runs for hours (rotate): split, kept under a budget
-        self.first_folder = run_folder
-        self.disk_use = DiskUse(run_folder.parent if run_folder else cfg.recording_folder)
-        self.split: SplitPolicy | None = None
-        self.budget_bytes = round(cfg.recording_budget_mb * 1e6) if rotate else 0
-        self._room_bytes = 0  # kept free for the folder being written: the largest closed one
-        self.folders = FolderWorker(self._say)
-        self._part = 1  # the run folder's number (1: the first)
+        self.folders = RunFolders(
+            cfg, run_folder, {**(meta or {}), **lidar_meta(lidar)}, rotate, self._say
+        )
         self.commands = CommandTracker(transport.encode, self._send_frame)
         if mission is None and mission_name:
             mission = make_mission(mission_name, cfg.square, cfg.figure8)
         self.lidar = lidar  # a started RplidarDriver (its raw bytes go to the core), or None
+        self._lidar_lost: str | None = None  # the LiDAR's port failed before this frame
         self.output = output_factory(self._send)
         self.core = HostCore(
             cfg,
             self.output,
             self._send,
             mission=mission,
-            recorder=self.recorder,
+            recorder=self.folders.recorder,
             mission_timeout_s=mission_timeout_s,
             duty_source=duty_source,
             imu_calibration=imu_calibration,
         )
         if lidar is not None:  # the core decodes the stream of the mode the driver started
             self.core.lidar.expect(lidar.answer_type)
-        self.notifier = notifier  # systemd sd_notify (host/sdnotify.py), or None
         # a silent port gets HELLO again after three telemetry periods (at least 0.5 s)
         transport.silence_s = max(0.5, 3.0 / cfg.serial.telemetry_rate_hz)
         # what the operator was told, in order (the newest EVENTS_KEPT: a service runs for days)
         self.events: deque[str] = deque(maxlen=EVENTS_KEPT)
         self.cpu = CpuMeter()  # the daemon's own CPU per robot-second and per frame
-        self._hello_retries = 0  # HELLOs re-sent before the first INFO
-        self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
-        self._i2c_failing = False  # an I2C outage was told and has not ended
-        self._lidar_lost: str | None = None  # the LiDAR's port failed before this frame
-        self._repairer: threading.Thread | None = None
-        self.bag: Any = None
-        self.bridge: Any = None
-        self.ros: Any = None  # the RosOutput feeding the bag and the bridge
-        from jackson.host.ros.messages import MessageBuilder, RosOutput, RosSettings
-
-        if ros_args is not None:  # --ros: rclpy is imported only here
-            from jackson.host.ros.bridge import RosBridge
-
-            self.bridge = RosBridge(
-                self.core,
-                args=ros_args,
-                # the service takes /goal_pose, navigate_to_pose and /initialpose
-                service=mission if isinstance(mission, NavigationService) else None,
-                say=self._say,
-            )
-            for note in self.bridge.notes:
-                self._say(note)
-            if self.bridge.missing:
-                self._say(
-                    "ROS: not published (message package missing): "
-                    + ", ".join(sorted(set(self.bridge.missing)))
-                )
-        if run_folder is not None:  # every run folder holds a rosbag2 (MCAP) of the run
-            # earlier runs' unfinished bags are repaired beside the running daemon: READY and
-            # the watchdog's pings must not wait for a long repair
-            self._repairer = threading.Thread(
-                target=self._repair_earlier_runs, args=(run_folder,), name="bag-repair", daemon=True
-            )
-            # the bag records what the node publishes: its names, offsets and clock
-            self.bag = self._open_bag(
-                run_folder,
-                self.bridge.settings if self.bridge is not None else RosSettings.for_config(cfg),
-                self.bridge.clock if self.bridge is not None else None,
-            )
-            if self.recorder is not None:
-                self.recorder.flush_with.append(self.bag)
-        sinks = [x for x in (self.bag, self.bridge) if x is not None]
-        if sinks:
-            builder = (
-                self.bag.builder
-                if self.bag is not None
-                else MessageBuilder(self.bridge.settings, cfg.odometry, self.bridge.clock)
-            )
-            self.ros = RosOutput(
-                builder,
-                sinks,
-                telemetry=self.bag is not None,
-                received=self.bridge.received if self.bridge is not None else None,
-            )
-            self.core.listeners.append(self.ros)
-        self.core.listeners.append(_OperatorListener(self))
-        self.stop = threading.Event()
-        self.link_downs = 0
+        self.link = LinkWatch(transport, self.output, self.core, self.commands, self.tell)
         # the navigation service: goal after goal, the control socket (jackson goal/status)
         self.service = mission if isinstance(mission, NavigationService) else None
-        # teleop or the service: a mission ends by itself, a duty source is a calibration's
-        teleop_or_service = mission is None or self.service is not None
-        if rotate and run_folder is not None and duty_source is None and teleop_or_service:
-            self.split = SplitPolicy(cfg.recording_split, cfg.recording_split_s)
-        self.control: ControlServer | None = None
+        bridge, ros = ros_outlets(cfg, self.core, self.folders, ros_args, self.service, self._say)
+        self.core.listeners.append(OperatorListener(self._say))
+        self.stop = threading.Event()
+        self.split = self._split_policy(rotate, mission, duty_source, ros)
+        control: ControlServer | None = None
         if self.service is not None:
             self.service.tell = self.tell  # called on the frame loop's thread
             if control_socket is not None:
                 from jackson.host.service.control import ControlServer
 
-                self.control = ControlServer(control_socket, self.service, self.status, self._drive)
+                control = ControlServer(control_socket, self.service, self.status, self._drive)
         # the live view (Foxglove WebSocket): served from run(), published from the frame loop
-        self.live: LiveView | None = None
+        live = None
         if live_view is not None and live_view.enabled:
-            self.live = self._live_view(live_view)
+            live = self._live_view(live_view)
+        self.outlets = Outlets(
+            self.core,
+            self.service,
+            bridge=bridge,
+            ros=ros,
+            control=control,
+            live=live,
+            notifier=notifier,
+            say=self._say,
+        )
+
+    def _split_policy(
+        self,
+        rotate: bool,
+        mission: Mission | None,
+        duty_source: DutySource | None,
+        ros: RosOutput | None,
+    ) -> FolderSplit | None:
+        """How the recording splits into run folders: with ``rotate``, for teleop or the
+        service; else never."""
+        # teleop or the service: a mission ends by itself, a duty source is a calibration's
+        teleop_or_service = mission is None or self.service is not None
+        recording = rotate and self.folders.run_folder is not None
+        if not (recording and duty_source is None and teleop_or_service):
+            return None
+        return FolderSplit(
+            SplitPolicy(self.cfg.recording_split, self.cfg.recording_split_s),
+            self.folders,
+            self.core,
+            ros,
+            self.service,
+            self._health_doc,
+            self.events,
+            self.tell,
+        )
 
     def _live_view(self, settings: LiveViewSettings) -> LiveView | None:
-        """The live view's listener on the core (not serving yet), or None with one line when
-        it cannot be (no navigation service, foxglove-sdk missing)."""
-        if self.service is None:
-            self._say("live view: needs the navigation service (--lidar and --map); not served")
-            return None
-        try:
-            from jackson.common.liveview import LiveServer
-            from jackson.host.liveview import LiveView
-        except ImportError as exc:  # a broken install: the robot goes on without it
-            self._say(f"live view: cannot load foxglove-sdk ({exc}); make setup installs it")
-            return None
-        server = LiveServer("jackson daemon", settings.host, settings.port)
-        live = LiveView(
+        return live_view(
+            settings,
+            self.core,
             self.service,
-            server,
             sensors=self.sensor_states,
             problems=lambda: self.health().problems(),
             tell=self.tell,
+            say=self._say,
         )
-        self.core.listeners.append(live)
-        return live
 
-    def _drive(self, v_m_s: float, w_rad_s: float) -> None:
-        """A velocity command from the control socket, as one on /cmd_vel."""
-        self.core.submit_velocity(v_m_s, w_rad_s, time.monotonic_ns())
+    # ------------------------------------------------------------------ state
+
+    @property
+    def run_folder(self) -> Path | None:
+        """The run folder being written (the last one of a split run; None: no recording)."""
+        return self.folders.run_folder
+
+    @property
+    def link_downs(self) -> int:
+        """Times the serial link went down."""
+        return self.link.downs
+
+    def health(self) -> LinkHealth:
+        """The link's and the motor path's state now."""
+        return self.link.health()
+
+    def sensor_states(self) -> dict[str, str]:
+        """Each sensor's health state now (empty with the monitor off)."""
+        return sensor_states(self.core)
 
     def status(self) -> dict[str, Any]:
         """What ``jackson status`` shows: the service's state, goal, pose with covariance,
         sensor health, link problems, CPU and the recording folder's disk use. Safe from
         another thread (it reads snapshots)."""
-        out: dict[str, Any] = {"t_s": self.core.t_s, "frames": self.core.frames}
-        svc = self.service
-        if svc is not None:
-            st = svc.status
-            out.update(
-                state=st.state.value,
-                unavailable=st.unavailable,
-                pose={
-                    "x": st.pose.x,
-                    "y": st.pose.y,
-                    "yaw": st.pose.yaw,
-                    "covariance": list(st.covariance),
-                },
-                goal=None if st.goal is None else st.goal.as_dict(),
-                eta_s=None if math.isnan(st.eta_s) else st.eta_s,
-                goals=dict(svc.book.counts),
-                last_goal=(lambda h: h[-1].as_dict() if h else None)(svc.book.history()),
-            )
-        out["sensors"] = self.sensor_states()
-        out["problems"] = self.health().problems()
-        out["cpu"] = {
-            "share_of_core": self.cpu.share_of_core,
-            "robot_s": self.cpu.robot_s,
-            "frame_p99_ms": self.cpu.percentile_us(0.99) / 1e3,
-        }
-        out["disk"] = self.disk()
-        return out
-
-    def sensor_states(self) -> dict[str, str]:
-        """Each sensor's health state now (empty with the monitor off)."""
-        hm = self.core.health
-        return {name: state.value for name, state in hm.sensors.items()} if hm is not None else {}
+        return status_doc(self.core, self.service, self.health(), self.cpu, self.disk())
 
     def disk(self) -> dict[str, Any]:
-        """The recording folder's use and budget [MB] and the free space on its disk [MB]. Cheap
-        (:class:`~jackson.host.recording.budget.DiskUse`): the folder is walked after each split
-        and once a minute, the run folder being written at each call."""
-        folder = self.disk_use.root
-        used = self.disk_use.used_bytes(self.run_folder)
-        try:
-            free = shutil.disk_usage(folder).free
-        except OSError:
-            free = 0
-        budget = self.budget_bytes / 1e6
-        return {
-            "folder": str(folder),
-            "recording": self.run_folder is not None,
-            "used_mb": used / 1e6,
-            "budget_mb": budget,
-            "left_mb": max(0.0, budget - used / 1e6) if budget > 0 else None,
-            "free_mb": free / 1e6,
-        }
+        """The recording folder's use and budget [MB] and the free space on its disk [MB]."""
+        return self.folders.disk()
 
-    def _open_bag(self, folder: Path, settings: Any, clock: Any) -> Any:
-        """The rosbag2 (MCAP) of the run folder ``folder``, with the node's names, offsets and
-        clock (``clock`` None: MCU time)."""
-        from jackson.host.ros.bag import BagRecorder
-
-        cfg = self.cfg
-        return BagRecorder(
-            folder / "bag",
-            settings,
-            odometry=cfg.odometry,
-            clock=clock,
-            max_bytes=int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None,
-            compression=cfg.bag_compression,
-            flush_interval_s=None,  # flushed with the run folder's files, on MCU time
+    def _health_doc(self) -> dict[str, Any]:
+        """health.json of the run folder being written."""
+        return health_doc(
+            self.core,
+            self.health(),
+            self.events,
+            self.cpu,
+            self.commands.counters,
+            1.0 / self.cfg.serial.telemetry_rate_hz,
         )
+
+    # ------------------------------------------------------------------ the frame loop
+
+    def run(self, max_s: float | None = None) -> int:
+        """Serve until stopped (:attr:`stop`, a signal), the mission ends, the link stalls or
+        ``max_s`` wall seconds pass; the exit status (1: aborted)."""
+        started = time.monotonic()
+        deadline = None if max_s is None else started + max_s
+        self.link.started(started)
+        self.outlets.start()
+        self.folders.start()
+        settled = GcSettled()
+        try:
+            self._loop(deadline)
+        finally:
+            self._shut_down()
+            settled.restore()
+        return 1 if self.core.abort_reason is not None else 0
+
+    def _loop(self, deadline: float | None) -> None:
+        from jackson.host.transport import LinkEvent
+
+        while not self.stop.is_set():
+            if deadline is not None and time.monotonic() > deadline:
+                self.wall_limit_hit = True
+                return
+            self.outlets.alive()
+            try:
+                self.commands.poll()
+            except CommandError as exc:
+                raise DaemonError(str(exc)) from exc
+            self.link.check_version()
+            self.link.motor_path()
+            item = self.transport.get(0.1)
+            if item is None:
+                continue
+            if isinstance(item, LinkEvent):
+                if self._on_link_event(item):
+                    return
+                continue
+            rx_ns, frame = item
+            if self._on_frame(frame, rx_ns):
+                return
+
+    def _on_link_event(self, event: LinkEvent) -> bool:
+        """The link went down or up, stalled or fell silent; True: the run ends."""
+        core = self.core
+        if event.kind == "down":
+            self.link.downs += 1
+            core.brake()
+            if core.mission is not None and core.mission.done:
+                # nothing left to drive: not waiting for the robot to rest
+                self.tell(f"serial link down ({event.detail}) after the mission")
+                return True
+            self.tell(f"serial link down ({event.detail}): braked, reconnecting")
+        elif event.kind == "up":
+            core.link_up()
+            self.commands.forget()
+            if self.link.downs:
+                self.tell("serial link up again")
+        elif event.kind == "stalled":
+            self._stall(event.detail)
+            return True
+        elif event.kind == "silent" and core.info is None:
+            self.link.unanswered(event.detail)
+        elif self.folders.recorder is not None:
+            self.folders.recorder.link(event.rx_time_ns, f"{event.kind} {event.detail}")
+        return False
+
+    def _stall(self, detail: str) -> None:
+        """The twin stopped: the abort path brakes and says SHUTDOWN on the way out."""
+        core = self.core
+        when = (
+            f"after frame {core.frames} (MCU time {core.t_s:.2f} s)"
+            if core.t_s is not None
+            else "before the first frame"
+        )
+        self.stalled = f"lockstep stalled: {detail} {when}"
+        self.tell(self.stalled)
+        core.abort(self.stalled)
+
+    def _on_frame(self, frame: Frame, rx_ns: int) -> bool:
+        """One frame through the core (a telemetry frame after the split and the LiDAR's
+        bytes), /diagnostics when due, its CPU counted; True: the run ends."""
+        core = self.core
+        cpu0 = time.thread_time_ns() - round(contention.spun_s * 1e9)
+        if self.split is not None and frame.type == Telemetry.TYPE:
+            self._split_if_due()
+        if self.lidar is not None and frame.type == Telemetry.TYPE:
+            self._read_lidar()
+        try:
+            self.commands.on_frame(frame)
+        except CommandError as exc:
+            raise DaemonError(str(exc)) from exc
+        resets = core.mcu_resets
+        core.on_frame(frame, rx_ns)
+        if self._lidar_lost is not None:
+            core.lidar_gone(self._lidar_lost)
+            self._lidar_lost = None
+        if core.mcu_resets != resets:
+            self.tell("the MCU was reset: odometry and time re-anchored, device set up again")
+        if core.abort_reason is not None:
+            self.tell(f"mission aborted: {core.abort_reason}")
+            return True
+        ros = self.outlets.ros
+        if (
+            ros is not None
+            and core.last_telemetry is not None
+            and ros.diagnostics_due(core.t_s or 0.0)
+        ):
+            from jackson.host.ros.bridge import diagnostic_values
+
+            ros.diagnostics(diagnostic_values(core, core.last_telemetry, link=self.health()))
+        if frame.type == Telemetry.TYPE:
+            # less any polling of a lockstep twin's links (jackson.host.cpu)
+            spun_ns = round(contention.spun_s * 1e9)
+            self.cpu.frame((time.thread_time_ns() - spun_ns - cpu0) / 1e3)
+            self.cpu.robot_time(core.t_s)
+            if self.split is not None:
+                self.split.frame(core.t_s)
+        if core.finished:  # the mission done, braked, the robot at rest
+            return True
+        return core.duty_source is not None and core.duty_source.done
+
+    def _shut_down(self) -> None:
+        """Braked, the outlets stopped, SHUTDOWN said to the MCU, the run folder finished."""
+        self.core.brake()
+        self.outlets.stop()
+        self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
+        self.folders.close(self._health_doc)
 
     def _split_if_due(self) -> None:
         """Before a telemetry frame (and its LiDAR bytes): the next run folder starts now if
-        ``recording.split`` says so (:mod:`jackson.host.recording.split`)."""
+        ``recording.split`` says so; a recording that cannot split goes on unsplit."""
         split = self.split
         assert split is not None
-        goal = self.service.stage() if self.service is not None and split.by_goal else None
-        reason = split.reason(self.core.t_s, goal)
+        reason = split.due()
         if reason is None:
             return
         try:
-            self._split(reason)
+            split.split(reason)
         except Exception as exc:  # a recording that cannot split must not stop the robot
             self.split = None
             self.tell(
                 f"recording: cannot split ({type(exc).__name__}: {exc}); recording goes on in "
                 f"{self.run_folder}, unsplit"
             )
-
-    def _split(self, reason: str) -> None:
-        """Start the next run folder between two telemetry frames (docs/recording.md). Here,
-        on the frame loop: the core's snapshot pickled, the new folder's recorder and bag
-        swapped in. On :attr:`folders`' thread: the snapshot compressed and written, the
-        config and the map copied, the previous folder closed, the budget kept."""
-        from jackson.host.core import RunFolderListener
-
-        t0, cpu0 = time.perf_counter(), time.thread_time()
-        core, old_rec, old_bag = self.core, self.recorder, self.bag
-        first, split = self.first_folder, self.split
-        assert old_rec is not None and first is not None and split is not None
-        pickled = core.snapshot()
-        pickle_ms = (time.perf_counter() - t0) * 1e3
-        old = old_rec.folder
-        new = part_folder(first, self._part + 1)
-        at = {"reason": reason, "part": self._part + 1, "t_s": core.t_s, "frames": core.frames}
-        meta = {k: v for k, v in old_rec.meta.items() if k not in ("next", "split")}
-        meta.update(
-            started=dt.datetime.now().isoformat(),
-            previous=old.name,
-            split=at,
-            snapshot=SNAPSHOT_NAME,
-        )
-        rec = RunRecorder(new, meta)
-        try:
-            bag = (
-                None
-                if old_bag is None
-                else self._open_bag(new, old_bag.settings, old_bag.builder.clock)
-            )
-            if bag is not None and self.ros is not None and self.service is not None:
-                # the latched /map again (/tf_static: the bag itself): each bag plays alone
-                t_s = core.t_s or 0.0
-                grid = self.service.nav.static_map
-                bag.write("map", t_s, self.ros.builder.occupancy(t_s, grid))
-        except Exception:
-            rec.close()
-            shutil.rmtree(new, ignore_errors=True)
-            raise
-        # nothing fails from here on: the new folder takes over
-        self._part += 1
-        health = self._health_doc()
-        self.events.clear()
-        for listener in core.listeners:
-            if isinstance(listener, RunFolderListener):
-                listener.recorder = rec
-        self.recorder, self.run_folder = rec, new
-        if bag is not None:
-            self.bag = bag
-            rec.flush_with.append(bag)
-            if self.ros is not None:
-                self.ros.sinks = [bag if s is old_bag else s for s in self.ros.sinks]
-        split.started()
-        old_rec.meta["next"] = new.name
-        old_rec.link(time.monotonic_ns(), f"recording: continued in {new.name} ({reason})")
-        data = {"frames": core.frames, "t_s": core.t_s, "reason": reason}
-        self.folders.submit(
-            f"the snapshot of {new}",
-            lambda: write_snapshot(new / SNAPSHOT_NAME, encode_snapshot(pickled, data)),
-        )
-        self.folders.submit(f"copying {old}'s files", lambda: carry_files(old, new))
-        self.folders.submit(f"closing {old}", lambda: self._close_folder(old_rec, old_bag, health))
-        self.folders.submit(
-            "the recording folder's budget", lambda: self._keep_budget(new, folder_bytes(old))
-        )
-        ms, cpu_ms = (time.perf_counter() - t0) * 1e3, (time.thread_time() - cpu0) * 1e3
-        self.tell(
-            f"recording: {new} ({reason}), after {old.name}; split in {ms:.1f} ms on the "
-            f"frame loop ({cpu_ms:.1f} ms CPU; snapshot {len(pickled) / 1e6:.1f} MB pickled in "
-            f"{pickle_ms:.1f} ms)"
-        )
-
-    def _close_folder(self, rec: RunRecorder, bag: Any, health: dict[str, Any]) -> None:
-        """A split's previous folder finished (on :attr:`folders`' thread): its bag, health.json,
-        meta.json with ``next``, its log's end record."""
-        try:
-            if bag is not None:
-                bag.close()
-        finally:  # a bag that did not finish (jackson bag repair) leaves the rest complete
-            try:
-                write_json(rec.folder / "health.json", health)
-                rec.write_meta()
-            finally:
-                rec.close()  # complete now: its lock released
-
-    def _keep_budget_at_start(self) -> None:
-        if self._repairer is not None:
-            self._repairer.join()
-        self._keep_budget(self.run_folder)
-
-    def _keep_budget(self, keep: Path | None, closed_bytes: int = 0) -> None:
-        """Delete the oldest complete run folders until the recording folder is under
-        ``recording.budget_mb`` (on :attr:`folders`' thread), one line each. After a split the
-        folder just closed (``closed_bytes``) is room kept free for the new one to grow into, up
-        to half the budget: the folder stays under its budget while the next folder is written,
-        not only at the splits."""
-        budget = self.budget_bytes
-        if budget <= 0 or keep is None:
-            return
-        self._room_bytes = max(self._room_bytes, min(closed_bytes, budget // 2))
-
-        def told(d: Deleted) -> None:
-            self._say(
-                f"recording: deleted {d.folder.name} ({d.size_bytes / 1e6:.0f} MB) to stay "
-                f"under the {budget / 1e6:g} MB budget"
-            )
-
-        total = prune(keep.parent, budget - self._room_bytes, keep, told)
-        self.disk_use.others(total, keep)
-
-    def _send(self, msg: Message) -> object:
-        if isinstance(msg, Heartbeat):
-            return self._send_frame(self.transport.encode(msg))
-        return self.commands.send(msg)
-
-    def _send_frame(self, frame: bytes) -> object:
-        if self.recorder is not None:
-            self.recorder.tx(time.monotonic_ns(), frame)
-        return self.transport.send_raw(frame)
-
-    def install_signals(self) -> None:
-        def on_signal(signum: int, frame: FrameType | None) -> None:
-            self.stop.set()
-
-        signal.signal(signal.SIGINT, on_signal)
-        signal.signal(signal.SIGTERM, on_signal)
-
-    def _repair_earlier_runs(self, run_folder: Path) -> None:
-        """Bags of earlier runs in the recording folder that a kill or a power loss left
-        unfinished are repaired now (as ``jackson bag repair``); a failure is reported, never
-        fatal."""
-        from jackson.host.ros.bag import bag_folders, needs_repair, repair_bag
-
-        root = run_folder.parent
-        if not root.is_dir():
-            return
-        for run in sorted(p for p in root.iterdir() if p.is_dir() and p != run_folder):
-            if run_in_progress(run):
-                continue  # another daemon (a campaign's other trial) is recording it now
-            for bag in bag_folders(run):
-                if not needs_repair(bag):
-                    continue
-                try:
-                    n = repair_bag(bag)
-                except Exception as exc:  # a damaged old bag must not keep the robot down
-                    self._say(f"could not repair the unfinished bag {bag}: {exc}")
-                else:
-                    self._say(f"repaired the unfinished bag {bag}: {n} messages recovered")
-
-    def _say(self, text: str) -> None:
-        """:meth:`tell` from another thread: printed and kept, not written into the run's log
-        (the main loop owns it)."""
-        self.events.append(text)
-        print(f"daemon: {text}", flush=True)
-
-    def tell(self, text: str) -> None:
-        """One line for the operator: printed, and in the run's log."""
-        self.events.append(text)
-        print(f"daemon: {text}", flush=True)
-        if self.recorder is not None:
-            self.recorder.link(time.monotonic_ns(), text)
-
-    def health(self) -> LinkHealth:
-        """The link's and the motor path's state now."""
-        c = self.transport.decoder.counters
-        h = self.output.health()
-        last = self.core.last_telemetry
-        return LinkHealth(
-            link_up=bool(self.transport.link_up),
-            reconnects=self.transport.reconnects,
-            silences=self.transport.silences,
-            frames_lost=c.seq_lost,
-            crc_errors=c.crc_errors,
-            resyncs=c.timeouts,
-            unknown_version=c.unknown_version,
-            mcu_resets=self.core.mcu_resets,
-            nacks=self.commands.counters.nacked,
-            retries=self.commands.counters.retried,
-            unanswered_motor=self.commands.counters.motor_unacked,
-            i2c_errors=h.i2c_errors,
-            i2c_reinits=h.reinits,
-            i2c_foreign_writes=h.foreign_writes,
-            i2c_bus_up=not h.bus_down,
-            motor_enable=bool(last is not None and last.flags & TelemetryFlags.MOTOR_ENABLE),
-        )
-
-    def _check_version(self, started_s: float) -> None:
-        """Frames of another frame version and no INFO for a second: say so, once."""
-        dec = self.transport.decoder
-        if self.core.info is not None or dec.counters.unknown_version == 0:
-            return
-        if time.monotonic() - started_s < VERSION_SILENCE_S:
-            return
-        where = f"device on {self.transport.port_name}"
-        raise FrameVersionError(dec.last_unknown_version, PROTOCOL_VERSION, where)
-
-    def _unanswered(self, detail: str) -> None:
-        """HELLO got no INFO yet: one line at once, then one per retry that doubles the count
-        (1, 2, 4, 8, ... retries), so the operator sees the retries without a flood."""
-        self._hello_retries += 1
-        n = self._hello_retries
-        port = self.transport.port_name
-        if n == 1:
-            self.tell(
-                f"no answer on {port}: is the firmware flashed? (make flash); is it the MCU's "
-                f"port? HELLO is sent again every {self.transport.silence_s:g} s ({detail})"
-            )
-        elif n & (n - 1) == 0:
-            self.tell(f"still no answer on {port}: HELLO sent {n + 1} times ({detail})")
-
-    def _motor_path(self, was_up: bool) -> bool:
-        """Follow the PCA9685 path's health; while its bus is down the heartbeats say SHUTDOWN,
-        so the MCU drops the interlock line and the bridge brakes without the bus."""
-        h = self.output.health()
-        up = not h.bus_down
-        errors, reinits = h.i2c_errors, h.reinits
-        if errors > self._i2c_told[0] and not self._i2c_failing:
-            # the first failed write of an outage: say it at once, not only in health.json
-            self._i2c_failing = True
-            self.tell(
-                f"I2C: PCA9685 write failed ({h.last_error}): retrying; the "
-                "MCU interlock brakes if it lasts 0.5 s"
-            )
-        if reinits > self._i2c_told[1] and self._i2c_failing:
-            self._i2c_failing = False
-            self.tell(
-                f"I2C: PCA9685 back and re-initialised ({errors - self._i2c_told[0]} failed writes)"
-            )
-            self._i2c_told = (errors, reinits)
-        if up != was_up:
-            if up:
-                self.core.host_state = HostState.ACTIVE
-                self.tell("PCA9685 bus back: motor output re-initialised")
-            else:
-                self.core.host_state = HostState.SHUTDOWN
-                self.tell(f"PCA9685 bus down ({h.last_error}): braking through the MCU interlock")
-        return up
-
-    def run(self, max_s: float | None = None) -> int:
-        from jackson.host.transport import LinkEvent
-
-        core = self.core
-        started = time.monotonic()
-        deadline = None if max_s is None else started + max_s
-        bus_up = True
-        if self.bridge is not None:
-            if self.bridge.late_clock():  # before the first frame is stamped
-                self._say(self.bridge.notes[-1])
-            self.bridge.start()
-        if self.control is not None:
-            self.control.start()
-            self._say(f"taking goals on {self.control.path} (jackson goal X,Y)")
-        if self.live is not None:
-            from jackson.common.liveview import LiveViewError
-
-            try:
-                url = self.live.start()
-            except LiveViewError as exc:  # the robot goes on without it
-                self.core.listeners.remove(self.live)
-                self.live = None
-                self._say(f"{exc}; going on without it")
-            else:
-                self._say(f"live view on {url} (Foxglove: Open connection, Foxglove WebSocket)")
-        if self.notifier is not None:
-            self.notifier.ready()
-        if self._repairer is not None and not self._repairer.is_alive():
-            self._repairer.start()
-        if self.budget_bytes > 0:  # at start-up, once the earlier runs' bags are repaired
-            self.folders.submit("the recording folder's budget", self._keep_budget_at_start)
-        settled = GcSettled()
-        try:
-            while not self.stop.is_set():
-                if deadline is not None and time.monotonic() > deadline:
-                    self.wall_limit_hit = True
-                    break
-                if self.notifier is not None:
-                    self.notifier.watchdog()
-                try:
-                    self.commands.poll()
-                except CommandError as exc:
-                    raise DaemonError(str(exc)) from exc
-                self._check_version(started)
-                bus_up = self._motor_path(bus_up)
-                item = self.transport.get(0.1)
-                if item is None:
-                    continue
-                if isinstance(item, LinkEvent):
-                    if item.kind == "down":
-                        self.link_downs += 1
-                        core.brake()
-                        if core.mission is not None and core.mission.done:
-                            # nothing left to drive: not waiting for the robot to rest
-                            self.tell(f"serial link down ({item.detail}) after the mission")
-                            break
-                        self.tell(f"serial link down ({item.detail}): braked, reconnecting")
-                    elif item.kind == "up":
-                        core.link_up()
-                        self.commands.forget()
-                        if self.link_downs:
-                            self.tell("serial link up again")
-                    elif item.kind == "stalled":
-                        # the twin stopped: the abort path brakes and says SHUTDOWN on the way out
-                        when = (
-                            f"after frame {core.frames} (MCU time {core.t_s:.2f} s)"
-                            if core.t_s is not None
-                            else "before the first frame"
-                        )
-                        self.stalled = f"lockstep stalled: {item.detail} {when}"
-                        self.tell(self.stalled)
-                        core.abort(self.stalled)
-                        break
-                    elif item.kind == "silent" and core.info is None:
-                        self._unanswered(item.detail)
-                    elif self.recorder is not None:
-                        self.recorder.link(item.rx_time_ns, f"{item.kind} {item.detail}")
-                    continue
-                rx_ns, frame = item
-                cpu0 = time.thread_time_ns() - round(contention.spun_s * 1e9)
-                if self.split is not None and frame.type == Telemetry.TYPE:
-                    self._split_if_due()
-                if self.lidar is not None and frame.type == Telemetry.TYPE:
-                    self._read_lidar()
-                try:
-                    self.commands.on_frame(frame)
-                except CommandError as exc:
-                    raise DaemonError(str(exc)) from exc
-                resets = core.mcu_resets
-                core.on_frame(frame, rx_ns)
-                if self._lidar_lost is not None:
-                    core.lidar_gone(self._lidar_lost)
-                    self._lidar_lost = None
-                if core.mcu_resets != resets:
-                    self.tell(
-                        "the MCU was reset: odometry and time re-anchored, device set up again"
-                    )
-                if core.abort_reason is not None:
-                    self.tell(f"mission aborted: {core.abort_reason}")
-                    break
-                if (
-                    self.ros is not None
-                    and core.last_telemetry is not None
-                    and self.ros.diagnostics_due(core.t_s or 0.0)
-                ):
-                    from jackson.host.ros.bridge import diagnostic_values
-
-                    self.ros.diagnostics(
-                        diagnostic_values(core, core.last_telemetry, link=self.health())
-                    )
-                if frame.type == Telemetry.TYPE:
-                    # less any polling of a lockstep twin's links (jackson.host.cpu)
-                    spun_ns = round(contention.spun_s * 1e9)
-                    self.cpu.frame((time.thread_time_ns() - spun_ns - cpu0) / 1e3)
-                    self.cpu.robot_time(core.t_s)
-                    if self.split is not None:
-                        self.split.frame(core.t_s)
-                if core.finished:  # the mission done, braked, the robot at rest
-                    break
-                if core.duty_source is not None and core.duty_source.done:
-                    break
-        finally:
-            core.brake()
-            if self.notifier is not None:
-                self.notifier.stopping()
-            if self.control is not None:
-                self.control.stop()
-            if self.live is not None:
-                self.live.stop()
-            if self.service is not None:
-                self.service.book.end_all("the daemon stopped")
-            if self.bridge is not None:
-                self.bridge.stop()
-            self._send(Heartbeat(ack_seq=0, host_state=HostState.SHUTDOWN))
-            if self._repairer is not None and self._repairer.is_alive():
-                self._repairer.join()  # a repair replaces the bag only once complete
-            self.folders.join()  # earlier run folders closed, snapshots written
-            if self.recorder is not None:
-                self._write_health()
-            # the bag is finished before the recorder lets go of the run's lock: until then
-            # another daemon in the same recording folder (a campaign's next trial) must not
-            # take the closing bag for a killed run's and repair it under the writer's feet
-            if self.bag is not None:
-                try:
-                    self.bag.close()
-                except Exception as exc:
-                    print(f"daemon: the run's bag did not close cleanly: {exc}", flush=True)
-            if self.recorder is not None:
-                self.recorder.close()
-            settled.restore()
-        return 1 if core.abort_reason is not None else 0
 
     def _read_lidar(self) -> None:
         """The LiDAR's bytes that arrived before this telemetry frame, to the core. A LiDAR
@@ -854,58 +435,56 @@ class Daemon:
             return
         self.core.on_lidar(data, time.monotonic_ns())
 
-    def _sensor_health(self) -> dict[str, Any]:
-        """The health monitor's verdict for health.json: states now and every transition."""
-        hm = self.core.health
-        if hm is None:
-            return {"monitor": "off"}
-        return {
-            "states": {name: state.value for name, state in hm.sensors.items()},
-            "transitions": [
-                {
-                    "t_s": tr.t_s,
-                    "sensor": tr.sensor,
-                    "from": tr.old.value,
-                    "to": tr.new.value,
-                    "reason": tr.reason,
-                }
-                for tr in hm.transitions
-            ],
-            "counts": dict(hm.counts),
-            "lidar": {
-                **hm.lidar_counts,
-                "roughness_m": hm.lidar_roughness_m,
-                "missing_fraction": hm.lidar_missing,
-            },
-            "wheel_yaw_scale": hm.model.scale,
-            "wheel_yaw_per_m": hm.model.per_metre,
-        }
+    # ------------------------------------------------------------------ I/O and the operator
 
-    def _write_health(self) -> None:
-        assert self.run_folder is not None
-        try:
-            write_json(self.run_folder / "health.json", self._health_doc())
-        except OSError as exc:
-            print(f"daemon: cannot write health.json: {exc.strerror}", flush=True)
+    def _drive(self, v_m_s: float, w_rad_s: float) -> None:
+        """A velocity command from the control socket, as one on /cmd_vel."""
+        self.core.submit_velocity(v_m_s, w_rad_s, time.monotonic_ns())
 
-    def _health_doc(self) -> dict[str, Any]:
-        """health.json of the run folder being written: the link, the sensors, what the
-        operator was told, CPU, commands."""
-        h = self.health()
-        return {
-            "link": dataclasses.asdict(h),
-            "problems": h.problems(),
-            "abort_reason": self.core.abort_reason,
-            "sensors": self._sensor_health(),
-            "events": list(self.events),
-            "cpu": self.cpu.report(1.0 / self.cfg.serial.telemetry_rate_hz),
-            "commands": {
-                "acked": self.commands.counters.acked,
-                "nacked": self.commands.counters.nacked,
-                "retried": self.commands.counters.retried,
-                "errors": self.commands.counters.errors,
-            },
-        }
+    def _send(self, msg: Message) -> object:
+        if isinstance(msg, Heartbeat):
+            return self._send_frame(self.transport.encode(msg))
+        return self.commands.send(msg)
+
+    def _send_frame(self, frame: bytes) -> object:
+        recorder = self.folders.recorder
+        if recorder is not None:
+            recorder.tx(time.monotonic_ns(), frame)
+        return self.transport.send_raw(frame)
+
+    def install_signals(self) -> None:
+        """SIGINT and SIGTERM stop the frame loop (the run ends braked, as asked)."""
+
+        def on_signal(signum: int, frame: FrameType | None) -> None:
+            self.stop.set()
+
+        signal.signal(signal.SIGINT, on_signal)
+        signal.signal(signal.SIGTERM, on_signal)
+
+    def _say(self, text: str) -> None:
+        """:meth:`tell` from another thread: printed and kept, not written into the run's log
+        (the main loop owns it)."""
+        self.events.append(text)
+        print(f"daemon: {text}", flush=True)
+
+    def tell(self, text: str) -> None:
+        """One line for the operator: printed, and in the run's log."""
+        self.events.append(text)
+        print(f"daemon: {text}", flush=True)
+        recorder = self.folders.recorder
+        if recorder is not None:
+            recorder.link(time.monotonic_ns(), text)
+
+
+def _set_stall(transport: Link, stall_s: float | None) -> None:
+    """The link's lockstep stall limit: ``stall_s`` (``math.inf``: never), else the
+    transport's own, else :data:`~jackson.host.transport.STALL_S` on a twin's pty."""
+    from jackson.host.transport import STALL_S
+
+    if stall_s is not None:
+        transport.stall_s = None if math.isinf(stall_s) else stall_s
+    elif transport.stall_s is None and transport.on_pty:
+        transport.stall_s = STALL_S  # a twin's pty: lockstep can stall
 
 
 def lidar_meta(lidar: LidarSource | None) -> dict[str, Any]:

@@ -7,7 +7,7 @@ On a terminal the view is a live table; piped (``| tee log``, a file, journald) 
 line a second instead (and the device's identity once). SIGINT (Ctrl-C) and SIGTERM end it
 within the next wait of :data:`POLL_S`: a SHUTDOWN heartbeat, the port closed, exit status 0.
 
-It also runs the daemon's sensor health monitor (:mod:`jackson.host.estimation.health`) on the
+It also runs the daemon's sensor health monitor (:mod:`jackson.host.health`) on the
 frames: each sensor's state, the yaw-rate NIS and the last transition. The robot stands still (the
 monitor commands nothing), so the gyro's bias is checked at once; push the robot by hand and
 the wheels and the gyro are checked against each other.
@@ -32,7 +32,7 @@ from rich.table import Table
 from jackson.host.config import HostConfig
 from jackson.host.core.frontend import FrontEnd
 from jackson.host.daemon import VERSION_SILENCE_S
-from jackson.host.estimation.health import HealthMonitor
+from jackson.host.health import HealthMonitor
 from jackson.host.transport import LinkEvent, SerialTransport
 from jackson.protocol import (
     PROTOCOL_VERSION,

@@ -32,6 +32,7 @@ from jackson.host.recording import (
     KIND_LINK,
     KIND_REQUEST,
     KIND_RX,
+    KIND_SETTINGS,
     KINDS,
     RecordingError,
     RunRecorder,
@@ -45,6 +46,7 @@ if TYPE_CHECKING:  # the missions load when a run is replayed, not for jackson -
     from jackson.host.actuation.limiter import LimiterConfig
     from jackson.host.control import Mission
     from jackson.host.control.navigate import NavigateConfig
+    from jackson.host.core.settings import LiveSettings
     from jackson.host.nav.grid import OccupancyGrid
     from jackson.host.service.navigation import NavigationService, Request
 
@@ -115,12 +117,15 @@ def _meta(run: Path) -> tuple[dict[str, object], str | None]:
 
 def _checked_log(
     run: Path,
-) -> tuple[list[tuple[int, Frame | tuple[float, float] | bytes | Request]], str | None]:
+) -> tuple[
+    list[tuple[int, Frame | tuple[float, float] | bytes | Request | LiveSettings]], str | None
+]:
     """The log's records, each received frame decoded and each command unpacked, and why the
     run is cut (None: closed cleanly); or one line naming the first damaged record."""
+    from jackson.host.core.settings import LiveSettings
     from jackson.protocol import ProtocolError, decode_message
 
-    records: list[tuple[int, Frame | tuple[float, float] | bytes | Request]] = []
+    records: list[tuple[int, Frame | tuple[float, float] | bytes | Request | LiveSettings]] = []
     complete = False
     stalled: str | None = None
     for k, r in enumerate(read_log(run)):
@@ -151,6 +156,11 @@ def _checked_log(
 
             try:
                 records.append((r.host_time_ns, Request.decode(r.payload)))
+            except ValueError as exc:
+                raise RecordingError(f"{where}: {exc}") from exc
+        elif r.kind == KIND_SETTINGS:
+            try:
+                records.append((r.host_time_ns, LiveSettings.decode(r.payload)))
             except ValueError as exc:
                 raise RecordingError(f"{where}: {exc}") from exc
         elif r.kind == KIND_LINK and r.payload.startswith(STALL_RECORD.encode()):
@@ -185,6 +195,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     from jackson.host.config import DEFAULT_CONFIG, load_config
     from jackson.host.control import make_mission
     from jackson.host.core import HostCore
+    from jackson.host.core.settings import LiveSettings
     from jackson.host.recording.snapshot import load_error
     from jackson.host.service.navigation import NavigationService, Request
     from jackson.protocol import Telemetry
@@ -225,6 +236,8 @@ def replay(run: Path, out: Path) -> ReplayResult:
         elif isinstance(item, Request):
             assert isinstance(the_mission, NavigationService)
             the_mission.put(item)
+        elif isinstance(item, LiveSettings):
+            core.request_settings(item)
         elif isinstance(item, Frame):
             core.on_frame(item, t_ns)
             if item.type == Telemetry.TYPE:

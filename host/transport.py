@@ -112,8 +112,12 @@ class Link(Protocol):
     silence_s: float  # an open link without a frame for this long gets HELLO again [s]
     stall_s: float | None  # lockstep: wall seconds without telemetry before a stall (None: off)
     link_up: bool  # the link is open
-    reconnects: int  # times it was opened again
     silences: int  # times it fell silent for silence_s
+
+    @property
+    def reconnects(self) -> int:
+        """Times the link was opened again after a loss."""
+        ...
 
     @property
     def on_pty(self) -> bool:
@@ -134,6 +138,122 @@ class Link(Protocol):
         ...
 
 
+class Reconnection:
+    """When a lost port is tried again: :data:`FIRST_BACKOFF_S` after the loss, the wait
+    doubling up to :data:`MAX_BACKOFF_S` while it fails, back to the first once it opens."""
+
+    def __init__(self) -> None:
+        self.count = 0  # times the port was opened again
+        self._backoff_s = FIRST_BACKOFF_S
+        self._at_s = 0.0  # the next attempt (monotonic s)
+
+    def lost(self) -> None:
+        """The port went away: the next attempt after the current backoff."""
+        self._at_s = time.monotonic() + self._backoff_s
+
+    def left_s(self) -> float:
+        """Wall seconds to the next attempt (zero or less: due)."""
+        return self._at_s - time.monotonic()
+
+    def opened(self) -> None:
+        """An attempt opened the port."""
+        self.count += 1
+        self._backoff_s = FIRST_BACKOFF_S
+
+    def failed(self) -> None:
+        """An attempt failed: the backoff doubles."""
+        self._backoff_s = min(MAX_BACKOFF_S, self._backoff_s * 2)
+        self._at_s = time.monotonic() + self._backoff_s
+
+
+class Session:
+    """This connection's session (the module's notes): it starts at the INFO that answers the
+    connection's HELLO; the frames decoded before it are stale, dropped and counted."""
+
+    def __init__(self) -> None:
+        self.started = False  # this connection's INFO arrived
+        self.stale_frames = 0  # frames dropped before the INFO (an earlier time's, buffered)
+        self.hellos = 0  # HELLOs sent (first, after reconnects, after silence)
+        self.hello_s = 0.0  # the last HELLO (monotonic s)
+        self.wait_s = 0.0  # since when this connection waits for its INFO (monotonic s)
+
+    def connected(self, now_s: float) -> None:
+        """A new connection: no session yet, its wait for an INFO starts ``now_s``."""
+        self.started = False
+        self.wait_s = now_s
+
+    def hello_sent(self) -> None:
+        """A HELLO goes out now."""
+        self.hellos += 1
+        self.hello_s = time.monotonic()
+        if not self.started and self.hellos == 1:
+            self.wait_s = self.hello_s  # the wait for an answer starts here
+
+    def frames(self, frames: list[Frame]) -> list[Frame]:
+        """The frames from this connection's INFO on; the ones before it are counted stale."""
+        for i, frame in enumerate(frames):
+            if frame.type == Info.TYPE:
+                self.started = True
+                return frames[i:]
+            self.stale_frames += 1
+        return []
+
+
+class StallWatch:
+    """A lockstep stall (the module's notes): the caller has waited :attr:`limit_s` for a
+    telemetry frame (and the peer as long for the caller, when :attr:`peer_waiting` says), and
+    a read after the limit found none."""
+
+    def __init__(self) -> None:
+        # wall seconds of waiting without a telemetry frame before a "stalled" event; None:
+        # never (a device's port streams on its own clock)
+        self.limit_s: float | None = None
+        # a twin in this process: since when it waits for this host's HEARTBEAT (monotonic s),
+        # None while it works; with it only the time both ends wait counts towards a stall
+        self.peer_waiting: Callable[[], float | None] | None = None
+        # since when the caller waits for a telemetry frame (monotonic s): from its first get()
+        # and from each get() after a telemetry frame; None before and while it works on one
+        self.waiting_since: float | None = None
+        self.stalled = False  # the "stalled" event was sent
+        self.telemetry_rx_s = 0.0  # the last telemetry frame decoded (monotonic s)
+        self._armed = False  # the limit passed: one more read before the stall counts
+
+    def waiting(self) -> None:
+        """The caller is back for a frame: its wait starts now unless it already waits."""
+        if self.waiting_since is None:  # back after a telemetry frame (or the first call)
+            self.waiting_since = time.monotonic()
+
+    def working(self) -> None:
+        """The caller got a telemetry frame and works on it: progress, no wait."""
+        self.waiting_since = None
+        self._armed = False
+
+    def check(self, now_ns: int) -> LinkEvent | None:
+        """The ``stalled`` event, once, when the wait reached the limit and a read after it
+        found no telemetry frame; else None."""
+        since = self.waiting_since
+        if self.limit_s is None or self.stalled or since is None:
+            return None
+        since = max(since, self.telemetry_rx_s)
+        if self.peer_waiting is not None:
+            peer = self.peer_waiting()
+            if peer is None:  # the twin works on its next frame: slow, not stalled
+                self._armed = False
+                return None
+            since = max(since, peer)
+        waited = now_ns / 1e9 - since
+        if waited < self.limit_s:
+            self._armed = False
+        elif not self._armed:
+            self._armed = True  # read the port once more before it counts
+        else:
+            self.stalled = True
+            return LinkEvent(
+                "stalled", now_ns, f"the host waited {waited:.1f} s for a telemetry frame"
+            )
+        return None
+
+
 class SerialTransport:
     """One serial link to the MCU (or the twin's pty)."""
 
@@ -148,9 +268,7 @@ class SerialTransport:
         self._thread: threading.Thread | None = None
         self._seq = 0
         self.link_up = False
-        self.reconnects = 0
         self.writes_dropped = 0
-        self.hellos = 0  # HELLOs sent (first, after reconnects, after silence)
         self.silences = 0  # times the open port fell silent for silence_s
         self.silence_s = SILENCE_S
         self._last_rx_s = 0.0
@@ -159,26 +277,63 @@ class SerialTransport:
         # caller sends once done with this one
         self._handed_frame = False  # get() returned a frame; the caller is busy with it
         self._back_s = 0.0  # when the caller last came back to get() after a frame
-        self._backoff = FIRST_BACKOFF_S
-        self._retry_at = 0.0  # the next reconnection attempt (monotonic s)
         self.spin_s = 0.0  # without the reader thread: poll this long before blocking [s]
-        # lockstep stall (module notes): wall seconds of waiting without a telemetry frame
-        # before a "stalled" event; None: never (a device's port streams on its own clock)
-        self.stall_s: float | None = None
-        # a twin in this process: since when it waits for this host's HEARTBEAT (monotonic s),
-        # None while it works; with it only the time both ends wait counts towards a stall
-        self.peer_waiting: Callable[[], float | None] | None = None
-        # since when the caller waits for a telemetry frame (monotonic s): from its first get()
-        # and from each get() after a telemetry frame; None before and while it works on one
-        self.waiting_since: float | None = None
-        self.stalled = False  # the "stalled" event was sent
-        self._telemetry_rx_s = 0.0  # the last telemetry frame decoded (monotonic s)
-        self._stall_armed = False  # the limit passed: one more read before the stall counts
-        # this connection's session (module notes): frames before the INFO are stale
-        self.in_session = False
-        self.stale_frames = 0  # frames dropped before the INFO (an earlier time's, buffered)
-        self._hello_s = 0.0  # the last HELLO (monotonic s)
-        self._session_wait_s = 0.0  # since when this connection waits for its INFO
+        self._reconnection = Reconnection()
+        self._session = Session()
+        self._stall = StallWatch()
+
+    # ------------------------------------------------------------------ state
+
+    @property
+    def reconnects(self) -> int:
+        """Times the port was opened again after a loss."""
+        return self._reconnection.count
+
+    @property
+    def hellos(self) -> int:
+        """HELLOs sent (the first, after reconnects, after silences)."""
+        return self._session.hellos
+
+    @property
+    def in_session(self) -> bool:
+        """This connection's INFO arrived: its frames are handed on."""
+        return self._session.started
+
+    @property
+    def stale_frames(self) -> int:
+        """Frames dropped before a connection's INFO (an earlier time's, buffered)."""
+        return self._session.stale_frames
+
+    @property
+    def stall_s(self) -> float | None:
+        """Wall seconds of waiting without a telemetry frame before a ``stalled`` event
+        (the module's notes); None: never (a device's port streams on its own clock)."""
+        return self._stall.limit_s
+
+    @stall_s.setter
+    def stall_s(self, value: float | None) -> None:
+        self._stall.limit_s = value
+
+    @property
+    def peer_waiting(self) -> Callable[[], float | None] | None:
+        """A twin in this process: since when it waits for this host's HEARTBEAT (monotonic
+        s), None while it works; with it only the time both ends wait counts towards a stall."""
+        return self._stall.peer_waiting
+
+    @peer_waiting.setter
+    def peer_waiting(self, value: Callable[[], float | None] | None) -> None:
+        self._stall.peer_waiting = value
+
+    @property
+    def waiting_since(self) -> float | None:
+        """Since when the caller waits for a telemetry frame (monotonic s); None before its
+        first :meth:`get` and while it works on a telemetry frame."""
+        return self._stall.waiting_since
+
+    @property
+    def stalled(self) -> bool:
+        """The ``stalled`` event was sent."""
+        return self._stall.stalled
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -240,18 +395,14 @@ class SerialTransport:
         self.decoder.seq_from_type = Info.TYPE  # frames before this session's INFO: not lost
         self.link_up = True
         self._last_rx_s = time.monotonic()
-        self.in_session = False
-        self._session_wait_s = self._last_rx_s
+        self._session.connected(self._last_rx_s)
         self.items.put(LinkEvent("up", time.monotonic_ns()))
         if hello:
             self.send_hello()
 
     def send_hello(self) -> None:
         """HELLO: starts (or restarts) the device's session."""
-        self.hellos += 1
-        self._hello_s = time.monotonic()
-        if not self.in_session and self.hellos == 1:
-            self._session_wait_s = self._hello_s  # the wait for an answer starts here
+        self._session.hello_sent()
         self.send(hello())
 
     def _drop(self, detail: str) -> None:
@@ -260,7 +411,7 @@ class SerialTransport:
                 with contextlib.suppress(OSError):
                     self._port.close()
                 self._port = None
-        self._retry_at = time.monotonic() + self._backoff
+        self._reconnection.lost()
         if self.link_up:
             self.link_up = False
             self.items.put(LinkEvent("down", time.monotonic_ns(), detail))
@@ -277,18 +428,16 @@ class SerialTransport:
         :data:`READ_TIMEOUT_S`), decoded into :attr:`items`."""
         port = self._port
         if port is None:
-            left = self._retry_at - time.monotonic()
+            left = self._reconnection.left_s()
             if left > 0:
                 self._stop.wait(min(left, max(wait_s, 0.0)))
                 self._check_stall(time.monotonic_ns())
                 return
             try:
                 self._connect()
-                self.reconnects += 1
-                self._backoff = FIRST_BACKOFF_S
+                self._reconnection.opened()
             except LinkError:
-                self._backoff = min(MAX_BACKOFF_S, self._backoff * 2)
-                self._retry_at = time.monotonic() + self._backoff
+                self._reconnection.failed()
                 self._check_stall(time.monotonic_ns())
             return
         try:
@@ -306,25 +455,26 @@ class SerialTransport:
         now = time.monotonic_ns()
         dec = self.decoder
         frames = dec.feed(data, now // 1000) if data else dec.poll(now // 1000)
-        if not self.in_session and frames:
-            frames = self._session_frames(frames)
+        session = self._session
+        if not session.started and frames:
+            frames = session.frames(frames)
         for frame in frames:
             self.items.put((now, frame))
             if frame.type == Telemetry.TYPE:
-                self._telemetry_rx_s = now / 1e9
+                self._stall.telemetry_rx_s = now / 1e9
         if frames:
             self._last_rx_s = now / 1e9
             return
         self._check_stall(now)
-        if not self.in_session:
-            if now / 1e9 - self._hello_s >= self.silence_s:
+        if not session.started:
+            if now / 1e9 - session.hello_s >= self.silence_s:
                 # HELLO unanswered (a mute device, or one still busy with another session)
                 self.silences += 1
                 self._last_rx_s = now / 1e9
-                waited = now / 1e9 - self._session_wait_s
+                waited = now / 1e9 - session.wait_s
                 stale = (
-                    f"; {self.stale_frames} frames from before it dropped"
-                    if (self.stale_frames)
+                    f"; {session.stale_frames} frames from before it dropped"
+                    if (session.stale_frames)
                     else ""
                 )
                 self.items.put(
@@ -341,41 +491,12 @@ class SerialTransport:
             self.items.put(LinkEvent("silent", now, f"no frame for {self.silence_s:.2f} s"))
             self.send_hello()
 
-    def _session_frames(self, frames: list[Frame]) -> list[Frame]:
-        """The frames from this connection's INFO on; the ones before it are counted stale."""
-        for i, frame in enumerate(frames):
-            if frame.type == Info.TYPE:
-                self.in_session = True
-                return frames[i:]
-            self.stale_frames += 1
-        return []
-
     def _check_stall(self, now_ns: int) -> None:
-        """Report a lockstep stall (the module's notes), once: the caller has waited
-        :attr:`stall_s` for a telemetry frame (and the peer as long for the caller, when
-        :attr:`peer_waiting` says), and a read after the limit found none."""
-        since = self.waiting_since
-        if self.stall_s is None or self.stalled or since is None:
-            return
-        since = max(since, self._telemetry_rx_s)
-        if self.peer_waiting is not None:
-            peer = self.peer_waiting()
-            if peer is None:  # the twin works on its next frame: slow, not stalled
-                self._stall_armed = False
-                return
-            since = max(since, peer)
-        waited = now_ns / 1e9 - since
-        if waited < self.stall_s:
-            self._stall_armed = False
-        elif not self._stall_armed:
-            self._stall_armed = True  # read the port once more before it counts
-        else:
-            self.stalled = True
-            self.items.put(
-                LinkEvent(
-                    "stalled", now_ns, f"the host waited {waited:.1f} s for a telemetry frame"
-                )
-            )
+        """Queue the ``stalled`` event (the module's notes) once the wait has reached
+        :attr:`stall_s`."""
+        event = self._stall.check(now_ns)
+        if event is not None:
+            self.items.put(event)
 
     def _readable(self, port: serial.Serial, wait_s: float) -> bool:
         """Without the reader thread: whether bytes wait on the port within ``wait_s``,
@@ -405,8 +526,7 @@ class SerialTransport:
         if self._handed_frame:  # back from working on a frame: the silence clock restarts
             self._handed_frame = False
             self._back_s = time.monotonic()
-        if self.waiting_since is None:  # back after a telemetry frame (or the first call)
-            self.waiting_since = time.monotonic()
+        self._stall.waiting()
         if self._thread is not None or self._stop.is_set():
             try:
                 return self._hand(self.items.get(timeout=timeout_s))
@@ -427,8 +547,7 @@ class SerialTransport:
         if isinstance(item, tuple):
             self._handed_frame = True
             if item[1].type == Telemetry.TYPE:  # progress: the caller works on it now
-                self.waiting_since = None
-                self._stall_armed = False
+                self._stall.working()
         return item
 
     # ------------------------------------------------------------------ writing

@@ -45,6 +45,8 @@ from jackson.sim.i2c_server import I2cServerError
 
 if TYPE_CHECKING:
     from jackson.sim.liveview import TwinLiveView
+    from jackson.sim.ros import TwinRosPublisher
+    from jackson.sim.runner import RunnerStats, TwinRunner
     from jackson.sim.twin import Twin
 
 
@@ -204,7 +206,14 @@ def _live_view(twin: Twin, where: tuple[str, int]) -> TwinLiveView | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from jackson.sim.runner import TwinRunner
+    """``jackson sim``: check the options, start the twin and its runner, serve until a signal
+    (or ``--duration``), then print the summary.
+
+    Returns
+    -------
+    int
+        0; 1 when lockstep stalled; 2 for a problem with the options or the files.
+    """
     from jackson.sim.twin import Twin
 
     try:
@@ -213,36 +222,10 @@ def run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         print(f"jackson sim: {exc}", file=sys.stderr)
         return 2
-    if args.ros:
-        from jackson.sim.ros import ros_available
-
-        problem = ros_available()
-        if problem is not None:
-            print(f"jackson sim: {problem}", file=sys.stderr)
-            return 2
-    for option, link in (("--link", args.link), ("--lidar-link", args.lidar_link)):
-        if link is not None and Path(link).exists() and not Path(link).is_symlink():
-            print(
-                f"jackson sim: {option} {link}: is there and is not a symlink; give a new path "
-                "(it is never replaced)",
-                file=sys.stderr,
-            )
-            return 2
-    if args.truth is not None and not _replaceable_truth(args.truth):
-        print(
-            f"jackson sim: --truth {args.truth}: is there and is not a ground-truth file of "
-            "jackson sim; give a new path (only an old ground-truth file is replaced)",
-            file=sys.stderr,
-        )
+    problem = _refusal(args)
+    if problem is not None:
+        print(f"jackson sim: {problem}", file=sys.stderr)
         return 2
-    if args.lidar_link is not None and args.no_lidar:
-        print("jackson sim: --lidar-link needs the LiDAR: drop --no-lidar", file=sys.stderr)
-        return 2
-    tmp = None
-    i2c_path = args.i2c
-    if i2c_path is None:
-        tmp = tempfile.TemporaryDirectory(prefix="jackson-twin-")
-        i2c_path = Path(tmp.name) / "i2c.sock"
     try:
         twin = Twin(
             world,
@@ -263,46 +246,21 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    tmp = None
+    i2c_path = args.i2c
+    if i2c_path is None:
+        tmp = tempfile.TemporaryDirectory(prefix="jackson-twin-")
+        i2c_path = Path(tmp.name) / "i2c.sock"
     publisher = None
     if args.ros:
         from jackson.sim.ros import TwinRosPublisher
 
         publisher = TwinRosPublisher(twin)
     live = _live_view(twin, args.live_view) if args.live_view is not None else None
-    observers: list[Callable[[Twin], None]] = []
-    if publisher is not None:
-        observers.append(publisher.on_advance)
-    if live is not None:
-        observers.append(live.on_advance)
-
-    def observe(t: Twin) -> None:
-        for observer in observers:
-            observer(t)
-
     try:
-        runner = TwinRunner(
-            twin,
-            i2c_path=i2c_path,
-            lockstep=not args.realtime,
-            firmware=args.firmware,
-            mcu_motors=args.mcu_motors,
-            heartbeat_timeout_s=args.heartbeat_timeout,
-            serial_link=args.link,
-            observer=observe if len(observers) > 1 else (observers[0] if observers else None),
-            spin_s=0.0 if args.realtime else max(0.0, args.spin_us) / 1e6,
-            boot_id=args.boot_id,
-            lidar=not args.no_lidar,
-            lidar_link=args.lidar_link,
-            truth=args.truth,
-            stall_s=args.stall_timeout,
-        )
+        runner = _runner(args, twin, i2c_path, _observer(publisher, live))
     except (I2cServerError, FirmwareError, McuBuildError, FaultError, OSError) as exc:
-        if publisher is not None:
-            publisher.close()
-        if live is not None:
-            live.stop()
-        if tmp is not None:
-            tmp.cleanup()
+        _close(publisher, live, tmp)
         text = os_error_line(exc) if isinstance(exc, OSError) else str(exc)
         print(f"jackson sim: {text}", file=sys.stderr)
         return 2
@@ -313,6 +271,111 @@ def run(args: argparse.Namespace) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    _announce(runner, twin, i2c_path, publisher, live)
+    print(
+        f"twin: world {world.name}, robot {robot.name}, {_what_runs(args)}; waiting for HELLO",
+        flush=True,
+    )
+    try:
+        stats = runner.run(args.duration, stop)
+    finally:
+        runner.close()
+        _close(publisher, live, tmp)
+    return _summary(stats, twin)
+
+
+def _runner(
+    args: argparse.Namespace, twin: Twin, i2c_path: Path, observer: Callable[[Twin], None] | None
+) -> TwinRunner:
+    """The twin's runner as the options ask: its ports, clock, MCU and LiDAR."""
+    from jackson.sim.runner import TwinRunner
+
+    return TwinRunner(
+        twin,
+        i2c_path=i2c_path,
+        lockstep=not args.realtime,
+        firmware=args.firmware,
+        mcu_motors=args.mcu_motors,
+        heartbeat_timeout_s=args.heartbeat_timeout,
+        serial_link=args.link,
+        observer=observer,
+        spin_s=0.0 if args.realtime else max(0.0, args.spin_us) / 1e6,
+        boot_id=args.boot_id,
+        lidar=not args.no_lidar,
+        lidar_link=args.lidar_link,
+        truth=args.truth,
+        stall_s=args.stall_timeout,
+    )
+
+
+def _refusal(args: argparse.Namespace) -> str | None:
+    """Why the options cannot start a twin, in one line, found before anything starts (None:
+    they can)."""
+    if args.ros:
+        from jackson.sim.ros import ros_available
+
+        problem = ros_available()
+        if problem is not None:
+            return problem
+    for option, link in (("--link", args.link), ("--lidar-link", args.lidar_link)):
+        if link is not None and Path(link).exists() and not Path(link).is_symlink():
+            return (
+                f"{option} {link}: is there and is not a symlink; give a new path "
+                "(it is never replaced)"
+            )
+    if args.truth is not None and not _replaceable_truth(args.truth):
+        return (
+            f"--truth {args.truth}: is there and is not a ground-truth file of "
+            "jackson sim; give a new path (only an old ground-truth file is replaced)"
+        )
+    if args.lidar_link is not None and args.no_lidar:
+        return "--lidar-link needs the LiDAR: drop --no-lidar"
+    return None
+
+
+def _observer(
+    publisher: TwinRosPublisher | None, live: TwinLiveView | None
+) -> Callable[[Twin], None] | None:
+    """What the runner calls after each advance of the clock: the ROS publisher's and the live
+    view's ``on_advance`` (None: neither runs)."""
+    observers: list[Callable[[Twin], None]] = []
+    if publisher is not None:
+        observers.append(publisher.on_advance)
+    if live is not None:
+        observers.append(live.on_advance)
+    if len(observers) <= 1:
+        return observers[0] if observers else None
+
+    def observe(t: Twin) -> None:
+        for observer in observers:
+            observer(t)
+
+    return observe
+
+
+def _close(
+    publisher: TwinRosPublisher | None,
+    live: TwinLiveView | None,
+    tmp: tempfile.TemporaryDirectory[str] | None,
+) -> None:
+    """Stop what ran beside the runner and remove the temporary I2C socket's folder."""
+    if publisher is not None:
+        publisher.close()
+    if live is not None:
+        live.stop()
+    if tmp is not None:
+        tmp.cleanup()
+
+
+def _announce(
+    runner: TwinRunner,
+    twin: Twin,
+    i2c_path: Path,
+    publisher: TwinRosPublisher | None,
+    live: TwinLiveView | None,
+) -> None:
+    """Print where the host connects (``serial:`` and ``i2c:`` first, tools read them), then
+    the faults, the live view and the ROS topics."""
     print(f"serial: {runner.serial_path}", flush=True)
     print(f"i2c: unix:{i2c_path}", flush=True)
     if runner.lidar_path is not None:
@@ -324,30 +387,26 @@ def run(args: argparse.Namespace) -> int:
             print(f"fault: {format_fault(f)}", flush=True)
     if live is not None:
         print(f"live view: {live.server.url} (Foxglove: Open connection)", flush=True)
-    mode = "real time" if args.realtime else "lockstep"
-    mcu = "POSIX firmware process" if args.firmware else "firmware core in process"
-    from jackson.sim.compiled import SELECTION
-
-    physics = "compiled physics" if SELECTION.compiled else "interpreted physics"
     if publisher is not None:
         scan = ", /twin/scan" if publisher.scan_pub is not None else ""
         topics = f"/clock, /ground_truth/odom{scan}"
         print(f"ros: publishing {topics} on sim time", flush=True)
-    print(
-        f"twin: world {world.name}, robot {robot.name}, {mode}, {mcu}, {physics}; "
-        "waiting for HELLO",
-        flush=True,
-    )
-    try:
-        stats = runner.run(args.duration, stop)
-    finally:
-        runner.close()
-        if publisher is not None:
-            publisher.close()
-        if live is not None:
-            live.stop()
-        if tmp is not None:
-            tmp.cleanup()
+
+
+def _what_runs(args: argparse.Namespace) -> str:
+    """The clock, the MCU and the physics in use, e.g. ``lockstep, firmware core in process,
+    compiled physics``."""
+    from jackson.sim.compiled import SELECTION
+
+    mode = "real time" if args.realtime else "lockstep"
+    mcu = "POSIX firmware process" if args.firmware else "firmware core in process"
+    physics = "compiled physics" if SELECTION.compiled else "interpreted physics"
+    return f"{mode}, {mcu}, {physics}"
+
+
+def _summary(stats: RunnerStats, twin: Twin) -> int:
+    """Print what the run did and what each fault injected; the exit status (1: lockstep
+    stalled)."""
     print(
         f"twin: {stats.sim_s:.2f} s simulated in {stats.wall_s:.2f} s "
         f"(x{stats.real_time_factor:.0f}), {stats.frames} telemetry frames, "

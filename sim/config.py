@@ -360,7 +360,47 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
     if r.has("track_width_m"):  # the earlier name: the host's is the one
         raise r.fail("track_width_m", "renamed wheel_separation_m (as in the host config)")
     d = RobotSpec(path.stem)  # the defaults: the dataclasses' own
-    dm, dw, di, dl = d.motor, d.wiring, d.imu, d.lidar
+    motor = _motor(r, d.motor)
+    wiring = _wiring(r, d.wiring)
+    imu = _imu(r, d.imu)
+    lidar = _lidar_mount(r, d.lidar)
+    tyre = _tyre(r, d.tyre)
+    variation = _variation(r, d.variation, motor)
+    ex = r.vector("envelope_x_m", d.envelope_x_m, 2)
+    ey = r.vector("envelope_y_m", d.envelope_y_m, 2)
+    for key, (lo, hi) in (("envelope_x_m", ex), ("envelope_y_m", ey)):
+        if not lo < 0 < hi:
+            raise r.fail(key, f"expected [min < 0, max > 0] around the axle centre, got {[lo, hi]}")
+    spec = RobotSpec(
+        name=r.text("name", path.stem),
+        mass_kg=r.number("mass_kg", d.mass_kg, 0, lo_open=True),
+        inertia_kg_m2=r.number("inertia_kg_m2", d.inertia_kg_m2, 0, lo_open=True),
+        wheel_radius_m=Sides(
+            *r.sides("wheel_radius_m", d.wheel_radius_m.left, 0, lo_open=True, hi=0.5)
+        ),
+        wheel_separation_m=r.number(
+            "wheel_separation_m", d.wheel_separation_m, 0, lo_open=True, hi=2.0
+        ),
+        ticks_per_rev=Sides(*r.sides("ticks_per_rev", d.ticks_per_rev.left, 0, lo_open=True)),
+        envelope_x_m=(ex[0], ex[1]),
+        envelope_y_m=(ey[0], ey[1]),
+        caster_load_fraction=r.number("caster_load_fraction", d.caster_load_fraction, 0, hi=0.9),
+        caster_rolling_coeff=r.number("caster_rolling_coeff", d.caster_rolling_coeff, 0, hi=1.0),
+        actuation_latency_s=r.number("actuation_latency_s", d.actuation_latency_s, 0, hi=1.0),
+        motor=motor,
+        wiring=wiring,
+        imu=imu,
+        lidar=lidar,
+        tyre=tyre,
+        variation=variation,
+        faults=_faults(r),
+    )
+    r.finish()
+    return spec
+
+
+def _motor(r: Fields, dm: MotorSpec) -> MotorSpec:
+    """The ``motor:`` section (defaults ``dm``)."""
     m = r.section("motor")
     motor = MotorSpec(
         battery_v=m.number("battery_v", dm.battery_v, 0, lo_open=True),
@@ -379,6 +419,11 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         ),
     )
     m.finish()
+    return motor
+
+
+def _wiring(r: Fields, dw: WiringSpec) -> WiringSpec:
+    """The ``wiring:`` section (defaults ``dw``): PCA9685 channels and the interlock line."""
     w = r.section("wiring")
 
     def wheel(key: str, default: MotorWiring) -> MotorWiring:
@@ -411,6 +456,11 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
             f"tb6612_stby wires STBY to the MCU, but stby_channel is {wiring.stby_channel}",
         )
     w.finish()
+    return wiring
+
+
+def _imu(r: Fields, di: ImuSpec) -> ImuSpec:
+    """The ``imu:`` section (defaults ``di``)."""
     i = r.section("imu")
     imu = ImuSpec(
         gyro_bias_rad_s=_v3(i.vector("gyro_bias_rad_s", di.gyro_bias_rad_s, 3)),
@@ -428,6 +478,11 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         ),
     )
     i.finish()
+    return imu
+
+
+def _lidar_mount(r: Fields, dl: LidarMount) -> LidarMount:
+    """The ``lidar:`` section (defaults ``dl``)."""
     li = r.section("lidar")
     lidar = LidarMount(
         enabled=li.boolean("enabled", dl.enabled),
@@ -439,17 +494,25 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
         mount_yaw_rad=li.number("mount_yaw_rad", dl.mount_yaw_rad),
     )
     li.finish()
+    return lidar
+
+
+def _tyre(r: Fields, dt: TyreSpec) -> TyreSpec:
+    """The ``tyre:`` section (defaults ``dt``), each field in its :data:`TYRE_RANGES`."""
     ty = r.section("tyre")
     tyre = TyreSpec(
-        **{k: ty.number(k, getattr(d.tyre, k), lo, hi) for k, (lo, hi) in TYRE_RANGES.items()}
+        **{k: ty.number(k, getattr(dt, k), lo, hi) for k, (lo, hi) in TYRE_RANGES.items()}
     )
     ty.finish()
+    return tyre
+
+
+def _variation(r: Fields, dv: VariationSpec, motor: MotorSpec) -> VariationSpec:
+    """The ``variation:`` section (defaults ``dv``), each field in its
+    :data:`VARIATION_RANGES`; the battery's 3 sigma stays below ``motor.battery_v``."""
     va = r.section("variation")
     variation = VariationSpec(
-        **{
-            k: va.number(k, getattr(d.variation, k), lo, hi)
-            for k, (lo, hi) in VARIATION_RANGES.items()
-        }
+        **{k: va.number(k, getattr(dv, k), lo, hi) for k, (lo, hi) in VARIATION_RANGES.items()}
     )
     if variation.battery_v_sigma * 3.0 >= motor.battery_v:
         raise va.fail(
@@ -458,37 +521,7 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
             f"got {variation.battery_v_sigma:g}",
         )
     va.finish()
-    ex = r.vector("envelope_x_m", d.envelope_x_m, 2)
-    ey = r.vector("envelope_y_m", d.envelope_y_m, 2)
-    for key, (lo, hi) in (("envelope_x_m", ex), ("envelope_y_m", ey)):
-        if not lo < 0 < hi:
-            raise r.fail(key, f"expected [min < 0, max > 0] around the axle centre, got {[lo, hi]}")
-    spec = RobotSpec(
-        name=r.text("name", path.stem),
-        mass_kg=r.number("mass_kg", d.mass_kg, 0, lo_open=True),
-        inertia_kg_m2=r.number("inertia_kg_m2", d.inertia_kg_m2, 0, lo_open=True),
-        wheel_radius_m=Sides(
-            *r.sides("wheel_radius_m", d.wheel_radius_m.left, 0, lo_open=True, hi=0.5)
-        ),
-        wheel_separation_m=r.number(
-            "wheel_separation_m", d.wheel_separation_m, 0, lo_open=True, hi=2.0
-        ),
-        ticks_per_rev=Sides(*r.sides("ticks_per_rev", d.ticks_per_rev.left, 0, lo_open=True)),
-        envelope_x_m=(ex[0], ex[1]),
-        envelope_y_m=(ey[0], ey[1]),
-        caster_load_fraction=r.number("caster_load_fraction", d.caster_load_fraction, 0, hi=0.9),
-        caster_rolling_coeff=r.number("caster_rolling_coeff", d.caster_rolling_coeff, 0, hi=1.0),
-        actuation_latency_s=r.number("actuation_latency_s", d.actuation_latency_s, 0, hi=1.0),
-        motor=motor,
-        wiring=wiring,
-        imu=imu,
-        lidar=lidar,
-        tyre=tyre,
-        variation=variation,
-        faults=_faults(r),
-    )
-    r.finish()
-    return spec
+    return variation
 
 
 def _faults(r: Fields) -> tuple[FaultSpec, ...]:

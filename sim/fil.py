@@ -2,7 +2,9 @@
 
 ``build/native/firmware/jackson-firmware-posix`` runs the real firmware core on Linux; it makes
 its own pty for the host and reads sensor records on stdin (docs/firmware.md, "Running the
-firmware on Linux"). This module starts it and speaks that feed.
+firmware on Linux"). This module starts it and speaks that feed
+(:class:`FirmwareProcess`), and makes it the twin's MCU behind the runner's interface
+(:class:`FirmwarePort`, a :class:`~jackson.sim.port.McuPort`).
 """
 
 from __future__ import annotations
@@ -11,12 +13,15 @@ import os
 import selectors
 import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from jackson.common.errors import JacksonError
 from jackson.sim.mcu import SensorSample, imu_register_bytes
+from jackson.sim.port import Selectable, Tick
 
+NO_FRAME = 256  # a SEQ no telemetry frame carries (SEQ is 8-bit): wait without an acknowledgement
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_BINARY = REPO / "build" / "native" / "firmware" / "jackson-firmware-posix"
 
@@ -151,3 +156,131 @@ class FirmwareProcess:
                 self.proc.wait()
         self._in.close()
         self._out.close()
+
+
+class FirmwarePort:
+    """The POSIX firmware process as the twin's MCU (:class:`~jackson.sim.port.McuPort`).
+
+    The process serves its own pty; it learns the twin's time and sensors from records
+    (:meth:`FirmwareProcess.step`) and serves the host's link while the runner waits for a
+    HEARTBEAT (:meth:`FirmwareProcess.wait_heartbeat`). Everything the runner reads is the
+    process's latest status line; its next deadline is the next telemetry frame (the instant
+    the interlock line drops shows in the status line at the next frame, at most one period
+    later).
+
+    Parameters
+    ----------
+    sensors : callable
+        The twin's sensors at the current instant.
+    motors : bool
+        The firmware drives the TB6612 itself (``--motors``).
+    imu_present : bool
+        An MPU-6050 is on the bus.
+    boot_id : int or None
+        INFO's boot_id (None: the process draws one).
+    binary : Path or None
+        The POSIX firmware (default: the build's, or ``$JACKSON_FIRMWARE_POSIX``).
+
+    Raises
+    ------
+    FirmwareError
+        The firmware is missing or does not start.
+    """
+
+    def __init__(
+        self,
+        sensors: Callable[[], SensorSample],
+        *,
+        motors: bool = False,
+        imu_present: bool = True,
+        boot_id: int | None = None,
+        binary: Path | None = None,
+    ) -> None:
+        self.process = FirmwareProcess(
+            binary, motors=motors, imu_present=imu_present, boot_id=boot_id
+        )
+        self._sensors = sensors
+
+    @property
+    def serial_path(self) -> str:
+        return self.process.serial_path
+
+    @property
+    def host_link(self) -> Selectable | None:
+        """None: the process serves its own pty."""
+        return None
+
+    def receive(self, now_us: int) -> None:
+        """Nothing to hand over: the process reads its own pty."""
+
+    def unplug(self) -> None:
+        raise FirmwareError("the firmware process owns its pty: it cannot be unplugged")
+
+    def plug(self) -> None:
+        raise FirmwareError("the firmware process owns its pty: it cannot be plugged back")
+
+    def tick(self, now_us: int) -> Tick:
+        """Feed the sensors at ``now_us``: the process runs everything due up to then. At the
+        instant it already stands at (the HELLO's, which its wait served) there is nothing
+        to feed."""
+        before = self.process.last_status
+        if before is not None and before.t_us == now_us:
+            return Tick(False)
+        status = self.process.step(now_us, self._sensors())
+        return Tick(status.telemetry_seq != (-1 if before is None else before.telemetry_seq))
+
+    def next_deadline(self, now_us: int) -> int | None:
+        """The next telemetry instant of the status line; None before a session (or should
+        it not lie ahead of ``now_us``)."""
+        status = self.process.last_status
+        if status is None or status.next_telemetry_us < 0:
+            return None
+        step_us = (status.next_telemetry_us - now_us) & 0xFFFFFFFF
+        return None if step_us == 0 or step_us >= 0x80000000 else status.next_telemetry_us
+
+    @property
+    def session(self) -> bool:
+        status = self.process.last_status
+        return status is not None and status.session
+
+    @property
+    def last_telemetry_seq(self) -> int:
+        status = self.process.last_status
+        return -1 if status is None else status.telemetry_seq
+
+    def acknowledged(self, seq: int) -> bool:
+        status = self.process.last_status
+        return status is not None and status.heartbeat_ack == seq
+
+    def heartbeat_mark(self) -> int:
+        """The newest HEARTBEAT's ack_seq (-1 before one)."""
+        status = self.process.last_status
+        return -1 if status is None else status.heartbeat_ack
+
+    def await_heartbeat(
+        self, seq: int | None, timeout_s: float, serve: Callable[[float], bool]
+    ) -> bool:
+        """The process serves its link on the wall clock (``w``) while ``serve`` polls the
+        twin's other links."""
+        self.process.wait_heartbeat(
+            NO_FRAME if seq is None else seq, round(timeout_s * 1000), on_wait=lambda: serve(0.0)
+        )
+        return False
+
+    @property
+    def motor_enable(self) -> bool:
+        status = self.process.last_status
+        return status is not None and status.motor_enable
+
+    def wheel_duty(self) -> tuple[float, float, bool]:
+        status = self.process.last_status
+        if status is None:
+            return 0.0, 0.0, False
+        return status.motor_left / 1e4, status.motor_right / 1e4, status.braked
+
+    def imu_ranges(self) -> tuple[int, int] | None:
+        status = self.process.last_status
+        return None if status is None else (status.accel_fs, status.gyro_fs)
+
+    def close(self) -> None:
+        self.process.close()

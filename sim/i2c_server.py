@@ -41,7 +41,8 @@ from jackson.protocol.i2c_socket import (
     STATUS_NACK,
     STATUS_OK,
 )
-from jackson.sim.pca9685 import DEFAULT_ADDRESS, Pca9685
+from jackson.protocol.pca9685 import DEFAULT_ADDRESS
+from jackson.sim.pca9685 import Pca9685
 
 _WRITE_OPS = (OP_WRITE_BYTE_DATA, OP_WRITE_I2C_BLOCK_DATA)  # the only requests carrying data
 _RECV_SIZE = 4096  # [bytes] per recv call

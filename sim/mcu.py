@@ -19,8 +19,9 @@ a HAL made of the twin:
 - **motor outputs and the interlock line**: recorded, read by the twin's runner.
 
 Firmware behaviour is changed in C++ once: there is no other copy of its rules in the project.
-``jackson sim --firmware`` runs the same core as its own process (the POSIX build,
-:mod:`jackson.sim.fil`).
+The runner drives it behind :class:`~jackson.sim.core_port.CorePort`, with its pty, as a
+:class:`~jackson.sim.port.McuPort`; ``jackson sim --firmware`` runs the same core as its own
+process (the POSIX build, :mod:`jackson.sim.fil`) behind the same interface.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 The twin's virtual I²C bus hands every transaction addressed to the chip to :meth:`Pca9685.write`
 or :meth:`Pca9685.read`, so the host's driver talks to this model exactly as it talks to the chip
 on the robot. The outputs the TB6612FNG sees are read back with :meth:`Pca9685.channel_duty`.
+The register map, its bits and power-on values and Eq. 1 are the chip's facts the host's driver
+uses too: :mod:`jackson.protocol.pca9685`.
 
 What is modelled (section and table numbers of the datasheet):
 
@@ -38,107 +40,47 @@ Simplifications, stated so nobody mistakes them for the chip:
 
 from __future__ import annotations
 
-# ---- register map (§7.3, Table 4) -------------------------------------------------------------
-MODE1 = 0x00
-MODE2 = 0x01
-SUBADR1 = 0x02
-SUBADR2 = 0x03
-SUBADR3 = 0x04
-ALLCALLADR = 0x05
-LED0_ON_L = 0x06
-LED0_ON_H = 0x07
-LED0_OFF_L = 0x08
-LED0_OFF_H = 0x09
-LED15_OFF_H = 0x45
-ALL_LED_ON_L = 0xFA
-ALL_LED_ON_H = 0xFB
-ALL_LED_OFF_L = 0xFC
-ALL_LED_OFF_H = 0xFD
-PRE_SCALE = 0xFE
-TESTMODE = 0xFF
-
-CHANNELS = 16
-REGISTERS_PER_CHANNEL = 4  # ON_L, ON_H, OFF_L, OFF_H
-
-# ---- MODE1 bits (Table 5) ---------------------------------------------------------------------
-MODE1_RESTART = 0x80
-MODE1_EXTCLK = 0x40
-MODE1_AI = 0x20
-MODE1_SLEEP = 0x10
-MODE1_SUB1 = 0x08
-MODE1_SUB2 = 0x04
-MODE1_SUB3 = 0x02
-MODE1_ALLCALL = 0x01
-
-# ---- MODE2 bits (Table 6) ---------------------------------------------------------------------
-MODE2_INVRT = 0x10
-MODE2_OCH = 0x08
-MODE2_OUTDRV = 0x04
-MODE2_OUTNE = 0x03  # two-bit field: output state while OE is high
-OUTNE_LOW = 0x00  # LEDn = 0 while OE = 1
-OUTNE_HIGH = 0x01  # LEDn = 1 while OE = 1 with OUTDRV = 1 (high-impedance with OUTDRV = 0)
-
-# ---- LEDn_ON_H / LEDn_OFF_H (Table 7) ---------------------------------------------------------
-LED_FULL = 0x10  # bit 4: full-on in ON_H, full-off in OFF_H
-LED_COUNT_H_MASK = 0x0F  # bits 11:8 of the 12-bit count
-LED_H_WRITABLE = 0x1F  # bits 7:5 are reserved and read 0
-
-# ---- power-on values (Table 4) ----------------------------------------------------------------
-MODE1_POWER_ON = MODE1_SLEEP | MODE1_ALLCALL  # 0x11
-MODE2_POWER_ON = MODE2_OUTDRV  # 0x04
-SUBADR1_POWER_ON = 0xE2
-SUBADR2_POWER_ON = 0xE4
-SUBADR3_POWER_ON = 0xE8
-ALLCALLADR_POWER_ON = 0xE0
-PRE_SCALE_POWER_ON = 0x1E  # 200 Hz nominal
-PRE_SCALE_MIN = 3  # forced by the hardware (§7.3.5)
-PRE_SCALE_MAX = 0xFF
-
-DEFAULT_ADDRESS = 0x40  # all address pins low
-OSC_CLOCK_HZ = 25e6  # internal oscillator [Hz]
-PWM_STEPS = 4096  # 12-bit counter
+from jackson.protocol.pca9685 import (
+    ADDRESS_WRITABLE,
+    ALL_LED_OFF_H,
+    ALL_LED_ON_L,
+    ALLCALLADR,
+    ALLCALLADR_POWER_ON,
+    CHANNELS,
+    LED0_ON_L,
+    LED15_OFF_H,
+    LED_COUNT_H_MASK,
+    LED_FULL,
+    LED_H_WRITABLE,
+    MODE1,
+    MODE1_AI,
+    MODE1_EXTCLK,
+    MODE1_POWER_ON,
+    MODE1_RESTART,
+    MODE1_SLEEP,
+    MODE2,
+    MODE2_INVRT,
+    MODE2_OUTDRV,
+    MODE2_OUTNE,
+    MODE2_POWER_ON,
+    MODE2_WRITABLE,
+    OSC_CLOCK_HZ,
+    OUTNE_HIGH,
+    OUTNE_LOW,
+    PRE_SCALE,
+    PRE_SCALE_MIN,
+    PRE_SCALE_POWER_ON,
+    PWM_STEPS,
+    REGISTERS_PER_CHANNEL,
+    SUBADR1,
+    SUBADR1_POWER_ON,
+    SUBADR2_POWER_ON,
+    SUBADR3_POWER_ON,
+    led_on_l,
+    update_rate_hz,
+)
 
 _MODE1_STORED = 0x7F  # every bit but RESTART, whose read value is the model's restart state
-_ADDRESS_WRITABLE = 0xFE  # bit 0 of the (sub)address registers is read-only 0
-
-
-def led_on_l(channel: int) -> int:
-    """Address of LEDn_ON_L for channel n (0..15); ON_H, OFF_L, OFF_H follow it (Table 4)."""
-    if not 0 <= channel < CHANNELS:
-        raise ValueError(f"PCA9685 channel {channel} outside 0..{CHANNELS - 1}")
-    return LED0_ON_L + REGISTERS_PER_CHANNEL * channel
-
-
-def prescale_for(freq_hz: float) -> int:
-    """PRE_SCALE value for an update rate, §7.3.5 Eq. 1.
-
-    ``prescale = round(osc_clock / (4096 * update_rate)) - 1`` with the 25 MHz internal
-    oscillator; e.g. 200 Hz gives 30 (0x1E) and 1 kHz gives 5.
-
-    Parameters
-    ----------
-    freq_hz : float
-        Wanted PWM update rate [Hz].
-
-    Returns
-    -------
-    int
-        The PRE_SCALE register value.
-
-    Raises
-    ------
-    ValueError
-        The rate needs a value outside 3..255 (about 24 Hz to 1526 Hz).
-    """
-    if not freq_hz > 0:
-        raise ValueError(f"PWM frequency must be positive, got {freq_hz} Hz")
-    prescale = round(OSC_CLOCK_HZ / (PWM_STEPS * freq_hz)) - 1
-    if not PRE_SCALE_MIN <= prescale <= PRE_SCALE_MAX:
-        raise ValueError(
-            f"PWM frequency {freq_hz} Hz needs PRE_SCALE {prescale}, outside "
-            f"{PRE_SCALE_MIN}..{PRE_SCALE_MAX}"
-        )
-    return prescale
 
 
 class Pca9685:
@@ -276,7 +218,7 @@ class Pca9685:
     def frequency_hz(self) -> float:
         """PWM update rate [Hz], §7.3.5 Eq. 1: ``clock / (4096 * (PRE_SCALE + 1))``."""
         clock_hz = self.extclk_hz if self._mode1 & MODE1_EXTCLK else OSC_CLOCK_HZ
-        return clock_hz / (PWM_STEPS * (self._prescale + 1))
+        return update_rate_hz(self._prescale, clock_hz)
 
     @property
     def mode2(self) -> int:
@@ -332,9 +274,9 @@ class Pca9685:
         if reg == MODE1:
             self._write_mode1(value)
         elif reg == MODE2:
-            self._mode2 = value & 0x1F  # bits 7:5 reserved
+            self._mode2 = value & MODE2_WRITABLE
         elif SUBADR1 <= reg <= ALLCALLADR:
-            self._addresses[reg - SUBADR1] = value & _ADDRESS_WRITABLE
+            self._addresses[reg - SUBADR1] = value & ADDRESS_WRITABLE
         elif LED0_ON_L <= reg <= LED15_OFF_H:
             self._leds[reg - LED0_ON_L] = _led_value(reg - LED0_ON_L, value)
         elif ALL_LED_ON_L <= reg <= ALL_LED_OFF_H:

@@ -3,9 +3,9 @@
 pymunk integrates the chassis pose and resolves collisions near obstacles; this module supplies
 what pymunk does not know about: wheels that spin on their own, motors, and tyre friction; and
 in free space it also makes pymunk's position update itself. It is plain Python on floats and
-imports nothing but :mod:`math`, so that ``make setup`` can compile it with mypyc into a native
-module of the same arithmetic (:mod:`jackson.sim.compiled`, docs/compiled.md); interpreted or
-compiled, a run is the same bit for bit.
+imports nothing but :mod:`math` and :mod:`dataclasses`, so that ``make setup`` can compile it
+with mypyc into a native module of the same arithmetic (:mod:`jackson.sim.compiled`,
+docs/compiled.md); interpreted or compiled, a run is the same bit for bit.
 
 Per physics step of ``dt`` (semi-implicit, stable at any friction):
 
@@ -62,36 +62,132 @@ within reach of an obstacle the twin lets pymunk integrate the step instead
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Final
 
 STICK_RAD_S: Final = 1e-3  # [rad/s] a wheel slower than this may stick in its gearbox
 V_CREEP_MIN_M_S: Final = 0.01  # [m/s] reference speed of the creep and slip-angle models near rest
+tanh: Final = math.tanh  # no mypyc primitive: bound once, a compiled call skips the lookup
 
 TruthRow = tuple[int, float, float, float, float, float, float, float, float]
 """One physics step's raw ground truth: (step, x, y, yaw, vwx, vwy, wz, omega_l, omega_r)."""
+
+Limits = tuple[float, float, float, float]
+"""The friction limits under the wheels, ``(mu_s N_L, mu_d N_L, mu_s N_R, mu_d N_R)`` [N]."""
+
+
+class FrictionCells:
+    """The floor's friction patches as the model reads them: the factors of a
+    :class:`~jackson.sim.world.FrictionField`, a periodic tile of ``cells_per_m`` cells a metre
+    from ``(x0, y0)`` [m], nearest cell (fixed for a trial).
+    """
+
+    def __init__(
+        self, cells: tuple[tuple[float, ...], ...], cells_per_m: float, x0: float, y0: float
+    ) -> None:
+        self.cells = cells
+        self.n = len(cells)
+        self.per_m = cells_per_m
+        self.x0 = x0
+        self.y0 = y0
+
+    def factor(self, x: float, y: float) -> float:
+        """The factor on mu_s and mu_d at a point of the floor [1] (``FrictionField.factor``)."""
+        n, per_m = self.n, self.per_m
+        return self.cells[math.floor((x - self.x0) * per_m) % n][
+            math.floor((y - self.y0) * per_m) % n
+        ]
+
+
+@dataclass(frozen=True)
+class DynamicsParams:
+    """The model's parameters, fixed for a trial, named as in the module docstring.
+
+    ``mass`` [kg], ``inertia`` [kg m^2], ``half_track`` B/2 [m], ``r_l, r_r`` wheel radii [m],
+    ``j_w`` wheel inertia [kg m^2], ``k_e`` [N m s/rad], ``tau_drive_*`` torque at drive 1
+    [N m], ``tau_c_*`` breakaway and ``tau_run_*`` running friction [N m], ``time_constant``
+    [s], ``n_wheel`` load per wheel [N], ``f_caster`` caster rolling resistance [N], ``mu_s,
+    mu_d`` the floor's friction, ``creep`` [1], ``corner`` [rad], ``scrub_arm`` [m],
+    ``scrub_phi`` [1/m], ``floor`` the friction patches (None: a uniform floor).
+    """
+
+    mass: float
+    inertia: float
+    half_track: float
+    r_l: float
+    r_r: float
+    j_w: float
+    k_e: float
+    tau_drive_l: float
+    tau_drive_r: float
+    tau_c_l: float
+    tau_c_r: float
+    tau_run_l: float
+    tau_run_r: float
+    time_constant: float
+    n_wheel: float
+    f_caster: float
+    mu_s: float
+    mu_d: float
+    creep: float
+    corner: float
+    scrub_arm: float
+    scrub_phi: float
+    floor: FrictionCells | None = None
+
+
+class StepConstants:
+    """What a step of ``dt`` [s] needs that follows from the parameters and ``dt`` alone (dt
+    is fixed for a run: made once)."""
+
+    def __init__(self, p: DynamicsParams, dt: float) -> None:
+        tc = p.time_constant
+        h2i = p.half_track * p.half_track / p.inertia
+        self.dt = dt
+        self.alpha = 1.0 - math.exp(-dt / tc) if tc > 0 else 1.0  # motor lag per step
+        self.d = 1.0 / p.mass + h2i  # coupling of a wheel force to its own contact
+        self.o = 1.0 / p.mass - h2i  # ... and to the other wheel's contact
+        self.a_free_l = p.r_l * p.r_l / p.j_w
+        self.a_free_r = p.r_r * p.r_r / p.j_w
+        self.lim_s = p.mu_s * p.n_wheel
+        self.lim_d = p.mu_d * p.n_wheel
+        self.creep_k = p.creep / (p.n_wheel * dt)  # slip per dt per N, per m/s
+        self.corner_k = p.corner / (2.0 * p.n_wheel)
+        self.i_dt = p.inertia / dt
+
+
+class WheelState:
+    """One wheel's motor and shaft: the H-bridge's output it gets (``drive``, signed supply
+    fraction; ``connected``, fraction of time the windings are connected), the motor torque
+    at the wheel ``tau`` [N m], the speed ``omega`` [rad/s] and the integrated angle
+    ``angle`` [rad]."""
+
+    def __init__(self) -> None:
+        self.drive = 0.0
+        self.connected = 0.0
+        self.tau = 0.0
+        self.omega = 0.0
+        self.angle = 0.0
 
 
 class DiffDriveDynamics:
     """The robot's wheel, motor and chassis state and its update per physics step.
 
-    Attributes are named as in the module docstring. Parameters (fixed for a trial): ``mass``
-    [kg], ``inertia`` [kg m^2], ``half_track`` B/2 [m], ``r_l, r_r`` wheel radii [m], ``j_w``
-    wheel inertia [kg m^2], ``k_e`` [N m s/rad], ``tau_drive_*`` torque at drive 1 [N m],
-    ``tau_c_*`` breakaway and ``tau_run_*`` running friction [N m], ``time_constant`` [s],
-    ``n_wheel`` load per wheel [N], ``f_caster`` caster rolling resistance [N], ``mu_s, mu_d``
-    the floor's friction, ``creep`` [1], ``corner`` [rad], ``scrub_arm`` [m], ``scrub_phi``
-    [1/m], ``cells`` the friction patches' factors (or None) with ``cells_per_m`` [1/m] and
-    their origin ``cells_x0, cells_y0`` [m].
+    Parameters are keyword arguments named as in :class:`DynamicsParams` (kept in
+    :attr:`params`), with the friction patches' factors ``cells`` (or None), ``cells_per_m``
+    [1/m] and their origin ``cells_x0, cells_y0`` [m].
 
     State: pose ``x, y`` [m], ``yaw`` [rad]; world-frame velocity ``vwx, vwy`` [m/s] and yaw
-    rate ``wz`` [rad/s]; wheel speeds ``omega_l, omega_r`` [rad/s] and integrated angles
-    ``angle_l, angle_r`` [rad]; motor torques at the wheel ``tau_l, tau_r`` [N m]; ``slipping``
-    (a tyre slid in the last step); the body-frame specific force ``accel_x, accel_y``
-    [m/s^2] of the last step, for the IMU; ``in_space`` (pymunk integrated the last step);
-    ``mu_scale``, None or a factor per wheel (left, right) on the floor's friction under it.
+    rate ``wz`` [rad/s]; each wheel's :class:`WheelState` in :attr:`left` and :attr:`right`,
+    also as ``omega_l, omega_r`` [rad/s], ``angle_l, angle_r`` [rad], the motor torques at the
+    wheel ``tau_l, tau_r`` [N m]; ``slipping`` (a tyre slid in the last step); the body-frame
+    specific force ``accel_x, accel_y`` [m/s^2] of the last step, for the IMU; ``in_space``
+    (pymunk integrated the last step); ``mu_scale``, None or a factor per wheel (left, right)
+    on the floor's friction under it.
 
-    Inputs: the H-bridge output per wheel, ``drive_l, drive_r`` (signed supply fraction) and
-    ``connected_l, connected_r`` (fraction of time the windings are connected).
+    Inputs: the H-bridge output per wheel, ``left.drive, right.drive`` (signed supply
+    fraction) and ``left.connected, right.connected`` (fraction of time the windings are
+    connected).
 
     Sums for the IMU: ``sum_accel_x, sum_accel_y, sum_wz`` add up the specific force and the
     yaw rate after each step (:meth:`record`); ``free_budget_m`` is what is left of the free
@@ -128,34 +224,33 @@ class DiffDriveDynamics:
         cells_x0: float = 0.0,
         cells_y0: float = 0.0,
     ) -> None:
-        self.mass = mass
-        self.inertia = inertia
-        self.half_track = half_track
-        self.r_l = r_l
-        self.r_r = r_r
-        self.j_w = j_w
-        self.k_e = k_e
-        self.tau_drive_l = tau_drive_l
-        self.tau_drive_r = tau_drive_r
-        self.tau_c_l = tau_c_l
-        self.tau_c_r = tau_c_r
-        self.tau_run_l = tau_run_l
-        self.tau_run_r = tau_run_r
-        self.time_constant = time_constant
-        self.n_wheel = n_wheel
-        self.f_caster = f_caster
-        self.mu_s = mu_s
-        self.mu_d = mu_d
-        self.creep = creep
-        self.corner = corner
-        self.scrub_arm = scrub_arm
-        self.scrub_phi = scrub_phi
-        self.cells = cells
-        self.cells_n = len(cells) if cells is not None else 0
-        self.cells_per_m = cells_per_m
-        self.cells_x0 = cells_x0
-        self.cells_y0 = cells_y0
-
+        self.params = DynamicsParams(
+            mass=mass,
+            inertia=inertia,
+            half_track=half_track,
+            r_l=r_l,
+            r_r=r_r,
+            j_w=j_w,
+            k_e=k_e,
+            tau_drive_l=tau_drive_l,
+            tau_drive_r=tau_drive_r,
+            tau_c_l=tau_c_l,
+            tau_c_r=tau_c_r,
+            tau_run_l=tau_run_l,
+            tau_run_r=tau_run_r,
+            time_constant=time_constant,
+            n_wheel=n_wheel,
+            f_caster=f_caster,
+            mu_s=mu_s,
+            mu_d=mu_d,
+            creep=creep,
+            corner=corner,
+            scrub_arm=scrub_arm,
+            scrub_phi=scrub_phi,
+            floor=None if cells is None else FrictionCells(cells, cells_per_m, cells_x0, cells_y0),
+        )
+        self.left = WheelState()
+        self.right = WheelState()
         self.x = 0.0
         self.y = 0.0
         self.yaw = 0.0
@@ -163,53 +258,15 @@ class DiffDriveDynamics:
         self.vwy = 0.0
         self.wz = 0.0
         self.in_space = False
-        self.omega_l = 0.0
-        self.omega_r = 0.0
-        self.angle_l = 0.0
-        self.angle_r = 0.0
-        self.tau_l = 0.0
-        self.tau_r = 0.0
         self.slipping = False
         self.mu_scale: tuple[float, float] | None = None
         self.accel_x = 0.0
         self.accel_y = 0.0
-        self.drive_l = 0.0
-        self.connected_l = 0.0
-        self.drive_r = 0.0
-        self.connected_r = 0.0
         self.sum_accel_x = 0.0
         self.sum_accel_y = 0.0
         self.sum_wz = 0.0
         self.free_budget_m = 0.0
-
-        # per-step constants, for the step dt they were made for (see _constants)
-        self._const_dt = -1.0
-        self._alpha = 0.0  # motor lag per step
-        self._d = 0.0  # coupling of a wheel force to its own contact
-        self._o = 0.0  # ... and to the other wheel's contact
-        self._a_free_l = 0.0
-        self._a_free_r = 0.0
-        self._lim_s = 0.0
-        self._lim_d = 0.0
-        self._creep_k = 0.0  # slip per dt per N, per m/s
-        self._corner_k = 0.0
-        self._i_dt = 0.0
-
-    def _constants(self, dt: float) -> None:
-        """Per-step constants (dt is fixed for a run; recomputed only when it changes)."""
-        tc = self.time_constant
-        h2i = self.half_track * self.half_track / self.inertia
-        self._alpha = 1.0 - math.exp(-dt / tc) if tc > 0 else 1.0
-        self._d = 1.0 / self.mass + h2i
-        self._o = 1.0 / self.mass - h2i
-        self._a_free_l = self.r_l * self.r_l / self.j_w
-        self._a_free_r = self.r_r * self.r_r / self.j_w
-        self._lim_s = self.mu_s * self.n_wheel
-        self._lim_d = self.mu_d * self.n_wheel
-        self._creep_k = self.creep / (self.n_wheel * dt)
-        self._corner_k = self.corner / (2.0 * self.n_wheel)
-        self._i_dt = self.inertia / dt
-        self._const_dt = dt
+        self._k: StepConstants | None = None  # for the step dt they were made for
 
     def step_forces(self, dt: float) -> None:
         """Update wheel speeds and the chassis velocity for one step of ``dt`` [s] under the
@@ -220,49 +277,95 @@ class DiffDriveDynamics:
         dt : float
             The physics step [s].
         """
-        if self._const_dt != dt:
-            self._constants(dt)
-        alpha, d, o = self._alpha, self._d, self._o
-        a_free_l, a_free_r, lim_s, lim_d = self._a_free_l, self._a_free_r, self._lim_s, self._lim_d
+        k = self._k
+        if k is None or k.dt != dt:
+            k = self._k = StepConstants(self.params, dt)
+        p, left, right = self.params, self.left, self.right
         yaw = self.yaw
         c, s = math.cos(yaw), math.sin(yaw)
         vwx, vwy, wz = self.vwx, self.vwy, self.wz
         vx = c * vwx + s * vwy
         vy = -s * vwx + c * vwy
-        h, m, jw = self.half_track, self.mass, self.j_w
-        r_l, r_r = self.r_l, self.r_r
-        om_l, om_r = self.omega_l, self.omega_r
-        tc_l, tc_r = self.tau_c_l, self.tau_c_r
-        tr_l, tr_r = self.tau_run_l, self.tau_run_r
-        k_e = self.k_e
+        h, m = p.half_track, p.mass
+        om_l, om_r = left.omega, right.omega
 
-        # motor torque: first-order lag towards the torque-speed line
-        tau_l = self.tau_l
-        tau_l += (self.tau_drive_l * self.drive_l - k_e * om_l * self.connected_l - tau_l) * alpha
-        tau_r = self.tau_r
-        tau_r += (self.tau_drive_r * self.drive_r - k_e * om_r * self.connected_r - tau_r) * alpha
-        self.tau_l = tau_l
-        self.tau_r = tau_r
-
+        k_e, alpha = p.k_e, k.alpha
+        tau_l = left.tau
+        tau_l += (p.tau_drive_l * left.drive - k_e * om_l * left.connected - tau_l) * alpha
+        tau_r = right.tau
+        tau_r += (p.tau_drive_r * right.drive - k_e * om_r * right.connected - tau_r) * alpha
+        left.tau = tau_l
+        right.tau = tau_r
         # gearbox: locked while the motor cannot break it free
-        free_l = abs(om_l) > STICK_RAD_S or abs(tau_l) > tc_l
-        free_r = abs(om_r) > STICK_RAD_S or abs(tau_r) > tc_r
+        free_l = abs(om_l) > STICK_RAD_S or abs(tau_l) > p.tau_c_l
+        free_r = abs(om_r) > STICK_RAD_S or abs(tau_r) > p.tau_c_r
 
-        # friction under each wheel
+        limits = self._friction_limits(k, c, s)
+        # caster rolling resistance, smooth through zero; tyre scrub against the yaw rate
+        f_c = -p.f_caster * tanh(vx / 0.005)
+        v_pred = vx + dt * f_c / m
+        wz_pred = self._scrubbed_yaw_rate(k, vx, wz, limits)
+        f_l, f_r, slipping, free_l, free_r = self._traction(
+            k, dt, v_pred, wz_pred, free_l, free_r, limits
+        )
+        jw = p.j_w
+        if free_l:
+            net = tau_l - f_l * p.r_l
+            new = om_l + dt * (net - math.copysign(p.tau_run_l, om_l if om_l else net)) / jw
+            if om_l and new * om_l < 0 and abs(net) <= p.tau_c_l:
+                new = 0.0  # Coulomb friction stops the wheel; it does not reverse it
+            om_l = new
+        else:
+            om_l = 0.0
+        if free_r:
+            net = tau_r - f_r * p.r_r
+            new = om_r + dt * (net - math.copysign(p.tau_run_r, om_r if om_r else net)) / jw
+            if om_r and new * om_r < 0 and abs(net) <= p.tau_c_r:
+                new = 0.0
+            om_r = new
+        else:
+            om_r = 0.0
+        left.omega = om_l
+        right.omega = om_r
+        left.angle += om_l * dt
+        right.angle += om_r * dt
+
+        # chassis: longitudinal and yaw from the wheel forces, lateral grip at the axle
+        vx_new = vx + dt * (f_l + f_r + f_c) / m
+        wz_new = wz_pred + dt * (f_r - f_l) * h / p.inertia
+        if p.corner > 0.0:  # the slip angle the lateral force needs, implicit in v_y
+            ref = abs(vx)
+            ref = ref if ref > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S
+            f_lat = -vy / (dt / m + k.corner_k * ref)
+        else:
+            f_lat = -m * vy / dt
+        lim_s_l, lim_d_l, lim_s_r, lim_d_r = limits
+        cap = cone(lim_s_l, f_l) + cone(lim_s_r, f_r)
+        if abs(f_lat) > cap:
+            f_lat = math.copysign(cone(lim_d_l, f_l) + cone(lim_d_r, f_r), f_lat)
+            slipping = True
+        self.slipping = slipping
+        vy_new = vy + dt * f_lat / m
+        self.accel_x = (vx_new - vx) / dt - wz * vy
+        self.accel_y = (vy_new - vy) / dt + wz * vx
+        self.vwx = c * vx_new - s * vy_new
+        self.vwy = s * vx_new + c * vy_new
+        self.wz = wz_new
+
+    def _friction_limits(self, k: StepConstants, c: float, s: float) -> Limits:
+        """The friction limits under each wheel: the floor's, times its patch under the wheel
+        (at heading cos ``c``, sin ``s``) and a ``wheel_slip`` fault's factor."""
+        lim_s, lim_d = k.lim_s, k.lim_d
         lim_s_l = lim_s
         lim_s_r = lim_s
         lim_d_l = lim_d
         lim_d_r = lim_d
-        cells = self.cells
-        if cells is not None:  # FrictionField.factor under each wheel, inline
-            n, per_m = self.cells_n, self.cells_per_m
-            x0, y0, sh, ch = self.cells_x0, self.cells_y0, s * h, c * h
-            k_l = cells[math.floor((self.x - sh - x0) * per_m) % n][
-                math.floor((self.y + ch - y0) * per_m) % n
-            ]
-            k_r = cells[math.floor((self.x + sh - x0) * per_m) % n][
-                math.floor((self.y - ch - y0) * per_m) % n
-            ]
+        floor = self.params.floor
+        if floor is not None:
+            h = self.params.half_track
+            sh, ch = s * h, c * h
+            k_l = floor.factor(self.x - sh, self.y + ch)
+            k_r = floor.factor(self.x + sh, self.y - ch)
             lim_s_l, lim_d_l = lim_s * k_l, lim_d * k_l
             lim_s_r, lim_d_r = lim_s * k_r, lim_d * k_r
         mu_scale = self.mu_scale
@@ -270,37 +373,62 @@ class DiffDriveDynamics:
             k_l, k_r = mu_scale
             lim_s_l, lim_d_l = lim_s_l * k_l, lim_d_l * k_l
             lim_s_r, lim_d_r = lim_s_r * k_r, lim_d_r * k_r
+        return lim_s_l, lim_d_l, lim_s_r, lim_d_r
 
-        # caster rolling resistance, smooth through zero; tyre scrub against the yaw rate
-        f_c = -self.f_caster * math.tanh(vx / 0.005)
-        v_pred = vx + dt * f_c / m
-        wz_pred = wz
-        if self.scrub_arm > 0.0 and wz:
-            phi = self.scrub_phi
-            if phi > 0.0:  # the unsaturated share: each wheel's path curvature / phi_sat
-                w = abs(wz)
-                v_l, v_r = abs(vx - h * wz), abs(vx + h * wz)
-                v_l = V_CREEP_MIN_M_S if V_CREEP_MIN_M_S > v_l else v_l  # max(v_l, V_CREEP_MIN)
-                v_r = V_CREEP_MIN_M_S if V_CREEP_MIN_M_S > v_r else v_r
-                m_l = lim_d_l * math.tanh(w / (v_l * phi))
-                m_r = lim_d_r * math.tanh(w / (v_r * phi))
-                m_z = self.scrub_arm * (m_l + m_r)
-            else:
-                m_z = self.scrub_arm * (lim_d_l + lim_d_r)
-            stop = self._i_dt * abs(wz)
-            wz_pred = 0.0 if m_z >= stop else wz - math.copysign(m_z, wz) / self._i_dt
-        net_l = tau_l - math.copysign(tr_l, om_l if om_l else tau_l)
-        net_r = tau_r - math.copysign(tr_r, om_r if om_r else tau_r)
+    def _scrubbed_yaw_rate(self, k: StepConstants, vx: float, wz: float, limits: Limits) -> float:
+        """Step 5: the yaw rate ``wz`` less what the scrub moment takes in a step (at most all
+        of it), at forward speed ``vx``."""
+        p = self.params
+        if not (p.scrub_arm > 0.0 and wz):
+            return wz
+        lim_d_l, lim_d_r = limits[1], limits[3]
+        phi = p.scrub_phi
+        if phi > 0.0:  # the unsaturated share: each wheel's path curvature / phi_sat
+            h = p.half_track
+            w = abs(wz)
+            v_l, v_r = abs(vx - h * wz), abs(vx + h * wz)
+            v_l = V_CREEP_MIN_M_S if V_CREEP_MIN_M_S > v_l else v_l  # max(v_l, V_CREEP_MIN)
+            v_r = V_CREEP_MIN_M_S if V_CREEP_MIN_M_S > v_r else v_r
+            m_l = lim_d_l * tanh(w / (v_l * phi))
+            m_r = lim_d_r * tanh(w / (v_r * phi))
+            m_z = p.scrub_arm * (m_l + m_r)
+        else:
+            m_z = p.scrub_arm * (lim_d_l + lim_d_r)
+        stop = k.i_dt * abs(wz)
+        return 0.0 if m_z >= stop else wz - math.copysign(m_z, wz) / k.i_dt
+
+    def _traction(
+        self,
+        k: StepConstants,
+        dt: float,
+        v_pred: float,
+        wz_pred: float,
+        free_l: bool,
+        free_r: bool,
+        limits: Limits,
+    ) -> tuple[float, float, bool, bool, bool]:
+        """Step 3: the ground forces ``F_L, F_R`` [N] that leave each wheel's contact the
+        slip its creep allows, given the chassis' speed ``v_pred`` and yaw rate ``wz_pred``
+        after the caster and scrub; whether a tyre slides, and which gearboxes turn (a locked
+        wheel breaks free when the ground back-drives it past stiction)."""
+        p, left, right = self.params, self.left, self.right
+        h, jw, r_l, r_r = p.half_track, p.j_w, p.r_l, p.r_r
+        om_l, om_r, tau_l, tau_r = left.omega, right.omega, left.tau, right.tau
+        tc_l, tc_r = p.tau_c_l, p.tau_c_r
+        d, o, a_free_l, a_free_r = k.d, k.o, k.a_free_l, k.a_free_r
+        lim_s_l, lim_d_l, lim_s_r, lim_d_r = limits
+        net_l = tau_l - math.copysign(p.tau_run_l, om_l if om_l else tau_l)
+        net_r = tau_r - math.copysign(p.tau_run_r, om_r if om_r else tau_r)
         cl_l = 0.0  # creep: slip per unit force, per dt
         cl_r = 0.0
-        if self.creep > 0.0:  # reference speed: the larger of rim and ground speed
+        if p.creep > 0.0:  # reference speed: the larger of rim and ground speed
             ref_l, g = abs(om_l * r_l), abs(v_pred - h * wz_pred)
             ref_l = g if g > ref_l else ref_l
             ref_r, g = abs(om_r * r_r), abs(v_pred + h * wz_pred)
             ref_r = g if g > ref_r else ref_r
-            k = self._creep_k
-            cl_l = k * (ref_l if ref_l > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S)
-            cl_r = k * (ref_r if ref_r > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S)
+            creep_k = k.creep_k
+            cl_l = creep_k * (ref_l if ref_l > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S)
+            cl_r = creep_k * (ref_r if ref_r > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S)
         f_l = f_r = 0.0
         slip_l = slip_r = False
         while True:
@@ -331,50 +459,61 @@ class DiffDriveDynamics:
                 break
             free_l = free_l or unlock_l
             free_r = free_r or unlock_r
+        return f_l, f_r, slip_l or slip_r, free_l, free_r
 
-        slipping = slip_l or slip_r
-        # wheels: running friction while turning; stopped unless the torque breaks stiction
-        if free_l:
-            net = tau_l - f_l * r_l
-            new = om_l + dt * (net - math.copysign(tr_l, om_l if om_l else net)) / jw
-            if om_l and new * om_l < 0 and abs(net) <= tc_l:
-                new = 0.0  # Coulomb friction stops the wheel; it does not reverse it
-            om_l = new
-        else:
-            om_l = 0.0
-        if free_r:
-            net = tau_r - f_r * r_r
-            new = om_r + dt * (net - math.copysign(tr_r, om_r if om_r else net)) / jw
-            if om_r and new * om_r < 0 and abs(net) <= tc_r:
-                new = 0.0
-            om_r = new
-        else:
-            om_r = 0.0
-        self.omega_l = om_l
-        self.omega_r = om_r
-        self.angle_l += om_l * dt
-        self.angle_r += om_r * dt
+    @property
+    def omega_l(self) -> float:
+        """The left wheel's speed [rad/s] (``left.omega``)."""
+        return self.left.omega
 
-        # chassis: longitudinal and yaw from the wheel forces, lateral grip at the axle
-        vx_new = vx + dt * (f_l + f_r + f_c) / m
-        wz_new = wz_pred + dt * (f_r - f_l) * h / self.inertia
-        if self.corner > 0.0:  # the slip angle the lateral force needs, implicit in v_y
-            ref = abs(vx)
-            ref = ref if ref > V_CREEP_MIN_M_S else V_CREEP_MIN_M_S
-            f_lat = -vy / (dt / m + self._corner_k * ref)
-        else:
-            f_lat = -m * vy / dt
-        cap = cone(lim_s_l, f_l) + cone(lim_s_r, f_r)
-        if abs(f_lat) > cap:
-            f_lat = math.copysign(cone(lim_d_l, f_l) + cone(lim_d_r, f_r), f_lat)
-            slipping = True
-        self.slipping = slipping
-        vy_new = vy + dt * f_lat / m
-        self.accel_x = (vx_new - vx) / dt - wz * vy
-        self.accel_y = (vy_new - vy) / dt + wz * vx
-        self.vwx = c * vx_new - s * vy_new
-        self.vwy = s * vx_new + c * vy_new
-        self.wz = wz_new
+    @omega_l.setter
+    def omega_l(self, value: float) -> None:
+        self.left.omega = value
+
+    @property
+    def angle_l(self) -> float:
+        """The left wheel's integrated angle [rad] (``left.angle``)."""
+        return self.left.angle
+
+    @angle_l.setter
+    def angle_l(self, value: float) -> None:
+        self.left.angle = value
+
+    @property
+    def tau_l(self) -> float:
+        """The left wheel's motor torque at the wheel [N m] (``left.tau``)."""
+        return self.left.tau
+
+    @tau_l.setter
+    def tau_l(self, value: float) -> None:
+        self.left.tau = value
+
+    @property
+    def omega_r(self) -> float:
+        """The right wheel's speed [rad/s] (``right.omega``)."""
+        return self.right.omega
+
+    @omega_r.setter
+    def omega_r(self, value: float) -> None:
+        self.right.omega = value
+
+    @property
+    def angle_r(self) -> float:
+        """The right wheel's integrated angle [rad] (``right.angle``)."""
+        return self.right.angle
+
+    @angle_r.setter
+    def angle_r(self, value: float) -> None:
+        self.right.angle = value
+
+    @property
+    def tau_r(self) -> float:
+        """The right wheel's motor torque at the wheel [N m] (``right.tau``)."""
+        return self.right.tau
+
+    @tau_r.setter
+    def tau_r(self, value: float) -> None:
+        self.right.tau = value
 
     def step_free(self, dt: float) -> None:
         """The step pymunk would take in free space: p += v dt, yaw += omega dt.
@@ -413,8 +552,8 @@ class DiffDriveDynamics:
                     self.vwx,
                     self.vwy,
                     self.wz,
-                    self.omega_l,
-                    self.omega_r,
+                    self.left.omega,
+                    self.right.omega,
                 )
             )
 
@@ -477,7 +616,7 @@ class DiffDriveDynamics:
             self.sum_accel_y += self.accel_y
             self.sum_wz += wz
             if truth is not None:
-                truth.append((step, x, y, yaw, vwx, vwy, wz, self.omega_l, self.omega_r))
+                truth.append((step, x, y, yaw, vwx, vwy, wz, self.left.omega, self.right.omega))
             if step * dt + 1e-9 >= scan_s:
                 break
         self.free_budget_m = budget_m

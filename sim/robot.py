@@ -202,8 +202,8 @@ class DiffDriveRobot:
             Each motor's drive.
         """
         model = self.model
-        model.drive_l, model.connected_l = left.drive, left.connected
-        model.drive_r, model.connected_r = right.drive, right.connected
+        model.left.drive, model.left.connected = left.drive, left.connected
+        model.right.drive, model.right.connected = right.drive, right.connected
 
     def sync_body(self) -> None:
         """Copy the float state into the pymunk body (before pymunk takes over)."""

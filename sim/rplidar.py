@@ -69,6 +69,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -117,6 +118,7 @@ __all__ = [
     "QUALITY_RETURN",
     "TWIN_HEALTH",
     "TWIN_INFO",
+    "DeviceAnswers",
     "RplidarEmulator",
     "ranges_at",
 ]
@@ -335,6 +337,100 @@ class _SampleStream:
         return b"".join(out)
 
 
+class _BeamScan:
+    """SCAN with the twin's own beams: ``spec.beams`` standard nodes a revolution in the order
+    the head meets them, quality :data:`QUALITY_RETURN` for a return and 0 with distance 0
+    for none, S on the first. A revolution goes out with the next one's S node (measured as
+    the head passes 0 deg at its end), so the host sees it complete at once."""
+
+    samples = 0  # no samples at a mode's own rate: a revolution is the beams
+    edge_dropouts = 0
+
+    def __init__(self, spec: LidarSpec) -> None:
+        # node j of a turn is beam _order[j]: headings clockwise from 0 deg, ascending
+        angles = spec.angle_min_rad + np.arange(spec.beams) * spec.angle_increment_rad
+        heading_rad = np.mod(-angles, 2.0 * math.pi)
+        self._order = np.argsort(heading_rad, kind="stable")
+        q6 = np.rint(np.degrees(heading_rad[self._order]) * 64.0).astype(np.int64)
+        self._angle_q6 = np.mod(q6, 360 * 64)
+        self._start = np.zeros(spec.beams, dtype=bool)
+        self._start[0] = True
+        self._own_start_node = True  # the next revolution must carry its own S node
+
+    def revolution(self, end_s: float, ranges_m: F64Array) -> bytes:
+        """The wire bytes of the revolution ending at ``end_s``: its nodes (its S node went out
+        with the previous turn, unless that was dropped), then the next turn's S node."""
+        r = ranges_m[self._order]
+        ok = np.isfinite(r) & (r > 0.0)
+        distance_q2 = np.zeros(len(r), dtype=np.int64)
+        distance_q2[ok] = np.clip(np.rint(r[ok] * 4000.0), 1, 0xFFFF)
+        quality = np.where(distance_q2 > 0, QUALITY_RETURN, 0)
+        nodes = encode_nodes(self._start, quality, self._angle_q6, distance_q2)
+        body = nodes if self._own_start_node else nodes[NODE_BYTES:]
+        self._own_start_node = False
+        return body + nodes[:NODE_BYTES]
+
+    def lose(self, end_s: float) -> None:
+        """The revolution ending at ``end_s`` was lost: nothing is sent, and the S node already
+        sent starts the next revolution the host sees."""
+
+    def restart(self) -> None:
+        """What was sent did not reach the line: the next revolution carries its own S node."""
+        self._own_start_node = True
+
+
+@dataclass(frozen=True)
+class DeviceAnswers:
+    """What the emulated device says about itself.
+
+    Attributes
+    ----------
+    info : DeviceInfo
+        The GET_INFO answer.
+    health : DeviceHealth
+        The GET_HEALTH answer.
+    modes : tuple of ScanMode
+        The scan modes GET_LIDAR_CONF describes and EXPRESS_SCAN runs (ids 0, 1, ...; mode 0
+        is SCAN's).
+    typical_mode : int
+        The id GET_LIDAR_CONF's SCAN_MODE_TYPICAL answers.
+    """
+
+    info: DeviceInfo
+    health: DeviceHealth
+    modes: tuple[ScanMode, ...]
+    typical_mode: int
+
+    def __post_init__(self) -> None:
+        if not self.modes or any(m.id != i for i, m in enumerate(self.modes)):
+            raise ValueError("scan modes need ids 0, 1, ... in order")
+        if not 0 <= self.typical_mode < len(self.modes):
+            raise ValueError(
+                f"typical mode {self.typical_mode} is not one of the {len(self.modes)} modes"
+            )
+
+    def with_standard(self, us_per_sample_q8: int) -> DeviceAnswers:
+        """The same answers with mode 0 (Standard, SCAN's) at another sample time [us * 256]."""
+        m0 = self.modes[0]
+        standard = ScanMode(0, m0.name, us_per_sample_q8, m0.max_distance_q8, m0.answer_type)
+        return replace(self, modes=(standard, *self.modes[1:]))
+
+    @property
+    def legacy_express(self) -> ScanMode | None:
+        """The mode EXPRESS_SCAN's working mode 0 (the legacy express scan) runs: the first
+        with legacy capsules (Express on the A1M8)."""
+        return next((m for m in self.modes if m.answer_type == DataType.MEASUREMENT_CAPSULED), None)
+
+    @property
+    def sample_rate(self) -> SampleRate:
+        """The GET_SAMPLERATE answer: mode 0's and the legacy express scan's sample times
+        [us]."""
+        express = self.legacy_express
+        return SampleRate(
+            round(self.modes[0].us_per_sample), round((express or self.modes[0]).us_per_sample)
+        )
+
+
 class RplidarEmulator:
     """An RPLIDAR A1M8 (firmware 1.29) behind a pty, driven by the twin's loop in simulation time.
 
@@ -361,8 +457,11 @@ class RplidarEmulator:
     ----------
     path : str
         The pty the host opens.
+    device : DeviceAnswers
+        What it answers about itself: ``info``, ``health``, ``modes`` (mode 0 at the twin's
+        beam time unless ``device_standard_scan``), ``typical_mode`` and ``sample_rate``.
     modes : tuple of ScanMode
-        The modes as answered (mode 0 at the twin's beam time unless ``device_standard_scan``).
+        The modes as answered (``device.modes``).
     sample_rate : SampleRate
         The GET_SAMPLERATE answer: mode 0's and the legacy express scan's sample times [us].
     scanning : bool
@@ -391,44 +490,19 @@ class RplidarEmulator:
         typical_mode: int = A1M8_TYPICAL_MODE,
         device_standard_scan: bool = True,
     ) -> None:
-        self.spec = spec if spec is not None else LidarSpec()
-        self.info = info
-        self.health = health
-        if not modes or any(m.id != i for i, m in enumerate(modes)):
-            raise ValueError("scan modes need ids 0, 1, ... in order")
-        if not 0 <= typical_mode < len(modes):
-            raise ValueError(f"typical mode {typical_mode} is not one of the {len(modes)} modes")
-        spec = self.spec
+        self.spec = spec = spec if spec is not None else LidarSpec()
+        device = DeviceAnswers(info, health, modes, typical_mode)
         self.device_standard_scan = device_standard_scan
-        if not device_standard_scan:
-            beam_q8 = round(spec.time_increment_s * 1e6 * Q8)
-            m0 = modes[0]
-            modes = (ScanMode(0, m0.name, beam_q8, m0.max_distance_q8, m0.answer_type), *modes[1:])
-        self.modes = modes
-        self.typical_mode = typical_mode
+        if not device_standard_scan:  # Standard reported at the twin's beam time
+            device = device.with_standard(round(spec.time_increment_s * 1e6 * Q8))
+        self.device = device
         self.link = PtyLink(link)
-        self.path = self.link.path
         self._requests = RequestDecoder()
-        # node j of a turn is beam _order[j]: headings clockwise from 0 deg, ascending
-        angles = spec.angle_min_rad + np.arange(spec.beams) * spec.angle_increment_rad
-        heading_rad = np.mod(-angles, 2.0 * math.pi)
-        self._order = np.argsort(heading_rad, kind="stable")
-        q6 = np.rint(np.degrees(heading_rad[self._order]) * 64.0).astype(np.int64)
-        self._angle_q6 = np.mod(q6, 360 * 64)
-        self._start = np.zeros(spec.beams, dtype=bool)
-        self._start[0] = True
-        express = next((m for m in modes if m.answer_type == DataType.MEASUREMENT_CAPSULED), None)
-        self._legacy_express = express
-        self.sample_rate = SampleRate(
-            round(modes[0].us_per_sample),
-            round((express or modes[0]).us_per_sample),
-        )
         self.scanning = False
         self.scan_mode: ScanMode | None = None
-        self._stream: _SampleStream | None = None  # None: SCAN with the twin's beams
+        self._stream: _SampleStream | _BeamScan | None = None
         self._next_turn = 0  # index k of the next revolution to end, at k * scan_period_s
         self._turns_scheduled = 0  # revolutions that ended since the scan (re)started
-        self._own_start_node = True  # the next revolution must carry its own S node
         self._inject: deque[bytes] = deque()
         self.requests = 0
         self.ignored_requests = 0
@@ -440,6 +514,21 @@ class RplidarEmulator:
     def fileno(self) -> int:
         """The pty's master descriptor (for a selector)."""
         return self.link.fileno()
+
+    @property
+    def path(self) -> str:
+        """The pty the host opens."""
+        return self.link.path
+
+    @property
+    def modes(self) -> tuple[ScanMode, ...]:
+        """The scan modes as answered (``device.modes``)."""
+        return self.device.modes
+
+    @property
+    def sample_rate(self) -> SampleRate:
+        """The GET_SAMPLERATE answer (``device.sample_rate``)."""
+        return self.device.sample_rate
 
     # ------------------------------------------------------------------ requests
 
@@ -473,26 +562,29 @@ class RplidarEmulator:
             self.ignored_requests += 1
             return
         self.scanning = False  # any request ends a scan (the device's request state)
+        device = self.device
         if command == Command.GET_HEALTH:
-            self.link.write(response(self.health))
+            self.link.write(response(device.health))
         elif command == Command.GET_INFO:
-            self.link.write(response(self.info))
+            self.link.write(response(device.info))
         elif command == Command.GET_SAMPLERATE:
-            self.link.write(response(self.sample_rate))
+            self.link.write(response(device.sample_rate))
         elif command == Command.GET_LIDAR_CONF:
             query = decode_lidar_conf_query(req.payload)
-            conf = None if query is None else scan_mode_conf(query, self.modes, self.typical_mode)
+            conf = (
+                None if query is None else scan_mode_conf(query, device.modes, device.typical_mode)
+            )
             if conf is None:
                 self.ignored_requests += 1
             else:
                 self.link.write(lidar_conf_response(conf))
         elif command in (Command.SCAN, Command.FORCE_SCAN):
-            self._start_scan(self.modes[0], t_s)
+            self._start_scan(device.modes[0], t_s)
         elif command == Command.EXPRESS_SCAN:
             working_mode = decode_express_scan(req.payload).working_mode
-            mode = self._legacy_express if working_mode == 0 else None
-            if 0 < working_mode < len(self.modes):
-                mode = self.modes[working_mode]
+            mode = device.legacy_express if working_mode == 0 else None
+            if 0 < working_mode < len(device.modes):
+                mode = device.modes[working_mode]
             if mode is None or mode.answer_type not in CAPSULE_FORMATS:
                 self.ignored_requests += 1
                 return
@@ -510,11 +602,10 @@ class RplidarEmulator:
         """The scan's revolutions from the first that begins at or after ``t_s``."""
         period = self.spec.scan_period_s
         self._next_turn = math.ceil(t_s / period - TIME_TOLERANCE_S) + 1
-        self._own_start_node = True
         self._turns_scheduled = 0
         device_rate = mode.answer_type in CAPSULE_FORMATS or self.device_standard_scan
         t0_s = (self._next_turn - 1) * period
-        self._stream = _SampleStream(self.spec, mode, t0_s) if device_rate else None
+        self._stream = _SampleStream(self.spec, mode, t0_s) if device_rate else _BeamScan(self.spec)
 
     def resume(self, t_s: float) -> None:
         """Go on with the running scan on another clock from ``t_s``, as if it had been asked
@@ -579,6 +670,8 @@ class RplidarEmulator:
         """
         if not self.scanning:
             return 0
+        stream = self._stream
+        assert stream is not None  # scanning
         period = self.spec.scan_period_s
         ended = 0
         while self._next_turn * period <= t_s + TIME_TOLERANCE_S:
@@ -586,43 +679,22 @@ class RplidarEmulator:
             ranges = ranges_for_revolution(end_s)
             if ranges is None:
                 self.revolutions_lost += 1
-                if self._stream is not None:
-                    self._stream.lose(end_s)
+                stream.lose(end_s)
             else:
                 r = np.asarray(ranges, dtype=np.float64)
                 if r.shape != (self.spec.beams,):
                     raise ValueError(
                         f"a revolution needs {self.spec.beams} ranges, got shape {r.shape}"
                     )
-                if self._stream is None:
-                    self._write_turn(r)
-                else:
-                    self._write_stream(self._stream.revolution(end_s, r))
+                self._write(stream.revolution(end_s, r))
             self._next_turn += 1
             self._turns_scheduled += 1
             ended += 1
         return ended
 
-    def _write_turn(self, ranges_m: F64Array) -> None:
-        r = ranges_m[self._order]
-        ok = np.isfinite(r) & (r > 0.0)
-        distance_q2 = np.zeros(len(r), dtype=np.int64)
-        distance_q2[ok] = np.clip(np.rint(r[ok] * 4000.0), 1, 0xFFFF)
-        quality = np.where(distance_q2 > 0, QUALITY_RETURN, 0)
-        nodes = encode_nodes(self._start, quality, self._angle_q6, distance_q2)
-        # this turn's nodes (its S node went out with the previous turn, unless that was
-        # dropped), then the next turn's S node, measured now as the head passes 0 deg
-        body = nodes if self._own_start_node else nodes[NODE_BYTES:]
-        while self._inject:
-            self.link.write(self._inject.popleft())
-        if self.link.write(body + nodes[:NODE_BYTES]):
-            self.revolutions_written += 1
-            self._own_start_node = False
-        else:
-            self.revolutions_dropped += 1
-            self._own_start_node = True
-
-    def _write_stream(self, data: bytes) -> None:
+    def _write(self, data: bytes) -> None:
+        """One revolution's bytes onto the line, after any injected ones; dropped whole (and
+        counted) when the pty is full."""
         assert self._stream is not None
         while self._inject:
             self.link.write(self._inject.popleft())

@@ -29,7 +29,8 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from jackson.sim.pca9685 import CHANNELS, Pca9685
+from jackson.protocol.pca9685 import CHANNELS
+from jackson.sim.pca9685 import Pca9685
 
 LOGIC_HIGH_DUTY = 0.5  # a PCA9685 channel used as a logic input is high at duty >= 0.5
 

@@ -32,15 +32,15 @@ from typing import NamedTuple
 
 import numpy as np
 import pymunk
-from numpy.typing import NDArray
 
 from jackson.sim.config import ConfigError, RobotSpec, Sides, WorldSpec
 from jackson.sim.faults import FaultInjector, FaultSpec
-from jackson.sim.lidar import Lidar, LidarSpec
+from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 from jackson.sim.mcu import SensorSample
 from jackson.sim.physics import TruthRow
 from jackson.sim.robot import DiffDriveRobot, WheelDrive
 from jackson.sim.sensors import ImuModel, encoder_counts
+from jackson.sim.twin_scans import Scan, TwinScans
 from jackson.sim.world import FrictionField, World
 
 PHYSICS_HZ = 200
@@ -163,12 +163,37 @@ class Truth(NamedTuple):
     omega_right: float
 
 
-@dataclass(frozen=True)
-class Scan:
-    """One LiDAR scan taken at ``t_s`` (ranges in metres, inf for no return)."""
+class TruthLog:
+    """Ground truth at every physics step: the rows the physics model appends (pose and
+    world-frame velocity), turned into :class:`Truth` (body-frame twist) when first read.
 
-    t_s: float
-    ranges: NDArray[np.float32]
+    Parameters
+    ----------
+    dt : float
+        The physics step [s].
+    keep : bool
+        Keep the rows (False: :attr:`rows` is None and nothing is recorded).
+    """
+
+    def __init__(self, dt: float, keep: bool) -> None:
+        self.dt = dt
+        self.rows: list[TruthRow] | None = [] if keep else None
+        self._truth: list[Truth] = []
+
+    def read(self) -> list[Truth]:
+        """Every row so far as :class:`Truth`."""
+        raw = self.rows
+        done = len(self._truth)
+        if raw is not None and done < len(raw):
+            dt = self.dt
+            for steps, x, y, yaw, vwx, vwy, wz, om_l, om_r in raw[done:]:
+                c, s = math.cos(yaw), math.sin(yaw)
+                self._truth.append(
+                    Truth(
+                        steps * dt, x, y, yaw, c * vwx + s * vwy, -s * vwx + c * vwy, wz, om_l, om_r
+                    )
+                )
+        return self._truth
 
 
 class Twin:
@@ -197,9 +222,9 @@ class Twin:
     ----------
     faults : FaultInjector or None
         The faults at run time (None: no faults); ``faults.record()`` tells what they did.
-    scans_lost : int
-        Revolutions a ``lidar_dropout`` lost (not in :attr:`scans`; their instants are in
-        :attr:`lost_scans`).
+    lidar_scans : TwinScans
+        The LiDAR model and the scans it took (:attr:`scans`, :attr:`scans_taken`,
+        :attr:`lost_scans`, :attr:`scans_lost`).
     """
 
     def _check_start(self) -> None:
@@ -266,15 +291,7 @@ class Twin:
         self._pending: deque[tuple[float, WheelDrive, WheelDrive]] = deque()
         self._acc_sum = [0.0, 0.0, 0.0]
         self._acc_from_step = 0
-        self._raw_truth: list[TruthRow] = []
-        self._truth_cache: list[Truth] = []
-        self.record_truth = record_truth
-        # the newest scans (all of them with scan_history None: about 115 MB per hour);
-        # scans_taken counts every scan delivered, kept or not (a lost one is neither)
-        self.scans: deque[Scan] = deque(maxlen=scan_history)
-        self.scans_taken = 0
-        self.lost_scans: deque[float] = deque(maxlen=scan_history)  # when each was lost [s]
-        self.scans_lost = 0
+        self._truth_log = TruthLog(self.dt, record_truth)
         specs = (*robot.faults, *faults)
         self.faults = FaultInjector(specs, seed) if specs else None
         self._slip_steps: deque[int] = deque()
@@ -284,11 +301,11 @@ class Twin:
             self._slip_steps.extend(sorted({math.ceil(t / self.dt - 1e-6) for t in edges}))
             self._next_slip_step = self._slip_steps[0] if self._slip_steps else sys.maxsize
         use_lidar = robot.lidar.enabled if lidar is None else lidar
-        self._lidar = self._make_lidar() if use_lidar else None
-        self._next_scan_s = 0.0
-        if record_truth:
+        lidar_model = self._make_lidar() if use_lidar else None
+        self.lidar_scans = TwinScans(lidar_model, self.world.obstacles, scan_history)
+        if self._truth_log.rows is not None:
             r = self.robot
-            self._raw_truth.append((0, r.x, r.y, r.yaw, 0.0, 0.0, 0.0, 0.0, 0.0))
+            self._truth_log.rows.append((0, r.x, r.y, r.yaw, 0.0, 0.0, 0.0, 0.0, 0.0))
 
     def _make_lidar(self) -> Lidar:
         m = self.robot_spec.lidar
@@ -300,8 +317,6 @@ class Twin:
             mount_y_m=m.mount_y_m,
             mount_yaw_rad=m.mount_yaw_rad,
         )
-        self._obstacles = self.world.obstacles
-        self.scan_period_s = spec.scan_period_s
         return Lidar(spec, np.random.default_rng(self.rng.integers(1 << 62)))
 
     @property
@@ -311,6 +326,41 @@ class Twin:
     @property
     def t_us(self) -> int:
         return round(self.steps * 1_000_000 / round(1.0 / self.dt))
+
+    @property
+    def _lidar(self) -> Lidar | None:
+        """The LiDAR model (None: the twin has none)."""
+        return self.lidar_scans.lidar
+
+    @property
+    def _obstacles(self) -> Obstacles:
+        """The world's obstacles as the LiDAR sees them."""
+        return self.lidar_scans.obstacles
+
+    @property
+    def scan_period_s(self) -> float:
+        """Time between scans [s] (inf without a LiDAR)."""
+        return self.lidar_scans.period_s
+
+    @property
+    def scans(self) -> deque[Scan]:
+        """The newest scans (all of them with ``scan_history`` None)."""
+        return self.lidar_scans.kept
+
+    @property
+    def scans_taken(self) -> int:
+        """Every scan delivered, kept or not (a lost one is neither)."""
+        return self.lidar_scans.taken
+
+    @property
+    def lost_scans(self) -> deque[float]:
+        """When each scan a ``lidar_dropout`` lost was due [s]."""
+        return self.lidar_scans.lost
+
+    @property
+    def scans_lost(self) -> int:
+        """Revolutions a ``lidar_dropout`` lost (not in :attr:`scans`)."""
+        return self.lidar_scans.lost_count
 
     def command(self, left: WheelDrive, right: WheelDrive) -> None:
         """Set the H-bridge outputs; they reach the motors after the actuation latency."""
@@ -337,8 +387,9 @@ class Twin:
         end = self.steps + round(duration_s / dt)
         model, space, radius = self.robot.model, self.world.space, self._radius
         pending, world = self._pending, self.world
-        raw = self._raw_truth if self.record_truth else None
-        lidar = self._lidar is not None
+        raw = self._truth_log.rows
+        scans = self.lidar_scans
+        lidar = scans.lidar is not None
         steps = self.steps
         model.sum_accel_x = model.sum_accel_y = model.sum_wz = 0.0
         while steps < end:
@@ -355,7 +406,7 @@ class Twin:
                     min(end, world.next_check_step(steps, dt)),  # when a trigger may act
                     self._next_slip_step,
                     pending[0][0] if pending else math.inf,
-                    self._next_scan_s if lidar else math.inf,
+                    scans.next_s if lidar else math.inf,
                     radius,
                     self._free_budget,
                     raw,
@@ -367,12 +418,13 @@ class Twin:
                 self._step_near_obstacles(space, dt)
                 steps += 1
                 model.record(steps, raw)
-            if world.pending or (lidar and steps * dt + 1e-9 >= self._next_scan_s):
+            if world.pending or (lidar and steps * dt + 1e-9 >= scans.next_s):
                 self.steps = steps
                 if world.pending:
                     self._check_triggers()
-                if lidar and steps * dt + 1e-9 >= self._next_scan_s:
-                    self._take_scan()
+                if lidar and steps * dt + 1e-9 >= scans.next_s:
+                    r = self.robot
+                    scans.take(self.t_s, r.x, r.y, r.yaw, self.faults)
         self.steps = steps
         acc = self._acc_sum
         acc[0] += model.sum_accel_x
@@ -400,23 +452,17 @@ class Twin:
         )
         if fired:
             self._free_budget = -1.0
-        self._obstacles = self.world.obstacles  # a removal replaces it
+        self.lidar_scans.obstacles = self.world.obstacles  # a removal replaces it
 
     @property
     def truth_log(self) -> list[Truth]:
         """Ground truth at every physics step since the start (when recorded)."""
-        raw = self._raw_truth
-        done = len(self._truth_cache)
-        if done < len(raw):
-            dt = self.dt
-            for steps, x, y, yaw, vwx, vwy, wz, om_l, om_r in raw[done:]:
-                c, s = math.cos(yaw), math.sin(yaw)
-                self._truth_cache.append(
-                    Truth(
-                        steps * dt, x, y, yaw, c * vwx + s * vwy, -s * vwx + c * vwy, wz, om_l, om_r
-                    )
-                )
-        return self._truth_cache
+        return self._truth_log.read()
+
+    @property
+    def record_truth(self) -> bool:
+        """The ground truth of every physics step is kept (:attr:`truth_log`)."""
+        return self._truth_log.rows is not None
 
     def _step_near_obstacles(self, space: pymunk.Space, dt: float) -> None:
         robot = self.robot
@@ -430,22 +476,6 @@ class Twin:
                 return
         self._recheck -= 1
         robot.step_space(space, dt)
-
-    def _take_scan(self) -> None:
-        r = self.robot
-        assert self._lidar is not None
-        ranges = self._lidar.scan(r.x, r.y, r.yaw, self._obstacles)
-        self._next_scan_s += self.scan_period_s
-        if self.faults is not None:
-            spec = self._lidar.spec
-            faulty = self.faults.scan(self.t_s, ranges, spec.range_min_m, spec.range_max_m)
-            if faulty is None:
-                self.lost_scans.append(self.t_s)
-                self.scans_lost += 1
-                return
-            ranges = faulty
-        self.scans.append(Scan(self.t_s, ranges))
-        self.scans_taken += 1
 
     def truth(self) -> Truth:
         r = self.robot

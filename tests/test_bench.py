@@ -6,16 +6,19 @@ in the same run, and that the peers do the same work as ours.
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
+import subprocess
 import sys
-import types
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from jackson.benchmark import SUITES, print_table, run_suite, write_json
+from jackson.bench.report import print_table, write_json
+from jackson.bench.runner import run_suite
+from jackson.bench.suites import SUITES
 from jackson.common.bench import (
     BenchResult,
     interleaved_best,
@@ -94,17 +97,13 @@ def test_slices_of_different_counts_are_refused() -> None:
 def test_run_suite_records_the_machine_loop_beside_each_figure(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    suite = types.ModuleType("fake_bench_suite")
-
     def run(quick: bool) -> list[BenchResult]:
         return [
             BenchResult("fake.own_loop", 2.0, "x", 1.0, "higher", machine_loop_us=123.0),
             BenchResult("fake.no_loop", 0.5, "x", 1.0, "lower"),
         ]
 
-    suite.run = run  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "fake_bench_suite", suite)
-    monkeypatch.setitem(SUITES, "fake", "fake_bench_suite")
+    monkeypatch.setitem(SUITES, "fake", run)
     own, filled = run_suite("fake", quick=True)
     assert own.machine_loop_us == 123.0
     assert filled.machine_loop_us is not None and filled.machine_loop_us > 0.0
@@ -188,7 +187,7 @@ def test_pymunk_rays_see_the_room_as_the_lidar_model_does() -> None:
 def test_sil_figures_judge_the_run_against_the_robots_clock_and_the_command_against_its_runs() -> (
     None
 ):
-    from jackson.sil_bench import figures
+    from jackson.bench.sil import figures
 
     runs = [{"sim_s": 30.0, "wall_s": 2.0}, {"sim_s": 10.0, "wall_s": 0.5}]
     rtf, over = figures("maze", 5.0, runs, 30.0, 200.0, judged="nav")
@@ -214,3 +213,27 @@ def test_the_vectorised_peer_sees_the_room_as_the_lidar_model_does() -> None:
     cx, cy, _ = obstacles.circles[0]
     inside = numpy_rays(obstacles, float(cx), float(cy), angles[::90], 12.0)
     np.testing.assert_allclose(inside, cast((cx, cy), angles[::90], obstacles, 12.0), atol=1e-9)
+
+
+def test_naming_the_suites_loads_none_of_them() -> None:
+    """The registry names every suite without importing the code it measures, so the command
+    line lists the suites (``jackson bench --help``) as fast as before."""
+    code = (
+        "import sys, jackson.bench.suites as s; "
+        "print(sorted(k for k in sys.modules if k.startswith(('jackson.host', 'jackson.sim', "
+        "'jackson.experiments', 'jackson.protocol.bench', 'jackson.bench.'))"
+        " and k != 'jackson.bench.suites'))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_every_suite_runs_through_the_registry() -> None:
+    """Each entry is a function of ``quick`` (no module named by a string)."""
+    assert list(SUITES) == [
+        "protocol", "firmware", "twin", "lidar", "lockstep", "host", "daemon", "sil", "soak",
+        "campaign", "stage3", "ros",
+    ]  # fmt: skip
+    for name, suite in SUITES.items():
+        assert callable(suite), name
+        assert list(inspect.signature(suite).parameters) == ["quick"], name

@@ -14,6 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 MAPPING = {
     "jackson": "cli",
+    "jackson.bench": "bench",
     "jackson.common": "common",
     "jackson.protocol": "protocol",
     "jackson.host": "host",
@@ -22,18 +23,25 @@ MAPPING = {
     "jackson.experiments": "experiments",
 }
 FOLDERS = tuple(MAPPING.values())
-# the command-line modules (the top-level package, folder cli/): only cli/ may import them
+# the command-line modules and subpackages (the top-level package, folder cli/): only cli/
+# may import them
 CLI = tuple(
-    sorted(f"jackson.{p.stem}" for p in (ROOT / "cli").glob("*.py") if p.stem != "__init__")
+    sorted(
+        f"jackson.{p.stem}"
+        for p in (ROOT / "cli").iterdir()
+        if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()
+    )
 )
+BENCH = ("jackson.bench",)  # the benchmarks (folder bench/): they may import every layer
 LAB = ("jackson.calibration", "jackson.experiments")  # what runs on the twin and in the lab
 FORBIDDEN = {  # package folder -> packages it must never import
-    "common": ("jackson.protocol", "jackson.host", "jackson.sim", *LAB, *CLI),
-    "protocol": ("jackson.host", "jackson.sim", *LAB, *CLI),
-    "host": ("jackson.sim", *LAB, *CLI),
-    "sim": ("jackson.host", *LAB, *CLI),
-    "calibration": ("jackson.experiments", *CLI),
-    "experiments": CLI,
+    "common": ("jackson.protocol", "jackson.host", "jackson.sim", *LAB, *BENCH, *CLI),
+    "protocol": ("jackson.host", "jackson.sim", *LAB, *BENCH, *CLI),
+    "host": ("jackson.sim", *LAB, *BENCH, *CLI),
+    "sim": ("jackson.host", *LAB, *BENCH, *CLI),
+    "calibration": ("jackson.experiments", *BENCH, *CLI),
+    "experiments": (*BENCH, *CLI),
+    "bench": CLI,
 }
 
 
@@ -234,3 +242,137 @@ def test_every_error_of_the_project_is_a_jackson_error() -> None:
 
     assert len(bases) > 30
     assert [n for n in sorted(bases) if not reaches(n)] == []
+
+
+def test_every_benchmark_is_registered_by_an_import_in_code() -> None:
+    """``jackson bench``'s registry (bench/suites.py) reaches each suite through an import
+    statement, never a module named in a string; every suite module (``bench*.py`` beside a
+    layer's code, or a module of bench/ with a ``run``) is registered, and none sits in cli/."""
+    registry = ROOT / "bench" / "suites.py"
+    registered = {
+        node.module
+        for node in ast.walk(ast.parse(registry.read_text()))
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("jackson.")
+    }
+    suites = {
+        _module_name(p)
+        for folder in FOLDERS
+        if folder != "cli"  # its `jackson bench` command, checked below to hold no suite
+        for p in (ROOT / folder).rglob("*.py")
+        if p.stem == "bench" or p.stem.startswith("bench_") or p.stem.endswith("_bench")
+    }
+    for path in (ROOT / "bench").glob("*.py"):
+        tree = ast.parse(path.read_text())
+        if any(isinstance(n, ast.FunctionDef) and n.name == "run" for n in tree.body):
+            suites.add(_module_name(path))
+    assert "jackson.protocol.bench" in suites and "jackson.bench.host" in suites
+    assert suites - {"jackson.common.bench"} == registered - {"jackson.common.bench"}
+    in_cli = [p for p in (ROOT / "cli").rglob("*.py") if "def run(quick" in p.read_text()]
+    assert in_cli == [], "a suite in the command line's folder"
+    for path in (ROOT / "bench").rglob("*.py"):
+        assert "importlib" not in path.read_text(), f"{path}: loads a module by name"
+
+
+# the PCA9685's datasheet facts (register map, bits, power-on values, oscillator, Eq. 1), which
+# the host's driver and the twin's register model both import
+PCA9685_FACTS = ROOT / "protocol" / "pca9685.py"
+
+
+def test_the_pca9685_register_map_is_written_once() -> None:
+    """Every name protocol/pca9685.py defines (``MODE1``, ``LED0_ON_L``, ``PRE_SCALE``,
+    ``MODE1_SLEEP``, ``prescale_for``, ...) is assigned or defined nowhere else: the driver and
+    the twin import them, so the two can never disagree about the chip."""
+    facts = set()
+    for node in ast.parse(PCA9685_FACTS.read_text()).body:
+        if isinstance(node, ast.FunctionDef):
+            facts.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            facts |= {t.id for t in targets if isinstance(t, ast.Name) and t.id.isupper()}
+    assert {"MODE1", "MODE2", "LED0_ON_L", "ALL_LED_OFF_H", "PRE_SCALE", "MODE1_SLEEP"} <= facts
+    assert {"LED_FULL", "OSC_CLOCK_HZ", "prescale_for"} <= facts
+    found = []
+    folders = dict.fromkeys((*FOLDERS, "tools", "tests", "ros2"))
+    for folder in folders:
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if path == PCA9685_FACTS:
+                continue
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                names = set()
+                if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                    names = {node.id}
+                elif isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+                    names = {node.name}
+                found += [f"{path.relative_to(ROOT)}:{node.lineno}: {n}" for n in names & facts]
+    assert not found, "import it from jackson.protocol.pca9685: " + "; ".join(found)
+
+
+def test_one_navstate_class_in_the_package() -> None:
+    """The estimate a mission steers by is ``NavState`` (host/control/base.py); the navigator's
+    own state machine has a name of its own (``NavigatorState``)."""
+    found = [
+        f"{path.relative_to(ROOT)}:{node.lineno}"
+        for folder in FOLDERS
+        for path in sorted((ROOT / folder).rglob("*.py"))
+        for node in ast.walk(ast.parse(path.read_text(), str(path)))
+        if isinstance(node, ast.ClassDef) and node.name == "NavState"
+    ]
+    assert [f.split(":")[0] for f in found] == ["host/control/base.py"], found
+
+
+def test_dwb_controller_frequency_is_the_telemetry_rate_not_a_literal() -> None:
+    """The navigator steps once per telemetry frame: DWB's control period comes from the
+    schema's telemetry rate (protocol/schema.yaml), not from a number of its own."""
+    from jackson.host.nav.dwb import DwbConfig
+    from jackson.protocol.messages import TELEMETRY_RATE_HZ_DEFAULT
+
+    path = ROOT / "host" / "nav" / "dwb" / "core" / "config.py"
+    (cls,) = (
+        n
+        for n in ast.parse(path.read_text()).body
+        if isinstance(n, ast.ClassDef) and n.name == "DwbConfig"
+    )
+    (default,) = (
+        n.value
+        for n in cls.body
+        if isinstance(n, ast.AnnAssign)
+        and isinstance(n.target, ast.Name)
+        and n.target.id == "controller_frequency_hz"
+    )
+    assert default is not None
+    literals = [n for n in ast.walk(default) if isinstance(n, ast.Constant)]
+    assert not literals, f"{path}: controller_frequency_hz = {ast.unparse(default)}"
+    assert DwbConfig().controller_frequency_hz == TELEMETRY_RATE_HZ_DEFAULT
+
+
+def test_the_align_critics_derive_from_the_distance_critics() -> None:
+    """As in Nav2's DWB: PathAlign is a PathDist and GoalAlign a GoalDist, each scored at a
+    point projected ahead; all four read a distance map as MapGrid critics."""
+    from jackson.host.nav.dwb.critics import (
+        GoalAlignCritic,
+        GoalDistCritic,
+        PathAlignCritic,
+        PathDistCritic,
+    )
+    from jackson.host.nav.dwb.critics.map_grid import MapGridCritic
+
+    assert issubclass(PathAlignCritic, PathDistCritic)
+    assert issubclass(GoalAlignCritic, GoalDistCritic)
+    assert issubclass(PathDistCritic, MapGridCritic) and issubclass(GoalDistCritic, MapGridCritic)
+    for cls in (PathAlignCritic, GoalAlignCritic, PathDistCritic, GoalDistCritic):
+        assert "score" not in vars(cls), f"{cls.__name__} scores by a copy of MapGrid's score"
+
+
+def test_the_a1m8_scan_period_is_written_once() -> None:
+    """The A1M8's turn (0.13465 s, REFERENCE: LiDAR scan period) is
+    ``jackson.protocol.rplidar.A1M8_SCAN_PERIOD_S``: the host's driver, its scan stamps, the
+    health monitor's silence test, the ROS messages and the twin's emulator read it there
+    (docstrings may quote it; code may not)."""
+    found = sorted(
+        path.relative_to(ROOT).as_posix()
+        for folder in FOLDERS
+        for path in (ROOT / folder).rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text()))
+        if isinstance(node, ast.Constant) and node.value == 0.13465
+    )
+    assert found == ["protocol/rplidar/packets.py"]

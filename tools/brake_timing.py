@@ -34,11 +34,11 @@ import time
 from pathlib import Path
 from typing import Any
 
+from jackson.bench.host import serving
 from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.actuation.settings import Pca9685Settings
-from jackson.host_bench import serving
 from jackson.sim.i2c_server import I2cSocketServer
 
 JACKSON = str(Path(sys.executable).parent / "jackson")

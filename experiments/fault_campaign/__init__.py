@@ -4,7 +4,7 @@ Each case (:data:`CASES`) injects one sensor fault (:mod:`jackson.sim.faults`) a
 :data:`ONSET_S` of MCU time into a figure-eight (or a square) on the twin, or a LiDAR fault at
 :data:`MAZE_ONSET_S` into the maze's navigation trial (:mod:`jackson.experiments.stage3`: the
 default ``jackson run maze``, amcl on a map made once by a mapping run before the trials), and
-names the sensor the health monitor (:mod:`jackson.host.estimation.health`) should blame. Every
+names the sensor the health monitor (:mod:`jackson.host.health`) should blame. Every
 trial of a case runs twice on the same seed: with the monitor (the host configuration as it is) and
 without it (the same configuration with ``health.enabled: false``: the paper's filter). Clean runs
 of both missions, without any fault and with the monitor, measure its false alarms; with maze cases,
@@ -119,6 +119,12 @@ from jackson.experiments.fault_campaign.cases import (
 )
 from jackson.experiments.fault_campaign.cases import (
     FaultCase as FaultCase,
+)
+from jackson.experiments.fault_campaign.records import (
+    CaseDetection as CaseDetection,
+)
+from jackson.experiments.fault_campaign.records import (
+    CaseExclusion as CaseExclusion,
 )
 from jackson.experiments.fault_campaign.records import (
     CaseSummary as CaseSummary,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -206,24 +207,85 @@ class NavOutcome:
 
 
 @dataclass(frozen=True)
+class CaseDetection:
+    """How the monitored runs of one case met its fault: detected, isolated, and how soon.
+
+    Attributes
+    ----------
+    detected, isolated : int
+        Runs where the expected sensor left its healthy state after the onset, and where it was
+        the first (alone) to do so.
+    detection_rate, isolation_rate : float
+        The same as fractions of the case's trials.
+    isolated_by_exclusion : int
+        Runs whose first sensor excluded after the onset is the expected one.
+    first_sensors : dict
+        How often each sensor (or sensors at one instant, ``imu+encoder_left``) was the first to
+        leave its healthy state after the onset (``none``: no sensor did).
+    time_to_detect_s : list of float
+        Each detection's time from the onset [s].
+    time_to_detect_median_s, time_to_detect_max_s : float or None
+        Their median and largest [s] (None: no detection).
+    """
+
+    detected: int
+    detection_rate: float
+    isolated: int
+    isolation_rate: float
+    isolated_by_exclusion: int
+    first_sensors: dict[str, int]
+    time_to_detect_s: list[float]
+    time_to_detect_median_s: float | None
+    time_to_detect_max_s: float | None
+
+
+@dataclass(frozen=True)
+class CaseExclusion:
+    """How the monitored runs of one case excluded sensors after the onset.
+
+    Attributes
+    ----------
+    time_to_exclude_median_s, time_to_exclude_max_s : float or None
+        The median and largest time from the onset to the expected sensor's exclusion [s].
+    excluded : int
+        Runs that excluded the expected sensor.
+    exclusion_rate : float
+        The same as a fraction of the case's trials.
+    others_excluded : dict
+        In how many runs each other sensor was excluded after the onset.
+    """
+
+    time_to_exclude_median_s: float | None
+    time_to_exclude_max_s: float | None
+    excluded: int
+    exclusion_rate: float
+    others_excluded: dict[str, int]
+
+
+@dataclass(frozen=True)
 class CaseSummary:
     """The figures of one case (:func:`summarise_case`); rates are fractions of its trials.
 
     Attributes
     ----------
-    first_sensors : dict
-        How often each sensor (or sensors at one instant, ``imu+encoder_left``) was the first to
-        leave its healthy state after the onset (``none``: no sensor did).
-    isolated_by_exclusion : int
-        Runs whose first sensor excluded after the onset is the expected one.
-    others_excluded : dict
-        In how many runs each other sensor was excluded after the onset.
+    name, mission, fault, sensor : str
+        The case (:class:`FaultCase`).
+    trials : int
+        Its monitored runs.
+    detection : CaseDetection
+        Detected, isolated, and how soon.
+    exclusion : CaseExclusion
+        Which sensors were excluded, and how soon.
     pre_onset_alarms : int
         Transitions to ``suspect`` or ``excluded`` before the onset in the monitored runs
         (false alarms while the robot was healthy).
     spikes, gated : int
         Gyro spikes injected and samples gated, summed over the monitored runs (a spike case
         catches every spike when they are equal).
+    with_monitor, without_monitor : Outcome
+        How the runs ended, and their closures.
+    met_target : bool
+        The case met its target (``missed`` is empty).
     missed : list of str
         Why the case missed its target (empty: it met it).
     runs_to_look_at : list of dict
@@ -242,20 +304,8 @@ class CaseSummary:
     fault: str
     sensor: str
     trials: int
-    detected: int
-    detection_rate: float
-    isolated: int
-    isolation_rate: float
-    isolated_by_exclusion: int
-    first_sensors: dict[str, int]
-    time_to_detect_s: list[float]
-    time_to_detect_median_s: float | None
-    time_to_detect_max_s: float | None
-    time_to_exclude_median_s: float | None
-    time_to_exclude_max_s: float | None
-    excluded: int
-    exclusion_rate: float
-    others_excluded: dict[str, int]
+    detection: CaseDetection
+    exclusion: CaseExclusion
     pre_onset_alarms: int
     spikes: int
     gated: int
@@ -267,6 +317,17 @@ class CaseSummary:
     navigation_with_monitor: NavOutcome | None = None
     navigation_without_monitor: NavOutcome | None = None
     after_onset_max_m: float | None = None
+
+    def as_json(self) -> dict[str, Any]:
+        """``summary.json``'s entry of the case: one flat mapping, the detection's and the
+        exclusion's figures in line with the rest (in the order of the table)."""
+        out: dict[str, Any] = {}
+        for key, value in dataclasses.asdict(self).items():
+            if key in ("detection", "exclusion"):
+                out.update(value)
+            else:
+                out[key] = value
+        return out
 
 
 @dataclass(frozen=True)

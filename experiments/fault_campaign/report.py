@@ -75,8 +75,29 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
     str
         ``summary.md``.
     """
-    meta = summary["meta"]
-    maze = [c for c in summary["cases"] if c["mission"] == "maze"]
+    cases = summary["cases"]
+    maze = [c for c in cases if c["mission"] == "maze"]
+    lines = _detection_lines(summary["meta"], cases, maze)
+    lines += _closure_lines([c for c in cases if c["mission"] != "maze"])  # the maze: no loop
+    if maze:
+        lines += _navigation_markdown(maze)
+    lines += _false_alarm_lines(summary["false_alarms"])
+    missed = summary["missed"]
+    lines += [
+        "",
+        "All cases met their target."
+        if summary["all_met"]
+        else "Missed: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in missed.items()) + ".",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _detection_lines(
+    meta: Mapping[str, Any], cases: Sequence[Mapping[str, Any]], maze: Sequence[Mapping[str, Any]]
+) -> list[str]:
+    """The page's head and its detection table, with the spikes gated, how far a blind robot
+    drove, the alarms before the onset and the runs to look at."""
     onsets = f"faults at {meta['onset_s']:g} s of MCU time"
     if maze:
         onsets = (
@@ -99,39 +120,23 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
         "no monitor: completed / aborted / not ended | target |",
         "|---|---|---|---|---:|---|---:|---:|---:|---:|---|---:|---:|---|",
     ]
-    for c in summary["cases"]:
-        n = c["trials"]
-        others = {k: v for k, v in c["first_sensors"].items() if k != c["sensor"]}
-        other = ", ".join(f"{k} {v}" for k, v in others.items())
-        wrong = ", ".join(f"{k} {v}" for k, v in c["others_excluded"].items())
-        on, off = c["with_monitor"], c["without_monitor"]
-        verdict = "met" if c["met_target"] else "MISSED: " + "; ".join(c["missed"])
-        lines.append(
-            f"| {c['name']} | {c['mission']} | `{c['fault']}` | {c['sensor']} | "
-            f"{c['detected']}/{n} | {c['isolated']}/{n}{f' ({other})' if other else ''} | "
-            f"{_seconds(c['time_to_detect_median_s'])} / {_seconds(c['time_to_detect_max_s'])} | "
-            f"{c['excluded']}/{n} | {_seconds(c['time_to_exclude_median_s'])} / "
-            f"{_seconds(c['time_to_exclude_max_s'])} | "
-            f"{c['isolated_by_exclusion']}/{n} | {wrong or '-'} | "
-            f"{on['completed']} / {on['aborted']} / {on['not_ended']} | "
-            f"{off['completed']} / {off['aborted']} / {off['not_ended']} | {verdict} |"
-        )
-    for c in summary["cases"]:
+    lines += [_detection_row(c) for c in cases]
+    for c in cases:
         if c["spikes"]:
             lines.append(
                 f"\n{c['name']}: {c['gated']} samples gated for {c['spikes']} spikes injected "
                 f"over {c['trials']} runs."
             )
-    for c in summary["cases"]:
+    for c in cases:
         if c.get("after_onset_max_m") is not None:
             lines.append(
                 f"\n{c['name']}: the robot stood at most {c['after_onset_max_m'] * 100:.1f} cm "
                 f"(ground truth) after the LiDAR went blind (target {BLIND_LIMIT_M * 100:.0f} cm)."
             )
-    early = sum(c["pre_onset_alarms"] for c in summary["cases"])
+    early = sum(c["pre_onset_alarms"] for c in cases)
     lines.append(f"\nTransitions before the onset in the monitored runs: {early}.")
     looks: dict[tuple[str, str, str], list[str]] = {}
-    for c in summary["cases"]:
+    for c in cases:
         for x in c["runs_to_look_at"]:
             where, _, run = x["run"].rpartition("/")
             looks.setdefault((c["name"], where, x["what"]), []).append(run)
@@ -141,27 +146,54 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             f"- {name}: {what}: `{where}/` {', '.join(runs)}"
             for (name, where, what), runs in looks.items()
         ]
-    loops = [c for c in summary["cases"] if c["mission"] != "maze"]  # the maze: no loop
-    if loops:
-        lines += [
-            "",
-            "## Closure of the completed runs [cm], mean ± SD (runs)",
-            "",
-            "| case | ground truth, monitor | ground truth, no monitor | EKF, monitor | "
-            "EKF, no monitor |",
-            "|---|---:|---:|---:|---:|",
-        ]
+    return lines
+
+
+def _detection_row(c: Mapping[str, Any]) -> str:
+    """A case's row of the detection table."""
+    n = c["trials"]
+    others = {k: v for k, v in c["first_sensors"].items() if k != c["sensor"]}
+    other = ", ".join(f"{k} {v}" for k, v in others.items())
+    wrong = ", ".join(f"{k} {v}" for k, v in c["others_excluded"].items())
+    on, off = c["with_monitor"], c["without_monitor"]
+    verdict = "met" if c["met_target"] else "MISSED: " + "; ".join(c["missed"])
+    return (
+        f"| {c['name']} | {c['mission']} | `{c['fault']}` | {c['sensor']} | "
+        f"{c['detected']}/{n} | {c['isolated']}/{n}{f' ({other})' if other else ''} | "
+        f"{_seconds(c['time_to_detect_median_s'])} / {_seconds(c['time_to_detect_max_s'])} | "
+        f"{c['excluded']}/{n} | {_seconds(c['time_to_exclude_median_s'])} / "
+        f"{_seconds(c['time_to_exclude_max_s'])} | "
+        f"{c['isolated_by_exclusion']}/{n} | {wrong or '-'} | "
+        f"{on['completed']} / {on['aborted']} / {on['not_ended']} | "
+        f"{off['completed']} / {off['aborted']} / {off['not_ended']} | {verdict} |"
+    )
+
+
+def _closure_lines(loops: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The closure table of the square and figure-eight cases (none without such a case)."""
+    if not loops:
+        return []
+    lines = [
+        "",
+        "## Closure of the completed runs [cm], mean ± SD (runs)",
+        "",
+        "| case | ground truth, monitor | ground truth, no monitor | EKF, monitor | "
+        "EKF, no monitor |",
+        "|---|---:|---:|---:|---:|",
+    ]
     for c in loops:
         on, off = c["with_monitor"], c["without_monitor"]
         lines.append(
             f"| {c['name']} | {_pm(on['gt_closure_cm'])} | {_pm(off['gt_closure_cm'])} | "
             f"{_pm(on['ekf_closure_cm'])} | {_pm(off['ekf_closure_cm'])} |"
         )
-    if maze:
-        lines += _navigation_markdown(maze)
-    fa = summary["false_alarms"]
+    return lines
+
+
+def _false_alarm_lines(fa: Mapping[str, Any]) -> list[str]:
+    """The clean runs' table: transitions per hour driven, per sensor, and each alarm."""
     columns = [*SENSORS, *(s for s in fa["by_sensor"] if s not in SENSORS)]
-    lines += [
+    lines = [
         "",
         "## False alarms (clean runs, monitor on)",
         "",
@@ -185,15 +217,7 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
             f"({a['reason']})"
             for a in fa["alarms"]
         ]
-    missed = summary["missed"]
-    lines += [
-        "",
-        "All cases met their target."
-        if summary["all_met"]
-        else "Missed: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in missed.items()) + ".",
-        "",
-    ]
-    return "\n".join(lines)
+    return lines
 
 
 def _clean_missions(by_mission: Mapping[str, Mapping[str, float]]) -> str:

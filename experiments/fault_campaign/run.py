@@ -439,7 +439,7 @@ def summarise(
     clean = summarise_clean([r for r in records if r.case == "clean"])
     return {
         "meta": dict(meta),
-        "cases": [dataclasses.asdict(s) for s in summaries],
+        "cases": [s.as_json() for s in summaries],
         "false_alarms": dataclasses.asdict(clean),
         "all_met": all(s.met_target for s in summaries),
         "missed": {s.name: s.missed for s in summaries if s.missed},

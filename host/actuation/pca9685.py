@@ -1,8 +1,9 @@
 """PCA9685 16-channel PWM driver over the host's I2C bus (NXP PCA9685 datasheet, Rev. 4).
 
-The chip's register map is written as the datasheet names it. Channels are set with one block
-write of their four LEDn_ON/OFF registers (auto-increment); contiguous channels go in a single
-transfer, so one motor command is one I2C transaction.
+The chip's register map, its bits and Eq. 1 are :mod:`jackson.protocol.pca9685`'s, which the
+twin's register model reads too. Channels are set with one block write of their four
+LEDn_ON/OFF registers (auto-increment); contiguous channels go in a single transfer, so one
+motor command is one I2C transaction.
 """
 
 from __future__ import annotations
@@ -11,35 +12,31 @@ import time
 from collections.abc import Mapping
 
 from jackson.host.actuation.i2c import I2cBus
+from jackson.protocol.pca9685 import (
+    ALL_LED_OFF_H,
+    ALL_LED_ON_L,
+    DEFAULT_ADDRESS,
+    LED_FULL,
+    MODE1,
+    MODE1_AI,
+    MODE1_ALLCALL,
+    MODE1_RESTART,
+    MODE1_SLEEP,
+    MODE2,
+    MODE2_OUTDRV,
+    OUTNE_HIGH,
+    PRE_SCALE,
+    PWM_STEPS,
+    REGISTERS_PER_CHANNEL,
+    RESTART_WAIT_S,
+    led_on_l,
+    prescale_for,
+)
 
-MODE1 = 0x00
-MODE2 = 0x01
-LED0_ON_L = 0x06
-ALL_LED_ON_L = 0xFA
-ALL_LED_OFF_H = 0xFD
-PRE_SCALE = 0xFE
-
-MODE1_RESTART = 0x80
-MODE1_AI = 0x20  # register auto-increment
-MODE1_SLEEP = 0x10
-MODE1_ALLCALL = 0x01
-MODE2_OUTDRV = 0x04  # totem-pole outputs
-MODE2_OUTNE_HIGH = 0x01  # OUTNE = 01: outputs high while OE is high (datasheet §7.3.2, Table 6)
-MODE2_INTERLOCK = MODE2_OUTDRV | MODE2_OUTNE_HIGH  # the MCU's interlock brakes (docs/firmware.md)
-LED_FULL = 0x10  # bit 4 of LEDn_ON_H (full on) and LEDn_OFF_H (full off)
-
-OSC_CLOCK_HZ = 25_000_000
-DEFAULT_ADDRESS = 0x40
-MAX_BLOCK_BYTES = 32
-RESTART_WAIT_S = 500e-6  # datasheet 7.3.1.1: oscillator start-up before RESTART
-
-
-def prescale_for(frequency_hz: float) -> int:
-    """PRE_SCALE for an update rate: round(25 MHz / (4096 f)) - 1 (datasheet eq. 1)."""
-    value = round(OSC_CLOCK_HZ / (4096.0 * frequency_hz)) - 1
-    if not 3 <= value <= 255:
-        raise ValueError(f"PWM frequency {frequency_hz} Hz is outside the PCA9685's 24-1526 Hz")
-    return value
+MODE2_INTERLOCK = MODE2_OUTDRV | OUTNE_HIGH
+"""MODE2 as the host sets it: totem-pole outputs, all high while OE is high (§7.3.2, Table 6),
+so the MCU's interlock on OE short-brakes both TB6612 bridges (docs/firmware.md)."""
+MAX_BLOCK_BYTES = 32  # an SMBus block transfer's limit
 
 
 def led_registers(duty: float) -> list[int]:
@@ -48,7 +45,7 @@ def led_registers(duty: float) -> list[int]:
         return [0, 0, 0, LED_FULL]
     if duty >= 1.0:
         return [0, LED_FULL, 0, 0]
-    off = min(4095, max(1, round(duty * 4096)))
+    off = min(PWM_STEPS - 1, max(1, round(duty * PWM_STEPS)))
     return [0, 0, off & 0xFF, off >> 8]
 
 
@@ -57,7 +54,7 @@ def block_runs(channels: tuple[int, ...]) -> tuple[tuple[int, ...], ...]:
     runs: list[tuple[int, ...]] = []
     run: list[int] = []
     for ch in channels:
-        if run and (ch != run[-1] + 1 or 4 * (len(run) + 1) > MAX_BLOCK_BYTES):
+        if run and (ch != run[-1] + 1 or REGISTERS_PER_CHANNEL * (len(run) + 1) > MAX_BLOCK_BYTES):
             runs.append(tuple(run))
             run = []
         run.append(ch)
@@ -119,7 +116,7 @@ class Pca9685:
         data: list[int] = []
         for ch in run:
             data += led_registers(duties[ch])
-        self.bus.write_i2c_block_data(self.address, LED0_ON_L + 4 * run[0], data)
+        self.bus.write_i2c_block_data(self.address, led_on_l(run[0]), data)
         self.writes += 1
 
     def all_off(self) -> None:

@@ -33,8 +33,8 @@ from jackson.host.actuation.wheel_pi import WheelPiConfig
 from jackson.host.control.figure8 import FigureEightConfig
 from jackson.host.control.square import SquareConfig
 from jackson.host.estimation.ekf import EkfConfig, ProcessNoise
-from jackson.host.estimation.health import POLICIES, HealthConfig
 from jackson.host.estimation.odometry import OdometryCovariance, RobotGeometry
+from jackson.host.health.config import POLICIES, HealthConfig
 from jackson.host.service.settings import LiveViewSettings, ServiceSettings
 from jackson.protocol.messages import (
     ACCEL_SCALE_RANGE,

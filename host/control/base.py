@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from jackson.common.geometry import wrap_angle as wrap_angle  # re-exported
 from jackson.host.nav.types import Scan
+
+if TYPE_CHECKING:
+    from jackson.host.actuation.limiter import LimiterConfig
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,16 @@ class ScanMission(Mission, Protocol):
 
     def on_scan(self, scan: Scan, s: NavState) -> None:
         """One revolution, with the estimate at its MCU time."""
+        ...
+
+
+@runtime_checkable
+class LimitedMission(Mission, Protocol):
+    """A mission that plans within the daemon's speed and acceleration limits (a navigation):
+    told when they change at run time (:mod:`jackson.host.core.settings`)."""
+
+    def set_limits(self, limits: LimiterConfig) -> None:
+        """The bounds to plan within from the next control tick on."""
         ...
 
 

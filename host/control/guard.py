@@ -14,7 +14,7 @@ reason to abort; the host then brakes and exits non-zero with that reason. Rules
   ``encoder_silence_s`` (a stalled wheel, a cut encoder wire).
 
 The last two apply only with the sensor health monitor off (``health.enabled: false``): with it
-on, :mod:`jackson.host.estimation.health` excludes a silent IMU or encoder and its policy decides
+on, :mod:`jackson.host.health` excludes a silent IMU or encoder and its policy decides
 whether the mission goes on in a degraded mode or stops.
 """
 

@@ -38,14 +38,14 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.control.base import NavState as MissionState
+from jackson.host.control.base import NavState
 from jackson.host.control.navigator import (
     NavCommand,
     Navigator,
     NavigatorConfig,
-    NavState,
-    check_route,
+    NavigatorState,
 )
+from jackson.host.control.route import check_route
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
 from jackson.host.nav.mapping import Mapper, MappingConfig
@@ -141,7 +141,7 @@ class NavigateMission:
     ------
     RouteError
         The start or a goal lies off the map, in unknown space, on or beside an obstacle, or
-        apart from the start (:func:`jackson.host.control.navigator.check_route`).
+        apart from the start (:func:`jackson.host.control.route.check_route`).
 
     Attributes
     ----------
@@ -214,7 +214,7 @@ class NavigateMission:
 
     # ------------------------------------------------------------------ inputs
 
-    def _odom_pose(self, s: MissionState) -> Pose2D:
+    def _odom_pose(self, s: NavState) -> Pose2D:
         return self.config.start.compose(Pose2D(s.x_m, s.y_m, s.yaw_rad))
 
     def pose_map(self) -> Pose2D:
@@ -222,7 +222,7 @@ class NavigateMission:
         odometry."""
         return self.map_to_odom.compose(self._odom)
 
-    def on_scan(self, scan: Scan, s: MissionState) -> None:
+    def on_scan(self, scan: Scan, s: NavState) -> None:
         """One LiDAR revolution, with the EKF's state at its MCU time."""
         self._odom = self._odom_pose(s)
         self.scans += 1
@@ -241,7 +241,7 @@ class NavigateMission:
         """A new single goal (map frame), taken at the next tick; safe from another thread."""
         self._requested = goal
 
-    def track(self, s: MissionState) -> Pose2D:
+    def track(self, s: NavState) -> Pose2D:
         """Follow the odometry to this tick (the localiser's motion update, without a scan);
         the robot's pose in the map frame."""
         self._odom = self._odom_pose(s)
@@ -256,7 +256,7 @@ class NavigateMission:
         if self.filter is not None:
             self.filter.initialise(pose)
 
-    def command(self, s: MissionState) -> tuple[float, float]:
+    def command(self, s: NavState) -> tuple[float, float]:
         """(v [m/s], w [rad/s]) for this tick, from the navigator."""
         requested, self._requested = self._requested, None
         if requested is not None:
@@ -272,14 +272,14 @@ class NavigateMission:
         cmd = self.navigator.step(s.t_s, pose, (s.v_m_s, s.w_rad_s), self._scan_points)
         self._scan_points = None
         self.last = cmd
-        if cmd.state == NavState.SUCCEEDED:
+        if cmd.state == NavigatorState.SUCCEEDED:
             if self.goal_index + 1 < len(self.config.goals):
                 self.goal_index += 1
                 self.navigator.set_goal(self.config.goals[self.goal_index])
             else:
                 self.done = True
                 self.t_goal_s = s.t_s
-        elif cmd.state == NavState.FAILED:
+        elif cmd.state == NavigatorState.FAILED:
             self.done = True
             self.failure = cmd.reason or "navigation failed"
         v, w = (0.0, 0.0) if self.done else (cmd.v_m_s, cmd.w_rad_s)
@@ -299,6 +299,11 @@ class NavigateMission:
             )
         )
         return v, w
+
+    def set_limits(self, limits: LimiterConfig) -> None:
+        """New speed and acceleration bounds for the navigator, from the next tick on (the
+        daemon's live settings)."""
+        self.navigator.set_limits(limits)
 
     @property
     def recoveries(self) -> dict[str, int]:

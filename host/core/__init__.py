@@ -5,14 +5,18 @@
 replay``. It is a pipeline of small stages, each its own class, run per telemetry frame on MCU
 time (the unwrapped ``t_us``, never the wall clock):
 
+0. live settings (:class:`~jackson.host.core.settings.LiveSettings`: limits and the command
+   watchdog) requested since the last frame, logged and applied to every stage that holds
+   them (the limiter, the watchdog, the navigator's DWB and recoveries);
 1. the front end (:class:`~jackson.host.core.frontend.FrontEnd`): time, lost frames, counts, wheel
    odometry (Eq. 2, 3, 9), the gyro less its bias, MCU-reset re-anchoring; one frozen
    :class:`~jackson.host.core.frontend.Measurement`;
 2. the measurement policy (:class:`~jackson.host.core.fusion.Fusion`): the EKF's outputs at 30 Hz of
    MCU time up to this frame (predict only), then the frame's measurements fused as the health
-   monitor allows;
+   monitor's :class:`~jackson.host.health.Verdict` allows (a gyro bias it asks to measure
+   again goes back to the front end);
 3. the LiDAR's revolutions completed since the last frame (:class:`~jackson.host.lidar.intake.
-   ScanIntake`), to the health monitor and a navigating mission;
+   ScanIntake`), judged by the monitor's LiDAR checks in the intake, to a navigating mission;
 4. command arbitration (:class:`~jackson.host.control.arbiter.CommandArbiter`): the mission's
    command, or the newest external (``/cmd_vel``-style) one, which brakes once older than the
    watchdog (0.6 s);
@@ -36,14 +40,15 @@ from jackson.host.actuation.watchdog import CommandWatchdog
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
 from jackson.host.control.arbiter import CommandArbiter, Conditions
-from jackson.host.control.base import ScanMission, ServiceMission
+from jackson.host.control.base import LimitedMission, ScanMission, ServiceMission
 from jackson.host.core.chain import ActuationChain
 from jackson.host.core.frontend import FrontEnd
 from jackson.host.core.fusion import Fusion
 from jackson.host.core.results import CoreListener, FrameResult
+from jackson.host.core.settings import LiveSettings, SettingsInbox
 from jackson.host.estimation.ekf import Ekf, EkfState, GyroBiasEstimator
-from jackson.host.estimation.health import HealthMonitor, Transition, Verdict
 from jackson.host.estimation.odometry import OdometryState, WheelOdometry
+from jackson.host.health import HealthMonitor, Transition, Verdict
 from jackson.host.lidar.intake import ScanIntake
 from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.host.nav.types import Scan
@@ -128,6 +133,9 @@ class RunFolderListener(CoreListener):
     def on_request(self, data: bytes, host_time_ns: int) -> None:
         self.recorder.request(host_time_ns, data)
 
+    def on_settings(self, data: bytes, host_time_ns: int) -> None:
+        self.recorder.settings(host_time_ns, data)
+
     def on_event(self, host_time_ns: int, text: str) -> None:
         self.recorder.link(host_time_ns, text)
 
@@ -206,18 +214,21 @@ class HostCore:
         self.arbiter = CommandArbiter(
             cfg.watchdog_s, mission, mission_timeout_s, sensor_rules=not cfg.health.enabled
         )
+        self.live = SettingsInbox(cfg)  # live settings: requested from any thread, taken at a frame
         self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
         self.host_state = HostState.ACTIVE  # sent in every HEARTBEAT (SHUTDOWN drops the interlock)
         self._rx_ns = 0
         # the EKF fed as the sensors' health allows, its 30 Hz outputs
-        self.fusion = Fusion(cfg, self.frontend, self.event, self._tell_transition)
+        self.fusion = Fusion(cfg, self.event, self._tell_transition)
         self.info: Info | None = None
         self.listeners: list[CoreListener] = (
             [RunFolderListener(recorder, self.fusion.health)] if recorder else []
         )
         self.last_result: FrameResult | None = None
-        # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded here
-        self.intake = ScanIntake()
+        # the LiDAR's bytes (logged raw, so a replay rebuilds the same scans), decoded and
+        # judged here (the monitor's LiDAR checks)
+        hm = self.fusion.health
+        self.intake = ScanIntake(hm.lidar if hm is not None else None)
         # a done mission's robot coming to rest: frames with unchanged counts, braked since
         self._counts: tuple[int, int] | None = None
         self._still_frames = 0
@@ -379,9 +390,36 @@ class HostCore:
         the next telemetry frame. Safe to call from another thread (the ROS executor)."""
         self.arbiter.submit(v_m_s, w_rad_s, host_time_ns)
 
+    def request_settings(self, settings: LiveSettings) -> None:
+        """New live settings (:mod:`jackson.host.core.settings`): the next telemetry frame takes
+        them, logs them before it and hands them to every stage that holds a copy (the limiter,
+        the watchdog, a navigator). Safe to call from another thread (the ROS executor)."""
+        self.live.request(settings)
+
+    @property
+    def settings(self) -> LiveSettings:
+        """The newest live settings requested, or those in force (what a change starts from)."""
+        return self.live.latest
+
+    def _take_settings(self, host_time_ns: int) -> None:
+        """At a telemetry frame, before it: the live settings requested since the last one,
+        logged (a replay applies them to the same frame) and handed to the stages."""
+        settings = self.live.take()
+        if settings is None:
+            return
+        data = settings.encode()
+        for listener in self.listeners:
+            listener.on_settings(data, host_time_ns)
+        self.limiter.config = settings.limits
+        self.watchdog.timeout_s = settings.watchdog_s
+        if isinstance(self.mission, LimitedMission):
+            self.mission.set_limits(self.live.navigation_limits())
+
     def on_frame(self, frame: Frame, host_time_ns: int = 0) -> None:
         """One decoded frame from the MCU."""
         telemetry = frame.type == Telemetry.TYPE
+        if telemetry:
+            self._take_settings(host_time_ns)
         mission = self.mission
         if telemetry and isinstance(mission, ServiceMission):
             # the service's requests this frame applies, logged before it (as commands are)
@@ -423,13 +461,10 @@ class HostCore:
         self.intake.feed(data)
 
     def lidar_gone(self, reason: str) -> None:
-        """The LiDAR's port failed: the monitor excludes it at once, and a mission that
+        """The LiDAR's port failed: the intake's checks exclude it at once, and a mission that
         navigates by it is aborted (braked) now, not after a silence."""
-        t_s = self.t_s if self.t_s is not None else 0.0
-        hm = self.health
-        if hm is not None:
-            hm.lidar_gone(t_s, reason)
-            self.fusion.report_health()
+        self.intake.gone(self.t_s if self.t_s is not None else 0.0, reason)
+        self.fusion.report_health()
         if isinstance(self.mission, ServiceMission):
             self.mission.lidar_lost(reason)  # goals end and are refused; the service stays up
         elif isinstance(self.mission, ScanMission) and not self.mission.done:
@@ -461,7 +496,9 @@ class HostCore:
         # 30 Hz outputs of MCU time up to this frame: prediction only between measurements
         self.fusion.outputs_to(t_s, self._emit_filtered)
         act = self.actuation
-        self.fusion.fuse(m, act.wheel_cmd, act.commanded_still)
+        verdict = self.fusion.fuse(m, act.wheel_cmd, act.commanded_still)
+        if verdict is not None and verdict.remeasure_gyro_bias:
+            self.frontend.remeasure_bias()  # measured again over the next standstill
         if self.intake.pending:
             self._take_scans(t_s)
         # command and actuation
@@ -505,26 +542,18 @@ class HostCore:
             listener.on_health(tr)
 
     def _take_scans(self, t_s: float) -> None:
-        revolutions = self.intake.take()
-        hm = self.health
-        if hm is not None:
-            report = self.intake.bytes_report()
-            if report is not None:
-                hm.lidar_bytes(t_s, *report)
-        navigating = isinstance(self.mission, ScanMission)
-        if hm is not None:
-            mission = self.mission
-            hm.lidar_needed = (
-                navigating
-                and mission is not None
-                and not mission.done
-                and (not isinstance(mission, ServiceMission) or mission.navigating)
-            )
-        for rev in revolutions:
-            scan = self.intake.scan(t_s, rev)
+        mission = self.mission
+        navigating = isinstance(mission, ScanMission)
+        needed = (
+            navigating
+            and mission is not None
+            and not mission.done
+            and (not isinstance(mission, ServiceMission) or mission.navigating)
+        )
+        for rev in self.intake.take(t_s, needed):
             # a scan too noisy to trust, or from an excluded LiDAR, is published (the
             # listeners) but not navigated by
-            use = hm.scan(t_s, rev.ranges_m, rev.angles_rad) if hm is not None else True
+            scan, use = self.intake.scan(t_s, rev)
             if navigating and use:
                 assert isinstance(self.mission, ScanMission)
                 self.mission.on_scan(scan, self.nav_state())

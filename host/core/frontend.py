@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 from jackson.host.config import HostConfig
 from jackson.host.estimation.ekf import GyroBiasEstimator
-from jackson.host.estimation.health import HealthInput
 from jackson.host.estimation.odometry import OdometryState, WheelOdometry, tick_delta
+from jackson.host.health.types import HealthInput
 from jackson.protocol import Info, Telemetry, TelemetryFlags, TimestampUnwrapper
 from jackson.protocol.units import accel_m_s2, yaw_rate_rad_s
 
@@ -163,7 +163,8 @@ class FrontEnd:
         self._lost = 0
 
     def remeasure_bias(self) -> None:
-        """Measure the gyro bias again over the next standstill (the health monitor asks)."""
+        """Measure the gyro bias again over the next standstill (the health monitor's verdict
+        asks: :attr:`~jackson.host.health.Verdict.remeasure_gyro_bias`)."""
         self.gyro_bias.reset()
 
     def measure(self, t: Telemetry) -> Measurement:

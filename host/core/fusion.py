@@ -1,13 +1,17 @@
 """The measurement policy: the EKF fed as the sensors' health allows, and its outputs.
 
-Per telemetry frame (docs/host.md, step 2; docs/health.md): the health monitor judges the
-front end's :class:`~jackson.host.core.frontend.Measurement`, and the filter fuses what it allows:
-both wheels' speed and the gyro; or one wheel and the gyro, or the wheels' yaw rate in place of
-the gyro; or, standing still, a zero-velocity update. Without the monitor (``health.enabled:
-false``) every measurement is fused, as the paper's filter does. The filter's outputs are its
-estimate predicted to every instant of :class:`~jackson.host.estimation.ekf.OutputClock` (30 Hz of
-MCU time). The monitor's transitions are told (events), and a sensor loss that leaves nothing to
-navigate by is kept as the reason to brake (:attr:`Fusion.sensors_lost`).
+Per telemetry frame (docs/host.md, step 2; docs/health.md): the health monitor
+(:class:`~jackson.host.health.HealthMonitor`) judges the front end's
+:class:`~jackson.host.core.frontend.Measurement` and returns its
+:class:`~jackson.host.health.Verdict`, and the filter fuses what the verdict allows: both
+wheels' speed and the gyro; or one wheel and the gyro, or the wheels' yaw rate (the verdict's
+stand-in) in place of the gyro; or, standing still, a zero-velocity update. Of the monitor
+only the verdict is read. Without the monitor (``health.enabled: false``) every measurement
+is fused, as the paper's filter does. The filter's outputs are its estimate predicted to every
+instant of :class:`~jackson.host.estimation.ekf.OutputClock` (30 Hz of MCU time). The monitor's
+transitions are told (events), and a sensor loss that leaves nothing to navigate by is kept as
+the reason to brake (:attr:`Fusion.sensors_lost`). A verdict that asks for the gyro's bias to be
+measured again is the pipeline's to hand to the front end.
 """
 
 from __future__ import annotations
@@ -15,9 +19,9 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from jackson.host.config import HostConfig
-from jackson.host.core.frontend import FrontEnd, Measurement
+from jackson.host.core.frontend import Measurement
 from jackson.host.estimation.ekf import Ekf, EkfState, OutputClock
-from jackson.host.estimation.health import HealthMonitor, Transition, Verdict
+from jackson.host.health import HealthMonitor, Transition, Verdict
 
 ONE_WHEEL_VARIANCE_SCALE = 4.0  # R of v_x from one wheel and the gyro, relative to two wheels
 
@@ -35,8 +39,6 @@ class Fusion:
     ----------
     cfg : HostConfig
         ``ekf``, ``health``, ``robot`` and whether ``imu.calibration`` is set.
-    frontend : FrontEnd
-        Whose gyro bias the monitor may ask to measure again.
     tell : callable
         An event for the operator (one line).
     on_transition : callable
@@ -46,12 +48,10 @@ class Fusion:
     def __init__(
         self,
         cfg: HostConfig,
-        frontend: FrontEnd,
         tell: Callable[[str], None],
         on_transition: Callable[[Transition], None],
     ) -> None:
         self.cfg = cfg
-        self.frontend = frontend
         self.ekf = Ekf(cfg.ekf)
         self.clock = OutputClock(cfg.ekf.frequency_hz)
         self.health = HealthMonitor(cfg.health, cfg.robot) if cfg.health.enabled else None
@@ -62,7 +62,7 @@ class Fusion:
         self._tell = tell
         self._on_transition = on_transition
         self._hinted = False  # the uncalibrated config's hint was given
-        self._told = 0  # health transitions told
+        self._told = 0  # health transitions told (the record's count of ever added)
 
     def outputs_to(self, t_s: float, emit: Callable[[float, EkfState], None]) -> None:
         """The outputs due up to a frame at ``t_s`` (predictions; the filter does not move),
@@ -73,8 +73,10 @@ class Fusion:
                 self.last_output = s = self.ekf.state_at(at_s)
                 emit(at_s, s)
 
-    def fuse(self, m: Measurement, wheel_cmd: tuple[float, float], commanded_still: bool) -> None:
-        """This frame's measurements into the filter, as the monitor allows.
+    def fuse(
+        self, m: Measurement, wheel_cmd: tuple[float, float], commanded_still: bool
+    ) -> Verdict | None:
+        """This frame's measurements into the filter, as the monitor's verdict allows.
 
         Parameters
         ----------
@@ -84,25 +86,33 @@ class Fusion:
             The wheel speeds commanded at the previous frame [rad/s].
         commanded_still : bool
             Braked, or commanded to stand still.
+
+        Returns
+        -------
+        Verdict or None
+            The monitor's verdict (None: the monitor is off), also kept as :attr:`verdict`.
         """
-        ekf = self.ekf
-        t_s, odo, wz = m.t_s, m.odometry, m.wz_rad_s
         hm = self.health
         if hm is None:  # the paper's filter: every measurement
-            ekf.update_wheel(t_s, odo.v_m_s, 0.0)
-            if wz is not None:
-                ekf.update_gyro(t_s, wz)
-            return
-        hm.link(t_s, m.lost)
+            self.ekf.update_wheel(m.t_s, m.odometry.v_m_s, 0.0)
+            if m.wz_rad_s is not None:
+                self.ekf.update_gyro(m.t_s, m.wz_rad_s)
+            return None
+        hm.link(m.t_s, m.lost)
         v = self.verdict = hm.update(m.health_input(wheel_cmd, commanded_still))
         self.report_health()
-        if hm.remeasure_bias:
-            self.frontend.remeasure_bias()  # measured again over the next standstill
         if v.lost is not None and self.sensors_lost is None:
             self.sensors_lost = v.lost
             if self._hinted:  # a wheel or the gyro was excluded on an uncalibrated config
                 self.sensors_lost = f"{v.lost} ({UNCALIBRATED_HINT})"
             self._tell(f"health: braking: {self.sensors_lost}")
+        self._update(m, v)
+        return v
+
+    def _update(self, m: Measurement, v: Verdict) -> None:
+        """The filter's updates the verdict allows."""
+        ekf = self.ekf
+        t_s, odo, wz = m.t_s, m.odometry, m.wz_rad_s
         ekf.stationary = v.stationary
         if v.stationary:
             ekf.update_zero_velocity(t_s, self.cfg.health.zupt_variance)
@@ -123,10 +133,7 @@ class Fusion:
             ekf.update_gyro(t_s, wz)
         elif v.use_left and v.use_right and m.dt_s > 0.0:
             # the wheels' yaw rate through the model learned while the gyro was healthy
-            w_e = (
-                r.wheel_radius_right_m * om[1] - r.wheel_radius_left_m * om[0]
-            ) / r.wheel_separation_m
-            ekf.update_yaw_rate(t_s, hm.model.true_rate(w_e, odo.v_m_s), v.wheel_yaw_variance)
+            ekf.update_yaw_rate(t_s, v.wheel_yaw_rate_rad_s, v.wheel_yaw_variance)
 
     def report_health(self) -> None:
         """Tell the monitor's new transitions; with a config that holds no calibration, the
@@ -135,7 +142,7 @@ class Fusion:
         hm = self.health
         if hm is None:
             return
-        for tr in hm.transitions[self._told :]:
+        for tr in hm.transitions.since(self._told):
             self._tell(f"health: {tr.sensor} {tr.old.value} -> {tr.new.value}: {tr.reason}")
             self._on_transition(tr)
             if (
@@ -147,4 +154,4 @@ class Fusion:
             ):
                 self._hinted = True
                 self._tell(f"health: {UNCALIBRATED_HINT}")
-        self._told = len(hm.transitions)
+        self._told = hm.transitions.added

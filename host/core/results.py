@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 from jackson.host.control.base import Mission
 from jackson.host.estimation.ekf import EkfState
-from jackson.host.estimation.health import Transition, Verdict
 from jackson.host.estimation.odometry import OdometryState
+from jackson.host.health import Transition, Verdict
 from jackson.host.nav.types import Scan
 from jackson.protocol import Frame, Telemetry
 
@@ -71,6 +71,10 @@ class CoreListener:
 
     def on_request(self, data: bytes, host_time_ns: int) -> None:
         """A navigation service's request (encoded), before the telemetry frame applying it."""
+
+    def on_settings(self, data: bytes, host_time_ns: int) -> None:
+        """Live settings (:meth:`~jackson.host.core.settings.LiveSettings.encode`), before the
+        telemetry frame applying them."""
 
     def on_event(self, host_time_ns: int, text: str) -> None:
         """Something the operator should know (an MCU reset, an abort)."""

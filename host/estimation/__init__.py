@@ -1,4 +1,4 @@
-"""The state estimate's parts: wheel odometry, the EKF and the sensors' health monitor.
+"""The state estimate's parts: wheel odometry and the EKF.
 
 They import nothing else of the host; the pipeline (:mod:`jackson.host.core`) puts them
 together.

@@ -1,23 +1,33 @@
-"""The LiDAR's intake in the host's core: bytes as read, scans at the next telemetry frame.
+"""The LiDAR's intake in the host's core: bytes as read, judged scans at the next telemetry frame.
 
 The daemon hands over the LiDAR's bytes as it reads them (they are logged raw, so ``jackson
 replay`` rebuilds the same scans); the revolutions they complete wait for the next telemetry
 frame and are stamped with its MCU time (the twin writes a revolution before the frame that
-follows its end, so in lockstep the pairing is exact). The health monitor gets the bytes read
-and the decoder's malformed bytes between two frames.
+follows its end, so in lockstep the pairing is exact). With the sensor health monitor on, the
+LiDAR's checks run here (:class:`~jackson.host.health.lidar.LidarHealth`): the bytes read and
+the decoder's malformed bytes between two frames, each revolution (whether it may be used),
+and the port failing. Their silence on every frame is judged with the monitor's other checks.
 """
 
 from __future__ import annotations
 
+from jackson.host.health.lidar import LidarHealth
 from jackson.host.lidar.rplidar import Revolution, RevolutionAssembler
 from jackson.host.nav.types import Scan
 
 
 class ScanIntake:
-    """Bytes in, :class:`~jackson.host.nav.types.Scan` s out (module docstring)."""
+    """Bytes in, judged :class:`~jackson.host.nav.types.Scan` s out (module docstring).
 
-    def __init__(self) -> None:
+    Parameters
+    ----------
+    health : LidarHealth or None
+        The health monitor's LiDAR checks (None: the monitor is off, every scan is used).
+    """
+
+    def __init__(self, health: LidarHealth | None = None) -> None:
         self.assembler = RevolutionAssembler(streaming=True)
+        self.health = health
         self.scans = 0  # scans taken
         self.last_scan: Scan | None = None
         self._revolutions: list[Revolution] = []
@@ -44,14 +54,34 @@ class ScanIntake:
         self._received = 0
         return report
 
-    def take(self) -> list[Revolution]:
-        """The revolutions completed since the last frame."""
+    def take(self, t_s: float, needed: bool) -> list[Revolution]:
+        """The revolutions completed since the last frame, for the frame at MCU time ``t_s``.
+
+        With the LiDAR's checks, the bytes read since the last report are judged first
+        (garbage on the line), then the checks learn whether a mission navigates by the scans
+        (``needed``: a LiDAR lost then stops it, a silence holds it).
+        """
         revolutions, self._revolutions = self._revolutions, []
+        if self.health is not None:
+            report = self.bytes_report()
+            if report is not None:
+                self.health.bytes_read(t_s, *report)
+            self.health.needed = needed
         return revolutions
 
-    def scan(self, t_s: float, rev: Revolution) -> Scan:
-        """A revolution as the scan of the frame at MCU time ``t_s``, counted."""
+    def scan(self, t_s: float, rev: Revolution) -> tuple[Scan, bool]:
+        """A revolution as the scan of the frame at MCU time ``t_s``, counted and judged; and
+        whether it may be used (navigated by): not when too noisy to trust, not a turn, while
+        garbage arrives or the LiDAR is excluded (it is published all the same)."""
         scan = Scan(t_s, rev.angles_rad, rev.ranges_m)
         self.scans += 1
         self.last_scan = scan
-        return scan
+        if self.health is None:
+            return scan, True
+        return scan, self.health.scan(t_s, rev.ranges_m, rev.angles_rad)
+
+    def gone(self, t_s: float, why: str) -> None:
+        """The LiDAR's port failed at MCU time ``t_s`` (a read error: unplugged): its checks
+        exclude it at once."""
+        if self.health is not None:
+            self.health.gone(t_s, why)

@@ -27,7 +27,10 @@ then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity
 6 LiDAR bytes (payload: bytes as read from the RPLIDAR's port, at most 65535 per record; they
 precede the telemetry frame whose MCU time stamps the scans they complete), 7 a navigation
 service's request (payload: UTF-8 JSON ``{"kind", "id", "x", "y", "yaw", "source"}``, kind
-``goal``, ``cancel`` or ``pose``; it precedes the telemetry frame that applies it).
+``goal``, ``cancel`` or ``pose``; it precedes the telemetry frame that applies it), 8 live
+settings (payload: UTF-8 JSON ``{"limits": {...}, "watchdog_s"}``,
+:class:`~jackson.host.core.settings.LiveSettings`; it precedes the telemetry frame that applies
+them).
 """
 
 from __future__ import annotations
@@ -53,7 +56,8 @@ KIND_LINK = 4
 KIND_END = 5
 KIND_LIDAR = 6
 KIND_REQUEST = 7
-KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END, KIND_LIDAR, KIND_REQUEST)
+KIND_SETTINGS = 8
+KINDS = (KIND_RX, KIND_TX, KIND_CMD, KIND_LINK, KIND_END, KIND_LIDAR, KIND_REQUEST, KIND_SETTINGS)
 MAX_PAYLOAD = 0xFFFF
 _HEADER = struct.Struct("<BQH")
 _CMD = struct.Struct("<dd")
@@ -177,6 +181,9 @@ class RunRecorder:
 
     def request(self, host_time_ns: int, data: bytes) -> None:
         self.record(KIND_REQUEST, host_time_ns, data)
+
+    def settings(self, host_time_ns: int, data: bytes) -> None:
+        self.record(KIND_SETTINGS, host_time_ns, data)
 
     def lidar(self, host_time_ns: int, data: bytes) -> None:
         for pos in range(0, len(data), MAX_PAYLOAD):

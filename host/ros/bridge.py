@@ -52,10 +52,16 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from jackson.common.ros_env import missing_ros
 from jackson.host.ros import messages
+from jackson.host.ros.live_parameters import (
+    ParameterError,
+    changed_settings,
+    declare_live_parameters,
+    declare_node_parameters,
+)
 from jackson.host.ros.messages import (
     TOPIC_TYPES,
     DiagnosticValues,
@@ -79,6 +85,7 @@ if TYPE_CHECKING:
     from jackson.host.config import HostConfig
     from jackson.host.control.base import Mission
     from jackson.host.core import HostCore
+    from jackson.host.core.settings import LiveSettings
     from jackson.host.estimation.odometry import OdometryState
     from jackson.host.ros.navigate_action import NavigateToPoseServer
     from jackson.host.service.navigation import NavigationService
@@ -95,7 +102,8 @@ OPTIONAL_MODULES = ("diagnostic_msgs.msg", "tf2_msgs.msg")
 
 
 class CoreLike(Protocol):
-    """What the bridge reads from the daemon's core (:class:`HostCore` is one)."""
+    """What the bridge uses of the daemon's core (:class:`HostCore` is one): its configuration
+    and state to read, and its front doors for velocity commands and live settings."""
 
     cfg: HostConfig
 
@@ -108,7 +116,12 @@ class CoreLike(Protocol):
     @property
     def mission(self) -> Mission | None: ...
 
+    @property
+    def settings(self) -> LiveSettings: ...
+
     def submit_velocity(self, v_m_s: float, w_rad_s: float, host_time_ns: int = 0) -> None: ...
+
+    def request_settings(self, settings: LiveSettings) -> None: ...
 
 
 # ---------------------------------------------------------------------------------- availability
@@ -158,8 +171,23 @@ def navigation_values(service: NavigationService) -> NavigationValues:
     )
 
 
+class LinkFacts(Protocol):
+    """What the diagnostics read of the daemon's link record (``jackson.host.daemon_link.
+    LinkHealth``, a dataclass whose fields are all published)."""
+
+    __dataclass_fields__: ClassVar[dict[str, Any]]
+
+    @property
+    def link_up(self) -> bool: ...
+
+    @property
+    def crc_errors(self) -> int: ...
+
+    def problems(self) -> list[str]: ...
+
+
 def diagnostic_values(
-    core: HostCore, telemetry: Telemetry | None, *, link: Any
+    core: HostCore, telemetry: Telemetry | None, *, link: LinkFacts
 ) -> DiagnosticValues:
     """The diagnostics of a running core; ``link`` is the daemon's ``LinkHealth``."""
     from jackson.host.service.navigation import NavigationService
@@ -302,8 +330,11 @@ class RosBridge:
                 context=self.context,
                 parameter_overrides=overrides,
             )
-            self.settings = self.params = self._declare_parameters(core)
-            self._declare_live_parameters(core)
+            self.settings = declare_node_parameters(self.node, core.cfg)
+            live = declare_live_parameters(self.node, core.settings)
+            if live is not core.settings:  # given at start: in force from the first frame
+                core.request_settings(live)
+            self.node.add_on_set_parameters_callback(self._on_set_parameters)
             sim_time = bool(self.node.get_parameter("use_sim_time").value)
             self.notes: list[str] = []  # what the operator should know of the node's set-up
             given = any("use_sim_time" in str(a) for a in (args or ())) or (
@@ -385,68 +416,28 @@ class RosBridge:
         except Exception:  # rclpy raises NodeNameNonExistentError and others
             return 0
 
-    def _declare_parameters(self, core: CoreLike) -> RosSettings:
-        defaults = RosSettings.for_config(core.cfg)
-        values: dict[str, Any] = {}
-        for name, default in vars(defaults).items():
-            initial = [float(c) for c in default] if isinstance(default, tuple) else default
-            value = self.node.declare_parameter(name, initial).value
-            values[name] = tuple(float(c) for c in value) if isinstance(default, tuple) else value
-        return RosSettings(**values)
-
-    def _declare_live_parameters(self, core: CoreLike) -> None:
-        """The host settings a ROS user tunes at run time (``ros2 param set``): the command
-        limits (``limits.*``, the host YAML's ``limits:``) and the command watchdog
-        (``watchdog_s``). The node's own parameters (names, frames, offsets) are read once:
-        changing them is refused with the reason."""
-        cfg = core.cfg
-        for f in dataclasses.fields(cfg.limits):
-            self.node.declare_parameter(f"limits.{f.name}", float(getattr(cfg.limits, f.name)))
-        self.node.declare_parameter("watchdog_s", float(cfg.watchdog_s))
-        self.node.add_on_set_parameters_callback(self._on_set_parameters)
-
     def _on_set_parameters(self, params: list[Any]) -> Any:
-        """Validate and apply run-time parameter changes (the executor's thread: each takes
-        effect at the next telemetry frame, by swapping one reference)."""
+        """Run-time parameter changes (the executor's thread): the live settings changed
+        (:func:`~jackson.host.ros.live_parameters.changed_settings`) go to the core's front
+        door and take effect at the next telemetry frame; a refused change names the reason
+        and changes nothing."""
         from rcl_interfaces.msg import SetParametersResult
 
-        core: Any = self.core
-        limits = None
-        watchdog_s = None
-        for p in params:
-            name, value = p.name, p.value
-            if name.startswith("limits."):
-                field_name = name.removeprefix("limits.")
-                try:
-                    base = limits if limits is not None else core.limiter.config
-                    limits = dataclasses.replace(base, **{field_name: float(value)})
-                except (TypeError, ValueError) as exc:
-                    return SetParametersResult(successful=False, reason=f"{name}: {exc}")
-            elif name == "watchdog_s":
-                from jackson.host.config import WATCHDOG_RANGE_S
-
-                low, high = WATCHDOG_RANGE_S
-                if not (isinstance(value, (int, float)) and low <= float(value) <= high):
-                    return SetParametersResult(
-                        successful=False,
-                        reason=f"watchdog_s must be within {low:g}-{high:g} s, got {value}",
-                    )
-                watchdog_s = float(value)
-            elif name in RosSettings.__dataclass_fields__:
-                return SetParametersResult(
-                    successful=False,
-                    reason=f"{name} is read when the node starts: restart the daemon to change it",
-                )
-        if limits is not None:
-            core.limiter.config = limits
-        if watchdog_s is not None:
-            core.watchdog.timeout_s = watchdog_s
+        current = self.core.settings
+        changes = [(p.name, p.value) for p in params]
+        try:
+            wanted = changed_settings(current, changes, RosSettings.__dataclass_fields__)
+        except ParameterError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        if wanted is not current:
+            self.core.request_settings(wanted)
         return SetParametersResult(successful=True)
 
     def _create_interfaces(self) -> None:
         p, node = self.settings, self.node
         self.publishers: dict[str, Any] = {}
         self.missing: list[str] = []  # message packages not installed (no such topic)
+        self.subscriptions: dict[str, Any] = {}  # by topic key
         for key, (_, kind, _depth) in TOPIC_TYPES.items():
             if key in INPUTS or key in NOT_PUBLISHED:
                 continue
@@ -462,14 +453,14 @@ class RosBridge:
         # goals from it, from navigate_to_pose and poses from /initialpose
         self.nav = navigation_of(self.core.mission) if self.service is None else None
         if self.nav is not None or self.service is not None:  # RViz's "2D Goal Pose"
-            self.goal_sub = node.create_subscription(
+            self.subscriptions["goal_pose"] = node.create_subscription(
                 _message_class(p.topic_type("goal_pose")),
                 p.topic("goal_pose"),
                 self._on_goal,
                 cmd_vel_qos(),
             )
-        if self.service is not None:
-            self.initial_pose_sub = node.create_subscription(  # RViz's "2D Pose Estimate"
+        if self.service is not None:  # RViz's "2D Pose Estimate"
+            self.subscriptions["initialpose"] = node.create_subscription(
                 _message_class(p.topic_type("initialpose")),
                 p.topic("initialpose"),
                 self._on_initial_pose,
@@ -483,7 +474,7 @@ class RosBridge:
                 self.action = NavigateToPoseServer(
                     node, self.service, self.clock, self.say, self._stop
                 )
-        self.cmd_vel_sub = node.create_subscription(
+        self.subscriptions["cmd_vel"] = node.create_subscription(
             _message_class(p.topic_type("cmd_vel")),
             p.cmd_vel_topic,
             self._on_cmd_vel,
@@ -585,7 +576,7 @@ class RosBridge:
         localiser starts again there at the next frame; a pose off the map, in an obstacle or
         in another frame is refused with one line and changes nothing. Its covariance is
         recorded, not used: the localiser spreads its particles its own way."""
-        from jackson.host.control.navigator import RouteError
+        from jackson.host.control.route import RouteError
 
         assert self.service is not None
         pose = planar_pose(msg.pose.pose)

@@ -43,9 +43,9 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.control.base import NavState as MissionState
+from jackson.host.control.base import NavState
 from jackson.host.control.navigate import NavigateConfig, NavigateMission
-from jackson.host.control.navigator import RouteChecker, RouteError
+from jackson.host.control.route import RouteChecker, RouteError
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.host.service.goals import GoalBook, GoalRecord, GoalStatus
@@ -308,7 +308,12 @@ class NavigationService:
         """No goal and no velocity commands: hold the robot braked."""
         return self.state != ServiceState.NAVIGATING
 
-    def on_scan(self, scan: Scan, s: MissionState) -> None:
+    def set_limits(self, limits: LimiterConfig) -> None:
+        """New speed and acceleration bounds for the navigator, from the next frame on (the
+        daemon's live settings)."""
+        self.nav.set_limits(limits)
+
+    def on_scan(self, scan: Scan, s: NavState) -> None:
         """A LiDAR revolution: the localiser (and the navigator's costmaps at the next tick)."""
         self.nav.on_scan(scan, s)
 
@@ -342,7 +347,7 @@ class NavigationService:
         """The LiDAR's port failed: no navigation for the rest of the process."""
         self._lidar_lost = f"LiDAR lost: {reason}"
 
-    def command(self, s: MissionState) -> tuple[float, float]:
+    def command(self, s: NavState) -> tuple[float, float]:
         """(v [m/s], w [rad/s]) for this frame: the requests taken, then the navigator."""
         t_s = s.t_s
         pose = self.nav.track(s)  # the odometry to this frame, before a pose is given

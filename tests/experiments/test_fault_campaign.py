@@ -139,13 +139,16 @@ def test_case_summary_counts_detection_time_and_endings(tmp_path: Path) -> None:
         [load_run(f, case="imu_dead", monitor=True) for f in on],
         [load_run(f, case="imu_dead", monitor=False) for f in off],
     )
-    assert (s.detected, s.isolated, s.excluded, s.trials) == (2, 2, 1, 4)
-    assert s.detection_rate == 0.5 and s.first_sensors == {"encoder_left": 1, "imu": 2, "none": 1}
-    assert s.others_excluded == {"encoder_left": 1}
-    assert s.isolated_by_exclusion == 1  # on2 was only suspected, on3 excluded the wrong one
-    assert s.time_to_detect_median_s == pytest.approx(0.4)
-    assert s.time_to_detect_max_s == pytest.approx(0.6)
-    assert s.time_to_exclude_median_s == s.time_to_exclude_max_s == pytest.approx(0.2)
+    found, excluded = s.detection, s.exclusion
+    assert (found.detected, found.isolated, excluded.excluded, s.trials) == (2, 2, 1, 4)
+    assert found.detection_rate == 0.5
+    assert found.first_sensors == {"encoder_left": 1, "imu": 2, "none": 1}
+    assert excluded.others_excluded == {"encoder_left": 1}
+    assert found.isolated_by_exclusion == 1  # on2 was only suspected, on3 excluded the wrong one
+    assert found.time_to_detect_median_s == pytest.approx(0.4)
+    assert found.time_to_detect_max_s == pytest.approx(0.6)
+    assert excluded.time_to_exclude_median_s == pytest.approx(0.2)
+    assert excluded.time_to_exclude_max_s == pytest.approx(0.2)
     assert (s.with_monitor.completed, s.with_monitor.not_ended) == (3, 1)
     assert (s.without_monitor.completed, s.without_monitor.aborted) == (1, 1)
     assert s.without_monitor.gt_closure_cm.mean == 30.0
@@ -320,7 +323,8 @@ def test_maze_runs_report_goals_aborts_contacts_and_clearance(tmp_path: Path) ->
     assert runs_on[1].failure == "no path to the goal" and runs_on[1].ended  # the navigator's
     assert runs_on[0].onset_s == 4.04 and runs_off[0].collisions == 2
     s = summarise_case(LIDAR_DEAD, runs_on, runs_off)
-    assert s.detected == s.excluded == 2 and s.time_to_detect_median_s == pytest.approx(0.91)
+    assert s.detection.detected == s.exclusion.excluded == 2
+    assert s.detection.time_to_detect_median_s == pytest.approx(0.91)
     # every run ended (two aborted, two reached the goal), but these folders hold no ground
     # truth: how far the blind robot drove is unknown, and that misses the target
     assert s.after_onset_max_m is None and s.missed == ["drove None m blind (target 0.1 m)"]

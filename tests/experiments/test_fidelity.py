@@ -32,7 +32,8 @@ from jackson.experiments.fidelity import (
     nav_outcome,
     write_report_files,
 )
-from jackson.experiments.report import PAPER
+from jackson.experiments.fidelity import run as fidelity_run
+from jackson.experiments.paper_figures import PAPER
 from jackson.sim.config import load_robot
 
 EKF_CLOSURE = FIGURES[0]  # square, 1.18 ± 0.96 cm
@@ -99,7 +100,7 @@ def test_the_16_figures_are_the_pages_in_its_order() -> None:
 
 
 def test_the_figures_agree_with_the_campaign_reports_paper_figures() -> None:
-    """The paper's numbers are written twice (here and in report.PAPER): they must agree."""
+    """The paper's numbers are written twice (here and in paper_figures.PAPER): they must agree."""
     compared = 0
     for f in FIGURES:
         physical = PAPER[f.mission].get(f.key, (None, None))[0]
@@ -331,9 +332,9 @@ def test_the_ablation_runs_each_mechanism_on_its_own_files_with_the_same_seeds(
     def stage3(name: str, trials: int, out: Path, **kw: Any) -> list[dict[str, Any]]:
         return campaign("maze", trials, out, **kw)
 
-    monkeypatch.setattr(fd, "run_campaign", campaign)
-    monkeypatch.setattr(fd, "run_stage3_campaign", stage3)
-    monkeypatch.setattr(fd, "plot_fidelity", lambda png, report: png.write_bytes(b"png"))
+    monkeypatch.setattr(fidelity_run, "run_campaign", campaign)
+    monkeypatch.setattr(fidelity_run, "run_stage3_campaign", stage3)
+    monkeypatch.setattr(fidelity_run, "plot_fidelity", lambda png, report: png.write_bytes(b"png"))
     mechanisms = (
         *MECHANISMS[1:3],
         Mechanism("latency_maze", "w", "s", {"actuation_latency_s": 0.0}, stage3=True),
@@ -438,8 +439,8 @@ def test_a_failed_mapping_run_is_reported_not_raised(
     def stage3(name: str, trials: int, out: Path, **kw: Any) -> list[dict[str, Any]]:
         raise MappingError("the mapping run failed: lockstep stalled")
 
-    monkeypatch.setattr(fd, "run_stage3_campaign", stage3)
-    monkeypatch.setattr(fd, "plot_fidelity", lambda png, report: png.write_bytes(b"png"))
+    monkeypatch.setattr(fidelity_run, "run_stage3_campaign", stage3)
+    monkeypatch.setattr(fidelity_run, "plot_fidelity", lambda png, report: png.write_bytes(b"png"))
     report = fd.run_fidelity(2, tmp_path / "out", stages=("maze",), progress=False)
     assert report.nav.failure == "the mapping run failed: lockstep stalled"
     assert report.nav.attempted == 0 and not report.nav.success_within

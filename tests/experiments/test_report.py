@@ -16,14 +16,8 @@ from PIL import Image
 
 from jackson.experiments import metrics as m
 from jackson.experiments.campaign import TrialProgress, trial_line
-from jackson.experiments.report import (
-    FIGURE_DPI,
-    PAPER,
-    anchored_trace,
-    closure_zoom,
-    summarise,
-    write_report,
-)
+from jackson.experiments.report import FIGURE_DPI, PAPER, summarise, write_report
+from jackson.experiments.report_plots import anchored_trace, closure_zoom
 from jackson.experiments.trial import trial_metrics
 
 FloatArray = npt.NDArray[np.float64]

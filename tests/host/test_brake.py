@@ -15,6 +15,7 @@ import pytest
 from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import Pca9685Settings
+from jackson.protocol import pca9685 as regs
 from jackson.sim import pca9685 as model
 from jackson.sim.i2c_server import I2cSocketServer
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, BridgeMode, bridge_outputs
@@ -69,7 +70,7 @@ def test_brake_leaves_both_bridges_in_short_brake(
     if state == "reset chip":
         server.devices[0x40] = model.Pca9685()  # power-on state: asleep, outputs off
     elif state == "asleep":
-        chip.write(model.MODE1, bytes((model.MODE1_SLEEP,)))  # a foreign write
+        chip.write(regs.MODE1, bytes((regs.MODE1_SLEEP,)))  # a foreign write
     out = subprocess.run([JACKSON, "brake", "--i2c", spec], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "braked" in out.stdout

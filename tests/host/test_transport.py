@@ -12,8 +12,23 @@ from collections.abc import Iterator
 
 import pytest
 
-from jackson.host.transport import LinkError, LinkEvent, SerialTransport
-from jackson.protocol import FrameDecoder, Hello, Info, Telemetry, decode_message, encode_frame
+from jackson.host.transport import (
+    LinkError,
+    LinkEvent,
+    Reconnection,
+    SerialTransport,
+    Session,
+    StallWatch,
+)
+from jackson.protocol import (
+    Frame,
+    FrameDecoder,
+    Hello,
+    Info,
+    Telemetry,
+    decode_message,
+    encode_frame,
+)
 
 INFO = encode_frame(Info(), 200)
 """The device's answer to HELLO: the session starts with it."""
@@ -382,3 +397,57 @@ def test_a_port_that_cannot_be_opened_is_explained_once_for_both_kinds(
     assert isinstance(mcu, LinkError) and isinstance(lid, LidarError)
     assert str(mcu).startswith(serial) and "\n" not in str(mcu)
     assert str(lid).startswith(lidar) and "\n" not in str(lid)
+
+
+# ---------------------------------------------------------------------- the link's state, alone
+
+
+def test_reconnection_waits_0_1_s_then_doubles_to_2_s_and_starts_over_once_open(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    now = [100.0]
+    monkeypatch.setattr(time, "monotonic", lambda: now[0])
+    r = Reconnection()
+    r.lost()
+    assert r.left_s() == pytest.approx(0.1)
+    waits = []
+    for _ in range(7):
+        r.failed()
+        waits.append(round(r.left_s(), 6))
+    assert waits == [0.2, 0.4, 0.8, 1.6, 2.0, 2.0, 2.0]
+    r.opened()
+    r.lost()
+    assert r.left_s() == pytest.approx(0.1) and r.count == 1
+
+
+def test_a_session_starts_at_its_info_and_counts_the_frames_before_it_stale() -> None:
+    s = Session()
+    tele = Frame(Telemetry.TYPE, 0, Telemetry(t_us=1).pack())
+    info = Frame(Info.TYPE, 1, Info().pack())
+    assert s.frames([tele, tele]) == [] and s.stale_frames == 2 and not s.started
+    assert s.frames([tele, info, tele]) == [info, tele]
+    assert s.started and s.stale_frames == 3
+    s.connected(5.0)  # a new connection waits for its own INFO
+    assert not s.started and s.wait_s == 5.0
+
+
+def test_a_stall_is_reported_once_and_only_after_one_more_read_past_the_limit() -> None:
+    w = StallWatch()
+    w.limit_s = 1.0
+    w.waiting_since = 10.0
+    assert w.check(10_500_000_000) is None  # 0.5 s: still waiting
+    assert w.check(11_000_000_000) is None  # at the limit: one more read first
+    event = w.check(11_200_000_000)
+    assert event is not None and event.kind == "stalled"
+    assert event.detail == "the host waited 1.2 s for a telemetry frame"
+    assert w.stalled and w.check(20_000_000_000) is None  # once
+
+
+def test_a_telemetry_frame_at_the_limit_disarms_the_stall() -> None:
+    w = StallWatch()
+    w.limit_s = 1.0
+    w.waiting_since = 10.0
+    assert w.check(11_000_000_000) is None  # armed
+    w.working()  # the read found a telemetry frame
+    assert w.check(11_100_000_000) is None and not w.stalled
+    assert StallWatch().check(10**12) is None  # no limit: never

@@ -129,31 +129,90 @@ def test_cmd_vel_drives_and_silence_brakes_within_0_6_s(
     assert report["stop_latency_s"] < WATCHDOG_S + 0.9, report
 
 
-def test_limits_and_watchdog_change_at_run_time_and_names_do_not(ros_env: dict[str, str]) -> None:
-    """``ros2 param set`` on the node: the command limits and the watchdog apply to the core
-    at once; a bad value and a name read at start are refused with the reason."""
+def test_limits_and_watchdog_change_at_run_time_and_names_do_not(
+    ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    """``ros2 param set`` on the node: the command limits and the watchdog go through the
+    core's front door (``request_settings``) and apply at the next telemetry frame, which the
+    run's log records them before; a bad value and a name read at start are refused with the
+    reason and change nothing."""
     from rclpy.parameter import Parameter
 
     from jackson.host.actuation.output import NullOutput
     from jackson.host.config import HostConfig
     from jackson.host.core import HostCore
+    from jackson.host.core.settings import LiveSettings
+    from jackson.host.recording import KIND_SETTINGS, RunRecorder
     from jackson.host.ros.bridge import RosBridge
+    from jackson.protocol import FrameDecoder, encode_frame
 
-    core = HostCore(HostConfig(), NullOutput(), lambda m: None)
+    def next_frame(k: int) -> None:
+        (f,) = FrameDecoder().feed(encode_frame(Telemetry(t_us=50_000 * k), k))
+        core.on_frame(f)
+
+    rec = RunRecorder(tmp_path / "run", {"mission": None})
+    core = HostCore(HostConfig(), NullOutput(), lambda m: None, recorder=rec)
     bridge = RosBridge(core, node_name="jackson_params_test")
     try:
         node = bridge.node
         assert node.get_parameter("limits.max_v_m_s").value == core.cfg.limits.max_v_m_s
         (ok,) = node.set_parameters([Parameter("limits.max_v_m_s", value=0.2)])
-        assert ok.successful and core.limiter.config.max_v_m_s == 0.2
+        assert ok.successful and core.settings.limits.max_v_m_s == 0.2
+        assert core.limiter.config == core.cfg.limits  # until the next frame
+        next_frame(1)
+        assert core.limiter.config.max_v_m_s == 0.2
         assert core.limiter.limit(1.0, 0.0, 0.0) == (0.0, 0.0)  # the ramp starts at rest
         (ok,) = node.set_parameters([Parameter("watchdog_s", value=1.0)])
-        assert ok.successful and core.watchdog.timeout_s == 1.0
+        assert ok.successful and core.settings.watchdog_s == 1.0
+        assert core.watchdog.timeout_s == core.cfg.watchdog_s
+        next_frame(2)
+        assert core.watchdog.timeout_s == 1.0 and core.limiter.config.max_v_m_s == 0.2
         (bad,) = node.set_parameters([Parameter("limits.max_accel_m_s2", value=-1.0)])
         assert not bad.successful and "max_accel_m_s2" in bad.reason
-        assert core.limiter.config.max_accel_m_s2 == core.cfg.limits.max_accel_m_s2
+        assert core.settings.limits.max_accel_m_s2 == core.cfg.limits.max_accel_m_s2
         (fixed,) = node.set_parameters([Parameter("base_frame", value="base")])
         assert not fixed.successful and "restart" in fixed.reason
         assert node.get_parameter("base_frame").value == "base_footprint"
     finally:
         bridge.stop()
+        rec.close()
+    logged = [
+        LiveSettings.decode(r.payload) for r in read_log(rec.folder) if r.kind == KIND_SETTINGS
+    ]
+    assert [(s.limits.max_v_m_s, s.watchdog_s) for s in logged] == [(0.2, 0.6), (0.2, 1.0)]
+
+
+def test_limits_given_when_the_node_starts_are_in_force_from_the_first_frame(
+    ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    """``-p limits.max_v_m_s:=0.2`` (or the daemon's overrides) at start: the node's parameter
+    and the core's settings agree from the first frame; a value the limits refuse is one line."""
+    from jackson.host.actuation.output import NullOutput
+    from jackson.host.config import HostConfig
+    from jackson.host.core import HostCore
+    from jackson.host.ros.bridge import RosBridge
+    from jackson.host.ros.live_parameters import ParameterError
+    from jackson.protocol import FrameDecoder, encode_frame
+
+    core = HostCore(HostConfig(), NullOutput(), lambda m: None)
+    bridge = RosBridge(
+        core,
+        node_name="jackson_start_params_test",
+        parameter_overrides={"limits.max_v_m_s": 0.2, "watchdog_s": 0.4},
+    )
+    try:
+        assert bridge.node.get_parameter("limits.max_v_m_s").value == 0.2
+        assert (core.settings.limits.max_v_m_s, core.settings.watchdog_s) == (0.2, 0.4)
+        (f,) = FrameDecoder().feed(encode_frame(Telemetry(t_us=0), 1))
+        core.on_frame(f)
+        assert core.limiter.config.max_v_m_s == 0.2 and core.watchdog.timeout_s == 0.4
+    finally:
+        bridge.stop()
+    core = HostCore(HostConfig(), NullOutput(), lambda m: None)
+    with pytest.raises(ParameterError, match="max_v_m_s"):
+        RosBridge(
+            core,
+            node_name="jackson_bad_params_test",
+            parameter_overrides={"limits.max_v_m_s": -1.0},
+        )
+    assert core.settings.limits == core.cfg.limits

@@ -27,7 +27,7 @@ from jackson.host.service.goals import GoalRecord, GoalStatus
 from jackson.host.service.navigation import NavigationService
 from jackson.host.service.settings import ServiceSettings
 
-from ..host.test_service import room
+from ..host.service.test_service import room
 
 HEALTHY = (
     ("imu", "ok"),

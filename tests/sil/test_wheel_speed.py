@@ -5,7 +5,7 @@ twin's ground truth over the last 2 s of each 5 s command.
 Open loop (the missions' way, as the paper's robot drove) the loaded wheels run 10-11 % slow
 (0.134 m/s for 0.15 m/s); with the wheel-speed PI on the encoders they track within 3 %. Here
 the PI runs as the default configuration runs it, on external commands (``wheel_pi.external``;
-open loop: off) (tests/host/test_chain.py checks the missions keep the
+open loop: off) (tests/host/core/test_chain.py checks the missions keep the
 feed-forward)."""
 
 from __future__ import annotations

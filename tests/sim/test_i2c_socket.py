@@ -13,8 +13,7 @@ from pathlib import Path
 import pytest
 
 from jackson.host.actuation.i2c import I2cError, SocketI2cBus
-from jackson.sim.i2c_server import I2cServerError, I2cSocketServer
-from jackson.sim.pca9685 import (
+from jackson.protocol.pca9685 import (
     LED_FULL,
     MODE1,
     MODE1_AI,
@@ -24,10 +23,11 @@ from jackson.sim.pca9685 import (
     MODE2,
     MODE2_OUTDRV,
     PRE_SCALE,
-    Pca9685,
     led_on_l,
     prescale_for,
 )
+from jackson.sim.i2c_server import I2cServerError, I2cSocketServer
+from jackson.sim.pca9685 import Pca9685
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, BridgeMode, bridge_outputs
 
 PCA = 0x40

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from jackson.sim.pca9685 import (
+from jackson.protocol.pca9685 import (
     ALL_LED_OFF_H,
     ALL_LED_ON_L,
     LED0_OFF_H,
@@ -26,10 +26,10 @@ from jackson.sim.pca9685 import (
     PRE_SCALE,
     SUBADR1,
     TESTMODE,
-    Pca9685,
     led_on_l,
     prescale_for,
 )
+from jackson.sim.pca9685 import Pca9685
 
 
 def counts(on: int, off: int, full_on: bool = False, full_off: bool = False) -> bytes:
@@ -49,12 +49,6 @@ def running_pca(freq_hz: float = 1000.0) -> Pca9685:
     return pca
 
 
-def test_register_map_matches_table_4() -> None:
-    assert (MODE1, MODE2, SUBADR1, LED0_ON_L, LED15_OFF_H) == (0x00, 0x01, 0x02, 0x06, 0x45)
-    assert (ALL_LED_ON_L, ALL_LED_OFF_H, PRE_SCALE, TESTMODE) == (0xFA, 0xFD, 0xFE, 0xFF)
-    assert led_on_l(15) + 3 == LED15_OFF_H
-
-
 def test_power_on_values() -> None:
     pca = Pca9685()
     assert pca.read(MODE1, 1) == b"\x11"  # SLEEP | ALLCALL
@@ -69,19 +63,6 @@ def test_power_on_values() -> None:
 def test_power_on_outputs_are_off_and_asleep() -> None:
     pca = Pca9685()
     assert [pca.channel_duty(ch) for ch in range(16)] == [0.0] * 16
-
-
-def test_prescale_for_follows_equation_1() -> None:
-    assert prescale_for(200.0) == 0x1E  # the datasheet's example
-    assert prescale_for(1000.0) == 5  # round(25e6 / (4096 * 1000)) - 1 = round(6.10) - 1
-    assert prescale_for(1526.0) == 3
-    assert prescale_for(24.0) == 253
-
-
-@pytest.mark.parametrize("freq_hz", [0.0, -50.0, 2000.0, 20.0])
-def test_prescale_for_rejects_rates_the_chip_cannot_make(freq_hz: float) -> None:
-    with pytest.raises(ValueError, match="PWM frequency"):
-        prescale_for(freq_hz)
 
 
 def test_driver_init_sequence_sets_1_khz_and_runs() -> None:

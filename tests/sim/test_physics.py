@@ -232,3 +232,23 @@ def test_scan_history_keeps_the_newest_scans_and_counts_all() -> None:
     assert [s.t_s for s in bounded.scans] == [s.t_s for s in newest]
     pairs = zip(bounded.scans, newest, strict=True)
     assert all(np.array_equal(a.ranges, b.ranges) for a, b in pairs)
+
+
+def test_the_models_wheel_attributes_are_its_wheel_states() -> None:
+    tw = Twin(FLOOR, robot(), seed=0)
+    model = tw.robot.model
+    tw.command(drive(0.6), drive(0.4))
+    tw.advance(0.5)
+    left, right = model.left, model.right
+    assert (left.drive, left.connected, right.drive, right.connected) == (0.6, 1.0, 0.4, 1.0)
+    assert (tw.robot.omega_l, tw.robot.angle_l, tw.robot.tau_l) == (
+        left.omega,
+        left.angle,
+        left.tau,
+    )
+    assert (tw.robot.omega_r, tw.robot.angle_r, tw.robot.tau_r) == (
+        right.omega,
+        right.angle,
+        right.tau,
+    )
+    assert left.omega > right.omega > 0.0

@@ -53,7 +53,15 @@ from jackson.protocol.rplidar import (
 )
 from jackson.sim.config import load_robot, load_world
 from jackson.sim.lidar import Lidar, LidarSpec, Obstacles, cast
-from jackson.sim.rplidar import A1M8_SCAN_MODES, A1M8_TYPICAL_MODE, TWIN_INFO, RplidarEmulator
+from jackson.sim.rplidar import (
+    A1M8_SAMPLE_RATE,
+    A1M8_SCAN_MODES,
+    A1M8_TYPICAL_MODE,
+    TWIN_HEALTH,
+    TWIN_INFO,
+    DeviceAnswers,
+    RplidarEmulator,
+)
 from jackson.sim.runner import RunnerStats, TwinRunner
 from jackson.sim.twin import Twin
 
@@ -861,3 +869,15 @@ def test_capsules_decoded_together_are_the_capsules_decoded_one_by_one(answer_ty
     for field in ("start", "angle_q6", "distance_q2"):
         joined = np.concatenate([getattr(p, field) for p in parts])
         assert np.array_equal(getattr(together, field), joined), field
+
+
+def test_the_device_answers_name_their_modes_in_order_and_one_of_them_typical() -> None:
+    with pytest.raises(ValueError, match="ids 0, 1"):
+        DeviceAnswers(TWIN_INFO, TWIN_HEALTH, A1M8_SCAN_MODES[1:], 0)
+    with pytest.raises(ValueError, match="typical mode 5"):
+        DeviceAnswers(TWIN_INFO, TWIN_HEALTH, A1M8_SCAN_MODES, 5)
+    a1m8 = DeviceAnswers(TWIN_INFO, TWIN_HEALTH, A1M8_SCAN_MODES, A1M8_TYPICAL_MODE)
+    assert a1m8.sample_rate == A1M8_SAMPLE_RATE  # Standard's 508 us, Express's 254 us
+    assert a1m8.legacy_express is A1M8_SCAN_MODES[1]
+    beams = a1m8.with_standard(round(124.7 * 256))  # SCAN at the twin's beam time
+    assert beams.sample_rate.standard_us == 125 and beams.modes[1:] == A1M8_SCAN_MODES[1:]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from jackson.sim.pca9685 import (
+from jackson.protocol.pca9685 import (
     LED_FULL,
     MODE1,
     MODE1_AI,
@@ -13,9 +13,9 @@ from jackson.sim.pca9685 import (
     MODE2_OUTDRV,
     MODE2_POWER_ON,
     OUTNE_HIGH,
-    Pca9685,
     led_on_l,
 )
+from jackson.sim.pca9685 import Pca9685
 from jackson.sim.tb6612 import (
     LEFT_WIRING,
     RIGHT_WIRING,

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import serial
 
-from jackson.lockstep_bench import _TWIN_SUMMARY
+from jackson.bench.lockstep import _TWIN_SUMMARY
 from jackson.protocol import Heartbeat, HostState, MotorPwm, Telemetry, TelemetryFlags
 from jackson.sim.fil import DEFAULT_BINARY
 

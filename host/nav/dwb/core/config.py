@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from jackson.protocol.messages import TELEMETRY_RATE_HZ_DEFAULT
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -19,7 +21,8 @@ class DwbConfig:
     Attributes
     ----------
     controller_frequency_hz : float
-        Control rate [Hz] (20).
+        Control rate [Hz]: the telemetry rate (protocol/schema.yaml, 20), since the
+        navigator steps once per telemetry frame.
     vx_samples, vtheta_samples : int
         Samples across the window per axis (20, 20).
     sim_time_s : float
@@ -54,7 +57,7 @@ class DwbConfig:
         (2.0, 2.0; both capped at half the local window).
     """
 
-    controller_frequency_hz: float = 20.0
+    controller_frequency_hz: float = float(TELEMETRY_RATE_HZ_DEFAULT)
     vx_samples: int = 20
     vtheta_samples: int = 20
     sim_time_s: float = 1.7

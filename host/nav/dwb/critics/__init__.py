@@ -11,6 +11,10 @@ PathAlign     32.0   :mod:`.path_align`: the nose on the path (x resolution / 2)
 PathDist      32.0   :mod:`.path_dist`: the end near the path
 GoalDist      24.0   :mod:`.goal_dist`: the end near the goal
 ============  =====  ==========================================================
+
+The four distance critics are one family, as in DWB: each reads a distance map at one point of
+the roll-out (:mod:`.map_grid`, DWB's MapGridCritic); PathAlign is a PathDist scored at a point
+projected ahead, GoalAlign a GoalDist with its target pushed on and the same forward point.
 """
 
 from __future__ import annotations

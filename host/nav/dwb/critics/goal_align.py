@@ -1,9 +1,11 @@
 """GoalAlign: point the robot's nose at the goal.
 
-Raw score: the goal-align map at the point ``goal_align_forward_point_distance`` (0.1 m) ahead
-of the roll-out's end pose, the Manhattan distance [cells] from its cell to the last cell of
-the global path in the window, that cell pushed on by the same distance towards the goal when
-it is the path's end (DWB shifts only the path's end, not a point where the path leaves the
+A :class:`~jackson.host.nav.dwb.critics.goal_dist.GoalDistCritic` with its target pushed on
+and scored at a point projected ahead, as DWB's GoalAlign derives from GoalDist. Raw score:
+the goal-align map at the point ``goal_align_forward_point_distance`` (0.1 m) ahead of the
+roll-out's end pose, the Manhattan distance [cells] from its cell to the last cell of the
+global path in the window, that cell pushed on by the same distance towards the goal when it
+is the path's end (DWB shifts only the path's end, not a point where the path leaves the
 window), through the cells below inscribed (:mod:`jackson.host.nav.dwb.core.distance`). Rejects a
 roll-out whose forward point lies off the grid. Scale 24.0; 0 (and nothing rejected) while
 RotateToGoal turns the stopped robot to the goal's yaw.
@@ -17,14 +19,17 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.nav.dwb.core.config import DwbConfig
-from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
+from jackson.host.nav.dwb.core.path import PlanCells
+from jackson.host.nav.dwb.critics.base import Batch, Context
+from jackson.host.nav.dwb.critics.goal_dist import GoalDistCritic
+from jackson.host.nav.dwb.critics.map_grid import forward_cells
 from jackson.host.nav.dwb.critics.rotate_to_goal import RotateToGoalCritic
 
-FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
 
 
-class GoalAlignCritic(Critic):
+class GoalAlignCritic(GoalDistCritic):
     """Score how far the point ahead of the end pose is from the goal.
 
     Parameters
@@ -39,10 +44,9 @@ class GoalAlignCritic(Critic):
     name = "GoalAlign"
 
     def __init__(self, config: DwbConfig, rotate_to_goal: RotateToGoalCritic | None) -> None:
-        self.config = config
+        super().__init__(config)
         self.rotate_to_goal = rotate_to_goal
         self._scale = config.goal_align_scale
-        self._map: FloatArray | None = None
 
     @property
     def scale(self) -> float:
@@ -52,33 +56,28 @@ class GoalAlignCritic(Critic):
     def prepare(self, context: Context) -> bool:
         """Fix the scale and take the map from the (pushed) target cell; False without a path
         in the window."""
-        c = self.config
         rotating = self.rotate_to_goal is not None and self.rotate_to_goal.rotating
-        self._scale = 0.0 if rotating else c.goal_align_scale
-        plan = context.plan
-        if plan is None:
-            self._map = None
-            return False
-        costmap, pose, goal = context.costmap, context.pose, context.goal
-        ar, ac = int(plan.rows[-1]), int(plan.cols[-1])
+        self._scale = 0.0 if rotating else self.config.goal_align_scale
+        return super().prepare(context)
+
+    def target_cells(self, context: Context, plan: PlanCells) -> tuple[IntArray, IntArray]:
+        """GoalDist's cell, pushed on by the forward point distance along the heading from
+        the robot to the goal when it is the path's end and the pushed cell is on the grid."""
+        rows, cols = super().target_cells(context, plan)
+        ar, ac = int(rows[-1]), int(cols[-1])
         if plan.reaches_end:
+            costmap, pose, goal = context.costmap, context.pose, context.goal
             heading = math.atan2(goal.y - pose.y, goal.x - pose.x)
-            fpd = c.goal_align_forward_point_distance_m
+            fpd = self.config.goal_align_forward_point_distance_m
             tx, ty = costmap.cell_to_world(ar, ac)
             sr, sc = costmap.world_to_cell(
                 float(tx) + fpd * math.cos(heading), float(ty) + fpd * math.sin(heading)
             )
-            rows, cols = costmap.shape
-            if 0 <= sr < rows and 0 <= sc < cols:
+            n_rows, n_cols = costmap.shape
+            if 0 <= sr < n_rows and 0 <= sc < n_cols:
                 ar, ac = int(sr), int(sc)
-        self._map = context.maps.to_cells(costmap, [ar], [ac])
-        return True
+        return np.array([ar], np.intp), np.array([ac], np.intp)
 
-    def score(self, batch: Batch) -> tuple[FloatArray, BoolArray]:
-        """Raw scores (goal-align map at the forward point) and legality (forward point on the
-        grid, while the scale is not 0)."""
-        if self._map is None:
-            raise RuntimeError("GoalAlign: scored without a map (prepare returned False)")
-        cell, on_grid = batch.forward_cells(self.config.goal_align_forward_point_distance_m)
-        legal = on_grid if self._scale > 0.0 else np.ones(batch.size, bool)
-        return self._map.take(cell), legal
+    def scored_cells(self, batch: Batch) -> tuple[IntArray, BoolArray]:
+        """The forward point's cell, legal on the grid while the scale is not 0."""
+        return forward_cells(batch, self.config.goal_align_forward_point_distance_m, self._scale)

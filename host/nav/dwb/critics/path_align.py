@@ -1,12 +1,14 @@
 """PathAlign: keep the robot's nose on the global path.
 
-Raw score: the path map at the point ``path_align_forward_point_distance`` (0.1 m) ahead of the
-roll-out's end pose, the Manhattan distance [cells] from its cell to the nearest cell of the
-global path in the window, through the cells below inscribed
-(:mod:`jackson.host.nav.dwb.core.distance`). Rejects a roll-out whose forward point lies off the
-grid. Scale 32.0 x resolution / 2, as DWB scales it; 0 (and nothing rejected) within the
-forward point distance of the goal, where the nose follows RotateToGoal alone, and, as
-GoalAlign, while RotateToGoal turns the stopped robot to the goal's yaw.
+A :class:`~jackson.host.nav.dwb.critics.path_dist.PathDistCritic` scored at a point projected
+ahead, as DWB's PathAlign derives from PathDist. Raw score: the path map at the point
+``path_align_forward_point_distance`` (0.1 m) ahead of the roll-out's end pose, the Manhattan
+distance [cells] from its cell to the nearest cell of the global path in the window, through
+the cells below inscribed (:mod:`jackson.host.nav.dwb.core.distance`). Rejects a roll-out whose
+forward point lies off the grid. Scale 32.0 x resolution / 2, as DWB scales it; 0 (and
+nothing rejected) within the forward point distance of the goal, where the nose follows
+RotateToGoal alone, and, as GoalAlign, while RotateToGoal turns the stopped robot to the
+goal's yaw.
 """
 
 from __future__ import annotations
@@ -15,14 +17,16 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.nav.dwb.core.config import DwbConfig
-from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
+from jackson.host.nav.dwb.critics.base import Batch, Context
+from jackson.host.nav.dwb.critics.map_grid import forward_cells
+from jackson.host.nav.dwb.critics.path_dist import PathDistCritic
 from jackson.host.nav.dwb.critics.rotate_to_goal import RotateToGoalCritic
 
-FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
 
 
-class PathAlignCritic(Critic):
+class PathAlignCritic(PathDistCritic):
     """Score how far the point ahead of the end pose is from the global path.
 
     Parameters
@@ -37,10 +41,9 @@ class PathAlignCritic(Critic):
     name = "PathAlign"
 
     def __init__(self, config: DwbConfig, rotate_to_goal: RotateToGoalCritic | None) -> None:
-        self.config = config
+        super().__init__(config)
         self.rotate_to_goal = rotate_to_goal
         self._scale = 0.0
-        self._map: FloatArray | None = None
 
     @property
     def scale(self) -> float:
@@ -58,18 +61,8 @@ class PathAlignCritic(Critic):
             self._scale = 0.0
         else:
             self._scale = c.path_align_scale * 0.5 * context.costmap.resolution_m
-        plan = context.plan
-        if plan is None:
-            self._map = None
-            return False
-        self._map = context.maps.to_cells(context.costmap, plan.rows, plan.cols)
-        return True
+        return super().prepare(context)
 
-    def score(self, batch: Batch) -> tuple[FloatArray, BoolArray]:
-        """Raw scores (path map at the forward point) and legality (forward point on the grid,
-        while the scale is not 0)."""
-        if self._map is None:
-            raise RuntimeError("PathAlign: scored without a path map (prepare returned False)")
-        cell, on_grid = batch.forward_cells(self.config.path_align_forward_point_distance_m)
-        legal = on_grid if self._scale > 0.0 else np.ones(batch.size, bool)
-        return self._map.take(cell), legal
+    def scored_cells(self, batch: Batch) -> tuple[IntArray, BoolArray]:
+        """The forward point's cell, legal on the grid while the scale is not 0."""
+        return forward_cells(batch, self.config.path_align_forward_point_distance_m, self._scale)

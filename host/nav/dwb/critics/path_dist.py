@@ -11,14 +11,14 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.nav.dwb.core.config import DwbConfig
-from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
+from jackson.host.nav.dwb.core.path import PlanCells
+from jackson.host.nav.dwb.critics.base import Context
+from jackson.host.nav.dwb.critics.map_grid import MapGridCritic
 
-FloatArray = npt.NDArray[np.float64]
-BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
 
 
-class PathDistCritic(Critic):
+class PathDistCritic(MapGridCritic):
     """Score the distance of the end pose to the global path.
 
     Parameters
@@ -29,26 +29,11 @@ class PathDistCritic(Critic):
 
     name = "PathDist"
 
-    def __init__(self, config: DwbConfig) -> None:
-        self.config = config
-        self._map: FloatArray | None = None
-
     @property
     def scale(self) -> float:
         """``path_dist_scale``."""
         return self.config.path_dist_scale
 
-    def prepare(self, context: Context) -> bool:
-        """Take the path map; False without a path in the window."""
-        plan = context.plan
-        if plan is None:
-            self._map = None
-            return False
-        self._map = context.maps.to_cells(context.costmap, plan.rows, plan.cols)
-        return True
-
-    def score(self, batch: Batch) -> tuple[FloatArray, BoolArray]:
-        """Raw scores (path map at the end pose) and legality (end pose on the grid)."""
-        if self._map is None:
-            raise RuntimeError("PathDist: scored without a path map (prepare returned False)")
-        return self._map.take(batch.end_cell), batch.end_on_grid
+    def target_cells(self, context: Context, plan: PlanCells) -> tuple[IntArray, IntArray]:
+        """Every cell of the path in the window."""
+        return plan.rows, plan.cols
