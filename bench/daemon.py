@@ -10,6 +10,9 @@ ROS, the LiDAR), and the CPU per frame on the daemon's thread, median and p99, o
 telemetry period. These are ratios to the robot's own clock, which a slower machine cannot
 stretch: a regression anywhere in the frame path raises them.
 
+Beside them, the daemon's frame latency idle and loaded, at the normal policy and with
+``--realtime`` (:mod:`jackson.bench.daemon_latency`): the figure a busy machine does stretch.
+
 Targets: with navigation and recording, 5 % of a core (about 15 % of a Jetson-class core),
 the p99 frame within half the period; the square, 2 % of a core at 20 Hz telemetry and 20 % at
 200 Hz (the config's ``serial.telemetry_rate_hz``), each frame at 200 Hz at most 1.2 times the
@@ -25,6 +28,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from jackson.bench import daemon_latency
 from jackson.common.bench import BenchResult, reference_loop_us
 
 TELEMETRY_HZ = 20.0
@@ -69,12 +73,23 @@ def _ports(sim: subprocess.Popen[str], lidar: bool) -> dict[str, str]:
     return ports
 
 
-def daemon_run(world: str, daemon_args: list[str], folder: Path) -> dict[str, Any]:
-    """``jackson sim --world WORLD`` and ``jackson daemon`` on it with ``daemon_args``;
-    the run's ``health.json`` ``cpu`` entry."""
+def daemon_run(
+    world: str,
+    daemon_args: list[str],
+    folder: Path,
+    sim_args: tuple[str, ...] = (),
+    report: str = "cpu",
+    aborted_ok: bool = False,
+) -> dict[str, Any]:
+    """``jackson sim --world WORLD`` (with ``sim_args``) and ``jackson daemon`` on it with
+    ``daemon_args``; the run's ``health.json`` ``report`` entry (``cpu``, ``latency``), with
+    the daemon's printed lines under ``"said"`` and its exit status under ``"status"``
+    (``aborted_ok``: a mission aborted, exit 1, still counts)."""
     lidar = "--lidar" in daemon_args
     sim_argv = [_jackson(), "sim", "--world", world, *([] if lidar else ["--no-lidar"])]
-    sim = subprocess.Popen(sim_argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    sim = subprocess.Popen(
+        [*sim_argv, *sim_args], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+    )
     try:
         ports = _ports(sim, lidar)
         argv = [_jackson(), "daemon", "--port", ports["serial"], "--i2c", ports["i2c"]]
@@ -86,10 +101,10 @@ def daemon_run(world: str, daemon_args: list[str], folder: Path) -> dict[str, An
             text=True,
             timeout=RUN_TIMEOUT_S,
         )
-        if done.returncode != 0:
+        if done.returncode not in ((0, 1) if aborted_ok else (0,)):
             raise RuntimeError(f"daemon bench: jackson daemon failed: {done.stdout}{done.stderr}")
-        cpu: dict[str, Any] = json.loads((run / "health.json").read_text())["cpu"]
-        return cpu
+        entry: dict[str, Any] = json.loads((run / "health.json").read_text())[report]
+        return {**entry, "said": done.stdout, "status": done.returncode}
     finally:
         sim.terminate()
         sim.wait(timeout=30)
@@ -172,6 +187,9 @@ def run(quick: bool = False) -> list[BenchResult]:
             cpus.append(daemon_run("maze", [*nav_args, f"--goal={GOAL}"], nav / str(i)))
         nav_cpu = _median_run(cpus)
         results = _results("navigating", nav_cpu, NAV_SHARE_TARGET, loop_us)
+        results += daemon_latency.measure(
+            folder, [*nav_args, f"--goal={GOAL}"], loop_us, daemon_run
+        )
         if not quick:
             square = folder / "square"
             square.mkdir()

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from jackson import __version__
 from jackson.common.args import OneLineParser, one_line
 from jackson.common.errors import JacksonError
+from jackson.common.threads import EXIT_STATUS, ThreadFailedError
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -81,6 +82,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"jackson {args.command}: {where}{exc.strerror or one_line(exc)}", file=sys.stderr)
         return 2
+    except ThreadFailedError as exc:  # a thread of the run died: stopped, braked, one line
+        print(f"jackson {args.command}: {one_line(exc)}", file=sys.stderr)
+        return EXIT_STATUS
     except JacksonError as exc:  # every error of the project's own: one line (common/errors.py)
         print(f"jackson {args.command}: {one_line(exc)}", file=sys.stderr)
         return 2

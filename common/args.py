@@ -2,26 +2,42 @@
 
 :class:`OneLineParser` answers a bad argument with one line on stderr (``jackson run: argument
 --seed: expected an integer >= 0, got 'x' (see jackson run --help)``) and exit status 2, instead
-of argparse's usage block. The ``*_float`` and ``*_int`` types refuse what a robot cannot use:
-NaN, infinities, zero or negative counts and durations. :func:`output_folder` refuses a path
-that is a file, or a folder that already holds files, before anything is written.
+of argparse's usage block. A negative number is a value, never an option: ``--start -0.5,1``,
+``--duty -7e-1`` and ``jackson goal -1,2`` parse as the user means them. The ``*_float`` and
+``*_int`` types refuse what a robot cannot use: NaN, infinities, zero or negative counts and
+durations; :func:`pose_text` refuses a pose that is not two or three finite numbers.
+:func:`output_folder` refuses a path that is a file, or a folder that already holds files,
+before anything is written.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
+
+NEGATIVE_NUMBER = re.compile(r"^-(?:[0-9]|\.[0-9]|inf|nan)", re.IGNORECASE)
+"""An argument that starts like a negative number (``-0.5,1``, ``-7e-1``, ``-inf``): a value.
+argparse's own matcher takes only ``-1`` and ``-0.5`` as values and anything else after a dash
+as an option (``argument --start: expected one argument``); no ``jackson`` option starts with
+a dash and a digit."""
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """An ArgumentParser whose errors are one line on stderr and exit status 2."""
+    """An ArgumentParser whose errors are one line on stderr and exit status 2, and which reads
+    an argument starting like a negative number as a value (:data:`NEGATIVE_NUMBER`)."""
 
     def error(self, message: str) -> NoReturn:
         message = " ".join(message.split())
         self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+    def _parse_optional(self, arg_string: str) -> Any:
+        if NEGATIVE_NUMBER.match(arg_string):
+            return None  # a positional value, or the value of the option before it
+        return super()._parse_optional(arg_string)
 
 
 def _number(
@@ -64,7 +80,12 @@ MAX_SECONDS = 1e7  # [s] about 116 days: the longest run, limit or timeout anyth
 
 
 def _int(text: str) -> float:
-    return float(int(text, 0))
+    """An integer as written (``12``, ``0x10``), or a number that is one (``1e3``, ``10.0``)."""
+    try:
+        return float(int(text, 0))
+    except ValueError:
+        value = float(text)
+        return value if value.is_integer() else math.nan
 
 
 def positive_int(text: str) -> int:
@@ -79,6 +100,27 @@ def int_in(lo: int, hi: int) -> Callable[[str], int]:
     """An integer type for argparse that accepts ``lo``..``hi``."""
     check = _number(f"an integer in {lo}..{hi}", _int, lambda v: lo <= v <= hi)
     return lambda text: int(check(text))
+
+
+def pose_text(text: str) -> str:
+    """A pose option's type (``--goal``, ``--start``, ``--waypoint``): ``x,y`` or ``x,y,yaw``
+    of finite numbers [m, m, rad], refused where it is parsed so that the line names the option.
+    The text itself is returned: where the pose must lie is checked where it is used.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not two or three finite numbers separated by commas.
+    """
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected x,y or x,y,yaw in metres and radians (e.g. -0.5,1.2,0), got {text!r}"
+        )
+    return text
 
 
 def host_port(text: str) -> tuple[str, int]:

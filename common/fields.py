@@ -3,8 +3,8 @@ world files (jackson.host.config, jackson.sim.config).
 
 Every problem is one :class:`ConfigError` line that names the file and the dotted field, e.g.
 ``robot bad.yaml: motor.stall_torque_nm: expected a number > 0, got -1``. Unknown fields are
-refused (:meth:`Fields.finish`), repeated fields too, and ``1e-9`` reads as a number (plain
-YAML 1.1 would read it as text).
+refused (:meth:`Fields.finish`), repeated fields too, and ``1e-9``, ``1e6`` and ``1.0e6`` read
+as numbers (plain YAML 1.1 would read them as text).
 """
 
 from __future__ import annotations
@@ -88,14 +88,17 @@ class Fields:
             )
         return float(v)
 
-    def optional_number(self, key: str, lo: float, *, lo_open: bool = False) -> float | None:
+    def optional_number(
+        self, key: str, lo: float, hi: float | None = None, *, lo_open: bool = False
+    ) -> float | None:
         """A number, or null (the default) for "off"."""
         if self.data.get(key) is None:
             self.used.add(key)
             return None
         v = self.data[key]
-        if not _is_number(v) or not math.isfinite(v) or (v <= lo if lo_open else v < lo):
-            interval = _interval(lo, None, lo_open, False)
+        ok = _is_number(v) and math.isfinite(v) and (v > lo if lo_open else v >= lo)
+        if not ok or (hi is not None and v > hi):
+            interval = _interval(lo, hi, lo_open, False)
             raise self.fail(key, f"expected a number{interval} or null, got {show(v)}")
         self.used.add(key)
         return float(v)
@@ -211,8 +214,8 @@ class Fields:
 
 
 class _StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
-    """Safe YAML that also reads ``1e-9`` as a number and refuses duplicate keys; parsed by
-    libyaml where PyYAML has it (the shipped host configuration: 1 ms instead of 19)."""
+    """Safe YAML that also reads ``1e-9`` and ``1.0e6`` as numbers and refuses duplicate keys;
+    parsed by libyaml where PyYAML has it (the shipped host configuration: 1 ms instead of 19)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[str] = set()
@@ -228,10 +231,10 @@ class _StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ign
         return mapping
 
 
-_StrictLoader.add_implicit_resolver(
+_StrictLoader.add_implicit_resolver(  # YAML 1.1 wants a dot and a signed exponent: 1.0e+6
     "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9][0-9_]*)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"),
 )
 
 

@@ -110,6 +110,10 @@ def trial_line(result: dict[str, Any]) -> str:
     if "trial" in result:
         head += f" (R{int(result['trial']) + 1:02d})"
     parts = ["completed" if result.get("completed") else "not completed"]
+    if result.get("stalled"):
+        parts = ["lockstep stalled twice (the machine's failure, not the robot's)"]
+    elif result.get("stall_retried"):
+        parts.append("retried after a lockstep stall")
     for key, label in (("gt_closure_cm", "GT closure"), ("ekf_closure_cm", "EKF closure")):
         if isinstance(result.get(key), (int, float)):
             parts.append(f"{label} {result[key]:.1f} cm")

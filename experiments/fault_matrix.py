@@ -14,7 +14,11 @@ MCU time, with the robot driving its first side, the fault is injected:
 - an **MCU reset** (the firmware core boots again: new boot_id, counts from 0, no session);
 - the **IMU dying** (no IMU_OK from then on: the health monitor excludes it and the square goes
   on with the wheels' yaw rate, ``health.imu_lost: continue``);
-- **5 % of telemetry frames lost** on the line, and **5 % of frames with a corrupted byte**.
+- **5 % of telemetry frames lost** on the line, and **5 % of frames with a corrupted byte**;
+- navigating the maze by the LiDAR instead of driving the square: the host **SIGSTOP**ped (the
+  LiDAR's bytes then wait with the frames: its silence is the daemon's), and **garbage bytes
+  instead of revolutions** on the LiDAR's line (every revolution's bytes replaced by as many
+  random ones).
 
 What each row reports, from the twin's side (ground truth, on MCU time) and the host's:
 
@@ -29,7 +33,8 @@ What each row reports, from the twin's side (ground truth, on MCU time) and the 
 
 A row passes when the motors stopped driving within ``failsafe + one period`` of the fault
 wherever the host could not command them (a dead, stopped or blind host, a broken motor path),
-the daemon survived every fault but its own death, and the data on disk is consistent.
+the daemon survived every fault but its own death, the data on disk is consistent, and the
+operator was told the right cause (a row's ``cause``, and none of its ``blame``).
 """
 
 from __future__ import annotations
@@ -56,7 +61,7 @@ if TYPE_CHECKING:
 
 FAULT_AT_S = 6.0  # [s] MCU time: the robot drives the square's first side
 WINDOW_S = 4.0  # [s] MCU time watched after the fault
-FAILSAFE_S = 0.6  # [s] the MCU's heartbeat failsafe (and the interlock)
+FAILSAFE_S = 0.2  # [s] the MCU's heartbeat failsafe and interlock (the host's failsafe_ms)
 PERIOD_S = 0.05  # [s] one telemetry period at 20 Hz
 FLUSH_S = 1.0  # [s] MCU time between the run folder's joint flushes (recording.FLUSH_PERIOD_S)
 STOP_WALL_S = 2.5  # [s] SIGSTOP lasts this long (the twin waits 1 s before it runs on alone)
@@ -66,6 +71,10 @@ BRAKE_LIMIT_S = FAILSAFE_S + PERIOD_S + ACTUATION_LATENCY_S  # must-brake rows s
 HOLD_S = 0.3  # [s] a stop counts when no drive lasts this long
 LOSS_P = 0.05  # probability of a lost / corrupted telemetry frame
 JACKSON = str(Path(sys.executable).parent / "jackson")
+STALL_TOLD = "daemon: daemon stalled "  # the daemon's line for its own stall
+LIDAR_TOLD = "health: lidar "  # any verdict on the LiDAR (blame, when the daemon stalled)
+FOREIGN_TOLD = "PCA9685 registers rewritten by someone else"  # and the mission aborted
+NAV_WORLD = "maze"  # the LiDAR rows navigate this world from its start to its goal
 
 
 @dataclass(frozen=True)
@@ -76,6 +85,9 @@ class Fault:
     actuator: str = "pca9685"  # "pca9685" (the host drives) or "mcu" (MOTOR_PWM)
     repeat: int = 1
     must_brake: bool = False  # the host cannot command the motors: they must stop
+    lidar: bool = False  # navigate the maze by the twin's LiDAR instead of driving the square
+    cause: str = ""  # the daemon's lines must name this (the right cause)
+    blame: str = ""  # ... and none of them this (a wrong cause)
 
 
 @dataclass
@@ -105,18 +117,34 @@ def matrix(short: bool) -> list[Fault]:
     return [
         Fault("host SIGKILL", "pca9685", must_brake=True),
         Fault("host SIGKILL", "mcu", must_brake=True),
-        Fault("host SIGSTOP", "pca9685", must_brake=True),
-        Fault("host SIGSTOP", "mcu", must_brake=True),
+        Fault("host SIGSTOP", "pca9685", must_brake=True, cause=STALL_TOLD),
+        Fault("host SIGSTOP", "mcu", must_brake=True, cause=STALL_TOLD),
+        Fault(
+            "host SIGSTOP navigating",
+            "pca9685",
+            must_brake=True,
+            lidar=True,
+            cause=STALL_TOLD,
+            blame=LIDAR_TOLD,
+        ),
         Fault("host crash (SIGSEGV)", "pca9685", must_brake=True),
         Fault("host crash (SIGSEGV)", "mcu", must_brake=True),
         Fault("I2C server restart", "pca9685", repeat=n_i2c),
-        Fault("foreign MODE1 write", "pca9685"),
+        Fault("foreign MODE1 write", "pca9685", cause=FOREIGN_TOLD),
         Fault("serial unplug/replug", "pca9685", repeat=n_unplug),
         Fault("MCU reset", "pca9685", must_brake=True),
         Fault("IMU death", "pca9685"),  # excluded: the square goes on, wheel-only yaw
         Fault("5 % frames lost", "pca9685"),
         Fault("5 % frames corrupted", "pca9685"),
         Fault("mute device", "mcu"),  # a port with no firmware behind it: nothing to drive
+        Fault(
+            "LiDAR garbage bytes",
+            "pca9685",
+            must_brake=True,  # held at once, then the LiDAR excluded: the navigation aborts
+            lidar=True,
+            cause="garbage on the line",
+            blame="no scan for",
+        ),
     ]
 
 
@@ -177,10 +205,25 @@ def _config(folder: Path, actuator: str) -> Path:
 
 
 def _daemon_argv(folder: Path, fault: Fault, port: str, run_dir: Path, *more: str) -> list[str]:
-    """``jackson daemon`` driving the square on ``port`` with the row's actuator."""
+    """``jackson daemon`` driving the square on ``port`` with the row's actuator; a LiDAR row
+    navigates :data:`NAV_WORLD` instead, from its start to its goal on the world's own map, by
+    the twin's LiDAR at ``folder/lidar``."""
     config = str(_config(folder, fault.actuator))
-    square = ["--mission", "square", "--run-dir", str(run_dir)]
-    return [JACKSON, "daemon", "--config", config, "--port", port, *square, *more]
+    mission = ["--mission", "square"]
+    if fault.lidar:
+        from jackson.experiments.stage3 import world_goals, world_grid
+        from jackson.sim.config import load_world
+
+        world = load_world(NAV_WORLD)
+        world_grid(world).save(folder / "map.yaml")
+        goal = world_goals(world)[0]
+        x, y, yaw = world.start_pose
+        mission = [
+            *("--lidar", str(folder / "lidar"), "--map", str(folder / "map.yaml")),
+            *("--start", f"{x},{y},{yaw}", "--goal", f"{goal.x},{goal.y}"),
+        ]
+    run = ["--run-dir", str(run_dir)]
+    return [JACKSON, "daemon", "--config", config, "--port", port, *mission, *run, *more]
 
 
 MUTE_WALL_S = 5.0  # [s] the daemon runs this long against a mute device
@@ -271,7 +314,8 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
     folder.mkdir(parents=True, exist_ok=True)
     rng = random.Random(seed)
     watch = _Watch()
-    twin = Twin(load_world("square_room"), load_robot("jackson"), lidar=False, seed=seed)
+    world = load_world(NAV_WORLD if fault.lidar else "square_room")
+    twin = Twin(world, load_robot("jackson"), lidar=fault.lidar, seed=seed)
     sock = folder / "i2c.sock"
     link = folder / "serial"
     runner = TwinRunner(
@@ -280,6 +324,8 @@ def run_row(fault: Fault, folder: Path, seed: int = 0) -> FaultRow:
         mcu_motors=fault.actuator == "mcu",
         serial_link=str(link),
         observer=watch,
+        lidar=fault.lidar,
+        lidar_link=str(folder / "lidar") if fault.lidar else None,
     )
     stop = threading.Event()
     thread = threading.Thread(target=runner.run, args=(None, stop), daemon=True)
@@ -372,6 +418,16 @@ def _schedule(
     def lose_frames() -> None:
         runner.drop_telemetry = lambda n: rng.random() < LOSS_P
 
+    def lidar_garbage() -> None:
+        # every revolution's bytes replaced by as many random ones, from now on
+        lidar = runner.lidar
+        assert lidar is not None
+
+        def garbage(data: bytes) -> None:
+            lidar.link.write(rng.randbytes(len(data)))
+
+        lidar._write = garbage  # type: ignore[method-assign]
+
     def corrupt_frames() -> None:
         real = mcu.write
 
@@ -387,8 +443,12 @@ def _schedule(
     main_thread_action: list[str] = []
     name = fault.name
     end_s = FAULT_AT_S + WINDOW_S
-    if name.startswith("host") or name == "foreign MODE1 write":
+    if name.startswith("host"):
         watch.at(FAULT_AT_S, lambda: main_thread_action.append(name))
+    elif name == "foreign MODE1 write":
+        # the daemon reads the chip back every second of wall time: the twin keeps real time
+        watch.at(FAULT_AT_S, lambda: main_thread_action.append(name))
+        watch.at(FAULT_AT_S, lambda: setattr(watch, "pace_from", (time.monotonic(), twin.t_s)))
     elif name == "I2C server restart":
         for k in range(fault.repeat):
             watch.at(FAULT_AT_S + k * 1.0, restart_i2c)
@@ -401,6 +461,8 @@ def _schedule(
         watch.at(FAULT_AT_S, reset_mcu)
     elif name == "IMU death":
         watch.at(FAULT_AT_S, kill_imu)
+    elif name == "LiDAR garbage bytes":
+        watch.at(FAULT_AT_S, lidar_garbage)
     elif name == "5 % frames lost":
         watch.at(FAULT_AT_S, lose_frames)
         end_s += 20.0
@@ -419,7 +481,7 @@ def _host_fault(name: str, proc: subprocess.Popen[str], sock: Path, pca9685_addr
     if name.startswith("host crash"):
         proc.send_signal(signal.SIGSEGV)
         return True
-    if name == "host SIGSTOP":
+    if name.startswith("host SIGSTOP"):
         proc.send_signal(signal.SIGSTOP)
         threading.Event().wait(STOP_WALL_S)
         proc.send_signal(signal.SIGCONT)
@@ -450,7 +512,12 @@ def _measure(
     told = [
         ln.strip() for ln in output.splitlines() if ln.startswith(("daemon:", "mission", "jackson"))
     ]
-    told = [t for t in told if not t.startswith("daemon: /")][:12]
+    told = [t for t in told if not t.startswith("daemon: /")]
+    named = not fault.cause or any(fault.cause in t for t in told)
+    blamed = [t for t in told if fault.blame and fault.blame in t]
+    # the right cause first: it, and what was said wrongly, lead the lines kept
+    told = [t for t in told if fault.cause and fault.cause in t] + blamed + told
+    told = list(dict.fromkeys(told))[:12]
     health = run_dir / "health.json"
     if health.exists():
         try:
@@ -476,8 +543,12 @@ def _measure(
         told=told,
     )
     row.trace = _speed_trace(watch.samples, t_f)
-    row.passed = bool(brake_ok and host_ok and consistent)
+    row.passed = bool(brake_ok and host_ok and consistent and named and not blamed)
     notes = []
+    if not named:
+        notes.append(f"the cause ({fault.cause!r}) not told")
+    if blamed:
+        notes.append(f"blamed: {blamed[0]}")
     if not brake_ok:
         notes.append("motors not stopped in time")
     if not host_ok:

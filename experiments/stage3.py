@@ -51,6 +51,7 @@ import yaml
 
 from jackson.common.errors import JacksonError
 from jackson.experiments import metrics as m
+from jackson.experiments.stall_retry import retry_stalled, stall_lines
 from jackson.experiments.trial import (
     cut_reason,
     twin_session,
@@ -226,7 +227,13 @@ def world_extent(world: WorldSpec, margin_m: float = 0.5) -> tuple[float, float,
 
 
 def run_nav_trial(spec: NavTrialSpec) -> dict[str, Any]:
-    """Drive one navigation (or mapping) run and return its metrics (also ``metrics.json``)."""
+    """Drive one navigation (or mapping) run and return its metrics (also ``metrics.json``);
+    a run cut by a lockstep stall is run once more (:mod:`jackson.experiments.stall_retry`)."""
+    return retry_stalled(_run_nav_trial_once, spec, spec.out)
+
+
+def _run_nav_trial_once(spec: NavTrialSpec) -> dict[str, Any]:
+    """One run of :func:`run_nav_trial`."""
     from jackson.sim.twin import Twin
 
     cpu0 = time.process_time()  # the trial's CPU, the twin's thread included
@@ -652,9 +659,14 @@ def write_stage3_report(
             f"{_median_iqr([r['t_nav_s'] for r in ok])} | "
             f"{_median_iqr([r['localisation_error_mean_cm'] for r in ok])} | {paper_text} |"
         )
-    failures = [f"- {r['run']}: {r['failure']}" for r in results if not r["completed"]]
+    failures = [
+        f"- {r['run']}: {r['failure']}"
+        for r in results
+        if not r["completed"] and not r.get("stalled")
+    ]
     if failures:
         lines += ["", "Runs that did not reach the goal:", "", *failures]
+    lines += stall_lines(results, lambda r: str(r["run"]))
     lines += [
         "",
         "Paper (REFERENCE): success 10/10 and 0 collisions on both domains; d_min 0.122 ± "

@@ -35,7 +35,11 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
+from jackson.common.errors import JacksonError
+from jackson.common.threads import Watch, record
+from jackson.common.threads import start as start_thread
 from jackson.experiments import metrics as m
+from jackson.experiments.stall_retry import retry_stalled
 from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.actuation.pca9685 import Pca9685
@@ -150,19 +154,21 @@ def twin_session(
     for 1.00 s") and failed where the pool's completed.
 
     What ends a session that stands still is a lockstep stall: both ends waiting for each other
-    for ``stall_s`` of wall time (the twin for a HEARTBEAT, the host for a telemetry frame). Each
+    for ``stall_s`` of wall time (the twin for a HEARTBEAT, the host for a telemetry frame), and
+    then doing no work (:mod:`jackson.common.liveness`: the CPU time of the other's thread,
+    ``TwinRunner.host_thread``, ``SerialTransport.twin_thread``). Each
     end sees whether the other waits or works (``TwinRunner(host_waiting=...)``,
     ``SerialTransport.peer_waiting``), so a slow or starved end is never taken for a stopped
     one. The twin then gives up (``runner.stalled``) and keeps serving the links without moving
     its clock, and the daemon (which takes the transport's ``stall_s``) aborts on the stall:
-    it brakes through the PCA9685 and says SHUTDOWN, and exits 1.
+    it brakes through the PCA9685 and says SHUTDOWN (:attr:`Daemon.run`'s status 75).
 
     With ``lidar``, the host's driver starts ``lidar_mode`` (None: the densest, as the daemon
     does; :meth:`~jackson.host.lidar.rplidar.RplidarDriver.start`)."""
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.sim.runner import TwinRunner
 
-    with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp, Watch() as watch:
         sock = Path(tmp) / "i2c.sock"
         runner = TwinRunner(
             twin, i2c_path=sock, heartbeat_timeout_s=math.inf, lidar=lidar, stall_s=stall_s
@@ -175,11 +181,17 @@ def twin_session(
         stop = threading.Event()
 
         def twin_loop() -> None:
-            runner.run(None, stop)
-            runner.serve(stop)  # after a stall: the host's brake and SHUTDOWN still land
+            try:
+                runner.run(None, stop)
+            except JacksonError as exc:  # the daemon aborts on it (common/threads.py)
+                record("twin", exc)
+            runner.serve(stop)  # after a stall or a failure: the host's brake and SHUTDOWN land
 
-        thread = threading.Thread(target=twin_loop, daemon=True)
-        thread.start()
+        thread = start_thread(twin_loop, "twin")  # its failure ends the daemon's run
+        # each end judges the other by its thread's CPU time; the daemon runs in this thread
+        assert thread.native_id is not None
+        transport.twin_thread(thread.native_id)
+        runner.host_thread(threading.get_native_id())
         driver = None
         try:
             pca = Pca9685(open_bus(cfg.pca9685.bus), cfg.pca9685.address)
@@ -197,6 +209,7 @@ def twin_session(
             stop.set()
             thread.join(timeout=30)
             runner.close()
+        watch.check()  # the twin's thread died: one line (ThreadFailedError), exit status 1
 
 
 @dataclass(frozen=True)
@@ -231,8 +244,17 @@ def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
     return {c: data[:, i] for i, c in enumerate(cols)}
 
 
-def run_trial(spec: TrialSpec) -> dict[str, Any]:
-    """Drive one mission on the twin and return its metrics (also written to metrics.json)."""
+def run_trial(spec: TrialSpec, *, retry_stall: bool = True) -> dict[str, Any]:
+    """Drive one mission on the twin and return its metrics (also written to metrics.json);
+    a run cut by a lockstep stall is run once more (:mod:`jackson.experiments.stall_retry`)
+    unless ``retry_stall`` is False."""
+    if not retry_stall:
+        return _run_trial_once(spec)
+    return retry_stalled(_run_trial_once, spec, spec.out)
+
+
+def _run_trial_once(spec: TrialSpec) -> dict[str, Any]:
+    """One run of :func:`run_trial`."""
     from jackson.sim.config import load_robot, load_world
     from jackson.sim.faults import schedule
     from jackson.sim.twin import Twin

@@ -41,6 +41,7 @@ from jackson.experiments.stage3 import (
     run_nav_trial,
     world_goals,
 )
+from jackson.experiments.stall_retry import stall_lines
 from jackson.sim.config import load_world
 
 WORLDS: dict[str, str] = {
@@ -288,13 +289,14 @@ def write_worlds_report(out: Path, results: list[dict[str, Any]], meta: dict[str
             f"| {sum(int(r['recoveries']) for r in runs)} "
             f"| {_median_iqr([r['localisation_error_mean_cm'] for r in runs], 1)} |"
         )
-    bad = [r for r in results if not r["passed"]]
+    bad = [r for r in results if not r["passed"] and not r.get("stalled")]
     if bad:
         lines += ["", "Runs that did not pass:", ""]
         for r in bad:
             why = r.get("failure") or f"true end {100 * r['goal_error_m']:.1f} cm from the goal"
             extra = "; ".join(r["health_events"])
             lines.append(f"- {r['run']} ({r['robot']}): {why}" + (f"; {extra}" if extra else ""))
+    lines += stall_lines(results, lambda r: f"{r['run']} ({r['robot']})")
     events = [r for r in results if r["passed"] and r["health_events"]]
     if events:
         lines += ["", "Health events in runs that passed:", ""]

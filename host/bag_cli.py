@@ -57,6 +57,7 @@ def cmd_bag_repair(args: argparse.Namespace) -> int:
             raise HostCliError(
                 f"{bag}: its run is being recorded by a running daemon; repair it after it ends"
             )
+        _refuse_not_mcap(bag)
         if not needs_repair(bag):
             print(f"{bag}: complete (has metadata.yaml), nothing to repair")
         else:
@@ -65,8 +66,24 @@ def cmd_bag_repair(args: argparse.Namespace) -> int:
             except BagError as exc:
                 raise HostCliError(f"{exc}; the bag is left as it was") from exc
             print(f"{bag}: repaired, {n} messages recovered")
-        _show(bag, args.run)
+        _show(bag, args.run, repairing=True)
     return 0
+
+
+def _refuse_not_mcap(bag: Path) -> None:
+    """Raise when a file of ``bag`` does not start with MCAP's magic: that is no bag a writer
+    left unfinished, and no repair can make it one."""
+    from jackson.host.ros.bag import BagError
+    from jackson.host.ros.bag.repair import whole_records
+
+    for file in sorted(bag.glob("*.mcap")):
+        try:
+            next(iter(whole_records(file)), None)
+        except BagError as exc:
+            why = f"{exc}, so not a bag: no repair can make it one (left as it was)"
+            raise HostCliError(why) from exc
+        except OSError as exc:
+            raise HostCliError(f"{file}: {exc.strerror}") from exc
 
 
 def cmd_bag_info(args: argparse.Namespace) -> int:
@@ -74,6 +91,7 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
     from jackson.host.ros.bag import needs_repair
 
     for bag in bags_of(args.run):
+        _refuse_not_mcap(bag)
         if needs_repair(bag):
             raise HostCliError(
                 f"{bag}: unfinished (no metadata.yaml); run: jackson bag repair {args.run}"
@@ -82,13 +100,14 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _show(bag: Path, run: Path) -> None:
+def _show(bag: Path, run: Path, *, repairing: bool = False) -> None:
     from jackson.host.ros.bag import BagError, bag_info
 
     try:
         info = bag_info(bag)
     except BagError as exc:
-        raise HostCliError(f"{exc}; try: jackson bag repair {run}") from exc
+        hint = "no repair can read it" if repairing else f"try: jackson bag repair {run}"
+        raise HostCliError(f"{exc}; {hint}") from exc
     if info.start_ns is None or info.end_ns is None:
         span = "no messages"
     else:

@@ -232,6 +232,9 @@ def status_lines(st: dict[str, Any]) -> list[str]:
         f"{cpu.get('robot_s', 0):.0f} s of robot time "
         f"(frame p99 {cpu.get('frame_p99_ms', 0):.1f} ms)"
     )
+    if lat := st.get("latency_ms"):  # telemetry read to its HEARTBEAT written
+        out.append(f"latency: median {lat['median']:.1f} ms, p99 {lat['p99']:.1f} ms, "
+                   f"max {lat['max']:.1f} ms")  # fmt: skip
     d = st.get("disk") or {}
     if d:
         budget = (
@@ -293,7 +296,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             f"after frame {r.snapshot.get('frames')}"
         )
     for name, (kept, made) in r.rows.items():
-        extra = "" if r.complete or made == kept else f" (the log held {made - kept:+d} more)"
+        extra = "" if r.complete or made <= kept else f" (the log held {made - kept} more)"
         print(f"  {name}: {kept} rows in the run, {made} replayed{extra}")
     if r.differ:
         print(f"replay differs from the run in {', '.join(r.differ)} (outputs in {out})")

@@ -24,7 +24,9 @@ from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 from jackson.common.errors import JacksonError
+from jackson.common.liveness import STALL_EXIT
 from jackson.common.spin import contention
+from jackson.common.threads import Watch
 from jackson.host.actuation.output import MotorOutput
 from jackson.host.commands import CommandError, CommandTracker
 from jackson.host.config import HostConfig
@@ -32,6 +34,7 @@ from jackson.host.control import Mission, make_mission
 from jackson.host.core import DutySource, HostCore
 from jackson.host.cpu import CpuMeter
 from jackson.host.daemon_folders import FolderSplit, RunFolders
+from jackson.host.daemon_latency import LatencyMeter
 from jackson.host.daemon_link import VERSION_SILENCE_S, LinkHealth, LinkWatch
 from jackson.host.daemon_outlets import OperatorListener, Outlets, live_view, ros_outlets
 from jackson.host.daemon_reports import health_doc, sensor_states, status_doc
@@ -93,16 +96,19 @@ class DaemonError(JacksonError, RuntimeError):
 
 class Daemon:
     """The process: transport, core, recorder, signals. ``run()`` returns an exit status:
-    0 when it stopped as asked or the mission is done, 1 when the mission was aborted
+    0 when it stopped as asked or the mission is done, 75 on a lockstep stall, 1 when the
+    mission was aborted otherwise
     (:attr:`HostCore.abort_reason`). A device that refuses a command, never answers one, or
     speaks another protocol raises :class:`DaemonError` (or ProtocolMismatchError).
 
     On a twin's pty the link watches for a lockstep stall (:mod:`jackson.host.transport`):
     ``stall_s`` wall seconds of waiting without a telemetry frame (default: the transport's own
-    setting, else :data:`~jackson.host.transport.STALL_S`; ``math.inf``: never). A stall ends
-    the run on the abort path (braked, SHUTDOWN heartbeat, exit status 1) with one line,
-    ``lockstep stalled: the host waited 10.0 s for a telemetry frame after frame N (MCU time
-    T s)``, kept in :attr:`stalled` and in the run's log, where ``jackson replay`` finds it.
+    setting, else :data:`~jackson.host.transport.STALL_S`; ``math.inf``: never), after which
+    the twin's liveness decides: a twin that works is waited for. A stall ends the run on the
+    abort path (braked, SHUTDOWN heartbeat, exit status 75, ``EX_TEMPFAIL``: an infrastructure
+    failure, not the robot's) with one line, ``lockstep stalled: the host waited 10.5 s for a
+    telemetry frame after frame N (MCU time T s): the twin process is stopped``, kept in
+    :attr:`stalled` and in the run's log, where ``jackson replay`` finds it.
 
     With ``rotate`` (``jackson daemon``: a robot's daemon runs for hours), the recording
     splits into run folders as ``recording.split`` says (a navigation service, or a daemon
@@ -165,6 +171,7 @@ class Daemon:
         # what the operator was told, in order (the newest EVENTS_KEPT: a service runs for days)
         self.events: deque[str] = deque(maxlen=EVENTS_KEPT)
         self.cpu = CpuMeter()  # the daemon's own CPU per robot-second and per frame
+        self.latency = LatencyMeter()  # telemetry read to its HEARTBEAT written, per frame
         self.link = LinkWatch(transport, self.output, self.core, self.commands, self.tell)
         # the navigation service: goal after goal, the control socket (jackson goal/status)
         self.service = mission if isinstance(mission, NavigationService) else None
@@ -254,7 +261,9 @@ class Daemon:
         """What ``jackson status`` shows: the service's state, goal, pose with covariance,
         sensor health, link problems, CPU and the recording folder's disk use. Safe from
         another thread (it reads snapshots)."""
-        return status_doc(self.core, self.service, self.health(), self.cpu, self.disk())
+        return status_doc(
+            self.core, self.service, self.health(), self.cpu, self.disk(), self.latency
+        )
 
     def disk(self) -> dict[str, Any]:
         """The recording folder's use and budget [MB] and the free space on its disk [MB]."""
@@ -269,13 +278,15 @@ class Daemon:
             self.cpu,
             self.commands.counters,
             1.0 / self.cfg.serial.telemetry_rate_hz,
+            self.latency,
         )
 
     # ------------------------------------------------------------------ the frame loop
 
     def run(self, max_s: float | None = None) -> int:
         """Serve until stopped (:attr:`stop`, a signal), the mission ends, the link stalls or
-        ``max_s`` wall seconds pass; the exit status (1: aborted)."""
+        ``max_s`` wall seconds pass; the exit status (1: aborted; :data:`~jackson.common.
+        liveness.STALL_EXIT`, 75: a lockstep stall, an infrastructure failure)."""
         started = time.monotonic()
         deadline = None if max_s is None else started + max_s
         self.link.started(started)
@@ -283,20 +294,28 @@ class Daemon:
         self.folders.start()
         settled = GcSettled()
         try:
-            self._loop(deadline)
+            with Watch() as watch:  # a thread of this process that dies ends the run
+                self._loop(deadline, watch)
         finally:
             self._shut_down()
             settled.restore()
+        if self.stalled is not None:
+            return STALL_EXIT
         return 1 if self.core.abort_reason is not None else 0
 
-    def _loop(self, deadline: float | None) -> None:
+    def _loop(self, deadline: float | None, watch: Watch) -> None:
         from jackson.host.transport import LinkEvent
 
         while not self.stop.is_set():
+            if watch.first is not None:  # the abort path brakes and says SHUTDOWN
+                self.tell(watch.first.line)
+                self.core.abort(watch.first.line)
+                return
             if deadline is not None and time.monotonic() > deadline:
                 self.wall_limit_hit = True
                 return
             self.outlets.alive()
+            self.link.turn(time.monotonic())  # a stall of the daemon itself is told
             try:
                 self.commands.poll()
             except CommandError as exc:
@@ -347,7 +366,8 @@ class Daemon:
             if core.t_s is not None
             else "before the first frame"
         )
-        self.stalled = f"lockstep stalled: {detail} {when}"
+        waited, _, why = detail.partition(": ")
+        self.stalled = f"lockstep stalled: {waited} {when}" + (f": {why}" if why else "")
         self.tell(self.stalled)
         core.abort(self.stalled)
 
@@ -356,6 +376,8 @@ class Daemon:
         bytes), /diagnostics when due, its CPU counted; True: the run ends."""
         core = self.core
         cpu0 = time.thread_time_ns() - round(contention.spun_s * 1e9)
+        if frame.type == Telemetry.TYPE:
+            self.latency.arrived(rx_ns)
         if self.split is not None and frame.type == Telemetry.TYPE:
             self._split_if_due()
         if self.lidar is not None and frame.type == Telemetry.TYPE:
@@ -371,6 +393,7 @@ class Daemon:
             self._lidar_lost = None
         if core.mcu_resets != resets:
             self.tell("the MCU was reset: odometry and time re-anchored, device set up again")
+        self.link.foreign_write()  # told; a running mission aborted with the reason
         if core.abort_reason is not None:
             self.tell(f"mission aborted: {core.abort_reason}")
             return True
@@ -443,7 +466,9 @@ class Daemon:
 
     def _send(self, msg: Message) -> object:
         if isinstance(msg, Heartbeat):
-            return self._send_frame(self.transport.encode(msg))
+            sent = self._send_frame(self.transport.encode(msg))
+            self.latency.written(time.monotonic_ns())  # after the frame's motor command
+            return sent
         return self.commands.send(msg)
 
     def _send_frame(self, frame: bytes) -> object:

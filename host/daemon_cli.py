@@ -16,8 +16,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from jackson.common.args import MAX_SECONDS, float_upto, host_port, output_folder, positive_float
+from jackson.common.args import (
+    MAX_SECONDS,
+    float_upto,
+    host_port,
+    int_in,
+    output_folder,
+    pose_text,
+    positive_float,
+)
 from jackson.common.errors import JacksonError
+from jackson.host.brake import bus_spec
+from jackson.host.daemon_realtime import PRIORITY as REALTIME_PRIORITY
+from jackson.host.daemon_realtime import make_realtime
 
 if TYPE_CHECKING:  # the daemon, its devices and the navigation load when the command runs
     from jackson.host.actuation.output import MotorOutput
@@ -50,6 +61,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--port", help="serial port of the MCU (default: serial.port of the config)")
     p.add_argument(
         "--i2c",
+        type=bus_spec,
         help="I2C bus of the PCA9685, e.g. /dev/i2c-7 or unix:/path (the "
         "twin's socket); default: pca9685.bus of the config",
     )
@@ -74,6 +86,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--goal",
         action="append",
+        type=pose_text,
         metavar="X,Y[,YAW]",
         help="navigate to this map pose [m, rad]; repeatable, visited in order (needs --lidar)",
     )
@@ -86,6 +99,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     p.add_argument(
         "--start",
+        type=pose_text,
         metavar="X,Y[,YAW]",
         help="the robot's pose in the map frame at the start (default: service.start of the "
         "config, 0,0,0)",
@@ -102,11 +116,21 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--max-seconds", type=float_upto(MAX_SECONDS), help="stop after this much wall time"
     )
     p.add_argument(
+        "--realtime",
+        nargs="?",
+        const=REALTIME_PRIORITY,
+        type=int_in(1, 99),
+        metavar="PRIORITY",
+        help="read the port and write the motors on a SCHED_FIFO thread at PRIORITY (default "
+        "40; needs root or CAP_SYS_NICE, else one line and normal priority; docs/jetson.md)",
+    )
+    p.add_argument(
         "--stall-timeout",
         type=positive_float,
         metavar="S",
-        help="on a twin's pty: give up after S s of waiting without a telemetry frame (the twin "
-        "stopped in lockstep), brake and exit 1 (default 10; never on a serial port)",
+        help="on a twin's pty: after S s of waiting without a telemetry frame, look at the twin; "
+        "one gone, stopped or doing no work is a lockstep stall: brake and exit 75 (default 10; "
+        "never on a serial port)",
     )
     p.add_argument(
         "--mission-timeout",
@@ -164,6 +188,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
     try:
         transport.send_hello()
+        if args.realtime is not None:  # the frame loop's thread; the threads it starts stay normal
+            print(f"daemon: {make_realtime(args.realtime)}", flush=True)
         status = daemon.run(args.max_seconds)
     except (ProtocolError, DaemonError) as exc:
         raise DaemonCliError(str(exc)) from exc

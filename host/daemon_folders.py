@@ -18,6 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from jackson.common.threads import guard
 from jackson.host.config import HostConfig
 from jackson.host.recording import RunRecorder, run_in_progress, write_json
 from jackson.host.recording.budget import Deleted, DiskUse, folder_bytes, prune
@@ -72,7 +73,7 @@ class RunFolders:
             None
             if run_folder is None
             else threading.Thread(
-                target=self._repair_earlier_runs,
+                target=guard(self._repair_earlier_runs, "bag-repair"),
                 args=(run_folder,),
                 name="bag-repair",
                 daemon=True,

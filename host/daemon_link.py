@@ -1,7 +1,8 @@
-"""What the daemon watches of its link to the MCU and of the motor path, and tells the
-operator: a HELLO nobody answers, frames of another protocol version, the PCA9685's I2C path
-failing and coming back; and the state of both now (:class:`LinkHealth`) for /diagnostics,
-health.json and ``jackson status``.
+"""What the daemon watches of its link to the MCU, of the motor path and of itself, and tells
+the operator: a HELLO nobody answers, frames of another protocol version, the PCA9685's I2C path
+failing and coming back, someone else writing the PCA9685's registers (the mission ends), the
+daemon's own frame loop stalled; and the state of the link and the motor path now
+(:class:`LinkHealth`) for /diagnostics, health.json and ``jackson status``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,33 @@ if TYPE_CHECKING:
     from jackson.host.transport import Link
 
 VERSION_SILENCE_S = 1.0  # [s] frames of another version and no INFO: report the mismatch
+# [s] the frame loop not turning this long (ten 20 Hz frames; it waits at most 0.1 s for a
+# frame) is a stall of the daemon itself: stopped (SIGSTOP), starved of CPU, or busy
+HOST_STALL_S = 0.5
+HOST_STALL_RECORD = "daemon stalled "  # its link record: "daemon stalled 1.30 s: ..."
+FOREIGN_WRITE = (
+    "PCA9685 registers rewritten by someone else (a foreign I2C write, or the chip reset): "
+    "re-initialised; find what else drives the motor driver"
+)
+
+
+def host_stall_line(stalled_s: float) -> str:
+    """The operator's line (and the run log's link record) for a stall of ``stalled_s`` [s],
+    rounded to 10 ms as :func:`host_stall_s` reads it back."""
+    return (
+        f"{HOST_STALL_RECORD}{stalled_s:.2f} s: its frame loop did not run (stopped, starved of "
+        "CPU, or busy); the LiDAR's silence meanwhile is not the LiDAR's"
+    )
+
+
+def host_stall_s(text: str) -> float | None:
+    """The stall [s] a link record of :func:`host_stall_line` tells, or None for another."""
+    if not text.startswith(HOST_STALL_RECORD):
+        return None
+    try:
+        return float(text[len(HOST_STALL_RECORD) :].split(" ", 1)[0])
+    except ValueError:
+        return None
 
 
 @dataclass(frozen=True)
@@ -120,11 +148,42 @@ class LinkWatch:
         self._hello_retries = 0  # HELLOs re-sent before the first INFO
         self._i2c_told = (0, 0)  # the PCA9685 path's (errors, re-inits) told so far
         self._i2c_failing = False  # an I2C outage was told and has not ended
+        self._foreign_told = 0  # foreign register writes told so far
+        self._turned_s: float | None = None  # the frame loop's last turn (monotonic s)
 
     def started(self, now_s: float) -> None:
         """The frame loop starts at ``now_s`` (monotonic s), the motor path taken as up."""
         self._started_s = now_s
+        self._turned_s = None
         self.bus_up = True
+
+    def turn(self, now_s: float) -> None:
+        """The frame loop turns at ``now_s`` (monotonic s). After :data:`HOST_STALL_S` or more
+        without a turn, once frames came, the daemon itself stalled: one line, logged as a link
+        record before the next frame (``jackson replay`` applies it there), and the core told
+        (:meth:`HostCore.host_stalled`), so the LiDAR's checks do not blame the sensor."""
+        last, self._turned_s = self._turned_s, now_s
+        if last is None or now_s - last < HOST_STALL_S or self.core.t_s is None:
+            return
+        stalled_s = round(now_s - last, 2)
+        self.tell(host_stall_line(stalled_s))
+        self.core.host_stalled(stalled_s)
+
+    def foreign_write(self) -> bool:
+        """After a frame: the PCA9685's registers were found rewritten by someone else (the
+        output re-initialised them). Told on the console; a running mission ends with the
+        reason (True), as another writer on the motor driver is not safe to drive beside; the
+        navigation service and teleoperation go on, told."""
+        n = self.output.health().foreign_writes
+        if n <= self._foreign_told:
+            return False
+        self._foreign_told = n
+        self.tell(f"I2C: {FOREIGN_WRITE}")
+        mission = self.core.mission
+        if mission is None or mission.done or _is_service(mission):
+            return False
+        self.core.abort(FOREIGN_WRITE)
+        return True
 
     def health(self) -> LinkHealth:
         """The link's and the motor path's state now."""
@@ -202,3 +261,9 @@ class LinkWatch:
                 self.core.host_state = HostState.SHUTDOWN
                 self.tell(f"PCA9685 bus down ({h.last_error}): braking through the MCU interlock")
         self.bus_up = up
+
+
+def _is_service(mission: object) -> bool:
+    from jackson.host.service.navigation import NavigationService
+
+    return isinstance(mission, NavigationService)

@@ -1,6 +1,6 @@
 """What a running daemon reports of itself: ``jackson status``'s answer (read from another
 thread, from snapshots) and the run folder's health.json (the link, the sensors, what the
-operator was told, CPU, commands)."""
+operator was told, CPU, frame latency, commands)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from jackson.host.commands import CommandCounters
     from jackson.host.core import HostCore
     from jackson.host.cpu import CpuMeter
+    from jackson.host.daemon_latency import LatencyMeter
     from jackson.host.daemon_link import LinkHealth
     from jackson.host.service.navigation import NavigationService
 
@@ -29,9 +30,11 @@ def status_doc(
     link: LinkHealth,
     cpu: CpuMeter,
     disk: dict[str, Any],
+    latency: LatencyMeter | None = None,
 ) -> dict[str, Any]:
     """What ``jackson status`` shows: the service's state, goal, pose with covariance,
-    sensor health, link problems, CPU and the recording folder's disk use (``disk``)."""
+    sensor health, link problems, CPU, the frame latency and the recording folder's disk use
+    (``disk``)."""
     out: dict[str, Any] = {"t_s": core.t_s, "frames": core.frames}
     if service is not None:
         st = service.status
@@ -56,6 +59,12 @@ def status_doc(
         "robot_s": cpu.robot_s,
         "frame_p99_ms": cpu.percentile_us(0.99) / 1e3,
     }
+    if latency is not None:
+        out["latency_ms"] = {
+            "median": latency.percentile_us(0.5) / 1e3,
+            "p99": latency.percentile_us(0.99) / 1e3,
+            "max": latency.max_us / 1e3,
+        }
     out["disk"] = disk
     return out
 
@@ -95,10 +104,12 @@ def health_doc(
     cpu: CpuMeter,
     commands: CommandCounters,
     period_s: float,
+    latency: LatencyMeter | None = None,
 ) -> dict[str, Any]:
     """health.json of the run folder being written: the link, the sensors, what the
-    operator was told (``events``), CPU per telemetry period (``period_s``), commands."""
-    return {
+    operator was told (``events``), CPU and the frame latency per telemetry period
+    (``period_s``), commands."""
+    doc: dict[str, Any] = {
         "link": dataclasses.asdict(link),
         "problems": link.problems(),
         "abort_reason": core.abort_reason,
@@ -112,3 +123,6 @@ def health_doc(
             "errors": commands.errors,
         },
     }
+    if latency is not None:
+        doc["latency"] = latency.report(period_s)
+    return doc

@@ -5,7 +5,9 @@ and the outputs (odometry, EKF, commands) are compared with the run's own files.
 closed cleanly (its log ends with the end record) must be reproduced bit for bit. A run cut by
 a kill or a power loss is compared on what both hold: every complete row the run kept must be
 reproduced; the replay says how far the log went (frames, MCU time) and how many rows each file
-kept.
+kept. A log whose last bytes cannot be a record cut short (a record of an unknown kind, or one
+whose length runs past a log that goes on to its end record: a flipped bit) is damaged, and
+the one line says which record and at which byte.
 
 A run folder that began at a split of a long-running daemon's recording (docs/recording.md)
 starts from the core's snapshot it holds (``core.snapshot``, named by ``meta.json``'s
@@ -20,11 +22,13 @@ transport`) has its end record, but did not end: its log holds the daemon's link
 from __future__ import annotations
 
 import json
+import struct
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from jackson.host.daemon_link import HOST_STALL_RECORD, host_stall_s
 from jackson.host.recording import (
     KIND_CMD,
     KIND_END,
@@ -34,6 +38,7 @@ from jackson.host.recording import (
     KIND_RX,
     KIND_SETTINGS,
     KINDS,
+    MAGIC,
     RecordingError,
     RunRecorder,
     read_log,
@@ -53,6 +58,14 @@ if TYPE_CHECKING:  # the missions load when a run is replayed, not for jackson -
 COMPARED = ("odometry.csv", "ekf.csv", "commands.csv", "health.csv")
 STALL_RECORD = "lockstep stalled: "  # the daemon's link record when a stall ended the run
 NO_END_RECORD = "no end record: killed or power lost"
+_RECORD = struct.Struct("<BQH")  # a log record's header: kind, host time [ns], payload length
+
+
+@dataclass(frozen=True)
+class HostStall:
+    """The daemon's own stall, as its link record tells it (:func:`host_stall_s`) [s]."""
+
+    stalled_s: float
 
 
 @dataclass
@@ -118,17 +131,23 @@ def _meta(run: Path) -> tuple[dict[str, object], str | None]:
 def _checked_log(
     run: Path,
 ) -> tuple[
-    list[tuple[int, Frame | tuple[float, float] | bytes | Request | LiveSettings]], str | None
+    list[tuple[int, Frame | tuple[float, float] | bytes | Request | LiveSettings | HostStall]],
+    str | None,
 ]:
     """The log's records, each received frame decoded and each command unpacked, and why the
     run is cut (None: closed cleanly); or one line naming the first damaged record."""
     from jackson.host.core.settings import LiveSettings
     from jackson.protocol import ProtocolError, decode_message
 
-    records: list[tuple[int, Frame | tuple[float, float] | bytes | Request | LiveSettings]] = []
+    records: list[
+        tuple[int, Frame | tuple[float, float] | bytes | Request | LiveSettings | HostStall]
+    ] = []
     complete = False
     stalled: str | None = None
+    consumed = len(MAGIC)  # bytes of the whole records read
+    k = -1
     for k, r in enumerate(read_log(run)):
+        consumed += _RECORD.size + len(r.payload)
         where = f"{run / 'log.jrec'}: record {k}"
         if r.kind not in KINDS:
             raise RecordingError(f"{where}: unknown kind {r.kind}; the log is damaged")
@@ -165,9 +184,35 @@ def _checked_log(
                 raise RecordingError(f"{where}: {exc}") from exc
         elif r.kind == KIND_LINK and r.payload.startswith(STALL_RECORD.encode()):
             stalled = r.payload.decode("utf-8", "replace")
+        elif r.kind == KIND_LINK and r.payload.startswith(HOST_STALL_RECORD.encode()):
+            host_stall = host_stall_s(r.payload.decode("utf-8", "replace"))
+            if host_stall is not None:  # the daemon's own stall, applied between the same frames
+                records.append((r.host_time_ns, HostStall(host_stall)))
         elif r.kind == KIND_END:
             complete = True
+    if not complete:
+        _refuse_damaged_tail(run / "log.jrec", k + 1, consumed)
     return records, stalled if stalled is not None else (None if complete else NO_END_RECORD)
+
+
+def _refuse_damaged_tail(path: Path, k: int, consumed: int) -> None:
+    """Raise unless the bytes after the last whole record can be one record cut by a kill: a
+    record of an unknown kind, or one whose length runs past a log that goes on to its end
+    record, is damage (a flipped bit), not a cut."""
+    data = path.read_bytes()
+    tail = data[consumed:]
+    if len(tail) < _RECORD.size:
+        return  # a header cut short
+    kind, _, n = _RECORD.unpack_from(tail)
+    where = f"{path}: record {k} at byte {consumed}"
+    if kind not in KINDS:
+        raise RecordingError(f"{where}: unknown kind {kind}; the log is damaged")
+    last_kind, _, last_n = _RECORD.unpack_from(data, len(data) - _RECORD.size)
+    if len(tail) > _RECORD.size and last_kind == KIND_END and last_n == 0:
+        raise RecordingError(
+            f"{where}: its length ({n} bytes) runs past the end of the file, yet the log goes on "
+            "to its end record; the log is damaged"
+        )
 
 
 def _rows(path: Path) -> list[str]:
@@ -238,6 +283,8 @@ def replay(run: Path, out: Path) -> ReplayResult:
             the_mission.put(item)
         elif isinstance(item, LiveSettings):
             core.request_settings(item)
+        elif isinstance(item, HostStall):
+            core.host_stalled(item.stalled_s)
         elif isinstance(item, Frame):
             core.on_frame(item, t_ns)
             if item.type == Telemetry.TYPE:
@@ -252,7 +299,7 @@ def replay(run: Path, out: Path) -> ReplayResult:
     rec.close()
     for name in COMPARED:
         kept, made = _rows(run / name), _rows(out / name)
-        result.rows[name] = (len(kept) - 1, len(made) - 1)  # without the header
+        result.rows[name] = (max(len(kept) - 1, 0), max(len(made) - 1, 0))  # without the header
         same = kept == made if complete else made[: len(kept)] == kept
         if not same:
             result.differ.append(name)

@@ -27,15 +27,19 @@ Writes come from the daemon's thread and never block: a write to a link that is 
 is dropped and counted.
 
 **Lockstep stall.** A twin in lockstep sends telemetry frame k+1 only after the host's HEARTBEAT
-of frame k; a twin that stops (a stopped or hung process, or both ends waiting for each other)
+of frame k; a twin that stops (a stopped or killed process, or both ends waiting for each other)
 leaves the host waiting for ever. With :attr:`SerialTransport.stall_s` set (the daemon sets it on
-a twin's pty, :data:`STALL_S` by default) the link reports a ``stalled`` :class:`LinkEvent`, once,
-when the caller has waited that long for a telemetry frame: only the time it spends waiting
-counts (not its work on a frame, as with the silence), and the port is read once more after the
-limit before the stall is declared, so a frame that arrived while this process was kept from
-running is taken, not missed. With :attr:`SerialTransport.peer_waiting` (a twin in this
-process) only the time both ends wait counts: a twin that is working, however slowly, never
-stalls its host.
+a twin's pty, :data:`STALL_S` by default) the link looks at the twin once the caller has waited
+that long for a telemetry frame (only the time it spends waiting counts, not its work on a
+frame): how long the twin takes says nothing on a busy machine, so it is judged by its liveness
+(:mod:`jackson.common.liveness`: the processes holding the pty's master, or the twin's thread in
+this process, :meth:`SerialTransport.twin_thread`). A twin whose CPU time advances is working and
+is waited for; a ``stalled`` :class:`LinkEvent` is reported, once, only when the twin is gone or
+stopped, or alive but idle while it says it waits too (:attr:`SerialTransport.peer_waiting`, a
+twin in this process), or idle for the backstop (:data:`~jackson.common.liveness.BACKSTOP_S`).
+The port is read once more after the verdict before the stall is declared, so a frame that
+arrived while this process was kept from running is taken, not missed. Before the session (no
+answer to the HELLO yet) there is no stall: a mute device is reported silent.
 """
 
 from __future__ import annotations
@@ -47,7 +51,7 @@ import select
 import stat
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from termios import error as termios_error
 from typing import Literal, Protocol
@@ -55,7 +59,9 @@ from typing import Literal, Protocol
 import serial
 
 from jackson.common.errors import JacksonError, PortKind, port_open_message
+from jackson.common.liveness import Peer, PeerWatch, ProcessPeer, ThreadPeer, Verdict, pty_peers
 from jackson.common.spin import DEFAULT_SPIN_S, spin_poll
+from jackson.common.threads import guard
 from jackson.protocol import (
     Frame,
     FrameDecoder,
@@ -70,7 +76,12 @@ FIRST_BACKOFF_S = 0.1
 MAX_BACKOFF_S = 2.0
 READ_TIMEOUT_S = 0.005  # [s] the reader's longest block: the decoder is polled this often
 SILENCE_S = 1.0  # [s] no frame for this long on an open port: send HELLO again
-STALL_S = 10.0  # [s] of waiting without a telemetry frame: a lockstep twin has stalled
+STALL_S = 10.0  # [s] of waiting without a telemetry frame before the twin's liveness is looked at
+TWIN_REASONS: dict[Verdict, str] = {
+    "gone": "the twin process is gone",
+    "stopped": "the twin process is stopped",
+    "idle": "the twin did no work",
+}
 
 
 class LinkError(JacksonError, RuntimeError):
@@ -201,11 +212,12 @@ class Session:
 
 class StallWatch:
     """A lockstep stall (the module's notes): the caller has waited :attr:`limit_s` for a
-    telemetry frame (and the peer as long for the caller, when :attr:`peer_waiting` says), and
-    a read after the limit found none."""
+    telemetry frame (and the peer as long for the caller, when :attr:`peer_waiting` says), the
+    twin was then judged gone, stopped or idle (:attr:`peer`), and a read after that found no
+    telemetry frame."""
 
     def __init__(self) -> None:
-        # wall seconds of waiting without a telemetry frame before a "stalled" event; None:
+        # wall seconds of waiting without a telemetry frame before the twin is looked at; None:
         # never (a device's port streams on its own clock)
         self.limit_s: float | None = None
         # a twin in this process: since when it waits for this host's HEARTBEAT (monotonic s),
@@ -216,7 +228,9 @@ class StallWatch:
         self.waiting_since: float | None = None
         self.stalled = False  # the "stalled" event was sent
         self.telemetry_rx_s = 0.0  # the last telemetry frame decoded (monotonic s)
-        self._armed = False  # the limit passed: one more read before the stall counts
+        self.peer = PeerWatch()  # the twin's liveness (its finder is set by the transport)
+        self._restart_s = 0.0  # the twin was last seen working (monotonic s): the wait restarts
+        self._reason: Verdict | None = None  # the verdict: one more read before the stall counts
 
     def waiting(self) -> None:
         """The caller is back for a frame: its wait starts now unless it already waits."""
@@ -226,31 +240,42 @@ class StallWatch:
     def working(self) -> None:
         """The caller got a telemetry frame and works on it: progress, no wait."""
         self.waiting_since = None
-        self._armed = False
+        self._reason = None
+        self.peer.reset()
 
-    def check(self, now_ns: int) -> LinkEvent | None:
-        """The ``stalled`` event, once, when the wait reached the limit and a read after it
-        found no telemetry frame; else None."""
+    def check(self, now_ns: int, in_session: bool = True) -> LinkEvent | None:
+        """The ``stalled`` event, once, when the wait reached the limit, the twin was judged
+        gone, stopped or idle, and a read after that found no telemetry frame; else None.
+        Never before the session (a device that does not answer its HELLO is silent, not
+        stalled)."""
         since = self.waiting_since
-        if self.limit_s is None or self.stalled or since is None:
+        if self.limit_s is None or self.stalled or since is None or not in_session:
             return None
-        since = max(since, self.telemetry_rx_s)
+        began = since = max(since, self.telemetry_rx_s)
+        since = max(since, self._restart_s)
         if self.peer_waiting is not None:
             peer = self.peer_waiting()
             if peer is None:  # the twin works on its next frame: slow, not stalled
-                self._armed = False
+                self._reason = None
                 return None
             since = max(since, peer)
-        waited = now_ns / 1e9 - since
-        if waited < self.limit_s:
-            self._armed = False
-        elif not self._armed:
-            self._armed = True  # read the port once more before it counts
-        else:
+        now = now_ns / 1e9
+        if now - since < self.limit_s:
+            self._reason = None
+        elif self._reason is not None:
             self.stalled = True
             return LinkEvent(
-                "stalled", now_ns, f"the host waited {waited:.1f} s for a telemetry frame"
+                "stalled",
+                now_ns,
+                f"the host waited {now - began:.1f} s for a telemetry frame: "
+                f"{TWIN_REASONS[self._reason]}",
             )
+        else:
+            verdict = self.peer.verdict(now, peer_waits=self.peer_waiting is not None)
+            if verdict == "working":
+                self._restart_s = now  # slow, not stalled: the wait starts over
+            elif verdict is not None:
+                self._reason = verdict  # read the port once more before it counts
         return None
 
 
@@ -281,6 +306,8 @@ class SerialTransport:
         self._reconnection = Reconnection()
         self._session = Session()
         self._stall = StallWatch()
+        self._stall.peer.peer = Peer(self._find_twin)
+        self._twin_thread: int | None = None  # a twin in this process: its thread's native id
 
     # ------------------------------------------------------------------ state
 
@@ -315,6 +342,17 @@ class SerialTransport:
         self._stall.limit_s = value
 
     @property
+    def stall_backstop_s(self) -> float:
+        """Wall seconds a twin that is alive but does no work (or one that cannot be looked
+        at) is waited for before a ``stalled`` event (:data:`~jackson.common.liveness.
+        BACKSTOP_S` by default)."""
+        return self._stall.peer.backstop_s
+
+    @stall_backstop_s.setter
+    def stall_backstop_s(self, value: float) -> None:
+        self._stall.peer.backstop_s = value
+
+    @property
     def peer_waiting(self) -> Callable[[], float | None] | None:
         """A twin in this process: since when it waits for this host's HEARTBEAT (monotonic
         s), None while it works; with it only the time both ends wait counts towards a stall."""
@@ -323,6 +361,19 @@ class SerialTransport:
     @peer_waiting.setter
     def peer_waiting(self, value: Callable[[], float | None] | None) -> None:
         self._stall.peer_waiting = value
+
+    def twin_thread(self, native_id: int) -> None:
+        """A twin in this process runs in the thread ``native_id``
+        (``threading.get_native_id()``): its CPU time tells whether it works."""
+        self._twin_thread = native_id
+
+    def _find_twin(self) -> Sequence[ProcessPeer | ThreadPeer] | None:
+        """Who the twin is, looked up when a wait first gets long: the thread
+        :meth:`twin_thread` named, else the other processes that hold the pty's master (none:
+        gone); unknown when this process holds it and named no thread."""
+        if self._twin_thread is not None:
+            return [ThreadPeer(self._twin_thread)]
+        return pty_peers(self.port_name, master=True)
 
     @property
     def waiting_since(self) -> float | None:
@@ -356,7 +407,9 @@ class SerialTransport:
         if not reader_thread:
             self.spin_s = DEFAULT_SPIN_S if _is_pty(self.port_name) else 0.0
             return
-        self._thread = threading.Thread(target=self._run, name="jackson-serial", daemon=True)
+        self._thread = threading.Thread(
+            target=guard(self._run, "jackson-serial"), name="jackson-serial", daemon=True
+        )
         self._thread.start()
 
     @property
@@ -494,7 +547,7 @@ class SerialTransport:
     def _check_stall(self, now_ns: int) -> None:
         """Queue the ``stalled`` event (the module's notes) once the wait has reached
         :attr:`stall_s`."""
-        event = self._stall.check(now_ns)
+        event = self._stall.check(now_ns, self._session.started)
         if event is not None:
             self.items.put(event)
 

@@ -10,8 +10,9 @@ robot file's (:mod:`jackson.sim.faults`); the twin prints ``fault: ...`` for eac
 and what each injected on the way out.
 
 In lockstep, a twin that has waited ``--stall-timeout`` seconds for one HEARTBEAT (possible
-when ``--heartbeat-timeout`` is longer) gives up: it prints its summary, then one line on
-stderr (``jackson sim: lockstep stalled: the twin waited ...``), and exits with status 1.
+when ``--heartbeat-timeout`` is longer) looks at the host, and when it is gone, stopped or
+does no work (:mod:`jackson.sim.lockstep`) gives up: it prints its summary, then one line on
+stderr (``jackson sim: lockstep stalled: the twin waited ...``), and exits with status 75.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from jackson.common.args import (
     os_error_line,
     positive_float,
 )
+from jackson.common.liveness import STALL_EXIT
 from jackson.common.spin import DEFAULT_SPIN_S
 from jackson.sim.config import ConfigError, load_robot, load_world
 from jackson.sim.faults import FaultError, FaultSpec, format_fault, parse_fault, summary
@@ -160,8 +162,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=STALL_TIMEOUT_S,
         metavar="S",
         help="lockstep: wall seconds of waiting for one HEARTBEAT, the clock standing still, "
-        "before the twin gives up and exits 1 (applies when shorter than --heartbeat-timeout; "
-        "default %(default)g)",
+        "before the twin looks at the host: a host gone, stopped or idle ends the twin with "
+        "exit status 75 (applies when shorter than --heartbeat-timeout; default %(default)g)",
     )
     p.add_argument(
         "--spin-us",
@@ -212,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        0; 1 when lockstep stalled; 2 for a problem with the options or the files.
+        0; 75 when lockstep stalled; 2 for a problem with the options or the files.
     """
     from jackson.sim.twin import Twin
 
@@ -405,7 +407,7 @@ def _what_runs(args: argparse.Namespace) -> str:
 
 
 def _summary(stats: RunnerStats, twin: Twin) -> int:
-    """Print what the run did and what each fault injected; the exit status (1: lockstep
+    """Print what the run did and what each fault injected; the exit status (75: lockstep
     stalled)."""
     print(
         f"twin: {stats.sim_s:.2f} s simulated in {stats.wall_s:.2f} s "
@@ -419,5 +421,5 @@ def _summary(stats: RunnerStats, twin: Twin) -> int:
             print(f"fault: {entry['fault']}: {summary(entry)}", flush=True)
     if stats.stalled is not None:
         print(f"jackson sim: {stats.stalled}", file=sys.stderr, flush=True)
-        return 1
+        return STALL_EXIT
     return 0

@@ -3,7 +3,8 @@
 Robot files (``sim/robots/*.yaml``) hold the twin's *true* parameters, which the host does
 not know; world files (``sim/worlds/*.yaml``) hold walls, cylinders, triggered obstacles and
 the floor. Every problem is reported as one :class:`ConfigError` line naming the file and the
-field, e.g. ``robot jackson.yaml: motor.stall_torque_nm: expected a number > 0, got -1``.
+field, e.g. ``robot jackson.yaml: motor.stall_torque_nm: expected a number in [0.0001, 100],
+got -1``.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from jackson.common.robot import (
     WHEEL_RADIUS_M,
     WHEEL_SEPARATION_M,
 )
+from jackson.sim import bounds
 from jackson.sim.faults import PARAMS, SIDED_KINDS, FaultError, FaultSpec
 from jackson.sim.tb6612 import LEFT_WIRING, RIGHT_WIRING, MotorWiring
 
@@ -366,22 +368,23 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
     lidar = _lidar_mount(r, d.lidar)
     tyre = _tyre(r, d.tyre)
     variation = _variation(r, d.variation, motor)
-    ex = r.vector("envelope_x_m", d.envelope_x_m, 2)
-    ey = r.vector("envelope_y_m", d.envelope_y_m, 2)
+    ex = bounds.vector(r, "envelope_x_m", d.envelope_x_m, bounds.ROBOT["envelope_m"])
+    ey = bounds.vector(r, "envelope_y_m", d.envelope_y_m, bounds.ROBOT["envelope_m"])
     for key, (lo, hi) in (("envelope_x_m", ex), ("envelope_y_m", ey)):
         if not lo < 0 < hi:
             raise r.fail(key, f"expected [min < 0, max > 0] around the axle centre, got {[lo, hi]}")
+    b = bounds.ROBOT
     spec = RobotSpec(
         name=r.text("name", path.stem),
-        mass_kg=r.number("mass_kg", d.mass_kg, 0, lo_open=True),
-        inertia_kg_m2=r.number("inertia_kg_m2", d.inertia_kg_m2, 0, lo_open=True),
+        mass_kg=r.number("mass_kg", d.mass_kg, *b["mass_kg"]),
+        inertia_kg_m2=r.number("inertia_kg_m2", d.inertia_kg_m2, *b["inertia_kg_m2"]),
         wheel_radius_m=Sides(
-            *r.sides("wheel_radius_m", d.wheel_radius_m.left, 0, lo_open=True, hi=0.5)
+            *r.sides("wheel_radius_m", d.wheel_radius_m.left, *b["wheel_radius_m"])
         ),
         wheel_separation_m=r.number(
-            "wheel_separation_m", d.wheel_separation_m, 0, lo_open=True, hi=2.0
+            "wheel_separation_m", d.wheel_separation_m, *b["wheel_separation_m"]
         ),
-        ticks_per_rev=Sides(*r.sides("ticks_per_rev", d.ticks_per_rev.left, 0, lo_open=True)),
+        ticks_per_rev=Sides(*r.sides("ticks_per_rev", d.ticks_per_rev.left, *b["ticks_per_rev"])),
         envelope_x_m=(ex[0], ex[1]),
         envelope_y_m=(ey[0], ey[1]),
         caster_load_fraction=r.number("caster_load_fraction", d.caster_load_fraction, 0, hi=0.9),
@@ -402,16 +405,17 @@ def load_robot(name_or_path: str | Path) -> RobotSpec:
 def _motor(r: Fields, dm: MotorSpec) -> MotorSpec:
     """The ``motor:`` section (defaults ``dm``)."""
     m = r.section("motor")
+    b = bounds.MOTOR
     motor = MotorSpec(
-        battery_v=m.number("battery_v", dm.battery_v, 0, lo_open=True),
-        nominal_v=m.number("nominal_v", dm.nominal_v, 0, lo_open=True),
-        no_load_rpm=m.number("no_load_rpm", dm.no_load_rpm, 0, lo_open=True),
-        stall_torque_nm=m.number("stall_torque_nm", dm.stall_torque_nm, 0, lo_open=True),
-        time_constant_s=m.number("time_constant_s", dm.time_constant_s, 0),
+        battery_v=m.number("battery_v", dm.battery_v, *b["battery_v"]),
+        nominal_v=m.number("nominal_v", dm.nominal_v, *b["nominal_v"]),
+        no_load_rpm=m.number("no_load_rpm", dm.no_load_rpm, *b["no_load_rpm"]),
+        stall_torque_nm=m.number("stall_torque_nm", dm.stall_torque_nm, *b["stall_torque_nm"]),
+        time_constant_s=m.number("time_constant_s", dm.time_constant_s, *b["time_constant_s"]),
         deadband_duty=Sides(*m.sides("deadband_duty", dm.deadband_duty.left, 0, hi=0.9)),
         gain=Sides(*m.sides("gain", dm.gain.left, 0, lo_open=True, hi=2.0)),
         wheel_inertia_kg_m2=m.number(
-            "wheel_inertia_kg_m2", dm.wheel_inertia_kg_m2, 0, lo_open=True
+            "wheel_inertia_kg_m2", dm.wheel_inertia_kg_m2, *b["wheel_inertia_kg_m2"]
         ),
         ratings_net_of_friction=m.boolean("ratings_net_of_friction", dm.ratings_net_of_friction),
         running_friction_fraction=m.number(
@@ -462,13 +466,22 @@ def _wiring(r: Fields, dw: WiringSpec) -> WiringSpec:
 def _imu(r: Fields, di: ImuSpec) -> ImuSpec:
     """The ``imu:`` section (defaults ``di``)."""
     i = r.section("imu")
+    b = bounds.IMU
     imu = ImuSpec(
-        gyro_bias_rad_s=_v3(i.vector("gyro_bias_rad_s", di.gyro_bias_rad_s, 3)),
-        accel_bias_m_s2=_v3(i.vector("accel_bias_m_s2", di.accel_bias_m_s2, 3)),
-        gyro_noise_sigma_rad_s=i.number("gyro_noise_sigma_rad_s", di.gyro_noise_sigma_rad_s, 0),
-        accel_noise_sigma_m_s2=i.number("accel_noise_sigma_m_s2", di.accel_noise_sigma_m_s2, 0),
-        gravity_scale=i.number("gravity_scale", di.gravity_scale, 0, lo_open=True),
-        yaw_scale=i.number("yaw_scale", di.yaw_scale, 0, lo_open=True),
+        gyro_bias_rad_s=_v3(
+            bounds.vector(i, "gyro_bias_rad_s", di.gyro_bias_rad_s, b["gyro_bias_rad_s"])
+        ),
+        accel_bias_m_s2=_v3(
+            bounds.vector(i, "accel_bias_m_s2", di.accel_bias_m_s2, b["accel_bias_m_s2"])
+        ),
+        gyro_noise_sigma_rad_s=i.number(
+            "gyro_noise_sigma_rad_s", di.gyro_noise_sigma_rad_s, *b["gyro_noise_sigma_rad_s"]
+        ),
+        accel_noise_sigma_m_s2=i.number(
+            "accel_noise_sigma_m_s2", di.accel_noise_sigma_m_s2, *b["accel_noise_sigma_m_s2"]
+        ),
+        gravity_scale=i.number("gravity_scale", di.gravity_scale, *b["gravity_scale"]),
+        yaw_scale=i.number("yaw_scale", di.yaw_scale, *b["yaw_scale"]),
         present=i.boolean("present", di.present),
         gyro_bias_drift_rad_s_per_sqrt_s=i.number(
             "gyro_bias_drift_rad_s_per_sqrt_s",
@@ -484,14 +497,17 @@ def _imu(r: Fields, di: ImuSpec) -> ImuSpec:
 def _lidar_mount(r: Fields, dl: LidarMount) -> LidarMount:
     """The ``lidar:`` section (defaults ``dl``)."""
     li = r.section("lidar")
+    b = bounds.LIDAR
     lidar = LidarMount(
         enabled=li.boolean("enabled", dl.enabled),
-        noise_sigma_m=li.number("noise_sigma_m", dl.noise_sigma_m, 0),
-        extra_noise_sigma_m=li.number("extra_noise_sigma_m", dl.extra_noise_sigma_m, 0),
+        noise_sigma_m=li.number("noise_sigma_m", dl.noise_sigma_m, *b["noise_sigma_m"]),
+        extra_noise_sigma_m=li.number(
+            "extra_noise_sigma_m", dl.extra_noise_sigma_m, *b["extra_noise_sigma_m"]
+        ),
         dropout_probability=li.number("dropout_probability", dl.dropout_probability, 0, hi=1.0),
-        mount_x_m=li.number("mount_x_m", dl.mount_x_m),
-        mount_y_m=li.number("mount_y_m", dl.mount_y_m),
-        mount_yaw_rad=li.number("mount_yaw_rad", dl.mount_yaw_rad),
+        mount_x_m=li.number("mount_x_m", dl.mount_x_m, *b["mount_x_m"]),
+        mount_y_m=li.number("mount_y_m", dl.mount_y_m, *b["mount_y_m"]),
+        mount_yaw_rad=li.number("mount_yaw_rad", dl.mount_yaw_rad, *b["mount_yaw_rad"]),
     )
     li.finish()
     return lidar
@@ -574,8 +590,8 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
     r = Fields(where, data)
     f = r.section("floor")
     d = WorldSpec(path.stem)  # the defaults: the dataclass's own
-    mu_s = f.number("mu_static", d.mu_static, 0, lo_open=True)
-    mu_d = f.number("mu_dynamic", d.mu_dynamic, 0, lo_open=True)
+    mu_s = f.number("mu_static", d.mu_static, *bounds.FRICTION)
+    mu_d = f.number("mu_dynamic", d.mu_dynamic, *bounds.FRICTION)
     f.finish()
     if mu_d > mu_s:
         raise r.fail("floor.mu_dynamic", f"must not exceed mu_static ({mu_s:g}), got {mu_d:g}")
@@ -587,8 +603,8 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
             or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
         ):
             raise r.fail(f"walls[{k}]", f"expected [x1, y1, x2, y2] in metres, got {show(w)}")
-        if not all(math.isfinite(x) for x in w):
-            raise r.fail(f"walls[{k}]", f"expected finite numbers, got {show(w)}")
+        if not all(math.isfinite(x) and abs(x) <= bounds.WORLD_EXTENT_M for x in w):
+            raise r.fail(f"walls[{k}]", f"expected numbers in {bounds.EXTENT_TEXT}, got {show(w)}")
         if math.hypot(w[2] - w[0], w[3] - w[1]) < MIN_WALL_M:
             raise r.fail(
                 f"walls[{k}]", f"zero length (under {MIN_WALL_M * 1000:g} mm), got {show(w)}"
@@ -602,9 +618,14 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
         cylinders.append(_cylinder(Fields(where, c, f"cylinders[{k}].")))
     triggers = [_trigger(r, k, t) for k, t in enumerate(r.items("triggers"))]
     start = r.vector("start_pose", d.start_pose, 3)
+    if not all(abs(x) <= bounds.WORLD_EXTENT_M for x in start[:2]):
+        raise r.fail(
+            "start_pose", f"expected x and y in {bounds.EXTENT_TEXT}, got {show(list(start))}"
+        )
+    bounds.not_on_start(r, triggers, start)
     goal = None
     if r.has("goal"):
-        gx, gy = r.vector("goal", (0.0, 0.0), 2)
+        gx, gy = bounds.vector(r, "goal", (0.0, 0.0), bounds.EXTENT)
         goal = (gx, gy)
     survey = _points(r, "survey")
     patrol = None
@@ -631,9 +652,9 @@ def load_world(name_or_path: str | Path) -> WorldSpec:
 def _cylinder(reader: Fields) -> Cylinder:
     """A ``{x, y, radius}`` mapping."""
     c = Cylinder(
-        reader.number("x", math.nan),
-        reader.number("y", math.nan),
-        reader.number("radius", math.nan, 0, lo_open=True),
+        reader.number("x", math.nan, *bounds.EXTENT),
+        reader.number("y", math.nan, *bounds.EXTENT),
+        reader.number("radius", math.nan, *bounds.CYLINDER_RADIUS_M),
     )
     for key in ("x", "y", "radius"):
         if not reader.has(key):
@@ -657,7 +678,9 @@ def _trigger(r: Fields, k: int, t: object) -> Trigger:
         raise tr.fail("add_cylinder", "missing")
     if tr.data.get("remove_at_s") is not None and not tr.has("at_s"):
         raise tr.fail("remove_at_s", "only a timed drop (at_s) is removed, not when_moved_m")
-    moved = tr.number("when_moved_m", 0.0, 0) if tr.has("when_moved_m") else None
+    moved = (
+        tr.number("when_moved_m", 0.0, *bounds.TRIGGER_MOVED_M) if tr.has("when_moved_m") else None
+    )
     at_s = tr.number("at_s", 0.0, 0) if tr.has("at_s") else None
     remove_at_s = tr.optional_number("remove_at_s", 0)
     if at_s is not None and remove_at_s is not None and not remove_at_s > at_s:

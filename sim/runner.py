@@ -8,8 +8,10 @@ time does not stop the world: the twin moves on, and the MCU's failsafe sees the
 simulated time. **Real time** paces the same steps on the wall clock and never waits.
 
 **Stall.** After ``stall_s`` of wall time waiting for one HEARTBEAT (:data:`STALL_S` by default)
-the twin gives up: :attr:`TwinRunner.stalled` holds one line, :meth:`TwinRunner.run` returns,
-and the clock never moves again (:mod:`jackson.sim.lockstep`). The default
+the twin looks at the host's liveness, and gives up only when the host is gone, stopped, or
+does no work (:mod:`jackson.sim.lockstep`): :attr:`TwinRunner.stalled` holds one line,
+:meth:`TwinRunner.run` returns, and the clock never moves again. A host that is slow but
+working is waited for. The default
 ``heartbeat_timeout_s`` (1 s) is shorter than the default ``stall_s``: such a twin moves on in
 real time before it could stall.
 
@@ -55,12 +57,15 @@ from __future__ import annotations
 import secrets
 import selectors
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from threading import Event
 
+from jackson.common.errors import JacksonError
+from jackson.common.liveness import PROBE_S, Peer, ProcessPeer, ThreadPeer, Verdict, pty_peers
 from jackson.common.spin import contention, spin_poll
+from jackson.common.threads import ThreadFailedError, ThreadFailure
 from jackson.sim.core_port import CorePort, TelemetryLine
 from jackson.sim.drive import Drive
 from jackson.sim.faults import LINK_KINDS, FaultError, format_fault
@@ -95,7 +100,7 @@ __all__ = [
     "read_truth",
 ]
 
-STALL_S = 10.0  # [s] of wall time waiting for one HEARTBEAT before the twin gives up
+STALL_S = 10.0  # [s] of wall time waiting for one HEARTBEAT before the host is looked at
 WAKE_S = 0.05  # [s] longest single wait, so that a stop is seen
 
 
@@ -180,6 +185,7 @@ class TwinRunner:
         self.observer = observer  # called with the twin after each advance (and its pacing)
         self.lockstep = lockstep
         self.watch = HostWatch(heartbeat_timeout_s, stall_s, host_waiting)
+        self.watch.peer.peer = Peer(self._find_host)
         wiring = twin.robot_spec.wiring
         pca = Pca9685()
         self.i2c = I2cSocketServer(i2c_path, {wiring.pca9685_address: pca})
@@ -211,6 +217,7 @@ class TwinRunner:
         self.frames = 0
         self._outage = Outage()
         self._stop: Event | None = None
+        self._host_thread: int | None = None  # a host in this process: its thread's native id
         self._session0 = (0.0, 0.0, 0.0)  # wall time, CPU time and time spun at the HELLO
         self._sel = selectors.DefaultSelector()
         self._sel.register(self.i2c, selectors.EVENT_READ, "i2c")
@@ -295,6 +302,21 @@ class TwinRunner:
     @host_waiting.setter
     def host_waiting(self, value: Callable[[], float | None] | None) -> None:
         self.watch.host_waiting = value
+
+    def _find_host(self) -> Sequence[ProcessPeer | ThreadPeer] | None:
+        """Who the host is, looked up when a wait first gets long: the thread
+        :meth:`host_thread` named, else the other processes that hold the serial pty (none:
+        gone); unknown for a host in this process that named no thread."""
+        if self._host_thread is not None:
+            return [ThreadPeer(self._host_thread)]
+        if self.watch.host_waiting is not None:
+            return None
+        return pty_peers(self.serial_path, master=False)
+
+    def host_thread(self, native_id: int) -> None:
+        """A host in this process runs in the thread ``native_id``
+        (``threading.get_native_id()``): its CPU time tells whether it works."""
+        self._host_thread = native_id
 
     @property
     def drop_telemetry(self) -> Callable[[int], bool] | None:
@@ -400,16 +422,22 @@ class TwinRunner:
             else:
                 self._pace(*watch.pace_origin)
             return
-        start = time.monotonic()
+        start = began = time.monotonic()
         watch.waiting_since = start
         deadline = start + watch.timeout_s
-        armed = False  # the stall limit passed: the link is served once more before it counts
+        watch.peer.reset()
+        # the host was judged gone, stopped or idle: the link is served once more before it counts
+        reason: Verdict | None = None
         while not port.acknowledged(seq):
             if self._stop is not None and self._stop.is_set():
                 return
             now = time.monotonic()
             left = deadline - now
             if left <= 0:
+                busy = watch.peer.busy(now)
+                if busy is not False:  # a slow host, or a first look: wait on, in lockstep
+                    deadline = now + (watch.timeout_s if busy else PROBE_S)
+                    continue
                 watch.timeouts += 1
                 watch.gone = port.heartbeat_mark()
                 watch.pace_origin = (time.monotonic(), self.twin.t_s)
@@ -419,13 +447,17 @@ class TwinRunner:
             stalled_for = watch.stalled_for(start, now)
             if stalled_for is not None and watch.stall_s is not None:
                 if stalled_for < watch.stall_s:
-                    armed = False
+                    reason = None
                     wait = min(wait, watch.stall_s - stalled_for)
-                elif armed:
-                    watch.give_up(stalled_for, self.frames, self.twin.t_s)
+                elif reason is not None:  # served once more after the verdict: it stands
+                    watch.give_up(reason, now - began, self.frames, self.twin.t_s)
                     return
                 else:
-                    armed, wait = True, 0.0
+                    verdict = watch.judge(now)
+                    if verdict == "working":
+                        start = now  # slow, not stalled: the wait starts over
+                    elif verdict is not None:
+                        reason, wait = verdict, 0.0
             if port.await_heartbeat(seq, wait, self._serve) and not self.drive.mcu_motors:
                 # the host wrote the PCA9685 and now sends its HEARTBEAT: the bridges' outputs
                 # are worked out while it does (the step after the HEARTBEAT finds them cached)
@@ -450,8 +482,13 @@ class TwinRunner:
         self._start_session(time.monotonic())  # again at the HELLO
         start_s = self.twin.t_s
         self._stop = stop
-        if self._await_hello(stop):
-            self._loop(duration_s, stop)
+        try:
+            if self._await_hello(stop):
+                self._loop(duration_s, stop)
+        except (JacksonError, OSError):  # a user's error or the machine's: told as before
+            raise
+        except Exception as exc:  # a bug in the twin, its MCU, LiDAR or I2C: one line, exit 1
+            raise ThreadFailedError(ThreadFailure("twin", exc).line) from exc
         wall0, cpu0, spun0 = self._session0
         return RunnerStats(
             self.twin.t_s - start_s,

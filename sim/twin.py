@@ -430,6 +430,13 @@ class Twin:
         acc[0] += model.sum_accel_x
         acc[1] += model.sum_accel_y
         acc[2] += model.sum_wz
+        r = self.robot
+        if not math.isfinite(r.x + r.y + r.yaw):
+            raise ConfigError(
+                f"robot {self.robot_spec.name}: the physics diverged by {self.t_s:.3f} s (the "
+                "pose is not finite): its mass, inertia and motor values together are more "
+                f"than a {PHYSICS_HZ} Hz step integrates; bring them nearer the shipped robots'"
+            )
 
     def _slip_change(self, steps: int) -> int:
         """A wheel-slip window opens or closes at physics step ``steps``: set the wheels' floor

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from jackson.sim.config import DROP_CLEARANCE_M, Cylinder, Trigger, WorldSpec
+from jackson.sim.config import DROP_CLEARANCE_M, ConfigError, Cylinder, Trigger, WorldSpec
 from jackson.sim.lidar import Obstacles
 
 ROBOT_COLLISION_TYPE = 1
@@ -179,7 +179,10 @@ class World:
         """
         fired = []
         while self._by_distance and moved_m >= (self._by_distance[0].when_moved_m or 0.0):
-            fired.append(self._insert(self._by_distance.pop(0), t_s))
+            trig = self._by_distance.pop(0)
+            if robot_xy is not None:
+                self._refuse_on_robot(trig, robot_xy, moved_m)
+            fired.append(self._insert(trig, t_s))
         waiting = []
         while self._by_time and (self._by_time[0].at_s or 0.0) <= t_s + _DUE_S:
             trig = self._by_time.pop(0)
@@ -199,6 +202,21 @@ class World:
             self.remove_cylinder(c, shape)
             self.removed.append((t_s, c))
         return fired
+
+    def _refuse_on_robot(
+        self, trig: Trigger, robot_xy: tuple[float, float], moved_m: float
+    ) -> None:
+        """A distance trigger's cylinder that would land on the robot's axle centre is a world
+        file the physics cannot play (the robot would stand inside it): one line naming it."""
+        c = trig.cylinder
+        if math.hypot(c.x - robot_xy[0], c.y - robot_xy[1]) < c.radius:
+            k = self.spec.triggers.index(trig)
+            raise ConfigError(
+                f"world {self.spec.name}: triggers[{k}].add_cylinder: the cylinder (radius "
+                f"{c.radius:g} m at {c.x:g}, {c.y:g}) drops onto the robot, at "
+                f"({robot_xy[0]:.3f}, {robot_xy[1]:.3f}) after {moved_m:.3f} m: place it off "
+                "the robot's way"
+            )
 
     def _insert(self, trig: Trigger, t_s: float) -> Cylinder:
         shape = self.add_cylinder(trig.cylinder)

@@ -237,3 +237,36 @@ def test_every_suite_runs_through_the_registry() -> None:
     for name, suite in SUITES.items():
         assert callable(suite), name
         assert list(inspect.signature(suite).parameters) == ["quick"], name
+
+
+def test_daemon_latency_is_judged_idle_and_realtime_loaded_and_told_for_the_rest() -> None:
+    from jackson.bench.daemon_latency import TARGETS, _figures
+
+    latency = {
+        "frames": 200,
+        "status": 0,
+        "load": 4.0,
+        "us": {"median": 2500.0, "p99": 8000.0, "max": 9000.0},
+        "share_of_period": {"median": 0.05, "p99": 0.16, "max": 0.18},
+    }
+    idle = _figures(latency, "idle", realtime=False, loaded=False, loop_us=1.0)
+    loaded = _figures(latency, "loaded", realtime=False, loaded=True, loop_us=1.0)
+    fifo = _figures(latency, "loaded_realtime", realtime=True, loaded=True, loop_us=1.0)
+    assert [r.name for r in idle] == [
+        "daemon.latency_median_idle",
+        "daemon.latency_p99_idle",
+        "daemon.latency_max_idle",
+    ]
+    assert [r.target for r in idle] == [r.target for r in fifo] == list(TARGETS.values())
+    assert all(r.target is None for r in loaded)  # the machine's load, reported
+    assert [r.value for r in fifo] == [0.05, 0.16, 0.18]  # ratios to the 50 ms period
+    assert fifo[1].absolute == 8.0 and fifo[1].reference_absolute == 50.0  # ms
+    assert "SCHED_FIFO" in fifo[0].reference and "busy" in fifo[0].reference
+
+
+def test_the_busy_processes_end_with_the_block() -> None:
+    from jackson.bench.daemon_latency import busy
+
+    with busy(2) as procs:
+        assert len(procs) == 2 and all(proc.poll() is None for proc in procs)
+    assert all(proc.returncode is not None for proc in procs)  # killed and reaped

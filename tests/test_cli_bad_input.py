@@ -10,6 +10,7 @@ before and after. A few cases run as subprocesses too, to check the installed sc
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -663,3 +664,525 @@ def test_bench_without_its_peer_library_says_what_to_install(tmp_path: Path) -> 
     assert "pymavlink" in out.stderr and "make setup" in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "b.json").exists()
+
+
+# ------------------------------------------------------------------------- hostile numbers
+# Every number a user types, on every subcommand: NaN, infinities, -0, 1e309, huge, negative
+# where it is not allowed, empty, two numbers for one, units; negative coordinates that are
+# values, not options; YAML numbers of every spelling and fields of the wrong type.
+
+SPEED_CONFIGS: dict[str, tuple[str, str]] = {  # configs/<name>.yaml -> (its text, the line)
+    "square_v_1000": (
+        "square:\n  v_max_m_s: 1000\n",
+        "square.v_max_m_s: expected a number in (0, 10], got 1000",
+    ),
+    "square_v_1e9": (
+        "square:\n  v_max_m_s: 1e9\n",
+        "square.v_max_m_s: expected a number in (0, 10], got 1e+09",
+    ),
+    "square_vmin_e": (
+        "square:\n  v_min_m_s: 2.0e3\n",
+        "square.v_min_m_s: expected a number in (0, 10], got 2000",
+    ),
+    "square_w_e": (
+        "square:\n  w_max_rad_s: 1.0e+3\n",
+        "square.w_max_rad_s: expected a number in (0, 100], got 1000",
+    ),
+    "square_v_text": (
+        "square:\n  v_max_m_s: fast\n",
+        "square.v_max_m_s: expected a number > 0, got 'fast'",
+    ),
+    "square_v_units": (
+        "square:\n  v_max_m_s: 0.15 m/s\n",
+        "square.v_max_m_s: expected a number > 0, got '0.15 m/s'",
+    ),
+    "square_v_comma": (
+        "square:\n  v_max_m_s: 0,15\n",
+        "square.v_max_m_s: expected a number > 0, got '0,15'",
+    ),
+    "square_v_list": (
+        "square:\n  v_max_m_s: [0.1, 0.2]\n",
+        "square.v_max_m_s: expected a number > 0, got [0.1, 0.2]",
+    ),
+    "square_v_bool": (
+        "square:\n  v_max_m_s: true\n",
+        "square.v_max_m_s: expected a number > 0, got true",
+    ),
+    "square_v_null": (
+        "square:\n  v_max_m_s: null\n",
+        "square.v_max_m_s: expected a number > 0, got null",
+    ),
+    "square_v_inf": (
+        "square:\n  v_max_m_s: .inf\n",
+        "square.v_max_m_s: expected a number > 0, got inf",
+    ),
+    "square_v_nan": (
+        "square:\n  v_max_m_s: .nan\n",
+        "square.v_max_m_s: expected a number > 0, got nan",
+    ),
+    "square_v_minus_zero": (
+        "square:\n  v_max_m_s: -0.0\n",
+        "square.v_max_m_s: expected a number > 0, got -0.0",
+    ),
+    "square_v_hex": (
+        "square:\n  v_max_m_s: 0xff\n",
+        "square.v_max_m_s: expected a number in (0, 10], got 255",
+    ),
+    "square_side_text": (
+        "square:\n  side_m: one\n",
+        "square.side_m: expected a number > 0, got 'one'",
+    ),
+    "square_list": (
+        "square:\n  - v_max_m_s\n",
+        "square: expected a mapping of fields",
+    ),
+    "figure8_v_1000": (
+        "figure8:\n  v_m_s: 1000\n",
+        "figure8.v_m_s: expected a number in (0, 10], got 1000",
+    ),
+    "figure8_v_e": (
+        "figure8:\n  v_m_s: 1.0e9\n",
+        "figure8.v_m_s: expected a number in (0, 10], got 1e+09",
+    ),
+    "figure8_w_huge": (
+        "figure8:\n  w_rad_s: 1e300\n",
+        "figure8.w_rad_s: expected a number in (0, 100], got 1e+300",
+    ),
+    "figure8_v_1e309": (
+        "figure8:\n  v_m_s: 1e309\n",
+        "figure8.v_m_s: expected a number > 0, got inf",
+    ),
+    "figure8_scalar": (
+        "figure8: 0.08\n",
+        "figure8: expected a mapping of fields",
+    ),
+    "nav_v_1000": (
+        "navigation:\n  max_vel_x_m_s: 1000\n",
+        "navigation.max_vel_x_m_s: expected a number in (0, 10], got 1000",
+    ),
+    "nav_v_e": (
+        "navigation:\n  max_vel_x_m_s: 1.0e6\n",
+        "navigation.max_vel_x_m_s: expected a number in (0, 10], got 1e+06",
+    ),
+    "nav_v_negative": (
+        "navigation:\n  max_vel_x_m_s: -0.1\n",
+        "navigation.max_vel_x_m_s: expected a number > 0 or null, got -0.1",
+    ),
+    "nav_v_text": (
+        "navigation:\n  max_vel_x_m_s: max\n",
+        "navigation.max_vel_x_m_s: expected a number > 0 or null, got 'max'",
+    ),
+    "limits_v_e": (
+        "limits:\n  max_v_m_s: 3.0e2\n",
+        "limits.max_v_m_s: expected a number in (0, 10], got 300",
+    ),
+    "limits_w_huge": (
+        "limits:\n  max_w_rad_s: 1e6\n",
+        "limits.max_w_rad_s: expected a number in (0, 100], got 1e+06",
+    ),
+    "robot_radius_e": (
+        "robot:\n  wheel_radius_m: 3.3e-2\n  wheel_separation_m: 1.98e9\n",
+        "robot.wheel_separation_m: expected a number in (0, 5], got 1980000000.0",
+    ),
+}
+
+
+def _flip(run: Path, what: str) -> None:
+    """Damage the log of a copy of runs/good: a record's length or kind, as a flipped bit."""
+    data = bytearray((run / "log.jrec").read_bytes())
+    offsets, pos = [], 8
+    while pos + 11 <= len(data):
+        offsets.append(pos)
+        pos += 11 + int.from_bytes(data[pos + 9 : pos + 11], "little")
+    at = offsets[len(offsets) // 2]
+    if what == "length":  # runs past the end of a log that goes on to its end record
+        data[at + 9 : at + 11] = (0xF000).to_bytes(2, "little")
+    else:
+        data[at] = 0x7F
+    (run / "log.jrec").write_bytes(bytes(data))
+
+
+def _hostile_files(root: Path) -> None:
+    """The files the hostile cases name, beside the corpus's."""
+    for name, (text, _) in SPEED_CONFIGS.items():
+        _write(root, f"configs/{name}.yaml", text)
+    for name in ("length", "kind"):
+        shutil.copytree(root / "runs/good", root / f"runs/flip_{name}")
+        _flip(root / f"runs/flip_{name}", name)
+    _write(root, "bags/garbage/bag/bag_0.mcap", bytes(range(256)) * 16)
+    _write(root, "bags/garbage_meta/bag/bag_0.mcap", b"PK\x03\x04" + bytes(4000))
+    _write(
+        root,
+        "bags/garbage_meta/bag/metadata.yaml",
+        "rosbag2_bagfile_information:\n  version: 5\n  relative_file_paths: [bag_0.mcap]\n",
+    )
+
+
+def h(argv: str | list[str], says: str, status: int = 2) -> Case:
+    """A case whose arguments may hold an empty one or spaces (a list, as the shell passes)."""
+    return Case(tuple(argv.split() if isinstance(argv, str) else argv), says, status)
+
+
+NO_REC = "--no-record --port nowhere/tty"
+CAL = "calibrate encoders --runs runs/good"
+
+HOSTILE: dict[str, Case] = {
+    # negative coordinates are values: each line names what is wrong after them, not the option
+    "neg_run_goal_far": h("run maze --goal -0.5,1e308", "--goal: x and y must lie within"),
+    "neg_run_goal_huge": h("run maze --goal -1e308,0", "--goal: x and y must lie within"),
+    "neg_run_goal_square": h("run square --goal -0.5,1", "--map and --goal are for the maze"),
+    "neg_run_goal_inf": h("run maze --goal -inf,0", "argument --goal: expected x,y"),
+    "neg_run_goal_nan": h("run maze --goal -nan,0", "argument --goal: expected x,y"),
+    "neg_run_goal_one": h("run maze --goal -0.5", "argument --goal: expected x,y"),
+    "neg_run_goal_four": h("run maze --goal -1,-2,-3,-4", "argument --goal: expected x,y"),
+    "neg_map_waypoint_far": h(f"map --world {GOOD_WORLD} --waypoint -1e308,0", "--waypoint"),
+    "neg_map_waypoint_text": h("map --waypoint -1,y", "argument --waypoint: expected x,y"),
+    "neg_daemon_goal": h("daemon --goal -1,0 --no-record", "--goal needs --lidar"),
+    "neg_daemon_start": h("daemon --start -0.69,-0.04,0 --no-record", "--start needs --lidar"),
+    "neg_daemon_start_far": h(
+        f"daemon --goal 1,0 --start -0.5,-2e4 --lidar nowhere/lidar {NO_REC}",
+        "--start: x and y must lie within",
+    ),
+    "neg_daemon_stage3_doc": h(
+        f"daemon --lidar nowhere/lidar --start -0.69,-0.04,0 --goal 1.21,-0.04 {NO_REC}",
+        "nowhere/lidar",
+    ),
+    "neg_goal": h("goal -1,2 --socket nowhere.sock", "no jackson daemon"),
+    "neg_goal_yaw": h("goal -1,-2,-3.1 --socket nowhere.sock", "no jackson daemon"),
+    "neg_goal_text": h("goal -1,x --socket nowhere.sock", "pose"),
+    "neg_localise": h("localise -0.5,-1e308 --socket nowhere.sock", "pose"),
+    "neg_rotation_short": h("calibrate imu --runs runs/good --rotation -1,0,0", "--rotation"),
+    "neg_rotation_nan": h(
+        "calibrate imu --runs runs/good --rotation -nan,0,0,0,1,0,0,0,1", "--rotation"
+    ),
+    "neg_step_duty_e": h("calibrate step --duty -7e-1 --runs nowhere/run", "argument --duty"),
+    # --start, --goal, --waypoint: two or three finite numbers, named where parsed
+    "daemon_start_one": h("daemon --start 1 --no-record", "argument --start"),
+    "daemon_start_four": h("daemon --start 1,2,3,4 --no-record", "argument --start"),
+    "daemon_start_empty": h(["daemon", "--start", "", "--no-record"], "argument --start"),
+    "daemon_start_units": h("daemon --start 1m,2m --no-record", "argument --start"),
+    "daemon_start_semicolon": h("daemon --start 1;2 --no-record", "argument --start"),
+    "daemon_start_inf": h("daemon --start inf,0 --no-record", "argument --start"),
+    "daemon_start_1e309": h("daemon --start 1e309,0 --no-record", "argument --start"),
+    "daemon_goal_space": h(["daemon", "--goal", "1, 2, x", "--no-record"], "argument --goal"),
+    "daemon_goal_empty": h(["daemon", "--goal", "", "--no-record"], "argument --goal"),
+    "run_goal_double_comma": h("run maze --goal 1,,2", "argument --goal"),
+    "map_waypoint_units": h("map --waypoint 1m,0", "argument --waypoint"),
+    # --i2c names the option, whatever the serial port
+    "daemon_i2c_banana": h("daemon --i2c banana --no-record", "argument --i2c"),
+    "daemon_i2c_unix_empty": h("daemon --i2c unix: --no-record", "argument --i2c"),
+    "daemon_i2c_dev_text": h("daemon --i2c /dev/i2c-x --no-record", "argument --i2c"),
+    "daemon_i2c_negative": h("daemon --i2c -1 --no-record", "argument --i2c"),
+    # the daemon's numbers
+    "daemon_max_seconds_inf": h("daemon --max-seconds inf --no-record", "--max-seconds"),
+    "daemon_max_seconds_1e309": h("daemon --max-seconds 1e309 --no-record", "--max-seconds"),
+    "daemon_max_seconds_huge": h("daemon --max-seconds 1e300 --no-record", "--max-seconds"),
+    "daemon_max_seconds_minus_zero": h("daemon --max-seconds -0 --no-record", "--max-seconds"),
+    "daemon_max_seconds_empty": h(["daemon", "--max-seconds", "", "--no-record"], "--max-seconds"),
+    "daemon_max_seconds_units": h("daemon --max-seconds 10s --no-record", "--max-seconds"),
+    "daemon_max_seconds_comma": h("daemon --max-seconds 1,5 --no-record", "--max-seconds"),
+    "daemon_timeout_negative": h("daemon --mission-timeout -5 --no-record", "--mission-timeout"),
+    "daemon_timeout_nan": h("daemon --mission-timeout nan --no-record", "--mission-timeout"),
+    "daemon_timeout_units": h("daemon --mission-timeout 5min --no-record", "--mission-timeout"),
+    "daemon_stall_zero": h("daemon --stall-timeout 0 --no-record", "--stall-timeout"),
+    "daemon_stall_minus_zero": h("daemon --stall-timeout -0.0 --no-record", "--stall-timeout"),
+    "daemon_stall_inf": h("daemon --stall-timeout -inf --no-record", "--stall-timeout"),
+    "daemon_live_view_negative": h("daemon --live-view -1 --no-record", "--live-view"),
+    "daemon_live_view_big": h("daemon --live-view 65536 --no-record", "--live-view"),
+    "daemon_live_view_nan": h("daemon --live-view nan --no-record", "--live-view"),
+    "daemon_live_view_no_host": h("daemon --live-view :8765 --no-record", "--live-view"),
+    # the twin's runs and campaigns
+    "run_seed_nan": h("run square --seed nan", "--seed"),
+    "run_seed_1e309": h("run square --seed 1e309", "--seed"),
+    "run_seed_fraction": h("run square --seed 1.5", "--seed"),
+    "run_seed_empty": h(["run", "square", "--seed", ""], "--seed"),
+    "run_seed_comma": h("run square --seed 1,2", "--seed"),
+    "run_fault_lidar_garbage": h("run square --fault lidar_garbage@1", "--fault lidar_garbage"),
+    "run_fault_lidar_closed": h("run figure8 --fault lidar_closed@0", "--fault lidar_closed"),
+    "run_fault_lidar_noise": h("run square --fault lidar_noise@0", "--fault lidar_noise"),
+    "run_fault_lidar_dropout": h("run figure8 --fault lidar_dropout@2+1", "--fault lidar_dropout"),
+    "run_fault_at_nan": h("run square --fault wheel_slip@nan", "--fault"),
+    "run_fault_at_negative": h("run square --fault wheel_slip@-1", "--fault"),
+    "campaign_trials_nan": h("campaign square --trials nan", "--trials"),
+    "campaign_trials_inf": h("campaign square --trials inf", "--trials"),
+    "campaign_trials_1e309": h("campaign square --trials 1e309", "--trials"),
+    "campaign_trials_huge": h("campaign square --trials 1e12", "--trials"),
+    "campaign_trials_fraction": h("campaign square --trials 2.5", "--trials"),
+    "campaign_trials_minus_zero": h("campaign square --trials -0", "--trials"),
+    "campaign_trials_empty": h(["campaign", "square", "--trials", ""], "--trials"),
+    "campaign_trials_units": h("campaign square --trials 10x", "--trials"),
+    "campaign_workers_huge": h("campaign square --workers 1e6", "--workers"),
+    "campaign_workers_comma": h("campaign square --workers 2,3", "--workers"),
+    "campaign_workers_neg_inf": h("campaign square --workers -inf", "--workers"),
+    "patrol_goals_zero": h("patrol --goals 0", "--goals"),
+    "patrol_goals_negative": h("patrol --goals -3", "--goals"),
+    "patrol_goals_nan": h("patrol --goals nan", "--goals"),
+    "patrol_seed_negative": h("patrol --seed -1", "--seed"),
+    "map_seed_inf": h("map --seed inf", "--seed"),
+    # the twin alone
+    "sim_duration_inf": h("sim --duration inf", "--duration"),
+    "sim_duration_1e309": h("sim --duration 1e309", "--duration"),
+    "sim_duration_minus_zero": h("sim --duration -0", "--duration"),
+    "sim_boot_id_negative": h("sim --boot-id -1", "--boot-id"),
+    "sim_boot_id_huge": h("sim --boot-id 1e10", "--boot-id"),
+    "sim_heartbeat_nan": h("sim --heartbeat-timeout nan", "--heartbeat-timeout"),
+    "sim_stall_negative": h("sim --stall-timeout -1", "--stall-timeout"),
+    "sim_spin_inf": h("sim --spin-us inf", "--spin-us"),
+    "sim_seed_fraction": h("sim --seed 0.5", "--seed"),
+    # the serial monitor, the brake, the navigation service's clients
+    "monitor_baudrate_negative": h("monitor --port nowhere/tty --baudrate -9600", "--baudrate"),
+    "monitor_baudrate_fraction": h("monitor --port nowhere/tty --baudrate 9600.5", "--baudrate"),
+    "monitor_baudrate_units": h("monitor --port nowhere/tty --baudrate 9600baud", "--baudrate"),
+    "monitor_duration_inf": h("monitor --port nowhere/tty --duration inf", "--duration"),
+    "monitor_duration_empty": h(["monitor", "--port", "x", "--duration", ""], "--duration"),
+    "brake_address_negative": h("brake --address -1", "--address"),
+    "brake_address_nan": h("brake --address nan", "--address"),
+    "brake_address_big": h("brake --address 0x100", "--address"),
+    "cancel_id_negative": h("cancel --id -1 --socket nowhere.sock", "--id"),
+    "cancel_id_fraction": h("cancel --id 0.5 --socket nowhere.sock", "--id"),
+    # calibration
+    "cal_count_negative": h(f"{CAL} --count -1", "--count"),
+    "cal_count_1e309": h(f"{CAL} --count 1e309", "--count"),
+    "cal_length_zero": h(f"{CAL} --length 0", "--length"),
+    "cal_length_huge": h(f"{CAL} --length 51", "--length"),
+    "cal_length_units": h(f"{CAL} --length 1m", "--length"),
+    "cal_length_inf": h(f"{CAL} --length inf", "--length"),
+    "cal_distance_negative": h(f"{CAL} --distance -1", "--distance"),
+    "cal_speed_huge": h(f"{CAL} --speed 3", "--speed"),
+    "cal_speed_negative": h(f"{CAL} --speed -0.15", "--speed"),
+    "cal_track_turns_zero": h("calibrate track --runs runs/good --turns 0", "--turns"),
+    "cal_track_turns_huge": h("calibrate track --runs runs/good --turns 1e9", "--turns"),
+    "cal_track_rate_neg_inf": h("calibrate track --runs runs/good --rate -inf", "--rate"),
+    "cal_imu_still_huge": h("calibrate imu --runs runs/good --still 3601", "--still"),
+    "cal_imu_spin_negative": h("calibrate imu --runs runs/good --spin -4", "--spin"),
+    "cal_deadband_duty_negative": h(
+        "calibrate deadband --runs runs/good --max-duty -0.5", "--max-duty"
+    ),
+    "cal_deadband_duty_percent": h(
+        "calibrate deadband --runs runs/good --max-duty 60%", "--max-duty"
+    ),
+    "cal_char_duty_nan": h("calibrate characterise --runs runs/good --duty nan", "--duty"),
+    "cal_char_duty_negative": h("calibrate characterise --runs runs/good --duty -1.5", "--duty"),
+    "cal_char_seconds_minus_zero": h(
+        "calibrate characterise --runs runs/good --seconds -0", "--seconds"
+    ),
+    "cal_step_seconds_huge": h("calibrate step --runs runs/good --seconds 601", "--seconds"),
+    "cal_fit_yaw_weight_inf": h(
+        "calibrate twin-fit --runs runs/good --yaw-weight inf", "--yaw-weight"
+    ),
+    # replay of a damaged log: damaged, where, never "cut"
+    "replay_flip_length": h("replay runs/flip_length", "the log is damaged"),
+    "replay_flip_kind": h("replay runs/flip_kind", "the log is damaged"),
+    # a garbage file where a bag goes: not a bag, and no advice to repair it
+    "bag_repair_garbage": h("bag repair bags/garbage", "so not a bag"),
+    "bag_repair_garbage_meta": h("bag repair bags/garbage_meta", "so not a bag"),
+    "bag_info_garbage": h("bag info bags/garbage", "so not a bag"),
+}
+HOSTILE.update(
+    {  # the host config's numbers, as the daemon and the twin read them
+        f"config_{name}": h(f"daemon --config configs/{name}.yaml {NO_REC}", f"{name}.yaml: {says}")
+        for name, (_, says) in SPEED_CONFIGS.items()
+    }
+)
+HOSTILE.update(
+    {
+        "run_config_square_speed": h(
+            "run square --config configs/square_v_1000.yaml", "square.v_max_m_s"
+        ),
+        "run_config_figure8_speed": h(
+            "run figure8 --config configs/figure8_v_e.yaml", "figure8.v_m_s"
+        ),
+        "map_config_nav_speed": h("map --config configs/nav_v_e.yaml", "navigation.max_vel_x_m_s"),
+    }
+)
+
+
+@pytest.mark.parametrize("name", list(HOSTILE))
+def test_hostile_numbers_are_one_line_naming_the_option_or_field(
+    name: str,
+    corpus: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    case = HOSTILE[name]
+    work = tmp_path / "work"
+    shutil.copytree(corpus, work, symlinks=True)
+    _hostile_files(work)
+    monkeypatch.chdir(work)
+    before = _tree(work)
+    try:
+        rc = main(list(case.argv))
+    except SystemExit as exc:  # argparse
+        rc = exc.code if isinstance(exc.code, int) else 2
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert "Traceback" not in err, err
+    assert rc == case.status, f"exit {rc}, stderr: {err!r}"
+    assert len(lines) == 1, f"expected one line on stderr, got {lines!r}"
+    assert lines[0].startswith("jackson"), lines[0]
+    assert case.says in lines[0], f"{case.says!r} not in {lines[0]!r}"
+    assert "jackson bag repair" not in lines[0] or "bag info" in " ".join(case.argv)
+    assert _tree(work) == before, "the command left something behind or changed a file"
+
+
+def test_the_hostile_cases_are_new_and_many() -> None:
+    assert len(HOSTILE) >= 100
+    assert not set(HOSTILE) & set(CASES)
+
+
+def test_replay_never_counts_below_zero(
+    corpus: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run file emptied by a crash holds 0 rows, not -1."""
+    run = tmp_path / "run"
+    shutil.copytree(corpus / "runs/good", run)
+    (run / "odometry.csv").write_text("")
+    assert main(["replay", str(run), "--out", str(tmp_path / "out")]) == 1
+    out = capsys.readouterr().out
+    assert "odometry.csv: 0 rows in the run" in out
+    assert not re.search(r"-\d+ rows|-\d+ replayed|-\d+ more", out), out
+
+
+# -------------------------------------------------- physical bounds (robot, world and map files)
+
+_PHYSICAL_ROBOT = (Path(__file__).parent.parent / "sim/robots/jackson_physical.yaml").read_text()
+_PHYSICAL_ROOM = (
+    "walls:\n  - [-3, -3, 3, -3]\n  - [3, -3, 3, 3]\n  - [3, 3, -3, 3]\n  - [-3, 3, -3, -3]\n"
+)
+PHYSICAL: dict[str, tuple[str, str, str, str]] = {
+    # name: (file, its text, the command line, what the one line names)
+    "robot_mass_1e30": (
+        "heavy.yaml",
+        _PHYSICAL_ROBOT.replace("mass_kg: 2.0", "mass_kg: 1.0e+30", 1),
+        "run square --robot heavy.yaml",
+        "heavy.yaml: mass_kg: expected a number in [0.1, 100]",
+    ),
+    "sim_robot_mass_1e30": (
+        "heavy.yaml",
+        _PHYSICAL_ROBOT.replace("mass_kg: 2.0", "mass_kg: 1.0e+30", 1),
+        "sim --robot heavy.yaml",
+        "heavy.yaml: mass_kg: expected a number in [0.1, 100]",
+    ),
+    "robot_wheel_1mm": (
+        "r.yaml",
+        "wheel_radius_m: 0.001\n",
+        "run square --robot r.yaml",
+        "r.yaml: wheel_radius_m: expected a number in [0.005, 0.5]",
+    ),
+    "robot_separation_1km": (
+        "r.yaml",
+        "wheel_separation_m: 1000\n",
+        "run figure8 --robot r.yaml",
+        "r.yaml: wheel_separation_m",
+    ),
+    "robot_inertia_huge": (
+        "r.yaml",
+        "inertia_kg_m2: 1.0e+12\n",
+        "sim --robot r.yaml",
+        "r.yaml: inertia_kg_m2",
+    ),
+    "robot_rpm_1e9": (
+        "r.yaml",
+        "motor:\n  no_load_rpm: 1.0e+9\n",
+        "run square --robot r.yaml",
+        "r.yaml: motor.no_load_rpm",
+    ),
+    "robot_torque_1e6": (
+        "r.yaml",
+        "motor:\n  stall_torque_nm: 1.0e+6\n",
+        "run square --robot r.yaml",
+        "r.yaml: motor.stall_torque_nm",
+    ),
+    "robot_battery_1kv": (
+        "r.yaml",
+        "motor:\n  battery_v: 1000\n",
+        "run square --robot r.yaml",
+        "r.yaml: motor.battery_v",
+    ),
+    "robot_lidar_mount_far": (
+        "r.yaml",
+        "lidar:\n  mount_x_m: 1000\n",
+        "run maze --robot r.yaml",
+        "r.yaml: lidar.mount_x_m",
+    ),
+    "world_friction_50": (
+        "w.yaml",
+        "floor: {mu_static: 50, mu_dynamic: 0.7}\n" + _PHYSICAL_ROOM,
+        "run square --world w.yaml",
+        "w.yaml: floor.mu_static",
+    ),
+    "world_cylinder_1e6": (
+        "w.yaml",
+        _PHYSICAL_ROOM + "cylinders:\n  - {x: 2, y: 2, radius: 1.0e+6}\n",
+        "run square --world w.yaml",
+        "w.yaml: cylinders[0].radius",
+    ),
+    "world_trigger_radius_1e6": (
+        "w.yaml",
+        _PHYSICAL_ROOM
+        + "triggers:\n  - when_moved_m: 0.5\n    add_cylinder: {x: 2, y: 2, radius: 1.0e+6}\n",
+        "run maze --world w.yaml",
+        "w.yaml: triggers[0].add_cylinder.radius",
+    ),
+    "world_trigger_on_the_robot": (
+        "w.yaml",
+        _PHYSICAL_ROOM
+        + "triggers:\n  - when_moved_m: 0.3\n    add_cylinder: {x: 0.1, y: 0, radius: 1.5}\n",
+        "run square --world w.yaml",
+        "w.yaml: triggers[0].add_cylinder: the cylinder",
+    ),
+    "world_wall_far": (
+        "w.yaml",
+        "walls:\n  - [0, 0, 1.0e+7, 0]\n",
+        "run square --world w.yaml",
+        "w.yaml: walls[0]",
+    ),
+    "world_goal_far": (
+        "w.yaml",
+        _PHYSICAL_ROOM + "goal: [1.0e+7, 0]\n",
+        "run maze --world w.yaml",
+        "w.yaml: goal",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(PHYSICAL))
+def test_a_file_outside_the_physical_bounds_is_one_line(
+    name: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    filename, text, argv, says = PHYSICAL[name]
+    (tmp_path / filename).write_text(text)
+    monkeypatch.chdir(tmp_path)
+    rc = main(argv.split())
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert "Traceback" not in err, err
+    assert rc == 2, f"exit {rc}, stderr: {err!r}"
+    assert len(lines) == 1 and lines[0].startswith("jackson"), lines
+    assert says in lines[0], f"{says!r} not in {lines[0]!r}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [filename]  # nothing left behind
+
+
+@pytest.mark.parametrize("side", [5000, 10000])
+def test_a_map_over_the_memory_bound_is_one_line(
+    side: int,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """10 000 x 10 000 and 5 000 x 5 000 maps took ``jackson run maze`` past 4 GiB."""
+    (tmp_path / "big.pgm").write_bytes(f"P5\n{side} {side}\n255\n".encode() + b"\0")
+    (tmp_path / "big.yaml").write_text(
+        "image: big.pgm\nresolution: 0.05\norigin: [-100, -100, 0]\noccupied_thresh: 0.65\n"
+        "free_thresh: 0.196\nnegate: 0\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    rc = main(["run", "maze", "--map", "big.yaml"])
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert rc == 2
+    assert len(lines) == 1 and f"{side} x {side} pixels" in lines[0], lines
+    assert "10,000,000 in all" in lines[0] and "bytes of memory a cell" in lines[0]

@@ -40,22 +40,65 @@ def check_frames(run: RunData) -> None:
     a link that lost seconds of them (a busy machine, frames of an earlier session) gives a
     wrong fit, not an error, unless it is caught here.
 
+    Frames before the one the first command was written after are of a robot braked at rest
+    (the settle time every script starts with) and are not checked: a host slow to take its
+    first frames (the twin drops what its port cannot queue) loses only rest.
+
     Raises
     ------
     CalibrationError
         A gap longer than :data:`MAX_GAP_PERIODS` telemetry periods and :data:`MIN_GAP_S`.
     """
-    if run.frames < 3:
+    driven = np.flatnonzero(
+        (np.nan_to_num(run.duty_left) != 0) | (np.nan_to_num(run.duty_right) != 0)
+    )
+    first = int(driven[0]) if len(driven) else 0
+    if run.frames - first < 3:
         return
-    dt = np.diff(run.t_s)
+    dt = np.diff(run.t_s[first:])
     period = float(np.median(dt))
     i = int(np.argmax(dt))
-    gap = float(dt[i])
+    gap, at = float(dt[i]), float(run.t_s[first + i] - run.t_s[0])
     if gap > max(MAX_GAP_PERIODS * period, MIN_GAP_S):
         raise CalibrationError(
-            f"run {run.name}: {gap:.2f} s without a frame at {run.t_s[i] - run.t_s[0]:.2f} s "
+            f"run {run.name}: {gap:.2f} s without a frame at {at:.2f} s "
             f"into it ({gap / period - 1:.0f} frames missing): the link lost them; nothing was "
             "written, record it again (a busy machine? another program on the port?)"
+        )
+
+
+def check_start(label: str, t_s: FloatArray, ticks: FloatArray, max_delay_s: float) -> None:
+    """Refuse a step whose wheel first moved more than ``max_delay_s`` after its frame.
+
+    A step is timed from the frame its duty was written after, on the MCU's clock. A duty that
+    reached the motor later (a late motor command; on the twin, one that went on in real time
+    while its host was busy) would be measured as a slow motor, so it is refused instead.
+
+    Parameters
+    ----------
+    label : str
+        The step, for the message.
+    t_s : numpy.ndarray
+        Frame times from the step's frame on [s].
+    ticks : numpy.ndarray
+        Counts since that frame, positive in the step's direction.
+    max_delay_s : float
+        The longest delay a motor of this kind has [s].
+
+    Raises
+    ------
+    CalibrationError
+        The wheel moved, but first later than ``max_delay_s``.
+    """
+    moved = np.flatnonzero(ticks >= 1)
+    if len(moved) == 0 or moved[0] == 0:
+        return
+    delay = float(t_s[moved[0] - 1])
+    if delay > max_delay_s:
+        raise CalibrationError(
+            f"{label} first moved the wheel {delay:.2f} s after its frame (at most "
+            f"{max_delay_s:g} s): a late motor command or a twin that went on without its host; "
+            "nothing was written, run it again"
         )
 
 

@@ -18,6 +18,10 @@ from jackson.calibration.procedures.imu import rotation_matrix
 from jackson.host.config import IDENTITY
 from jackson.host.estimation.odometry import RobotGeometry
 
+MAX_BRAKE_LAG_S = 0.15  # [s] from the brake's frame to the first interval below 90 % of the top
+# speed: a motor and its driver take tens of ms (the paper's transport latency about 50 ms); a
+# brake that acts later was written late on the MCU's clock (a twin that went on without a host)
+
 
 @dataclass(frozen=True)
 class Characterisation:
@@ -191,6 +195,7 @@ def characterise(
     wheel_t90 = _crossing(mids, np.abs(v), 0.9 * abs(v_top))
     if math.isnan(wheel_t90):
         raise CalibrationError(f"run {run.name}: never reached 90 % of the top speed")
+    _check_brake_lag(run.name, t[b:], s[b:], v_top)
     moving = np.flatnonzero((np.diff(run.enc_left[b:]) != 0) | (np.diff(run.enc_right[b:]) != 0))
     last = b + int(moving[-1]) + 1 if len(moving) else b
     if len(moving) and last >= run.frames - 1:
@@ -218,3 +223,37 @@ def characterise(
         wheel_stopping_distance_m=float(abs(s[last] - s[b])),
         wheel_stopping_time_s=float(t[last] - t[b]),
     )
+
+
+def _check_brake_lag(name: str, t: FloatArray, s: FloatArray, v_top: float) -> None:
+    """Refuse a run whose brake acted more than :data:`MAX_BRAKE_LAG_S` after its frame.
+
+    The stopping time and distance are measured from the frame the brake was written after; a
+    brake that reached the motors later (on the twin: one that went on in real time while the
+    host was busy) would lengthen both, so such a run is not measured.
+
+    Parameters
+    ----------
+    name : str
+        The run, for the message.
+    t : numpy.ndarray
+        Frame times from the brake's frame on [s].
+    s : numpy.ndarray
+        Travel at those frames [m].
+    v_top : float
+        The settled speed before the brake [m/s].
+
+    Raises
+    ------
+    CalibrationError
+        The speed stayed at 90 % of the top speed or more for longer than the limit.
+    """
+    v = np.abs(np.diff(s) / np.diff(t))
+    slower = np.flatnonzero(v < 0.9 * abs(v_top))
+    lag = float(t[int(slower[0])] - t[0]) if len(slower) else float(t[-1] - t[0])
+    if lag > MAX_BRAKE_LAG_S:
+        raise CalibrationError(
+            f"run {name}: the brake acted {lag:.2f} s after the frame it was written after (at "
+            f"most {MAX_BRAKE_LAG_S:g} s): a late motor command or a twin that went on without "
+            "its host; nothing was written, run it again"
+        )

@@ -48,6 +48,7 @@ from jackson.calibration.procedures.base import (
     CalibrationError,
     FloatArray,
     RunData,
+    check_start,
     wheel_angle_rad,
 )
 from jackson.host.actuation.deadband import DeadbandConfig, Direction, Side
@@ -334,6 +335,7 @@ def find_steps(
                 raise CalibrationError(
                     f"{label} turned it {int(ticks[-1])} ticks: below its breakaway duty?"
                 )
+            check_start(label, run.t_s[a : b + 1] - run.t_s[a], ticks, MAX_DEAD_TIME_S)
             step = WheelStep(
                 run=run.name,
                 side=side,

@@ -18,6 +18,7 @@ from jackson.calibration.runs.link import (
     _progress,
     _stopped,
     _write_config,
+    wall_backstop_s,
 )
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
 from jackson.host.core import DutySource
@@ -72,6 +73,7 @@ def duty_run(
         return Pca9685Output(pca, p.left, p.right, p.stby_channel)
 
     _write_config(folder, cfg)
+    wall_limit_s = wall_backstop_s(script.total_s)
     daemon = Daemon(
         cfg,
         output,
@@ -85,12 +87,13 @@ def duty_run(
         with _progress(link.console, label, script.total_s) as progress:
             daemon.core.listeners.append(_Progress(progress))
             transport.send_hello()  # the session starts once the daemon is set up
-            daemon.run(max_s=30.0 + 2.0 * script.total_s)
+            daemon.run(max_s=wall_limit_s)
     finally:
         transport.close()
         bus.close()
     if not script.done:
-        raise _stopped(label, daemon.core.frames, link.port)
+        hit = wall_limit_s if daemon.wall_limit_hit else None
+        raise _stopped(label, daemon.core.frames, link.port, hit)
     return folder
 
 

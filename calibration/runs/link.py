@@ -19,6 +19,30 @@ from jackson.host.actuation.pca9685 import Pca9685
 from jackson.host.config import HostConfig, dump_config
 from jackson.host.transport import LinkError, SerialTransport
 
+WALL_BACKSTOP_S = 600.0  # [s] of wall time beyond the scaled run length, for a hung host
+WALL_BACKSTOP_FACTOR = 20.0  # wall seconds per second of MCU time a run may take
+
+
+def wall_backstop_s(mcu_s: float) -> float:
+    """The wall time a run of ``mcu_s`` seconds on the MCU's clock may take before it is cut.
+
+    Scripts and missions start and end their steps on the MCU's clock, so a slow host only
+    makes a run take longer, never changes it: on the twin in lockstep a busy machine slows
+    the MCU's clock with the host. This limit is a far backstop for a host that hangs while
+    frames keep coming, not a measure of the run.
+
+    Parameters
+    ----------
+    mcu_s : float
+        The run's expected length on the MCU's clock [s].
+
+    Returns
+    -------
+    float
+        The wall-time limit [s].
+    """
+    return WALL_BACKSTOP_S + WALL_BACKSTOP_FACTOR * mcu_s
+
 
 @dataclass(frozen=True)
 class Link:
@@ -104,8 +128,13 @@ def _open_link(link: Link) -> tuple[SerialTransport, I2cBus | None, Pca9685 | No
     return transport, bus, pca
 
 
-def _stopped(label: str, frames: int, port: str) -> RunError:
-    """A run that ended before its script or mission did."""
+def _stopped(label: str, frames: int, port: str, wall_limit_s: float | None = None) -> RunError:
+    """A run that ended before its script or mission did (``wall_limit_s``: on that backstop)."""
+    if wall_limit_s is not None:
+        return RunError(
+            f"{label}: not finished after {wall_limit_s:.0f} s of wall time ({frames} telemetry "
+            f"frames from {port}): the host hung or the machine is overloaded; run it again"
+        )
     return RunError(
         f"{label}: stopped after {frames} telemetry frames from {port}"
         + (" (no telemetry: is the firmware running?)" if frames == 0 else "")

@@ -16,6 +16,7 @@ from jackson.calibration.runs.link import (
     _progress,
     _stopped,
     _write_config,
+    wall_backstop_s,
 )
 from jackson.host.actuation.output import McuOutput, MotorOutput, Pca9685Output
 from jackson.host.config import ImuCalibration
@@ -201,7 +202,7 @@ def drive_run(
     _write_config(folder, cfg)
     daemon = Daemon(cfg, output, transport, run_folder=folder, meta=meta)
     daemon.core.mission = mission
-    wall_limit_s = 30.0 + 2.0 * (mission.timeout_s + cfg.ekf.gyro_bias_window_s)
+    wall_limit_s = wall_backstop_s(mission.timeout_s + cfg.ekf.gyro_bias_window_s)
     try:
         with _progress(link.console, label, expected_s) as progress:
             mission.on_progress = progress
@@ -217,7 +218,8 @@ def drive_run(
             "(motor rail, wheels on the floor)?"
         )
     if not mission.done:
-        raise _stopped(label, daemon.core.frames, link.port)
+        hit = wall_limit_s if daemon.wall_limit_hit else None
+        raise _stopped(label, daemon.core.frames, link.port, hit)
     return folder
 
 

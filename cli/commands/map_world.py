@@ -13,7 +13,7 @@ from jackson.commands.checks import (
     out_folder,
     refuse_bad_route,
 )
-from jackson.common.args import nonneg_int
+from jackson.common.args import nonneg_int, pose_text
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -27,6 +27,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--waypoint",
         action="append",
+        type=pose_text,
         metavar="X,Y[,YAW]",
         help="survey route in world coordinates [m, rad], repeatable (default: the Stage 3 "
         "goal and back to the start)",

@@ -19,6 +19,8 @@ from jackson.commands.checks import (
     refuse_bad_route,
 )
 from jackson.commands.options import add_mission, add_twin_options
+from jackson.common.args import pose_text
+from jackson.experiments.stall_retry import exit_status
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -40,6 +42,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--goal",
         action="append",
+        type=pose_text,
         metavar="X,Y[,YAW]",
         help="maze: navigate here (world coordinates, repeatable; default the world "
         "file's goal, else the Stage 3 goal)",
@@ -68,6 +71,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise CliError("--map and --goal are for the maze")
     if lidar_mode(args) is not None:
         raise CliError("--lidar-mode is for the maze (the square and figure-eight use no LiDAR)")
+    from jackson.sim.faults import LIDAR_KINDS
+
+    for f in args.fault:
+        if f.kind in LIDAR_KINDS:
+            raise CliError(
+                f"--fault {f.kind}: the {args.mission} runs without a LiDAR; LiDAR faults are "
+                "for the maze"
+            )
     world = args.world or ("square_room" if args.mission == "square" else "open_floor")
     check_twin_files(args.robot, world)
     config = host_config(args.config)
@@ -93,7 +104,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         table.add_row(label, value)
     Console().print(table)
     print(f"plot: {png}\nrun folder: {out}")
-    return 0 if r["completed"] else 1
+    return exit_status(r)
 
 
 def _cmd_run_maze(args: argparse.Namespace) -> int:
@@ -135,7 +146,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
         m = run_nav_trial(dataclasses.replace(survey, lidar_mode=lidar_mode(args)))
         if not m["completed"]:
             print(f"jackson run maze: the mapping run stopped: {m['failure']}")
-            return 1
+            return exit_status(m)
         map_yaml = out / "map" / "built_map.yaml"
     grid = OccupancyGrid.load(map_yaml)
     start = Pose2D(*world_spec.start_pose)
@@ -150,7 +161,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     plot_stage3(out / "maze.png", out, [r])
     _print_maze_table(f"maze on the twin ({args.robot}, {world}, seed {args.seed})", r)
     print(f"plot: {out / 'maze.png'}\nrun folder: {out / 'nav'}")
-    return 0 if r["completed"] else 1
+    return exit_status(r)
 
 
 def _print_maze_table(title: str, r: dict[str, Any]) -> None:

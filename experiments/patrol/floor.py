@@ -16,6 +16,7 @@ import numpy.typing as npt
 import yaml
 from scipy import ndimage
 
+from jackson.common.fields import read_yaml
 from jackson.experiments.patrol.records import PatrolSpec
 from jackson.sim.config import WORLDS_DIR, WorldSpec, resolve
 
@@ -73,7 +74,8 @@ def drops(
 
 def patrol_world(spec: PatrolSpec, world: WorldSpec, horizon_s: float) -> Path:
     """The world file the twin runs: the floor with the patrol's timed drops added."""
-    data = yaml.safe_load(resolve(spec.world, WORLDS_DIR, "world").read_text())
+    _, read = read_yaml(resolve(spec.world, WORLDS_DIR, "world"), "world")
+    data = dict(read)  # the same number spellings as the twin's world loader
     rng = np.random.default_rng([spec.seed, 1])
     data["triggers"] = list(data.get("triggers") or []) + drops(
         world, rng, horizon_s, spec.drop_period_s

@@ -52,7 +52,7 @@ TEST(Firmware, HelloIsAnsweredWithInfoAndAck) {
   EXPECT_EQ(i.protocol_version, proto::kProtocolVersion);
   EXPECT_EQ(i.schema_hash, proto::kSchemaHash);
   EXPECT_EQ(i.telemetry_rate_hz, 20);
-  EXPECT_EQ(i.failsafe_ms, 600);
+  EXPECT_EQ(i.failsafe_ms, proto::kFailsafeMsDefault);  // until the host's SET_CONFIG
   EXPECT_TRUE(i.capabilities & proto::capabilities::kImuPresent);
   EXPECT_TRUE(i.capabilities & proto::capabilities::kMotorOutput);
   EXPECT_TRUE(acked(sent, proto::Hello::kType, 5));
@@ -353,7 +353,8 @@ TEST(Firmware, FailsafeBrakesWhenHeartbeatsStop) {
   const uint32_t last_heartbeat = b.clock.t;
   while (!b.motors.braked && b.clock.t - last_heartbeat < 2'000'000) b.run_for(1000);
   EXPECT_TRUE(b.motors.braked);
-  EXPECT_EQ(b.clock.t - last_heartbeat, 600'000u);  // at 0.6 s, to the millisecond tick
+  // at the default failsafe (0.2 s), to the millisecond tick
+  EXPECT_EQ(b.clock.t - last_heartbeat, 1000u * proto::kFailsafeMsDefault);
   EXPECT_TRUE(b.fw.motors().failsafe);
   b.run_for(50'000);
   const auto t = only<proto::Telemetry>(b.take_sent()).back().as<proto::Telemetry>();
@@ -376,8 +377,8 @@ TEST(Firmware, FailsafeBrakesWhenMotorCommandsStop) {
     b.run_for(50'000);
   }
   EXPECT_TRUE(b.motors.braked);
-  EXPECT_LE(b.clock.t - sent_at, 650'000u);
-  EXPECT_GE(b.clock.t - sent_at, 600'000u);
+  EXPECT_LE(b.clock.t - sent_at, 1000u * proto::kFailsafeMsDefault + 50'000u);
+  EXPECT_GE(b.clock.t - sent_at, 1000u * proto::kFailsafeMsDefault);
 }
 
 TEST(Firmware, ShutdownHeartbeatBrakesAtOnce) {
@@ -461,7 +462,7 @@ TEST(Interlock, DropsExactlyWhenFailsafeMsPassWithoutHeartbeat) {
   live_session(b);
   const uint32_t last_hb = b.clock.t;
   const uint32_t lost = last_hb + 1000u * b.fw.config().failsafe_ms;
-  b.run_for(599'000);
+  b.run_for(lost - last_hb - 1000);  // to 1 ms before the deadline
   EXPECT_TRUE(b.enable.enabled);
   b.clock.t = lost - 1;
   b.fw.tick();

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-COMMAND_TIMEOUT_S = 0.60  # [s] /cmd_vel watchdog
+COMMAND_TIMEOUT_S = 0.60  # [s] /cmd_vel watchdog (the host YAML's cmd_vel_timeout_s)
 TIME_TOLERANCE_S = 1e-9  # [s] float slack so a 0.05 s tick sum that is "0.6" counts as 0.6
 
 

@@ -12,6 +12,7 @@ Every problem is reported as one :class:`ConfigError` line naming the file and t
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
@@ -29,6 +30,7 @@ from jackson.host.actuation.settings import RIGHT_CHANNELS as RIGHT_CHANNELS
 from jackson.host.actuation.settings import Actuator as Actuator
 from jackson.host.actuation.settings import Pca9685Settings as Pca9685Settings
 from jackson.host.actuation.settings import parse_actuator, parse_pca9685
+from jackson.host.actuation.watchdog import COMMAND_TIMEOUT_S
 from jackson.host.actuation.wheel_pi import WheelPiConfig
 from jackson.host.control.figure8 import FigureEightConfig
 from jackson.host.control.square import SquareConfig
@@ -48,7 +50,10 @@ from jackson.protocol.messages import (
 MAX_DEADBAND_DUTY = 0.9  # a breakaway duty at or above this leaves no range to control
 MAX_GAIN = 2.0  # a deadband gain trim above this hides a miswired or stalled motor
 MAX_TELEMETRY_RATE_HZ = TELEMETRY_RATE_HZ_RANGE[1]  # SET_RATE limit (protocol/schema.yaml)
-WATCHDOG_RANGE_S = (FAILSAFE_MS_RANGE[0] / 1000.0, FAILSAFE_MS_RANGE[1] / 1000.0)
+# the host's /cmd_vel watchdog: the paper's command timeout, within the firmware's failsafe range
+CMD_VEL_TIMEOUT_S_DEFAULT = COMMAND_TIMEOUT_S
+CMD_VEL_TIMEOUT_RANGE_S = (FAILSAFE_MS_RANGE[0] / 1000.0, FAILSAFE_MS_RANGE[1] / 1000.0)
+WATCHDOG_RANGE_S = CMD_VEL_TIMEOUT_RANGE_S  # its former name
 ROTATION_TOLERANCE = 1e-3  # the firmware's test for a proper rotation
 MAX_GYRO_BIAS_RAD_S = GYRO_BIAS_RAD_S_RANGE[1]  # the firmware refuses a bias of this or more
 
@@ -108,8 +113,10 @@ class HostConfig:
     pca9685: Pca9685Settings = field(default_factory=Pca9685Settings)
     imu: ImuSettings = field(default_factory=ImuSettings)
     serial: SerialSettings = field(default_factory=SerialSettings)
-    # velocity commands older than this brake the motors; the MCU's failsafe is set to the same
-    watchdog_s: float = FAILSAFE_MS_DEFAULT / 1000.0
+    # [s] external velocity commands older than this brake the motors (the host's watchdog)
+    cmd_vel_timeout_s: float = CMD_VEL_TIMEOUT_S_DEFAULT
+    # [ms] the MCU brakes (and drops the interlock line) when HEARTBEATs stop this long
+    failsafe_ms: int = FAILSAFE_MS_DEFAULT
     recording_folder: Path = Path("runs")
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
     bag_compression: str = "zstd"  # the bag's MCAP chunk compression: zstd, lz4 or none
@@ -184,12 +191,28 @@ def parse_config(data: Mapping[Any, Any], where: str = "config") -> HostConfig:
         pca9685=parse_pca9685(top.section("pca9685")),
         imu=_imu(top.section("imu")),
         serial=_serial(top.section("serial")),
-        watchdog_s=top.number("watchdog_s", DEFAULTS.watchdog_s, *WATCHDOG_RANGE_S),
+        cmd_vel_timeout_s=_cmd_vel_timeout(top),
+        failsafe_ms=top.integer("failsafe_ms", DEFAULTS.failsafe_ms, *FAILSAFE_MS_RANGE),
         **_recording(top.section("recording")),
         service=_service(top.section("service")),
     )
     top.finish()
     return cfg
+
+
+def _cmd_vel_timeout(top: Fields) -> float:
+    """``cmd_vel_timeout_s``, or its deprecated name ``watchdog_s`` with a one-line warning (it
+    once set the MCU's failsafe too; that is ``failsafe_ms`` now)."""
+    if not top.has("watchdog_s"):
+        return top.number("cmd_vel_timeout_s", DEFAULTS.cmd_vel_timeout_s, *CMD_VEL_TIMEOUT_RANGE_S)
+    if top.has("cmd_vel_timeout_s"):
+        raise top.fail("watchdog_s", "deprecated name of cmd_vel_timeout_s, also set: remove it")
+    print(
+        f"{top.where}: watchdog_s is deprecated: read as cmd_vel_timeout_s; the MCU's failsafe "
+        "is failsafe_ms",
+        file=sys.stderr,
+    )
+    return top.number("watchdog_s", DEFAULTS.cmd_vel_timeout_s, *CMD_VEL_TIMEOUT_RANGE_S)
 
 
 def _robot(s: Fields) -> RobotGeometry:
@@ -256,17 +279,34 @@ def _limits(s: Fields) -> LimiterConfig:
     return _positive(s, LimiterConfig())
 
 
+MAX_SPEED_M_S = 10.0  # [m/s] beyond any robot this stack drives (1000: a slip of units)
+MAX_TURN_RATE_RAD_S = 100.0  # [rad/s] wheels 0.2 m apart, each at MAX_SPEED_M_S
+
+
+def _within_reach(s: Fields, key: str, value: float) -> None:
+    """Refuse a speed (``*_m_s``) or turn rate (``*_rad_s``) no robot drives: the limiter would
+    cap it without a word, and the mission would not be the one written."""
+    hi = MAX_SPEED_M_S if key.endswith("_m_s") else MAX_TURN_RATE_RAD_S
+    if key.endswith(("_m_s", "_rad_s")) and value > hi:
+        raise s.fail(key, f"expected a number in (0, {hi:g}], got {value:g}")
+
+
 def _navigation(s: Fields) -> float | None:
     out = s.optional_number("max_vel_x_m_s", 0.0, lo_open=True)
+    if out is not None:
+        _within_reach(s, "max_vel_x_m_s", out)
     s.finish()
     return out
 
 
 def _positive(s: Fields, d: _Numbers) -> _Numbers:
-    """A dataclass of numbers, each above 0, defaulting to ``d``'s."""
+    """A dataclass of numbers, each above 0 (speeds and turn rates within reach), defaulting to
+    ``d``'s."""
     out = replace(
         d, **{f.name: s.number(f.name, getattr(d, f.name), 0.0, lo_open=True) for f in fields(d)}
     )
+    for f in fields(d):
+        _within_reach(s, f.name, getattr(out, f.name))
     s.finish()
     return out
 
@@ -562,7 +602,8 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "direction_flags": imu.direction_flags,
         },
         "serial": {f.name: getattr(cfg.serial, f.name) for f in fields(SerialSettings)},
-        "watchdog_s": cfg.watchdog_s,
+        "cmd_vel_timeout_s": cfg.cmd_vel_timeout_s,
+        "failsafe_ms": cfg.failsafe_ms,
         "recording": {
             "folder": str(cfg.recording_folder),
             "bag_max_mb": cfg.bag_max_mb,

@@ -3,7 +3,7 @@
 A mission's command when the daemon runs one, held at zero (braked) while the mission's guard
 or the sensors forbid it; otherwise the newest external command (``/cmd_vel``, submitted from
 any thread and taken at the next telemetry frame, stamped on MCU time), braked once it is older
-than the watchdog (``watchdog_s``, 0.6 s) or when the sensors are lost. The rules are in
+than the watchdog (``cmd_vel_timeout_s``, 0.6 s) or when the sensors are lost. The rules are in
 :meth:`CommandArbiter.command`; docs/host.md, "What happens per telemetry frame", step 3.
 """
 

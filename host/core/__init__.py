@@ -80,7 +80,7 @@ def device_setup(cfg: HostConfig, info: Info, *, calibration: bool = True) -> li
     out: list[Message] = []
     if info.telemetry_rate_hz != cfg.serial.telemetry_rate_hz:
         out.append(SetRate(rate_hz=cfg.serial.telemetry_rate_hz))
-    failsafe_ms = round(cfg.watchdog_s * 1000)
+    failsafe_ms = cfg.failsafe_ms
     wanted = (cfg.imu.accel_fs, cfg.imu.gyro_fs, cfg.imu.direction_flags, failsafe_ms)
     if (info.accel_fs, info.gyro_fs, info.direction_flags, info.failsafe_ms) != wanted:
         out.append(
@@ -212,7 +212,7 @@ class HostCore:
         self.send = send
         # the mission's command or the newest external one, the guard, the watchdog
         self.arbiter = CommandArbiter(
-            cfg.watchdog_s, mission, mission_timeout_s, sensor_rules=not cfg.health.enabled
+            cfg.cmd_vel_timeout_s, mission, mission_timeout_s, sensor_rules=not cfg.health.enabled
         )
         self.live = SettingsInbox(cfg)  # live settings: requested from any thread, taken at a frame
         self.abort_reason: str | None = None  # why the mission was aborted (braked for good)
@@ -411,7 +411,7 @@ class HostCore:
         for listener in self.listeners:
             listener.on_settings(data, host_time_ns)
         self.limiter.config = settings.limits
-        self.watchdog.timeout_s = settings.watchdog_s
+        self.watchdog.timeout_s = settings.cmd_vel_timeout_s
         if isinstance(self.mission, LimitedMission):
             self.mission.set_limits(self.live.navigation_limits())
 
@@ -476,6 +476,13 @@ class HostCore:
         for listener in self.listeners:
             listener.on_event(self._rx_ns, text)
 
+    def host_stalled(self, stalled_s: float) -> None:
+        """The daemon did not run for ``stalled_s`` wall seconds after the last frame (logged
+        as a link record, so a replay applies it between the same frames): a sensor's silence
+        that stall makes is not blamed on the sensor."""
+        if self.t_s is not None:
+            self.intake.host_stalled(self.t_s, stalled_s)
+
     def abort(self, reason: str) -> None:
         """Stop the mission for good: brake from now on; the daemon exits naming ``reason``."""
         if self.abort_reason is None:
@@ -496,6 +503,8 @@ class HostCore:
         # 30 Hz outputs of MCU time up to this frame: prediction only between measurements
         self.fusion.outputs_to(t_s, self._emit_filtered)
         act = self.actuation
+        if not self.intake.pending:
+            self.intake.unpaired(t_s)  # LiDAR bytes and no revolution: garbage before silence
         verdict = self.fusion.fuse(m, act.wheel_cmd, act.commanded_still)
         if verdict is not None and verdict.remeasure_gyro_bias:
             self.frontend.remeasure_bias()  # measured again over the next standstill

@@ -2,7 +2,7 @@
 
 :class:`LiveSettings` is everything a client may change at run time (``ros2 param set`` on the
 ROS node, docs/ros2.md): the command limits (the host YAML's ``limits:``) and the command
-watchdog (``watchdog_s``). Everything else of the host configuration is read once, at start.
+watchdog (``cmd_vel_timeout_s``). Everything else of the host configuration is read once, at start.
 
 A change goes through the front door, as velocity commands and the navigation service's
 requests do: a client hands the whole new value to :meth:`HostCore.request_settings
@@ -12,14 +12,15 @@ it (:meth:`SettingsInbox.take`), the run's log records it before that frame (rec
 handled, to every stage that holds a copy:
 
 * the actuation chain's velocity limiter (``limits``);
-* the command arbiter's watchdog (``watchdog_s``);
+* the command arbiter's watchdog (``cmd_vel_timeout_s``);
 * a navigating mission's navigator: DWB's dynamic window and roll-outs and the recoveries'
   speeds (``limits``, with the navigation's top speed ``navigation_max_v_m_s`` of the
   configuration applied as at start, :meth:`SettingsInbox.navigation_limits`).
 
 ``jackson replay`` hands the logged value to the same frame, so a run with a live change
 replays bit for bit. Several requests before one frame: the newest wins. The MCU's own
-failsafe keeps the configured ``watchdog_s`` (set when the device says hello).
+failsafe is no live setting: it keeps the configured ``failsafe_ms`` (set when the device says
+hello).
 """
 
 from __future__ import annotations
@@ -29,21 +30,21 @@ import json
 from dataclasses import dataclass
 
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.config import WATCHDOG_RANGE_S, HostConfig
+from jackson.host.config import CMD_VEL_TIMEOUT_RANGE_S, HostConfig
 
 
-def watchdog_seconds(value: object) -> float:
+def cmd_vel_timeout_seconds(value: object) -> float:
     """``value`` as a command watchdog's lifetime [s].
 
     Raises
     ------
     ValueError
-        Not a number within :data:`WATCHDOG_RANGE_S <jackson.host.config.WATCHDOG_RANGE_S>`
-        (the firmware's failsafe range), named in one line.
+        Not a number within :data:`CMD_VEL_TIMEOUT_RANGE_S
+        <jackson.host.config.CMD_VEL_TIMEOUT_RANGE_S>`, named in one line.
     """
-    low, high = WATCHDOG_RANGE_S
+    low, high = CMD_VEL_TIMEOUT_RANGE_S
     if not (isinstance(value, (int, float)) and low <= float(value) <= high):
-        raise ValueError(f"watchdog_s must be within {low:g}-{high:g} s, got {value}")
+        raise ValueError(f"cmd_vel_timeout_s must be within {low:g}-{high:g} s, got {value}")
     return float(value)
 
 
@@ -55,37 +56,40 @@ class LiveSettings:
     ----------
     limits : LimiterConfig
         Speed, acceleration and deceleration bounds of the body velocity.
-    watchdog_s : float
-        An external velocity command's lifetime [s], within :data:`WATCHDOG_RANGE_S
-        <jackson.host.config.WATCHDOG_RANGE_S>` (the firmware's failsafe range).
+    cmd_vel_timeout_s : float
+        An external velocity command's lifetime [s], within :data:`CMD_VEL_TIMEOUT_RANGE_S
+        <jackson.host.config.CMD_VEL_TIMEOUT_RANGE_S>`.
 
     Raises
     ------
     ValueError
-        ``watchdog_s`` outside its range (the limits check themselves).
+        ``cmd_vel_timeout_s`` outside its range (the limits check themselves).
     """
 
     limits: LimiterConfig
-    watchdog_s: float
+    cmd_vel_timeout_s: float
 
     def __post_init__(self) -> None:
-        watchdog_seconds(self.watchdog_s)
+        cmd_vel_timeout_seconds(self.cmd_vel_timeout_s)
 
     @classmethod
     def of(cls, cfg: HostConfig) -> LiveSettings:
         """The settings of a host configuration (those in force at start)."""
-        return cls(cfg.limits, cfg.watchdog_s)
+        return cls(cfg.limits, cfg.cmd_vel_timeout_s)
 
     def encode(self) -> bytes:
         """The settings as the run's log keeps them (UTF-8 JSON)."""
         return json.dumps(
-            {"limits": dataclasses.asdict(self.limits), "watchdog_s": self.watchdog_s},
+            {
+                "limits": dataclasses.asdict(self.limits),
+                "cmd_vel_timeout_s": self.cmd_vel_timeout_s,
+            },
             separators=(",", ":"),
         ).encode()
 
     @classmethod
     def decode(cls, data: bytes) -> LiveSettings:
-        """The settings a run's log kept.
+        """The settings a run's log kept (``watchdog_s``: the timeout's name in older logs).
 
         Raises
         ------
@@ -95,7 +99,8 @@ class LiveSettings:
         try:
             d = json.loads(data.decode())
             limits = LimiterConfig(**{k: float(v) for k, v in d["limits"].items()})
-            return cls(limits, float(d["watchdog_s"]))
+            timeout = d["cmd_vel_timeout_s"] if "cmd_vel_timeout_s" in d else d["watchdog_s"]
+            return cls(limits, float(timeout))
         except (UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
             raise ValueError(f"not live settings ({exc}): {data[:60]!r}") from exc
 

@@ -141,6 +141,11 @@ class LidarHealth:
         monitor to apply with the frame's others."""
         return self.silence.observe(LidarFrame(t_s, speed_m_s, self.needed))
 
+    def host_stalled(self, t_s: float, stalled_s: float) -> None:
+        """The daemon did not run for ``stalled_s`` wall seconds after its frame of MCU time
+        ``t_s``: a silence it began is not the LiDAR's (:meth:`LidarSilence.host_stalled`)."""
+        self.silence.host_stalled(t_s, stalled_s)
+
     def silence_limit_s(self) -> float:
         """How long the LiDAR may be silent now [s] (:meth:`LidarSilence.limit_s`)."""
         return self.silence.limit_s()

@@ -57,10 +57,11 @@ class LidarGarbage:
                 self.since = t_s
             lasted = t_s - self.since
             exclude = lasted >= cfg.lidar_garbage_s - 1e-9
+            # (the decoder may count bytes of an earlier read, held for a sync, as malformed now)
             why = (
-                f"{bad} of its {total} bytes malformed and {len(junk)} revolutions that are not "
-                f"a turn in {cfg.lidar_garbage_s:g} s: garbage on the line (a loose cable, another "
-                "baud rate, another device?)"
+                f"{min(bad, total)} of its {total} bytes malformed and {len(junk)} revolutions "
+                f"that are not a turn in {cfg.lidar_garbage_s:g} s: garbage on the line (a loose "
+                "cable, another baud rate, another device?)"
             )
             return [failing("lidar", t_s, why, exclude=exclude)]
         if not junk and (total < 50 or bad <= 0.5 * cfg.lidar_garbage_fraction * total):

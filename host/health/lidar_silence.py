@@ -8,6 +8,12 @@ stopped (dead, unplugged, its motor stalled) is excluded after ``lidar_silence_s
 while a mission navigates by it, no usable scan (silence, garbage, noise) for the time the
 robot needs to cover ``lidar_blind_m`` at its speed makes it blind: :attr:`LidarSilence.blind`
 holds the robot (braked) until a usable scan comes, without ending the mission.
+
+A silence that began when the daemon itself stopped running (:meth:`LidarSilence.host_stalled`:
+the frames that waited meanwhile arrive together, the LiDAR's bytes all with the first) is the
+host's, not the LiDAR's: within the stall's reach on MCU time it holds a navigating robot without
+a finding, and the LiDAR is excluded only when its silence outlasts that reach by
+``lidar_silence_s``.
 """
 
 from __future__ import annotations
@@ -53,6 +59,10 @@ class LidarSilence:
     blinds : int
         Times it was blinded by silence.
     """
+
+    # (from, to) MCU time a stall of the daemon reaches (class default: a core pickled before
+    # it was known restores without it)
+    _host_stall: tuple[float, float] | None = None
 
     def __init__(self, cfg: HealthConfig, states: SensorStates) -> None:
         self.cfg = cfg
@@ -112,6 +122,21 @@ class LidarSilence:
         self._used_s = t_s
         self.blind = False
 
+    def host_stalled(self, t_s: float, stalled_s: float) -> None:
+        """The daemon did not run for ``stalled_s`` wall seconds after its frame of MCU time
+        ``t_s``: a silence beginning from a revolution before it until ``stalled_s`` after it
+        is the daemon's (module docstring)."""
+        self._host_stall = (t_s - self.revolutions_s(LIDAR_SILENCE_PERIODS), t_s + stalled_s)
+
+    def revolutions_s(self, n: float) -> float:
+        """``n`` revolution periods [s] (the learned period, else the A1M8's)."""
+        return n * (self.period_s or LIDAR_PERIOD_S)
+
+    def _hosts(self, since: float | None) -> bool:
+        """A silence from ``since`` began within the reach of the daemon's stall: its own."""
+        stall = self._host_stall
+        return stall is not None and since is not None and stall[0] <= since <= stall[1]
+
     def limit_s(self) -> float:
         """How long the LiDAR may be silent now [s]: ``lidar_silence_s``, shorter while the
         robot drives, so that it covers at most ``lidar_blind_m`` on its last scan (never
@@ -127,7 +152,11 @@ class LidarSilence:
         t_s = x.t_s
         self._speed_m_s = x.speed_m_s
         last = self._last_s
-        if last is not None and t_s - last >= self.cfg.lidar_silence_s - 1e-9:
+        # a silence the daemon's stall began counts from the stall's end
+        stall = self._host_stall
+        counted = stall[1] if stall is not None and self._hosts(last) else last
+        if counted is not None and t_s - counted >= self.cfg.lidar_silence_s - 1e-9:
+            assert last is not None
             why = f"no scan for {t_s - last:.2f} s (dead, unplugged or its motor stopped)"
             return [failing("lidar", t_s, why, exclude=True)]
         used = self._used_s if self._used_s is not None else last
@@ -137,6 +166,8 @@ class LidarSilence:
         if t_s - used < limit - 1e-9:
             return []
         self.blind = True
+        if self._hosts(used):
+            return []  # the daemon's stall: held, the LiDAR not blamed (the daemon told it)
         self.blinds += 1
         why = (
             f"no usable scan for {t_s - used:.2f} s at {abs(self._speed_m_s):.2f} m/s: "

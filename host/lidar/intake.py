@@ -6,12 +6,15 @@ frame and are stamped with its MCU time (the twin writes a revolution before the
 follows its end, so in lockstep the pairing is exact). With the sensor health monitor on, the
 LiDAR's checks run here (:class:`~jackson.host.health.lidar.LidarHealth`): the bytes read and
 the decoder's malformed bytes between two frames, each revolution (whether it may be used),
-and the port failing. Their silence on every frame is judged with the monitor's other checks.
+and the port failing. Their silence on every frame is judged with the monitor's other checks:
+after bytes that complete no revolution (judged first: garbage, not silence), and knowing when
+the daemon itself stalled (its silence, not the LiDAR's).
 """
 
 from __future__ import annotations
 
 from jackson.host.health.lidar import LidarHealth
+from jackson.host.health.lidar_silence import LIDAR_SILENCE_PERIODS
 from jackson.host.lidar.rplidar import Revolution, RevolutionAssembler
 from jackson.host.nav.types import Scan
 
@@ -24,6 +27,10 @@ class ScanIntake:
     health : LidarHealth or None
         The health monitor's LiDAR checks (None: the monitor is off, every scan is used).
     """
+
+    # no revolution since this frame's MCU time (None: none yet; class default: a core pickled
+    # before it was kept restores without it)
+    _waiting_s: float | None = None
 
     def __init__(self, health: LidarHealth | None = None) -> None:
         self.assembler = RevolutionAssembler(streaming=True)
@@ -54,6 +61,31 @@ class ScanIntake:
         self._received = 0
         return report
 
+    def unpaired(self, t_s: float) -> None:
+        """The telemetry frame of MCU time ``t_s`` before its checks, when no revolution waits:
+        bytes read for :data:`~jackson.host.health.lidar_silence.LIDAR_SILENCE_PERIODS`
+        revolutions (the shortest silence judged) without completing one are judged now, and at
+        every frame after until a revolution comes: random bytes instead of revolutions are
+        garbage, told before the silence they would otherwise look like. A healthy stream
+        completes a revolution every 2 or 3 frames and is never judged here.
+        """
+        if self.health is None or self._revolutions or not self._received:
+            return
+        if self._waiting_s is None:
+            self._waiting_s = t_s  # bytes before any revolution
+        waited = t_s - self._waiting_s
+        if waited < self.health.silence.revolutions_s(LIDAR_SILENCE_PERIODS) - 1e-9:
+            return
+        report = self.bytes_report()
+        if report is not None:
+            self.health.bytes_read(t_s, *report)
+
+    def host_stalled(self, t_s: float, stalled_s: float) -> None:
+        """The daemon did not run for ``stalled_s`` wall seconds after the frame of MCU time
+        ``t_s``: the LiDAR's checks do not blame it for the silence that makes."""
+        if self.health is not None:
+            self.health.host_stalled(t_s, stalled_s)
+
     def take(self, t_s: float, needed: bool) -> list[Revolution]:
         """The revolutions completed since the last frame, for the frame at MCU time ``t_s``.
 
@@ -62,6 +94,7 @@ class ScanIntake:
         (``needed``: a LiDAR lost then stops it, a silence holds it).
         """
         revolutions, self._revolutions = self._revolutions, []
+        self._waiting_s = t_s
         if self.health is not None:
             report = self.bytes_report()
             if report is not None:

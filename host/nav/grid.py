@@ -68,8 +68,15 @@ ORIGIN_LIMIT_M = 1e6
 """|x| and |y| of the origin at most this [m]."""
 MAX_SIDE = 20_000
 """Pixels a side at most."""
-MAX_CELLS = 100_000_000
-"""Pixels (cells) in all at most."""
+MAX_CELLS = 10_000_000
+"""Pixels (cells) in all at most: what the navigation stack holds in bounded memory. Its peak
+resident memory grows by :data:`BYTES_PER_CELL` a cell of the map (the global costmap and its
+inflation, the planner's arrays, the likelihood field and distance maps of the particle filter,
+copies while they are built): ``jackson run maze`` peaked at 1.5 GB on a 3162 x 3162 map and
+on a 10000 x 1000 one; a 5000 x 5000 map took it past 4 GiB."""
+BYTES_PER_CELL = 150
+"""Peak resident memory of ``jackson run maze --map`` per map cell [bytes], rounded up from
+synthetic maps of 0.25 to 10 million cells (110-150 bytes a cell, about 230 MB besides)."""
 MAX_YAML_BYTES = 1 << 20
 
 IntArray = npt.NDArray[np.int_]
@@ -349,7 +356,10 @@ def _read_meta(yaml_path: Path) -> _MapMeta:
 # ---------------------------------------------------------------------- reading the image
 
 
-_LIMITS = f"at most {MAX_SIDE} x {MAX_SIDE} pixels and {MAX_CELLS:,} in all"
+_LIMITS = (
+    f"at most {MAX_SIDE} x {MAX_SIDE} pixels and {MAX_CELLS:,} in all (navigating needs about "
+    f"{BYTES_PER_CELL} bytes of memory a cell): crop it, or save it at a coarser resolution"
+)
 _ALPHA_MODES = ("LA", "La", "PA", "RGBA", "RGBa")
 
 U16Array = npt.NDArray[np.uint16]

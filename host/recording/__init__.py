@@ -28,7 +28,7 @@ then the frame's payload), 2 frame sent (the whole frame as written), 3 velocity
 precede the telemetry frame whose MCU time stamps the scans they complete), 7 a navigation
 service's request (payload: UTF-8 JSON ``{"kind", "id", "x", "y", "yaw", "source"}``, kind
 ``goal``, ``cancel`` or ``pose``; it precedes the telemetry frame that applies it), 8 live
-settings (payload: UTF-8 JSON ``{"limits": {...}, "watchdog_s"}``,
+settings (payload: UTF-8 JSON ``{"limits": {...}, "cmd_vel_timeout_s"}``, older logs ``watchdog_s``,
 :class:`~jackson.host.core.settings.LiveSettings`; it precedes the telemetry frame that applies
 them).
 """

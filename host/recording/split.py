@@ -22,6 +22,7 @@ import threading
 from collections.abc import Callable
 from pathlib import Path
 
+from jackson.common.threads import guard
 from jackson.host.config import RECORDING_SPLITS
 from jackson.host.recording import RECORDED
 from jackson.host.recording.snapshot import SNAPSHOT_NAME
@@ -119,7 +120,9 @@ class FolderWorker:
     def submit(self, what: str, job: Callable[[], None]) -> None:
         """Run ``job`` after the jobs before it; ``what`` names it if it fails."""
         if self._thread is None:
-            self._thread = threading.Thread(target=self._run, name="run-folders", daemon=True)
+            self._thread = threading.Thread(
+                target=guard(self._run, "run-folders"), name="run-folders", daemon=True
+            )
             self._thread.start()
         self._jobs.put((what, job))
 

@@ -55,6 +55,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from jackson.common.ros_env import missing_ros
+from jackson.common.threads import guard
 from jackson.host.ros import messages
 from jackson.host.ros.live_parameters import (
     ParameterError,
@@ -506,7 +507,9 @@ class RosBridge:
         """Spin the executor (the subscriptions' callbacks) in a background thread."""
         if self._thread is not None:
             return
-        self._thread = threading.Thread(target=self._spin, name="ros-bridge", daemon=True)
+        self._thread = threading.Thread(
+            target=guard(self._spin, "ros-bridge"), name="ros-bridge", daemon=True
+        )
         self._thread.start()
 
     def _spin(self) -> None:

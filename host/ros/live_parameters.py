@@ -7,7 +7,7 @@ offsets, covariances) are declared with the configuration's values as defaults
 The live ones (:func:`declare_live_parameters`) are the fields of
 :class:`~jackson.host.core.settings.LiveSettings`: the command limits as ``limits.max_v_m_s``,
 ``limits.max_w_rad_s``, ... (the host YAML's ``limits:``) and the command watchdog
-``watchdog_s``. A change to them becomes a whole new :class:`LiveSettings`
+``cmd_vel_timeout_s``. A change to them becomes a whole new :class:`LiveSettings`
 (:func:`changed_settings`), which the node hands to the core's front door
 (:meth:`~jackson.host.core.HostCore.request_settings`): it takes effect at the next telemetry
 frame, in every stage that holds a copy, and the run's log records it.
@@ -21,11 +21,11 @@ from typing import Any
 
 from jackson.common.errors import JacksonError
 from jackson.host.config import HostConfig
-from jackson.host.core.settings import LiveSettings, watchdog_seconds
+from jackson.host.core.settings import LiveSettings, cmd_vel_timeout_seconds
 from jackson.host.ros.settings import RosSettings
 
 LIMITS_PREFIX = "limits."  # the limits' parameters: limits.<LimiterConfig field>
-WATCHDOG = "watchdog_s"  # the command watchdog's parameter [s]
+WATCHDOG = "cmd_vel_timeout_s"  # the command watchdog's parameter [s]
 
 
 class ParameterError(JacksonError, ValueError):
@@ -83,7 +83,7 @@ def declare_live_parameters(node: Any, settings: LiveSettings) -> LiveSettings:
     for name in names:
         default = getattr(settings.limits, name.removeprefix(LIMITS_PREFIX))
         node.declare_parameter(name, float(default))
-    node.declare_parameter(WATCHDOG, float(settings.watchdog_s))
+    node.declare_parameter(WATCHDOG, float(settings.cmd_vel_timeout_s))
     given = [(name, node.get_parameter(name).value) for name in [*names, WATCHDOG]]
     return changed_settings(settings, given, ())
 
@@ -113,7 +113,7 @@ def changed_settings(
         The first change refused: a value its setting refuses (not > 0, out of range), or
         a parameter read only at start.
     """
-    limits, watchdog_s = current.limits, current.watchdog_s
+    limits, timeout_s = current.limits, current.cmd_vel_timeout_s
     for name, value in changes:
         if name.startswith(LIMITS_PREFIX):
             field = name.removeprefix(LIMITS_PREFIX)
@@ -123,13 +123,13 @@ def changed_settings(
                 raise ParameterError(f"{name}: {exc}") from exc
         elif name == WATCHDOG:
             try:
-                watchdog_s = watchdog_seconds(value)
+                timeout_s = cmd_vel_timeout_seconds(value)
             except ValueError as exc:
                 raise ParameterError(str(exc)) from exc
         elif name in fixed:
             raise ParameterError(
                 f"{name} is read when the node starts: restart the daemon to change it"
             )
-    if (limits, watchdog_s) == (current.limits, current.watchdog_s):
+    if (limits, timeout_s) == (current.limits, current.cmd_vel_timeout_s):
         return current
-    return LiveSettings(limits, watchdog_s)
+    return LiveSettings(limits, timeout_s)

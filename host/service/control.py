@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from jackson.common.errors import JacksonError
+from jackson.common.threads import guard
 from jackson.host.control.navigator import RouteError
 from jackson.host.nav.types import Pose2D
 from jackson.host.service.goals import GoalStatus
@@ -100,7 +101,9 @@ class ControlServer:
         self._stop = threading.Event()
         self._clients = threading.BoundedSemaphore(MAX_CLIENTS)
         self._sock = self._listen(path)
-        self._thread = threading.Thread(target=self._accept, name="control-socket", daemon=True)
+        self._thread = threading.Thread(
+            target=guard(self._accept, "control-socket"), name="control-socket", daemon=True
+        )
 
     @staticmethod
     def _listen(path: Path) -> socket.socket:
@@ -163,7 +166,10 @@ class ControlServer:
                 conn.close()
                 continue
             threading.Thread(
-                target=self._serve, args=(conn,), name="control-client", daemon=True
+                target=guard(self._serve, "control-client"),
+                args=(conn,),
+                name="control-client",
+                daemon=True,
             ).start()
 
     def _serve(self, conn: socket.socket) -> None:

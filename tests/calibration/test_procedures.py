@@ -213,6 +213,30 @@ def test_braking_at_constant_deceleration_stops_in_v_squared_over_2a() -> None:
     assert math.isnan(proc.braking_distance(0.3, np.full(5, -1.0), dt[:5])[0])  # still moving
 
 
+def _step_run(brake_lag_frames: int) -> proc.RunData:
+    """A full-duty step at 200 Hz: 1 s at rest, 2 s at 10 counts a frame after a 10-frame
+    ramp, then the brake written at 3 s that stops the wheels ``brake_lag_frames`` later."""
+    n, a, b = 800, 200, 600
+    speed = np.zeros(n, dtype=np.int64)
+    speed[a : b + brake_lag_frames] = 10
+    speed[a : a + 10] = np.arange(1, 11)
+    speed[b + brake_lag_frames : b + brake_lag_frames + 5] = [8, 6, 4, 2, 1]
+    counts = np.concatenate(([0], np.cumsum(speed[1:])))
+    duty = np.where((np.arange(n) >= a) & (np.arange(n) < b), 1.0, 0.0)
+    nan3 = np.full((n, 3), np.nan)
+    t = np.arange(n) * 0.005
+    return proc.RunData("step", t, counts, counts, nan3, nan3, duty, duty)
+
+
+def test_a_brake_that_acted_late_on_the_mcu_clock_is_refused() -> None:
+    """Stopping is measured from the brake's frame: a brake the motors got 0.3 s later (a
+    twin that went on without its busy host) is refused, one a frame later is measured."""
+    on_time = proc.characterise(_step_run(1), GEOMETRY)
+    assert on_time.wheel_stopping_time_s == pytest.approx(0.025)
+    with pytest.raises(proc.CalibrationError, match=r"brake acted 0\.30 s after"):
+        proc.characterise(_step_run(61), GEOMETRY)
+
+
 # ------------------------------------------------------------------------- 5. twin fit
 
 
@@ -447,3 +471,22 @@ def test_write_into_a_file_that_is_not_a_host_yaml_is_one_line(
     line = one_error_line(capsys)
     assert line.startswith("jackson calibrate encoders: config c.yaml: ") and message in line
     assert config.read_text() == text and not list(tmp_path.glob("c.yaml.bak-*"))
+
+
+def test_frames_lost_before_the_first_command_are_rest_and_not_refused() -> None:
+    """A host slow to take its first frames (the twin dropped what its port could not queue)
+    loses braked rest only; frames lost once the script drives are refused."""
+    run = _step_run(1)
+    for cut, refused in ((slice(100, 120), False), (slice(300, 320), True)):
+        keep = np.ones(run.frames, bool)
+        keep[cut] = False
+        gap = proc.RunData(
+            "step", run.t_s[keep], run.enc_left[keep], run.enc_right[keep],
+            run.gyro_rad_s[keep], run.accel_m_s2[keep], run.duty_left[keep],
+            run.duty_right[keep],
+        )  # fmt: skip
+        if refused:
+            with pytest.raises(proc.CalibrationError, match=r"0\.10 s without a frame at 1\.50"):
+                proc.check_frames(gap)
+        else:
+            proc.check_frames(gap)

@@ -20,7 +20,9 @@ import yaml
 
 from jackson.calibration import runs
 from jackson.calibration.procedures import CalibrationError, RunData
+from jackson.calibration.procedures.base import check_start
 from jackson.calibration.procedures.step import (
+    MAX_DEAD_TIME_S,
     DutyStep,
     StepIdentification,
     WheelStepScript,
@@ -41,6 +43,7 @@ GEOMETRY = RobotGeometry()
 TPR = GEOMETRY.ticks_per_rev_left
 DT_S = 0.005  # [s] 200 Hz telemetry, as the step runs are recorded
 HIDDEN_GAIN = (1.0, 0.92)  # the twin's left and right drive
+HOST_SILENT_S = 120.0  # [s] of wall time without a HEARTBEAT before the twin moves on alone
 
 
 # ------------------------------------------------------------------------- model-made steps
@@ -243,7 +246,9 @@ def identified(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Identified]
     tmp = tmp_path_factory.mktemp("step")
     robot_file = unequal_robot(tmp)
     robot = load_robot(robot_file)
-    twin = TwinThread(tmp, world="open_floor", robot=robot, heartbeat_timeout_s=0.3)
+    # one run: the twin waits for a slow host as long as it takes (stop() ends the wait), so
+    # every step starts on the twin's clock where the script put it
+    twin = TwinThread(tmp, world="open_floor", robot=robot, heartbeat_timeout_s=HOST_SILENT_S)
     try:
         cfg = host_config(twin.i2c)
         cfg = dataclasses.replace(
@@ -370,3 +375,16 @@ def test_a_fit_that_does_not_follow_a_motor_is_refused() -> None:
     enc[first + 10 : first + 100] = enc[first + 10]  # stalled for 0.45 s, then the counts jump
     with pytest.raises(CalibrationError, match=r"left wheel's forward steps do not follow a first"):
         identify_steps([dataclasses.replace(run, enc_left=enc)], GEOMETRY)
+
+
+def test_a_step_that_reached_the_motor_late_on_the_mcu_clock_is_refused() -> None:
+    """Steps are timed from their frame: a wheel that first moved 1.2 s later (a twin that
+    went on without its busy host) is refused, one that moved after 40 ms is fitted."""
+    t = np.arange(300) * DT_S
+    for delay_s, refused in ((0.04, False), (1.2, True)):
+        ticks = np.maximum(np.floor((t - delay_s) * 400.0), 0.0)
+        if refused:
+            with pytest.raises(CalibrationError, match=r"first moved the wheel 1\.20 s after"):
+                check_start("the step", t, ticks, MAX_DEAD_TIME_S)
+        else:
+            check_start("the step", t, ticks, MAX_DEAD_TIME_S)

@@ -22,10 +22,12 @@ from jackson.protocol import (
     check_peer,
     hello,
 )
+from jackson.protocol.messages import FAILSAFE_MS_DEFAULT
 
 from .posix_firmware import PosixFirmware, imu_registers
 
 PERIOD_US = 50_000
+FAILSAFE_US = 1000 * FAILSAFE_MS_DEFAULT  # the device's failsafe until a SET_CONFIG
 
 
 @pytest.fixture
@@ -127,7 +129,7 @@ def test_missing_imu_is_flagged_and_telemetry_keeps_its_rate(fw: PosixFirmware) 
     assert tel[-1].enc_left == 20
 
 
-def test_motor_failsafe_brakes_600_ms_after_the_last_heartbeat(fw: PosixFirmware) -> None:
+def test_motor_failsafe_brakes_failsafe_ms_after_the_last_heartbeat(fw: PosixFirmware) -> None:
     t = start_session(fw)
     fw.send(MotorPwm(left=5000, right=-2500, timeout_ms=5000))
     hb = fw.send(Heartbeat(ack_seq=0, host_state=HostState.ACTIVE))
@@ -136,12 +138,12 @@ def test_motor_failsafe_brakes_600_ms_after_the_last_heartbeat(fw: PosixFirmware
     assert (reply.motor_left, reply.motor_right, reply.braked) == (5000, -2500, False)
     assert hb >= 0
     last = t
-    reply = fw.step(last + 599_000)
+    reply = fw.step(last + FAILSAFE_US - 1000)
     assert not reply.braked
-    reply = fw.step(last + 600_000)
+    reply = fw.step(last + FAILSAFE_US)
     assert reply.braked and reply.failsafe
     assert (reply.motor_left, reply.motor_right) == (0, 0)
-    fw.step(last + 650_000)
+    fw.step(last + FAILSAFE_US + PERIOD_US)
     tel = [m for m in fw.receive() if isinstance(m, Telemetry)]
     assert tel[-1].flags & TelemetryFlags.HOST_LOST
     assert tel[-1].flags & TelemetryFlags.FAILSAFE_ACTIVE
@@ -155,15 +157,15 @@ def test_interlock_line_on_the_status_line_follows_the_heartbeats(fw: PosixFirmw
     reply = fw.wait_heartbeat(0)
     assert reply.motor_enable
     last = reply.t_us
-    assert fw.step(last + 599_000).motor_enable
-    # the drop is one of the core's deadlines: the status at 600 ms shows it released
-    reply = fw.step(last + 600_000)
+    assert fw.step(last + FAILSAFE_US - 1000).motor_enable
+    # the drop is one of the core's deadlines: the status at failsafe_ms shows it released
+    reply = fw.step(last + FAILSAFE_US)
     assert not reply.motor_enable
-    fw.step(last + 650_000)  # one telemetry frame after the drop
+    fw.step(last + FAILSAFE_US + PERIOD_US)  # one telemetry frame after the drop
     tel = [m for m in fw.receive() if isinstance(m, Telemetry)]
-    assert tel[-1].t_us > last + 600_000
+    assert tel[-1].t_us > last + FAILSAFE_US
     assert not tel[-1].flags & TelemetryFlags.MOTOR_ENABLE
-    assert all(m.flags & TelemetryFlags.MOTOR_ENABLE for m in tel if m.t_us < last + 600_000)
+    assert all(m.flags & TelemetryFlags.MOTOR_ENABLE for m in tel if m.t_us < last + FAILSAFE_US)
     fw.send(Heartbeat(ack_seq=0, host_state=HostState.ACTIVE))
     assert fw.wait_heartbeat(0).motor_enable  # heartbeats again
     fw.send(Heartbeat(ack_seq=1, host_state=HostState.SHUTDOWN))

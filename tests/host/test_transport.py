@@ -277,6 +277,7 @@ def test_a_lockstep_device_that_stops_is_a_stall_reported_once(
     master, path = pty
     t = SerialTransport(path)
     t.stall_s = 0.5
+    t.stall_backstop_s = 0.5  # the device is this process: no liveness to look at
     t.silence_s = 0.1  # HELLOs and INFO-less silence do not reset the stall's clock
     t.open(reader_thread=reader_thread)
     try:
@@ -288,7 +289,10 @@ def test_a_lockstep_device_that_stops_is_a_stall_reported_once(
         assert not [g for g in got if isinstance(g, tuple)]
         stall = got[-1]
         assert isinstance(stall, LinkEvent) and stall.kind == "stalled"
-        assert re.fullmatch(r"the host waited 0\.[5-9] s for a telemetry frame", stall.detail)
+        assert re.fullmatch(
+            r"the host waited (0\.[5-9]|1\.\d) s for a telemetry frame: the twin did no work",
+            stall.detail,
+        )
         assert 0.5 <= waited < 5.0
         assert t.stalled and t.silences >= 2
         # once: waiting on does not report it again
@@ -434,18 +438,20 @@ def test_a_session_starts_at_its_info_and_counts_the_frames_before_it_stale() ->
 def test_a_stall_is_reported_once_and_only_after_one_more_read_past_the_limit() -> None:
     w = StallWatch()
     w.limit_s = 1.0
+    w.peer.backstop_s = 0.0  # no twin to look at: the limit alone decides
     w.waiting_since = 10.0
     assert w.check(10_500_000_000) is None  # 0.5 s: still waiting
     assert w.check(11_000_000_000) is None  # at the limit: one more read first
     event = w.check(11_200_000_000)
     assert event is not None and event.kind == "stalled"
-    assert event.detail == "the host waited 1.2 s for a telemetry frame"
+    assert event.detail == "the host waited 1.2 s for a telemetry frame: the twin did no work"
     assert w.stalled and w.check(20_000_000_000) is None  # once
 
 
 def test_a_telemetry_frame_at_the_limit_disarms_the_stall() -> None:
     w = StallWatch()
     w.limit_s = 1.0
+    w.peer.backstop_s = 0.0  # no twin to look at: the limit alone decides
     w.waiting_since = 10.0
     assert w.check(11_000_000_000) is None  # armed
     w.working()  # the read found a telemetry frame

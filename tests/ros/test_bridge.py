@@ -162,9 +162,9 @@ def test_limits_and_watchdog_change_at_run_time_and_names_do_not(
         next_frame(1)
         assert core.limiter.config.max_v_m_s == 0.2
         assert core.limiter.limit(1.0, 0.0, 0.0) == (0.0, 0.0)  # the ramp starts at rest
-        (ok,) = node.set_parameters([Parameter("watchdog_s", value=1.0)])
-        assert ok.successful and core.settings.watchdog_s == 1.0
-        assert core.watchdog.timeout_s == core.cfg.watchdog_s
+        (ok,) = node.set_parameters([Parameter("cmd_vel_timeout_s", value=1.0)])
+        assert ok.successful and core.settings.cmd_vel_timeout_s == 1.0
+        assert core.watchdog.timeout_s == core.cfg.cmd_vel_timeout_s
         next_frame(2)
         assert core.watchdog.timeout_s == 1.0 and core.limiter.config.max_v_m_s == 0.2
         (bad,) = node.set_parameters([Parameter("limits.max_accel_m_s2", value=-1.0)])
@@ -179,7 +179,7 @@ def test_limits_and_watchdog_change_at_run_time_and_names_do_not(
     logged = [
         LiveSettings.decode(r.payload) for r in read_log(rec.folder) if r.kind == KIND_SETTINGS
     ]
-    assert [(s.limits.max_v_m_s, s.watchdog_s) for s in logged] == [(0.2, 0.6), (0.2, 1.0)]
+    assert [(s.limits.max_v_m_s, s.cmd_vel_timeout_s) for s in logged] == [(0.2, 0.6), (0.2, 1.0)]
 
 
 def test_limits_given_when_the_node_starts_are_in_force_from_the_first_frame(
@@ -198,11 +198,11 @@ def test_limits_given_when_the_node_starts_are_in_force_from_the_first_frame(
     bridge = RosBridge(
         core,
         node_name="jackson_start_params_test",
-        parameter_overrides={"limits.max_v_m_s": 0.2, "watchdog_s": 0.4},
+        parameter_overrides={"limits.max_v_m_s": 0.2, "cmd_vel_timeout_s": 0.4},
     )
     try:
         assert bridge.node.get_parameter("limits.max_v_m_s").value == 0.2
-        assert (core.settings.limits.max_v_m_s, core.settings.watchdog_s) == (0.2, 0.4)
+        assert (core.settings.limits.max_v_m_s, core.settings.cmd_vel_timeout_s) == (0.2, 0.4)
         (f,) = FrameDecoder().feed(encode_frame(Telemetry(t_us=0), 1))
         core.on_frame(f)
         assert core.limiter.config.max_v_m_s == 0.2 and core.watchdog.timeout_s == 0.4

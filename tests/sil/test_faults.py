@@ -4,7 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from jackson.experiments.fault_matrix import BRAKE_LIMIT_S, Fault, plot_brakes, run_row
+from jackson.experiments.fault_matrix import (
+    BRAKE_LIMIT_S,
+    FOREIGN_TOLD,
+    LIDAR_TOLD,
+    STALL_TOLD,
+    Fault,
+    matrix,
+    plot_brakes,
+    run_row,
+)
 
 
 def test_a_killed_host_on_the_pca9685_path_is_braked_by_the_interlock(tmp_path: Path) -> None:
@@ -50,3 +59,35 @@ def test_a_mute_device_is_one_line_within_two_seconds_and_hello_is_retried(
     assert row.rows["hellos"] >= 3  # visible retries
     first = next(t for t in row.told if "no answer on" in t)
     assert "is the firmware flashed? (make flash)" in first
+
+
+def _row(name: str) -> Fault:
+    """The matrix's row ``name`` (with its cause and its wrong cause)."""
+    return next(f for f in matrix(short=True) if f.name == name)
+
+
+def test_a_stopped_daemon_navigating_is_told_as_its_own_stall_not_the_lidars(
+    tmp_path: Path,
+) -> None:
+    row = run_row(_row("host SIGSTOP navigating"), tmp_path)
+    assert row.passed, (row.note, row.told)
+    stall = next(t for t in row.told if t.startswith(STALL_TOLD))
+    assert 2.0 <= float(stall.removeprefix(STALL_TOLD).split()[0]) <= 4.0  # SIGSTOP for 2.5 s
+    assert not [t for t in row.told if LIDAR_TOLD in t], row.told
+
+
+def test_random_bytes_on_the_lidar_line_are_told_as_garbage_not_silence(tmp_path: Path) -> None:
+    row = run_row(_row("LiDAR garbage bytes"), tmp_path)
+    assert row.passed, (row.note, row.told)
+    first = next(t for t in row.told if "health: lidar ok ->" in t)
+    assert "garbage on the line" in first  # the first verdict names it
+    assert any("mission aborted" in t and "garbage" in t for t in row.told), row.told
+
+
+def test_a_foreign_write_on_the_motor_driver_is_told_and_aborts_the_mission(
+    tmp_path: Path,
+) -> None:
+    row = run_row(_row("foreign MODE1 write"), tmp_path)
+    assert row.passed, (row.note, row.told)
+    assert row.exit_status == 1
+    assert any(t.startswith("daemon: mission aborted: " + FOREIGN_TOLD) for t in row.told)

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import pytest
 
+from jackson.common.liveness import STALL_EXIT
+from jackson.experiments.stall_retry import stall_lines
 from jackson.experiments.trial import TrialSpec, cut_reason, run_trial
 from jackson.host.core import CoreListener, FrameResult
 from jackson.host.replay import replay
@@ -34,11 +36,11 @@ from .harness import JACKSON, TwinThread, in_process_daemon, wait_for
 
 HOST_LINE = re.compile(
     r"lockstep stalled: the host waited (\d+\.\d) s for a telemetry frame after frame (\d+) "
-    r"\(MCU time (\d+\.\d\d) s\)"
+    r"\(MCU time (\d+\.\d\d) s\): the twin (process is stopped|process is gone|did no work)"
 )
 TWIN_LINE = re.compile(
     r"lockstep stalled: the twin waited (\d+\.\d) s for the host's HEARTBEAT after frame (\d+) "
-    r"\(sim time (\d+\.\d\d) s\)"
+    r"\(sim time (\d+\.\d\d) s\): the host (process is stopped|process is gone|did no work)"
 )
 
 
@@ -71,7 +73,7 @@ def test_a_stopped_twin_process_ends_the_daemon_braked_and_replay_calls_the_run_
     tmp_path: Path,
 ) -> None:
     """``jackson sim`` and ``jackson daemon`` as a user runs them; the twin is stopped mid-square.
-    The daemon gives up after its default limit (10 s), on the abort path: one line, exit 1, the
+    The daemon gives up after its default limit (10 s), on the abort path: one line, exit 75, the
     brake written to the PCA9685 (it lands when the twin runs again) and SHUTDOWN said."""
     truth = tmp_path / "truth.csv"
     run = tmp_path / "run"
@@ -87,12 +89,12 @@ def test_a_stopped_twin_process_ends_the_daemon_braked_and_replay_calls_the_run_
         t_sim = read_truth(truth).t_us[-1] / 1e6
         out, err = daemon.communicate(timeout=120)
         waited_wall = time.monotonic() - t_stop
-        assert daemon.returncode == 1, err
+        assert daemon.returncode == STALL_EXIT, err
         assert "Traceback" not in err and err == ""
         lines = [ln for ln in out.splitlines() if "lockstep stalled" in ln]
         said = HOST_LINE.search(lines[0])
         assert lines[0].startswith("daemon: lockstep stalled: ") and said is not None, out
-        assert 10.0 <= float(said[1]) < 11.0
+        assert 10.0 <= float(said[1]) < 11.0 and said[4] == "process is stopped"
         assert abs(float(said[3]) - t_sim) <= 0.05  # the last frame it had
         assert waited_wall >= 10.0
         # the abort path: the usual abort line names the stall and says braked
@@ -130,7 +132,7 @@ def test_a_stopped_twin_process_ends_the_daemon_braked_and_replay_calls_the_run_
 
 def test_a_stopped_daemon_ends_a_twin_that_waits_for_it(tmp_path: Path) -> None:
     """``jackson sim`` waiting without a heartbeat timeout (``--heartbeat-timeout`` longer than
-    ``--stall-timeout``) gives up 2 s after the daemon was stopped: one line on stderr, exit 1."""
+    ``--stall-timeout``) gives up 2 s after the daemon was stopped: one line on stderr, exit 75."""
     twin, serial_path, i2c = _sim("--heartbeat-timeout", "3600", "--stall-timeout", "2")
     run = tmp_path / "run"
     daemon = _daemon(serial_path, i2c, run)
@@ -148,11 +150,12 @@ def test_a_stopped_daemon_ends_a_twin_that_waits_for_it(tmp_path: Path) -> None:
         os.kill(daemon.pid, signal.SIGCONT)
         daemon.kill()
         daemon.communicate()
-    assert twin.returncode == 1
+    assert twin.returncode == STALL_EXIT
     assert err.count("\n") == 1 and "Traceback" not in err
     said = TWIN_LINE.fullmatch(err.strip().removeprefix("jackson sim: "))
     assert said is not None, err
     assert 2.0 <= float(said[1]) < 3.0 and int(said[2]) > 40
+    assert said[4] == "process is stopped"
     assert waited_wall >= 2.0
     assert "telemetry frames" in out  # the summary first, as on any way out
 
@@ -177,7 +180,8 @@ def test_a_trial_in_deadlock_is_cut_with_its_reason_and_replay_says_so(
     _swallow_telemetry_frame(monkeypatch, 160)  # 8 s into the square: it drives
     out = tmp_path / "run"
     t0 = time.monotonic()
-    r = run_trial(TrialSpec("square", 0, 3, "jackson", "square_room", out, stall_s=2.0))
+    spec = TrialSpec("square", 0, 3, "jackson", "square_room", out, stall_s=2.0)
+    r = run_trial(spec, retry_stall=False)
     assert time.monotonic() - t0 < 120
     assert not r["completed"]
     reason = r["failure"]
@@ -185,7 +189,8 @@ def test_a_trial_in_deadlock_is_cut_with_its_reason_and_replay_says_so(
     line = reason.removeprefix("not ended: ")
     said = TWIN_LINE.fullmatch(line) or HOST_LINE.fullmatch(line)
     assert said is not None, reason
-    assert 2.0 <= float(said[1]) < 3.0
+    assert 2.0 <= float(said[1]) < 4.0  # the limit, then two looks at the other's thread
+    assert said[4] == "did no work"  # both ends alive, neither working: a deadlock
     assert abs(float(said[3]) - 8.0) <= 0.1  # where the frame went missing
     assert json.loads((out / "metrics.json").read_text())["failure"] == reason
     # the host ended on the abort path too, and its log says why
@@ -254,3 +259,143 @@ def test_a_trial_stopped_by_the_wall_clock_backstop_says_so(tmp_path: Path) -> N
     assert cut_reason(daemon, "navigate", "lockstep stalled: x") == (
         "not ended: lockstep stalled: x"
     )
+
+
+_BUSY_DAEMON = """
+import sys, time
+from jackson.host.daemon import Daemon
+from jackson.main import main
+
+real = Daemon._on_frame
+def on_frame(self, frame, rx_ns):
+    if self.core.frames == 40 and not getattr(self, "burnt", False):
+        self.burnt = True
+        end = time.process_time() + {burn_s}  # {burn_s} CPU-seconds on one frame, then on
+        while time.process_time() < end:
+            sum(range(1000))
+        print("daemon: burnt", flush=True)
+    return real(self, frame, rx_ns)
+Daemon._on_frame = on_frame
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_host_process_busy_far_past_the_limit_is_waited_for_and_a_killed_one_is_a_stall(
+    tmp_path: Path,
+) -> None:
+    """``jackson sim`` with a 1 s stall limit, and a daemon that burns 4 CPU-seconds on one
+    frame (a start-up, a long replan on a busy machine): the twin waits, the square drives on.
+    The daemon is then killed: the twin tells it as a stall (the host gone) within a second of
+    its limit, exit status 75."""
+    import sys
+
+    twin, serial_path, i2c = _sim("--heartbeat-timeout", "3600", "--stall-timeout", "1")
+    run = tmp_path / "run"
+    args = ["daemon", "--port", serial_path, "--i2c", i2c, "--mission", "square"]
+    daemon = subprocess.Popen(
+        [sys.executable, "-c", _BUSY_DAEMON.format(burn_s=4.0), *args, "--run-dir", str(run)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert daemon.stdout is not None
+        for line in daemon.stdout:
+            if line.startswith("daemon: burnt"):
+                break
+        wait_for(
+            lambda: len((run / "odometry.csv").read_text().splitlines()) > 80,
+            timeout_s=120,
+            what="40 frames after the busy one",
+        )
+        assert twin.poll() is None  # waited for the busy host, 4 times its limit
+        daemon.kill()
+        daemon.wait(timeout=30)
+        killed = time.monotonic()
+        _, err = twin.communicate(timeout=120)
+        waited_wall = time.monotonic() - killed
+    finally:
+        if daemon.poll() is None:
+            daemon.kill()
+        daemon.communicate()
+        if twin.poll() is None:
+            twin.kill()
+            twin.communicate()
+    assert twin.returncode == STALL_EXIT, err
+    said = TWIN_LINE.fullmatch(err.strip().removeprefix("jackson sim: "))
+    assert said is not None, err
+    assert said[4] == "process is gone" and int(said[2]) > 80
+    assert 1.0 <= float(said[1]) < 3.0 and waited_wall < 30
+
+
+def test_a_stalled_trial_is_run_once_more_and_told_apart(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A campaign's trial cut by a stall (one frame lost, once) is run again: the retry's result
+    counts, and it says which stall it replaced."""
+    _swallow_telemetry_frame(monkeypatch, 160)  # the first attempt only
+    out = tmp_path / "run"
+    r = run_trial(TrialSpec("square", 0, 3, "jackson", "square_room", out, stall_s=2.0))
+    assert r["completed"] and not r["stalled"], r.get("failure")
+    assert r["stall_retried"].startswith("not ended: lockstep stalled: ")
+    assert json.loads((out / "metrics.json").read_text())["stall_retried"] == r["stall_retried"]
+    assert stall_lines([r], lambda _: "R01") == [
+        "",
+        "Runs retried after a lockstep stall (the retry counts):",
+        "",
+        f"- R01: {r['stall_retried']}",
+    ]
+
+
+def test_a_host_busy_past_the_heartbeat_timeout_keeps_the_twin_in_lockstep(
+    tmp_path: Path,
+) -> None:
+    """``jackson sim --heartbeat-timeout 0.5`` and a daemon that burns 2 CPU-seconds on one
+    frame: the host is slow, not gone, so the twin waits in lockstep instead of running on in
+    real time; the MCU never sees the host lost, and every frame reaches the host."""
+    import sys
+
+    from jackson.host.recording import KIND_RX, read_log
+    from jackson.protocol import Telemetry, TelemetryFlags
+
+    twin, serial_path, i2c = _sim("--heartbeat-timeout", "0.5", "--stall-timeout", "3600")
+    run = tmp_path / "run"
+    args = ["daemon", "--port", serial_path, "--i2c", i2c, "--mission", "square"]
+    daemon = subprocess.Popen(
+        [sys.executable, "-c", _BUSY_DAEMON.format(burn_s=2.0), *args, "--run-dir", str(run)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert daemon.stdout is not None
+        for line in daemon.stdout:
+            if line.startswith("daemon: burnt"):
+                break
+        wait_for(
+            lambda: len((run / "odometry.csv").read_text().splitlines()) > 80,
+            timeout_s=120,
+            what="40 frames after the busy one",
+        )
+        daemon.send_signal(signal.SIGINT)
+        daemon.communicate(timeout=60)
+    finally:
+        if daemon.poll() is None:
+            daemon.kill()
+            daemon.communicate()
+        twin.send_signal(signal.SIGINT)
+        try:
+            twin.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            twin.kill()
+            twin.communicate()
+    frames = [
+        Telemetry.unpack(r.payload[2:])
+        for r in read_log(run)
+        if r.kind == KIND_RX and r.payload[0] == Telemetry.TYPE
+    ]
+    assert len(frames) > 80
+    lost = TelemetryFlags.HOST_LOST | TelemetryFlags.FAILSAFE_ACTIVE
+    assert not any(t.flags & lost for t in frames[1:80])  # the first one: before any HEARTBEAT
+    steps = {b.t_us - a.t_us for a, b in itertools.pairwise(frames[:80])}
+    assert steps == {50_000}  # no frame lost while the host was busy

@@ -33,7 +33,7 @@ def test_exponent_numbers_and_per_side_values(tmp_path: Path) -> None:
     [
         (
             "motor:\n  stall_torque_nm: -1\n",
-            "robot r.yaml: motor.stall_torque_nm: expected a number > 0, got -1",
+            r"robot r.yaml: motor.stall_torque_nm: expected a number in \[0.0001, 100\], got -1",
         ),
         (
             "wheel_separation_m: 0.2\nwheel_separation_m: 0.21\n",

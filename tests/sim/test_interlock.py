@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 
 from jackson.protocol import TelemetryFlags
+from jackson.protocol.messages import FAILSAFE_MS_DEFAULT
 from jackson.sim.config import ConfigError, RobotSpec, load_robot, load_world
 from jackson.sim.fil import DEFAULT_BINARY
 from jackson.sim.runner import TwinRunner
@@ -29,7 +30,7 @@ from jackson.sim.twin import Twin
 
 from .wire_peer import WirePeer
 
-FAILSAFE_S = 0.6  # [s] the firmware's default failsafe_ms
+FAILSAFE_S = FAILSAFE_MS_DEFAULT / 1000.0  # [s] the firmware's default failsafe_ms (the host's)
 PERIOD_S = 0.05  # [s] one telemetry period at 20 Hz
 DRIVE_FRAMES = 40  # 2 s of driving before the host falls silent
 JACKSON = str(Path(sys.executable).parent / "jackson")
@@ -201,8 +202,8 @@ def test_a_silent_host_is_braked_within_failsafe_plus_one_period(
     if not firmware:  # the in-process MCU's next deadline is the drop itself
         assert b.delay_s == pytest.approx(FAILSAFE_S, abs=1e-6)
     assert b.final_speed_m_s < 0.002  # short brake: stopped well within 2 s
-    # 60 % is about 0.21 m/s: 0.6 s of it plus the braking distance, not the 0.4 m of 2 s more
-    assert 0.08 < b.distance_after_m < 0.2
+    # 60 % is about 0.21 m/s: failsafe_ms of it plus the braking distance, not the 0.4 m of 2 s more
+    assert 0.1 * FAILSAFE_S < b.distance_after_m < 0.21 * FAILSAFE_S + 0.08
 
 
 def test_without_the_interlock_a_silent_host_keeps_the_robot_driving(tmp_path: Path) -> None:
@@ -210,7 +211,7 @@ def test_without_the_interlock_a_silent_host_keeps_the_robot_driving(tmp_path: P
     assert b_none.drive_off_s is None  # nothing drops the drive
     assert b_none.line_dropped_s is not None  # though the MCU released its (unwired) line
     assert b_none.final_speed_m_s > 0.15
-    assert b_none.distance_after_m > 0.4  # 2.6 s at 60 %
+    assert b_none.distance_after_m > 0.15 * (FAILSAFE_S + 2.0)  # failsafe_ms and 2 s at 60 %
 
 
 def test_stby_wiring_puts_the_bridges_in_standby_and_the_robot_coasts_to_rest(

@@ -172,4 +172,5 @@ def test_motor_enable_flag_mirrors_the_line_in_telemetry_and_status() -> None:
     assert len(flagged) > 55
     for m in flagged:
         assert bool(m.flags & TelemetryFlags.MOTOR_ENABLE) == line[m.t_us], m.t_us
-    assert not line[1_700_000] and line[1_500_000] and line[2_500_000]
+    lost = 950_000 + 1000 * mcu.failsafe_ms  # failsafe_ms after the last heartbeat before 1 s
+    assert line[lost - 10_000] and not line[lost] and not line[1_990_000] and line[2_500_000]

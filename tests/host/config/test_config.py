@@ -22,6 +22,7 @@ from jackson.host.config import (
     load_config,
     parse_config,
 )
+from jackson.protocol.messages import FAILSAFE_MS_DEFAULT
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -96,7 +97,8 @@ def test_shipped_file_carries_the_papers_runtime_values() -> None:
     assert cfg.imu.calibration is None
     assert cfg.serial.port == "/dev/jackson-mcu"
     assert (cfg.serial.baudrate, cfg.serial.telemetry_rate_hz) == (921600, 20)
-    assert cfg.watchdog_s == 0.6
+    assert cfg.cmd_vel_timeout_s == 0.6  # the paper's /cmd_vel watchdog
+    assert cfg.failsafe_ms == 200  # the MCU's own, 4 heartbeat frames
     assert cfg.recording_folder == Path("runs")
 
 
@@ -143,7 +145,7 @@ def test_bad_yaml_names_the_line(tmp_path: Path) -> None:
 
 def test_duplicate_key_is_bad_yaml(tmp_path: Path) -> None:
     path = tmp_path / "twice.yaml"
-    path.write_text("watchdog_s: 0.6\nwatchdog_s: 0.5\n", encoding="utf-8")
+    path.write_text("failsafe_ms: 200\nfailsafe_ms: 300\n", encoding="utf-8")
     with pytest.raises(ConfigError, match=r"^config twice.yaml: line 2: .*duplicate field"):
         load_config(path)
 
@@ -257,7 +259,13 @@ def test_top_level_must_be_a_mapping(tmp_path: Path) -> None:
             "serial.telemetry_rate_hz: expected an integer in 1-500",
         ),
         ({"serial": {"baudrate": 9600.5}}, "serial.baudrate: expected an integer"),
-        ({"watchdog_s": 0}, "watchdog_s: expected a number in [0.05, 10], got 0"),
+        ({"cmd_vel_timeout_s": 0}, "cmd_vel_timeout_s: expected a number in [0.05, 10], got 0"),
+        ({"failsafe_ms": 20}, "failsafe_ms: expected an integer in 50-10000, got 20"),
+        ({"failsafe_ms": 0.2}, "failsafe_ms: expected an integer in 50-10000, got 0.2"),
+        (
+            {"watchdog_s": 0.5, "cmd_vel_timeout_s": 0.5},
+            "watchdog_s: deprecated name of cmd_vel_timeout_s, also set: remove it",
+        ),
         ({"recording": {"folder": 3}}, "recording.folder: expected a non-empty text, got 3"),
         (
             {"recording": {"bag_compression": "gzip"}},
@@ -329,10 +337,30 @@ def test_twin_bus_mcu_actuator_and_calibration(tmp_path: Path) -> None:
     assert (cfg.ekf.mahalanobis_wheel, cfg.ekf.mahalanobis_imu) == (9.21, None)
 
 
+def test_the_mcu_failsafe_and_the_command_watchdog_are_set_apart(tmp_path: Path) -> None:
+    cfg = load_config(write(tmp_path, {"failsafe_ms": 300, "cmd_vel_timeout_s": 1.5}))
+    assert (cfg.failsafe_ms, cfg.cmd_vel_timeout_s) == (300, 1.5)
+    assert load_config(write(tmp_path, {"failsafe_ms": 300})).cmd_vel_timeout_s == 0.6
+    assert load_config(write(tmp_path, {"cmd_vel_timeout_s": 1.5})).failsafe_ms == 200
+    assert HostConfig().failsafe_ms == FAILSAFE_MS_DEFAULT  # the device's power-up value
+
+
+def test_watchdog_s_is_read_as_the_command_timeout_with_one_warning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cfg = load_config(write(tmp_path, {"watchdog_s": 0.8}))
+    assert (cfg.cmd_vel_timeout_s, cfg.failsafe_ms) == (0.8, 200)  # the failsafe stays its own
+    err = capsys.readouterr().err
+    assert err == (
+        "config jackson.yaml: watchdog_s is deprecated: read as cmd_vel_timeout_s; the MCU's "
+        "failsafe is failsafe_ms\n"
+    )
+
+
 def test_configuration_is_frozen() -> None:
     cfg = HostConfig()
     with pytest.raises(dataclasses.FrozenInstanceError):
-        cfg.watchdog_s = 1.0  # type: ignore[misc]
+        cfg.cmd_vel_timeout_s = 1.0  # type: ignore[misc]
 
 
 # ------------------------------------------------------------------------- dump and diff

@@ -96,10 +96,16 @@ def test_live_settings_round_trip_through_the_log_exactly() -> None:
     assert LiveSettings.of(HostConfig()) == LiveSettings(LimiterConfig(), 0.6)
 
 
-@pytest.mark.parametrize("watchdog_s", [0.0, 0.04, 10.5, math.nan, "1"])
-def test_a_watchdog_outside_the_firmware_failsafe_range_is_refused(watchdog_s: object) -> None:
-    with pytest.raises(ValueError, match=r"watchdog_s must be within 0.05-10 s"):
-        LiveSettings(LimiterConfig(), watchdog_s)  # type: ignore[arg-type]
+@pytest.mark.parametrize("timeout_s", [0.0, 0.04, 10.5, math.nan, "1"])
+def test_a_command_timeout_outside_its_range_is_refused(timeout_s: object) -> None:
+    with pytest.raises(ValueError, match=r"cmd_vel_timeout_s must be within 0.05-10 s"):
+        LiveSettings(LimiterConfig(), timeout_s)  # type: ignore[arg-type]
+
+
+def test_settings_logged_under_the_former_name_watchdog_s_still_decode() -> None:
+    old = LiveSettings.decode(b'{"limits":{"max_v_m_s":0.2},"watchdog_s":0.7}')
+    assert old == LiveSettings(LimiterConfig(max_v_m_s=0.2), 0.7)
+    assert b'"cmd_vel_timeout_s":0.7' in old.encode()
 
 
 def test_damaged_settings_in_a_log_are_named() -> None:
@@ -121,7 +127,7 @@ def test_a_live_limit_change_reaches_the_limiter_and_dwb_at_the_next_frame() -> 
     core.request_settings(wanted)
     # requested: what the next change starts from, but nothing is applied between frames
     assert core.settings == wanted
-    assert core.limiter.config == cfg.limits and core.watchdog.timeout_s == cfg.watchdog_s
+    assert core.limiter.config == cfg.limits and core.watchdog.timeout_s == cfg.cmd_vel_timeout_s
     assert nav.limits == nav.dwb.limits == cfg.navigation_limits()
     core.on_frame(telemetry(1))
     assert core.limiter.config == SLOW and core.watchdog.timeout_s == 0.9
@@ -147,7 +153,7 @@ def test_the_navigation_top_speed_of_the_configuration_still_caps_a_live_limit()
     mission = navigation(cfg)
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=mission)
     faster = dataclasses.replace(cfg.limits, max_v_m_s=0.28, max_w_rad_s=1.5)
-    core.request_settings(LiveSettings(faster, cfg.watchdog_s))
+    core.request_settings(LiveSettings(faster, cfg.cmd_vel_timeout_s))
     core.on_frame(telemetry(0))
     assert core.limiter.config == faster
     assert mission.navigator.dwb.limits == dataclasses.replace(faster, max_v_m_s=0.2)
@@ -158,7 +164,7 @@ def test_the_service_takes_a_live_limit_change_to_its_navigator() -> None:
     config = NavigateConfig(start=Pose2D(1.0, 1.0, 0.0), goals=(), seed=3)
     svc = NavigationService(config, cfg.navigation_limits(), room(), ServiceSettings())
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=svc)
-    core.request_settings(LiveSettings(SLOW, cfg.watchdog_s))
+    core.request_settings(LiveSettings(SLOW, cfg.cmd_vel_timeout_s))
     core.on_frame(telemetry(0))
     assert svc.nav.navigator.dwb.limits == SLOW
 
@@ -256,19 +262,19 @@ FIXED = RosSettings.__dataclass_fields__
 
 def test_parameter_changes_become_one_new_value_or_none() -> None:
     current = LiveSettings(LimiterConfig(), 0.6)
-    changes = [("limits.max_v_m_s", 0.2), ("watchdog_s", 1), ("limits.max_w_rad_s", 1.0)]
+    changes = [("limits.max_v_m_s", 0.2), ("cmd_vel_timeout_s", 1), ("limits.max_w_rad_s", 1.0)]
     new = changed_settings(current, changes, FIXED)
     assert new == LiveSettings(LimiterConfig(max_v_m_s=0.2, max_w_rad_s=1.0), 1.0)
-    assert isinstance(new.watchdog_s, float)
+    assert isinstance(new.cmd_vel_timeout_s, float)
     assert changed_settings(current, [("use_sim_time", True)], FIXED) is current
-    assert changed_settings(current, [("watchdog_s", 0.6)], FIXED) is current
+    assert changed_settings(current, [("cmd_vel_timeout_s", 0.6)], FIXED) is current
 
 
 @pytest.mark.parametrize(
     ("name", "value", "says"),
     [
         ("limits.max_accel_m_s2", -1.0, "limits.max_accel_m_s2: LimiterConfig.max_accel_m_s2"),
-        ("watchdog_s", 20.0, "watchdog_s must be within 0.05-10 s, got 20.0"),
+        ("cmd_vel_timeout_s", 20.0, "cmd_vel_timeout_s must be within 0.05-10 s, got 20.0"),
         ("base_frame", "base", "base_frame is read when the node starts: restart the daemon"),
     ],
 )

@@ -52,3 +52,45 @@ def test_a_lidar_port_that_fails_is_excluded_at_once() -> None:
     mon.lidar.gone(4.2, "LiDAR port /dev/pts/9 went away (Input/output error)")
     assert mon.state("lidar") is Health.EXCLUDED
     assert mon.transitions[-1].t_s == 4.2 and mon.counts["excluded"] == 1
+
+
+def _random_bytes_instead_of_revolutions(answer_type: int) -> tuple[object, float]:
+    """A navigating robot whose LiDAR's line carries only random bytes from 5 s on, read per
+    frame and judged as the core does (revolutions taken, else the bytes unpaired); the
+    monitor and the onset."""
+    from jackson.host.lidar.intake import ScanIntake
+
+    from .synthetic import Robot
+
+    mon, rng = monitor(), np.random.default_rng(43)
+    mon.lidar.needed = True
+    t, _ = scans(mon, rng, 0.0, 5.0)
+    intake = ScanIntake(mon.lidar)
+    intake.assembler.expect(answer_type)
+    intake.take(t, True)  # the frame of the last clean revolution
+    robot = Robot(43)
+    robot.t = t
+    onset = t
+    for _ in range(round(2.0 / DT)):
+        f = robot.frame(0.28, 0.0)
+        intake.feed(rng.integers(0, 256, 400, dtype=np.uint8).tobytes())  # 8 kB/s, as an A1M8
+        if not intake.pending:
+            intake.unpaired(f.t_s)
+        mon.update(f)
+        for rev in intake.take(f.t_s, True) if intake.pending else []:
+            intake.scan(f.t_s, rev)
+    return mon, onset
+
+
+def test_random_bytes_instead_of_revolutions_are_garbage_not_silence() -> None:
+    """Bytes that decode to no revolution are judged before the silence they would look like:
+    suspect within 0.3 s, excluded as garbage within 0.8 s, never blamed on a silence."""
+    from jackson.protocol.rplidar import CAPSULE_FORMATS, DataType
+
+    for answer_type in (DataType.MEASUREMENT, *CAPSULE_FORMATS):
+        mon, onset = _random_bytes_instead_of_revolutions(int(answer_type))
+        lidar = [x for x in mon.transitions if x.sensor == "lidar"]
+        assert lidar and "garbage" in lidar[0].reason, (answer_type, lidar[:1])
+        assert lidar[0].t_s - onset <= 0.3, answer_type
+        out = [x for x in lidar if x.new is Health.EXCLUDED]
+        assert out and "garbage" in out[0].reason and out[0].t_s - onset <= 0.8, answer_type

@@ -5,6 +5,7 @@ without a map starts where the robot stands."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ import pytest
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.control.navigator import Navigator, NavigatorConfig, NavigatorState
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
-from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.nav.grid import BYTES_PER_CELL, MAX_CELLS, MapFileError, OccupancyGrid
 from jackson.host.nav.mapping import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
@@ -93,3 +94,27 @@ def test_mapping_without_a_map_starts_where_the_robot_stands() -> None:
     assert g.width * g.height < 400 * 400  # around the robot, not from the origin
     r, c = g.world_to_cell(40.02, -40.0)
     assert g.data[r, c] > 50
+
+
+@pytest.mark.parametrize("side", [5000, 10000])
+def test_a_map_over_what_navigation_holds_in_memory_is_refused_from_its_header(
+    tmp_path: Path, side: int
+) -> None:
+    """A 5000 x 5000 map took ``jackson run maze`` past 4 GiB: refused before it is decoded,
+    the limit and the memory a cell needs in the line."""
+    (tmp_path / "big.pgm").write_bytes(f"P5\n{side} {side}\n255\n".encode() + b"\0")
+    (tmp_path / "big.yaml").write_text(
+        "image: big.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 0.65\n"
+        "free_thresh: 0.196\nnegate: 0\n"
+    )
+    with pytest.raises(MapFileError) as info:
+        OccupancyGrid.load(tmp_path / "big.yaml")
+    line = str(info.value)
+    assert f"{side} x {side} pixels" in line and f"{MAX_CELLS:,} in all" in line
+    assert f"{BYTES_PER_CELL} bytes of memory a cell" in line and "\n" not in line
+
+
+def test_the_cell_limit_keeps_the_navigation_stack_under_2_gib() -> None:
+    side = math.isqrt(MAX_CELLS)
+    assert side * side <= MAX_CELLS
+    assert BYTES_PER_CELL * MAX_CELLS < 2 * 2**30  # the navigation stack's peak under 2 GiB

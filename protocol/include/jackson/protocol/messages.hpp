@@ -83,7 +83,7 @@ constexpr float kGyroBiasRadSMax = 0.5f;
 constexpr float kAccelScaleMin = 0.5f;
 constexpr float kAccelScaleMax = 2.0f;
 constexpr int32_t kTelemetryRateHzDefault = 20;
-constexpr int32_t kFailsafeMsDefault = 600;
+constexpr int32_t kFailsafeMsDefault = 200;
 
 /// Sensor snapshot, sent at the telemetry rate (20 Hz by default) once the host has sent HELLO. Encoder counts are cumulative since boot or the last ZERO_COUNTERS, so a lost frame loses no distance.
 struct Telemetry {
