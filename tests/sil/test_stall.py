@@ -280,6 +280,32 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
+def _busy_daemon(serial_path: str, i2c: str, run: Path, burn_s: float) -> subprocess.Popen[str]:
+    """``jackson daemon --mission square`` that burns ``burn_s`` CPU-seconds on frame 40."""
+    import sys
+
+    args = ["daemon", "--port", serial_path, "--i2c", i2c, "--mission", "square"]
+    return subprocess.Popen(
+        [sys.executable, "-c", _BUSY_DAEMON.format(burn_s=burn_s), *args, "--run-dir", str(run)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _past_the_busy_frame(daemon: subprocess.Popen[str], run: Path) -> None:
+    """Until the daemon has burnt its CPU-seconds and 40 more frames are in its run."""
+    assert daemon.stdout is not None
+    for line in daemon.stdout:
+        if line.startswith("daemon: burnt"):
+            break
+    wait_for(
+        lambda: len((run / "odometry.csv").read_text().splitlines()) > 80,
+        timeout_s=120,
+        what="40 frames after the busy one",
+    )
+
+
 def test_a_host_process_busy_far_past_the_limit_is_waited_for_and_a_killed_one_is_a_stall(
     tmp_path: Path,
 ) -> None:
@@ -287,27 +313,12 @@ def test_a_host_process_busy_far_past_the_limit_is_waited_for_and_a_killed_one_i
     frame (a start-up, a long replan on a busy machine): the twin waits, the square drives on.
     The daemon is then killed: the twin tells it as a stall (the host gone) within a second of
     its limit, exit status 75."""
-    import sys
 
     twin, serial_path, i2c = _sim("--heartbeat-timeout", "3600", "--stall-timeout", "1")
     run = tmp_path / "run"
-    args = ["daemon", "--port", serial_path, "--i2c", i2c, "--mission", "square"]
-    daemon = subprocess.Popen(
-        [sys.executable, "-c", _BUSY_DAEMON.format(burn_s=4.0), *args, "--run-dir", str(run)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    daemon = _busy_daemon(serial_path, i2c, run, burn_s=4.0)
     try:
-        assert daemon.stdout is not None
-        for line in daemon.stdout:
-            if line.startswith("daemon: burnt"):
-                break
-        wait_for(
-            lambda: len((run / "odometry.csv").read_text().splitlines()) > 80,
-            timeout_s=120,
-            what="40 frames after the busy one",
-        )
+        _past_the_busy_frame(daemon, run)
         assert twin.poll() is None  # waited for the busy host, 4 times its limit
         daemon.kill()
         daemon.wait(timeout=30)
@@ -353,30 +364,15 @@ def test_a_host_busy_past_the_heartbeat_timeout_keeps_the_twin_in_lockstep(
     """``jackson sim --heartbeat-timeout 0.5`` and a daemon that burns 2 CPU-seconds on one
     frame: the host is slow, not gone, so the twin waits in lockstep instead of running on in
     real time; the MCU never sees the host lost, and every frame reaches the host."""
-    import sys
 
     from jackson.host.recording import KIND_RX, read_log
     from jackson.protocol import Telemetry, TelemetryFlags
 
     twin, serial_path, i2c = _sim("--heartbeat-timeout", "0.5", "--stall-timeout", "3600")
     run = tmp_path / "run"
-    args = ["daemon", "--port", serial_path, "--i2c", i2c, "--mission", "square"]
-    daemon = subprocess.Popen(
-        [sys.executable, "-c", _BUSY_DAEMON.format(burn_s=2.0), *args, "--run-dir", str(run)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    daemon = _busy_daemon(serial_path, i2c, run, burn_s=2.0)
     try:
-        assert daemon.stdout is not None
-        for line in daemon.stdout:
-            if line.startswith("daemon: burnt"):
-                break
-        wait_for(
-            lambda: len((run / "odometry.csv").read_text().splitlines()) > 80,
-            timeout_s=120,
-            what="40 frames after the busy one",
-        )
+        _past_the_busy_frame(daemon, run)
         daemon.send_signal(signal.SIGINT)
         daemon.communicate(timeout=60)
     finally:
