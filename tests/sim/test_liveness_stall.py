@@ -19,16 +19,20 @@ import pytest
 
 from jackson.common.liveness import (
     PROBE_S,
+    WORK_SHARE,
     Peer,
     PeerWatch,
     ProcessPeer,
     ThreadPeer,
     pty_peers,
+    read_stat,
 )
 from jackson.host.transport import StallWatch
 
+from ..sil.harness import wait_for
+
 BURN = "import time\nwhile True:\n    sum(range(10000))\n"
-SLEEP = "import time\ntime.sleep(600)\n"
+SLEEP = "import time\nprint('asleep', flush=True)\ntime.sleep(600)\n"
 
 
 @pytest.fixture
@@ -43,17 +47,31 @@ def child() -> Iterator[list[subprocess.Popen[bytes]]]:
 
 
 def _spawn(procs: list[subprocess.Popen[bytes]], code: str) -> subprocess.Popen[bytes]:
-    p = subprocess.Popen([sys.executable, "-c", code])
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE)
     procs.append(p)
     return p
 
 
-def _looks(watch: PeerWatch, n: int) -> list[object]:
-    """``n`` looks, each a probe interval after the last."""
-    out: list[object] = []
-    for _ in range(n):
-        out.append(watch.verdict(time.monotonic()))
-        time.sleep(PROBE_S * 1.2)
+def _cpu_s(path: str) -> float:
+    return read_stat(path).cpu_s
+
+
+def _burnt(path: str, cpu_s: float) -> None:
+    """Until the process or thread at ``path`` has used ``cpu_s`` more CPU time."""
+    start = _cpu_s(path)
+    wait_for(lambda: _cpu_s(path) - start >= cpu_s, timeout_s=60, what=f"{cpu_s} CPU-s burnt")
+
+
+STEP_S = PROBE_S * 1.2  # the looks' spacing, on the watch's own clock (the ``now`` it is given)
+
+
+def _looks(watch: PeerWatch, n: int, path: str) -> list[object]:
+    """``n`` looks a probe interval apart; between two, the peer at ``path`` burns more than a
+    working peer must in that interval."""
+    t0, out = time.monotonic(), []
+    for k in range(n):
+        out.append(watch.verdict(t0 + k * STEP_S))
+        _burnt(path, 2 * WORK_SHARE * STEP_S)
     return out
 
 
@@ -62,7 +80,7 @@ def test_a_process_burning_cpu_is_working_and_never_a_stall(
 ) -> None:
     p = _spawn(child, BURN)
     watch = PeerWatch(Peer.of(ProcessPeer(p.pid)), backstop_s=1.0)
-    verdicts = _looks(watch, 6)
+    verdicts = _looks(watch, 6, f"/proc/{p.pid}/stat")
     assert verdicts[0] is None  # a first look cannot tell
     assert verdicts[1:].count("working") >= 4, verdicts
     assert not {"gone", "stopped", "idle"} & set(verdicts)
@@ -72,20 +90,16 @@ def test_a_sleeping_process_is_idle_only_after_its_backstop(
     child: list[subprocess.Popen[bytes]],
 ) -> None:
     p = _spawn(child, SLEEP)
-    time.sleep(0.5)  # past its start-up
+    assert p.stdout is not None and p.stdout.readline() == b"asleep\n"  # past its start-up
     watch = PeerWatch(Peer.of(ProcessPeer(p.pid)), backstop_s=2.0)
     t0 = time.monotonic()
-    verdict = None
-    while verdict is None and time.monotonic() - t0 < 30:
-        verdict = watch.verdict(time.monotonic())
-        time.sleep(0.05)
-    assert verdict == "idle"
-    assert 2.0 <= time.monotonic() - t0 < 5.0
+    looks = [(k * 0.05, watch.verdict(t0 + k * 0.05)) for k in range(200)]
+    idle = next(t for t, v in looks if v is not None)
+    assert dict(looks)[idle] == "idle" and 2.0 <= idle < 2.0 + STEP_S
     # said to wait too (a host in this process): idle at the second look
     watch = PeerWatch(Peer.of(ProcessPeer(p.pid)), backstop_s=60.0)
-    assert watch.verdict(time.monotonic(), peer_waits=True) is None
-    time.sleep(PROBE_S * 1.2)
-    assert watch.verdict(time.monotonic(), peer_waits=True) == "idle"
+    assert watch.verdict(t0, peer_waits=True) is None
+    assert watch.verdict(t0 + STEP_S, peer_waits=True) == "idle"
 
 
 def test_a_stopped_then_killed_process_is_told_at_the_first_look(
@@ -94,7 +108,7 @@ def test_a_stopped_then_killed_process_is_told_at_the_first_look(
     p = _spawn(child, BURN)
     watch = PeerWatch(Peer.of(ProcessPeer(p.pid)))
     os.kill(p.pid, signal.SIGSTOP)
-    time.sleep(0.2)
+    wait_for(lambda: read_stat(f"/proc/{p.pid}/stat").stopped, timeout_s=30, what="stopped")
     assert watch.verdict(time.monotonic()) == "stopped"
     p.kill()
     p.wait()
@@ -116,12 +130,12 @@ def test_a_thread_of_this_process_is_judged_by_its_own_cpu_time() -> None:
         assert burner.native_id is not None and sleeper.native_id is not None
         hot = PeerWatch(Peer.of(ThreadPeer(burner.native_id)))
         cold = PeerWatch(Peer.of(ThreadPeer(sleeper.native_id)), backstop_s=1.0)
-        hot_v = [hot.verdict(time.monotonic()) for _ in range(1)]
-        cold_v = [cold.verdict(time.monotonic())]
-        for _ in range(4):
-            time.sleep(PROBE_S * 1.2)
-            hot_v.append(hot.verdict(time.monotonic()))
-            cold_v.append(cold.verdict(time.monotonic()))
+        t0 = time.monotonic()
+        hot_v, cold_v = [], []
+        for k in range(5):
+            hot_v.append(hot.verdict(t0 + k * STEP_S))
+            cold_v.append(cold.verdict(t0 + k * STEP_S))
+            _burnt(f"/proc/self/task/{burner.native_id}/stat", 2 * WORK_SHARE * STEP_S)
     finally:
         stop.set()
         burner.join()
@@ -130,10 +144,11 @@ def test_a_thread_of_this_process_is_judged_by_its_own_cpu_time() -> None:
     assert "working" not in cold_v and cold_v[-1] == "idle", cold_v
     # join() returns just before the kernel's thread ends: its entry goes a moment later
     gone = PeerWatch(Peer.of(ThreadPeer(sleeper.native_id)))
-    deadline = time.monotonic() + 30
-    while gone.verdict(time.monotonic()) != "gone" and time.monotonic() < deadline:
-        gone.reset()
-        time.sleep(0.01)
+    wait_for(
+        lambda: not read_stat(f"/proc/self/task/{sleeper.native_id}/stat").alive,
+        timeout_s=30,
+        what="the thread's entry gone",
+    )
     assert gone.verdict(time.monotonic()) == "gone"
 
 
@@ -145,9 +160,7 @@ def test_the_processes_behind_a_pty_are_found(child: list[subprocess.Popen[bytes
         assert pty_peers(name, master=True) is None  # this process holds the master itself
         code = f"import os, time\nos.open({name!r}, os.O_RDWR | os.O_NOCTTY)\ntime.sleep(600)\n"
         p = _spawn(child, code)
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline and not pty_peers(name, master=False):
-            time.sleep(0.05)
+        wait_for(lambda: bool(pty_peers(name, master=False)), timeout_s=30, what="the pty held")
         assert pty_peers(name, master=False) == [ProcessPeer(p.pid)]
         p.kill()
         p.wait()
@@ -163,10 +176,10 @@ def test_a_device_that_never_answers_the_hello_is_not_a_stall() -> None:
     watch.limit_s = 0.1
     watch.peer = PeerWatch(None, backstop_s=0.0)
     watch.waiting()
-    time.sleep(0.2)
+    later_ns = time.monotonic_ns() + 200_000_000  # 0.2 s on, past the 0.1 s limit
     for _ in range(3):
-        assert watch.check(time.monotonic_ns(), in_session=False) is None
-    assert watch.check(time.monotonic_ns(), in_session=True) is None  # judged: one more read
-    event = watch.check(time.monotonic_ns(), in_session=True)
+        assert watch.check(later_ns, in_session=False) is None
+    assert watch.check(later_ns, in_session=True) is None  # judged: one more read
+    event = watch.check(later_ns, in_session=True)
     assert event is not None and event.kind == "stalled"
     assert event.detail.endswith(": the twin did no work")
