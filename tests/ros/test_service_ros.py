@@ -347,7 +347,8 @@ def test_the_service_publishes_the_navigation_topics(service: Service, ros: RosU
     navigation, from the service's navigator."""
     from action_msgs.msg import GoalStatus
 
-    here = service.status()["pose"]
+    wait_for(lambda: service.status()["state"] == "idle", "the service idle")  # braked, not
+    here = service.status()["pose"]  # on its way to an earlier test's goal
     target = max([(7.5, 5.0), (3.0, 3.0)], key=lambda g: math.dist(g, (here["x"], here["y"])))
     n_plans, n_local, n_tf = len(ros.plans), len(ros.local_plans), len(ros.map_to_odom)
     goal = ros.send_goal(*target)
