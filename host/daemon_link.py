@@ -24,6 +24,9 @@ VERSION_SILENCE_S = 1.0  # [s] frames of another version and no INFO: report the
 # [s] the frame loop not turning this long (ten 20 Hz frames; it waits at most 0.1 s for a
 # frame) is a stall of the daemon itself: stopped (SIGSTOP), starved of CPU, or busy
 HOST_STALL_S = 0.5
+# frames waiting after it: fewer, and the device waited for the daemon (a twin in lockstep holds
+# its clock until the daemon's HEARTBEAT): nothing went on without it, so nothing is told
+HOST_STALL_BACKLOG = 2
 HOST_STALL_RECORD = "daemon stalled "  # its link record: "daemon stalled 1.30 s: ..."
 FOREIGN_WRITE = (
     "PCA9685 registers rewritten by someone else (a foreign I2C write, or the chip reset): "
@@ -161,9 +164,14 @@ class LinkWatch:
         """The frame loop turns at ``now_s`` (monotonic s). After :data:`HOST_STALL_S` or more
         without a turn, once frames came, the daemon itself stalled: one line, logged as a link
         record before the next frame (``jackson replay`` applies it there), and the core told
-        (:meth:`HostCore.host_stalled`), so the LiDAR's checks do not blame the sensor."""
+        (:meth:`HostCore.host_stalled`), so the LiDAR's checks do not blame the sensor. A device
+        that waited for the daemon meanwhile (fewer than :data:`HOST_STALL_BACKLOG` frames came:
+        a twin in lockstep, whose clock stood still) saw no stall: the same run on an idle and
+        on a busy machine logs the same records."""
         last, self._turned_s = self._turned_s, now_s
         if last is None or now_s - last < HOST_STALL_S or self.core.t_s is None:
+            return
+        if self.transport.backlog_frames() < HOST_STALL_BACKLOG:
             return
         stalled_s = round(now_s - last, 2)
         self.tell(host_stall_line(stalled_s))

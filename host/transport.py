@@ -71,11 +71,13 @@ from jackson.protocol import (
     encode_frame,
     hello,
 )
+from jackson.protocol.frame import CRC_SIZE, HEADER_SIZE
 
 FIRST_BACKOFF_S = 0.1
 MAX_BACKOFF_S = 2.0
 READ_TIMEOUT_S = 0.005  # [s] the reader's longest block: the decoder is polled this often
 SILENCE_S = 1.0  # [s] no frame for this long on an open port: send HELLO again
+TELEMETRY_FRAME_SIZE = HEADER_SIZE + Telemetry.SIZE + CRC_SIZE  # [bytes] one frame on the wire
 STALL_S = 10.0  # [s] of waiting without a telemetry frame before the twin's liveness is looked at
 TWIN_REASONS: dict[Verdict, str] = {
     "gone": "the twin process is gone",
@@ -133,6 +135,12 @@ class Link(Protocol):
     @property
     def on_pty(self) -> bool:
         """The link is the twin's pseudo-terminal (lockstep may stall)."""
+        ...
+
+    def backlog_frames(self) -> int:
+        """Telemetry frames' worth of what came and was not handed on yet: decoded and queued,
+        or still unread on the port. After the caller was kept from running, a device that
+        went on streaming left many; a twin in lockstep, which waited for the caller, one."""
         ...
 
     def encode(self, msg: Message) -> bytes:
@@ -416,6 +424,16 @@ class SerialTransport:
     def on_pty(self) -> bool:
         """Whether the port is a pseudo-terminal: the twin's, not a device's."""
         return _is_pty(self.port_name)
+
+    def backlog_frames(self) -> int:
+        """Telemetry frames' worth of what came and was not handed on yet (:class:`Link`)."""
+        waiting = 0
+        with self._lock:
+            port = self._port
+            if port is not None:
+                with contextlib.suppress(serial.SerialException, OSError, termios_error):
+                    waiting = port.in_waiting
+        return self.items.qsize() + waiting // TELEMETRY_FRAME_SIZE
 
     def close(self) -> None:
         self._stop.set()

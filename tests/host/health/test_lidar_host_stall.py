@@ -67,22 +67,29 @@ def test_a_silence_that_began_before_the_stall_is_the_lidars() -> None:
 
 
 def test_the_daemon_tells_its_own_stall_once_and_the_replay_reads_it_back() -> None:
-    """A frame loop that did not turn for HOST_STALL_S or more, once frames came: one line
-    (a link record in the run's log), the core told the stall rounded to 10 ms, which the
-    line gives back exactly."""
+    """A frame loop that did not turn for HOST_STALL_S or more, once frames came, while the
+    device went on (frames waiting): one line (a link record in the run's log), the core told
+    the stall rounded to 10 ms, which the line gives back exactly. A device that waited for the
+    daemon meanwhile (one frame waiting: a twin in lockstep) saw no stall: nothing told."""
     from types import SimpleNamespace
 
-    from jackson.host.daemon_link import HOST_STALL_S, LinkWatch, host_stall_s
+    from jackson.host.daemon_link import HOST_STALL_BACKLOG, HOST_STALL_S, LinkWatch, host_stall_s
 
     stalls: list[float] = []
     core = SimpleNamespace(t_s=None, host_stalled=stalls.append)
     told: list[str] = []
-    watch = LinkWatch(SimpleNamespace(), None, core, None, told.append)  # type: ignore[arg-type]
+    backlog = [HOST_STALL_BACKLOG - 1]
+    link = SimpleNamespace(backlog_frames=lambda: backlog[0])
+    watch = LinkWatch(link, None, core, None, told.append)  # type: ignore[arg-type]
     watch.started(10.0)
     watch.turn(10.0)
     watch.turn(12.0)  # before the first frame: the start-up is not a stall
     core.t_s = 4.2
-    for now in (12.1, 12.2, 12.2 + HOST_STALL_S - 0.01, 13.5317, 13.6):
+    watch.turn(12.1)
+    watch.turn(14.0)  # 1.9 s, and the device waited: no stall
+    assert told == [] and stalls == []
+    backlog[0] = 37
+    for now in (14.1, 14.2, 14.2 + HOST_STALL_S - 0.01, 15.5317, 15.6):
         watch.turn(now)
     assert told == [
         "daemon stalled 0.84 s: its frame loop did not run (stopped, starved of CPU, or busy); "
