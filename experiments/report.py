@@ -34,6 +34,7 @@ from jackson.experiments.consistency import (
 from jackson.experiments.paper_figures import PAPER as PAPER  # re-exported
 from jackson.experiments.paper_figures import PaperFigure as PaperFigure  # re-exported
 from jackson.experiments.report_plots import plot_closure, plot_nees, plot_trajectories
+from jackson.experiments.stall_retry import stall_lines
 
 CONFIDENCE = 0.95  # two-sided level of every CI of the summary
 
@@ -298,6 +299,10 @@ def write_report(
         *consistency_lines,
         "",
     ]
+    named = [{**r, "run": f"R{i + 1:02d}"} for i, r in enumerate(results)]
+    stalls = stall_lines(named, lambda r: str(r["run"]))
+    lines += ["## Lockstep stalls (the machine's failures, not the robot's)", ""]
+    lines += [*stalls[1:], ""] if stalls else ["None.", ""]
     (out / "summary.md").write_text("\n".join(lines))
     summary = {
         "meta": meta,

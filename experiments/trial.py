@@ -167,11 +167,17 @@ def twin_session(
     does; :meth:`~jackson.host.lidar.rplidar.RplidarDriver.start`)."""
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.sim.runner import TwinRunner
+    from jackson.sim.twin import trial_boot_id
 
     with tempfile.TemporaryDirectory(prefix="jackson-trial-") as tmp, Watch() as watch:
         sock = Path(tmp) / "i2c.sock"
         runner = TwinRunner(
-            twin, i2c_path=sock, heartbeat_timeout_s=math.inf, lidar=lidar, stall_s=stall_s
+            twin,
+            i2c_path=sock,
+            heartbeat_timeout_s=math.inf,
+            lidar=lidar,
+            stall_s=stall_s,
+            boot_id=trial_boot_id(twin.seed),  # the seed's: the same INFO in every run of it
         )
         cfg = dataclasses.replace(cfg, pca9685=dataclasses.replace(cfg.pca9685, bus=f"unix:{sock}"))
         transport = SerialTransport(runner.serial_path, cfg.serial.baudrate)

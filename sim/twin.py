@@ -84,7 +84,8 @@ def trial_stream(seed: int, index: int) -> np.random.Generator:
     seed : int
         The twin's seed (>= 0).
     index : int
-        Which quantity: 0 supply, 1 wheel radii, 2 encoders, 3 gyro bias, 4 floor, 5 bias walk.
+        Which quantity: 0 supply, 1 wheel radii, 2 encoders, 3 gyro bias, 4 floor, 5 bias walk,
+        6 the MCU's boot_id (:func:`trial_boot_id`).
 
     Returns
     -------
@@ -92,6 +93,13 @@ def trial_stream(seed: int, index: int) -> np.random.Generator:
         Its generator.
     """
     return np.random.default_rng([seed, VARIATION_STREAM, index])
+
+
+def trial_boot_id(seed: int) -> int:
+    """The MCU's boot_id for a trial of ``seed``: odd (never 0), drawn from the seed, so a trial
+    run twice writes the same INFO and the still LiDAR's noise (seeded by it) is the same; a
+    twin started by hand (``jackson sim``) draws one at random, as each boot of the robot."""
+    return int(trial_stream(seed, 6).integers(0, 2**32)) | 1
 
 
 def _normal(seed: int, index: int, n: int) -> list[float]:
@@ -259,6 +267,7 @@ class Twin:
         self.robot_spec = robot
         self.dt = 1.0 / physics_hz
         self.steps = 0
+        self.seed = seed
         self.rng = np.random.default_rng(seed)
         self.world = World(world)
         x0, y0, yaw0 = world.start_pose

@@ -227,6 +227,8 @@ def load_run(
         d_min_m=_number(metrics.get("d_min_m")),
         scans=int(metrics["scans"]) if "scans" in metrics else None,
         after_onset_m=None if onset is None else _path_after(folder, float(onset)),
+        stall_retried=metrics.get("stall_retried"),
+        stalled=bool(metrics.get("stalled", False)),
     )
 
 

@@ -68,6 +68,11 @@ class RunRecord:
     after_onset_m : float or None
         Ground-truth path length from the fault's onset to the end of the run [m] (for a
         LiDAR that goes blind: how far the robot drove on its last scans before it stood).
+    stall_retried : str or None
+        The run was retried after a lockstep stall (the machine's failure): the first
+        attempt's line (:mod:`jackson.experiments.stall_retry`), None if it did not stall.
+    stalled : bool
+        The retry stalled too: no verdict on the robot; the run is reported apart.
     """
 
     case: str
@@ -92,6 +97,8 @@ class RunRecord:
     d_min_m: float | None = None
     after_onset_m: float | None = None
     scans: int | None = None
+    stall_retried: str | None = None
+    stalled: bool = False
 
     @property
     def end_reason(self) -> str | None:

@@ -15,6 +15,7 @@ from jackson.experiments.fault_campaign.cases import (
     SENSORS,
 )
 from jackson.experiments.fault_campaign.records import RunRecord
+from jackson.experiments.stall_retry import stall_lines
 
 if TYPE_CHECKING:  # the twin and the host load when a campaign runs, not for jackson --help
     pass
@@ -82,6 +83,9 @@ def summary_markdown(summary: Mapping[str, Any]) -> str:
     if maze:
         lines += _navigation_markdown(maze)
     lines += _false_alarm_lines(summary["false_alarms"])
+    stalls = summary.get("stalls", [])
+    lines += ["", "## Lockstep stalls (the machine's failures, not the robot's)", ""]
+    lines += stall_lines(stalls, lambda r: str(r["run"]))[1:] if stalls else ["None."]
     missed = summary["missed"]
     lines += [
         "",

@@ -426,21 +426,34 @@ def summarise(
     -------
     dict
         ``meta``, ``cases`` (:class:`CaseSummary` as dicts), ``false_alarms``
-        (:class:`FalseAlarms`), ``all_met`` and ``missed`` (``{case: [reasons]}``).
+        (:class:`FalseAlarms`), ``all_met``, ``missed`` (``{case: [reasons]}``) and
+        ``stalls``: the runs retried after a lockstep stall (``stalled``: twice, so left out of
+        every figure above), the machine's failures, not the robot's.
     """
+    judged = [r for r in records if not r.stalled]  # twice stalled: the machine's, apart
     summaries = [
         summarise_case(
             c,
-            [r for r in records if r.case == c.name and r.monitor],
-            [r for r in records if r.case == c.name and not r.monitor],
+            [r for r in judged if r.case == c.name and r.monitor],
+            [r for r in judged if r.case == c.name and not r.monitor],
         )
         for c in cases
     ]
-    clean = summarise_clean([r for r in records if r.case == "clean"])
+    clean = summarise_clean([r for r in judged if r.case == "clean"])
     return {
         "meta": dict(meta),
         "cases": [s.as_json() for s in summaries],
         "false_alarms": dataclasses.asdict(clean),
         "all_met": all(s.met_target for s in summaries),
         "missed": {s.name: s.missed for s in summaries if s.missed},
+        "stalls": [
+            {
+                "run": r.folder,
+                "stalled": r.stalled,
+                "failure": r.failure,
+                "stall_retried": r.stall_retried,
+            }
+            for r in records
+            if r.stall_retried is not None
+        ],
     }

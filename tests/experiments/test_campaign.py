@@ -43,6 +43,7 @@ def test_square_campaign_writes_the_report(
         assert (tmp_path / "sq" / name).exists(), name
     summary = (tmp_path / "sq" / "summary.md").read_text()
     assert "EKF closure (cm)" in summary and "1.18 ± 0.96" in summary  # the paper beside ours
+    assert "## Lockstep stalls (the machine's failures, not the robot's)\n\nNone." in summary
     ekf = json.loads((tmp_path / "sq" / "summary.json").read_text())["metrics"]["ekf_closure_cm"]
     assert ekf["n"] == 2 and ekf["unit"] == "cm" and ekf["ci_method"] == "lognormal-cox"
     assert 0.0 < ekf["ci_low"] <= ekf["mean"] <= ekf["ci_high"]

@@ -3,6 +3,7 @@ figure-eight's and the maze's)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -387,6 +388,18 @@ def test_clean_maze_runs_add_the_lidar_to_the_false_alarms(tmp_path: Path) -> No
     assert "maze 1 run, 0.002 h" in md
     plot_faults(tmp_path / "faults.png", summary)  # three panels: detection, closure, maze
     assert (tmp_path / "faults.png").stat().st_size > 10_000
+    assert "not the robot's)\n\nNone.\n" in md.split("## Lockstep stalls")[1]
+    # stalls are the machine's: listed apart, and a run stalled twice is in no figure above
+    first = "not ended: lockstep stalled: the twin waited 10.0 s for the host's HEARTBEAT"
+    retried = dataclasses.replace(dead, stall_retried=first)
+    twice = dataclasses.replace(
+        fig8, folder="f8-again", stall_retried=first, stalled=True, failure=first + " (again)"
+    )
+    again = summarise([DEAD, LIDAR_DEAD], [retried, off, fig8, twice, *runs], meta)
+    assert again["cases"] == summary["cases"]
+    stalls = summary_markdown(again).split("## Lockstep stalls")[1].split("##")[0]
+    assert f"- f8-again: {first} (again)" in stalls
+    assert f"- {dead.folder}: {first}" in stalls
 
 
 def test_maze_cases_plan_navigation_trials_on_the_map_and_clean_maze_runs(tmp_path: Path) -> None:
