@@ -4,9 +4,9 @@
 module when it is called, so naming the suites (``jackson bench --help``, the parser's choices)
 costs no import of the code they measure. A suite that measures one layer on its own sits
 beside that layer's code (``protocol/bench.py``, ``sim/bench.py``, ``sim/bench_lidar.py``,
-``experiments/bench.py``, ``experiments/bench_stage3.py``); one that runs several layers
-together, or the command's own processes, sits in this package. A new suite adds its module
-with ``run(quick: bool) -> list[BenchResult]`` and one entry here.
+``experiments/bench.py``, ``experiments/bench_stage3.py``, ``experiments/bench_mapping.py``);
+one that runs several layers together, or the command's own processes, sits in this package.
+A new suite adds its module with ``run(quick: bool) -> list[BenchResult]`` and one entry here.
 """
 
 from __future__ import annotations
@@ -96,6 +96,13 @@ def _stage3(quick: bool) -> list[BenchResult]:
     return run(quick)
 
 
+def _mapping(quick: bool) -> list[BenchResult]:
+    """Robot-seconds mapped per CPU-second (:mod:`jackson.experiments.bench_mapping`)."""
+    from jackson.experiments.bench_mapping import run
+
+    return run(quick)
+
+
 def _ros(quick: bool) -> list[BenchResult]:
     """The ROS 2 bridge's latency (:mod:`jackson.bench.ros`)."""
     from jackson.bench.ros import run
@@ -115,6 +122,7 @@ SUITES: dict[str, Suite] = {
     "soak": _soak,
     "campaign": _campaign,
     "stage3": _stage3,
+    "mapping": _mapping,
     "ros": _ros,
 }
 """Suite name -> the function that runs it, in the order ``jackson bench`` runs them."""

@@ -55,7 +55,7 @@ from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, smooth_path
 from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.grid import OccupancyGrid
-from jackson.host.nav.mapping import Mapper, MappingConfig
+from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 from jackson.sim.config import WorldSpec, load_world

@@ -283,7 +283,8 @@ def _run_nav_trial_once(spec: NavTrialSpec) -> dict[str, Any]:
             meta=meta,
             lidar=session.lidar,
         )
-        daemon.run(max_s=wall_backstop_s("navigate"))  # the mission's limit is MCU time
+        # the mission's limit is MCU time (its route's); the wall clock only a backstop
+        daemon.run(max_s=wall_backstop_s("navigate", mission.timeout_s))
         wall = time.perf_counter() - wall0
         cut = cut_reason(daemon, "navigate", session.runner.stalled)
     t_host = daemon.core.t_s if daemon.core.t_s is not None else math.inf
@@ -303,10 +304,12 @@ def _run_nav_trial_once(spec: NavTrialSpec) -> dict[str, Any]:
         real_time_factor=twin.t_s / wall if wall > 0 else math.inf,
         faults=twin.faults.record() if twin.faults is not None else [],
     )
-    built = mission.built_map()
-    if built is not None:
-        built.save(run_dir / "built_map.yaml")
+    built = mission.finish_map(run_dir / "built_map.yaml")
+    if built is not None and mission.mapper is not None:
         result["map_ssim"] = map_quality(built, world)
+        result["map_nodes"] = len(mission.mapper.graph)
+        result["map_loops_closed"] = mission.mapper.loops_closed
+        result["map_optimisations"] = mission.mapper.optimisations
     result["cpu_s"] = time.process_time() - cpu0
     (run_dir / "metrics.json").write_text(json.dumps(result, indent=2) + "\n")
     return result

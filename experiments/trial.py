@@ -55,13 +55,16 @@ MISSIONS = ("square", "figure8")
 WALL_BACKSTOP_FACTOR = 10.0  # the wall-clock backstop over a mission's MCU-time budget
 
 
-def wall_backstop_s(mission: str) -> float:
+def wall_backstop_s(mission: str, timeout_s: float | None = None) -> float:
     """The wall-clock backstop of a trial of ``mission`` [s]: ten times its MCU-time limit.
 
     Parameters
     ----------
     mission : str
         ``square``, ``figure8`` or ``navigate``.
+    timeout_s : float or None
+        The mission's own limit when it has one (a navigation's route,
+        :func:`jackson.host.control.guard.route_timeout_s`) [s of MCU time].
 
     Returns
     -------
@@ -70,7 +73,7 @@ def wall_backstop_s(mission: str) -> float:
         figure-eight, 1800 s for a navigation. A run on a machine ten times slower than real
         time still ends on its own limit first.
     """
-    return WALL_BACKSTOP_FACTOR * MISSION_TIMEOUT_S[mission]
+    return WALL_BACKSTOP_FACTOR * (MISSION_TIMEOUT_S[mission] if timeout_s is None else timeout_s)
 
 
 def cut_reason(daemon: Daemon, mission: str, twin_stalled: str | None = None) -> str | None:

@@ -196,11 +196,9 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     finally:
         _close(transport, lidar)
         if nav_mission is not None and run_dir is not None:
-            built = nav_mission.built_map()
             last = daemon.run_folder or run_dir  # the last folder of a split run
-            if built is not None:
-                built.save(last / "built_map.yaml")
-                print(f"map: {last / 'built_map.yaml'}", flush=True)
+            if nav_mission.finish_map(last / "built_map.yaml") is not None:
+                print(f"map: {last / 'built_map.yaml'} (+ .pgm, pose graph .graph.npz)", flush=True)
     return _summary(daemon, args, navigate, status)
 
 
@@ -298,7 +296,7 @@ def _navigate(args: argparse.Namespace, cfg: HostConfig) -> Navigation | None:
 def _check_mapped_extent(extent: tuple[float, float, float, float]) -> None:
     """A route mapped as it goes fits the largest grid a map file may hold."""
     from jackson.host.nav.grid import MAX_CELLS, MAX_SIDE
-    from jackson.host.nav.mapping import MappingConfig
+    from jackson.host.nav.slam.mapper import MappingConfig
 
     res = MappingConfig().resolution_m
     width_m, height_m = extent[2] - extent[0], extent[3] - extent[1]

@@ -24,9 +24,11 @@ VERSION_SILENCE_S = 1.0  # [s] frames of another version and no INFO: report the
 # [s] the frame loop not turning this long (ten 20 Hz frames; it waits at most 0.1 s for a
 # frame) is a stall of the daemon itself: stopped (SIGSTOP), starved of CPU, or busy
 HOST_STALL_S = 0.5
-# frames waiting after it: fewer, and the device waited for the daemon (a twin in lockstep holds
-# its clock until the daemon's HEARTBEAT): nothing went on without it, so nothing is told
-HOST_STALL_BACKLOG = 2
+# telemetry frames' worth of bytes waiting after it: fewer, and the device waited for the
+# daemon (a twin in lockstep holds its clock until the daemon's HEARTBEAT; what waits is one
+# frame, and maybe a STATUS and a few ACKs): nothing went on without it, so nothing is told. A
+# device that went on through a 0.5 s stall has sent ten frames.
+HOST_STALL_BACKLOG = 4
 HOST_STALL_RECORD = "daemon stalled "  # its link record: "daemon stalled 1.30 s: ..."
 FOREIGN_WRITE = (
     "PCA9685 registers rewritten by someone else (a foreign I2C write, or the chip reset): "

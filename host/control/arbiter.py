@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from jackson.host.actuation.watchdog import CommandWatchdog
-from jackson.host.control.base import Mission, NavState, ServiceMission
+from jackson.host.control.base import Mission, NavState, ServiceMission, TimedMission
 from jackson.host.control.guard import MissionGuard
 
 
@@ -70,6 +70,8 @@ class CommandArbiter:
     ) -> None:
         self.mission = mission
         # a service's goals have their own timeout and end, not the process
+        if mission_timeout_s is None and isinstance(mission, TimedMission):
+            mission_timeout_s = mission.timeout_s
         self.guard = (
             MissionGuard(mission.name, mission_timeout_s, sensor_rules=sensor_rules)
             if mission is not None and not isinstance(mission, ServiceMission)

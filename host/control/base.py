@@ -46,6 +46,14 @@ class ScanMission(Mission, Protocol):
 
 
 @runtime_checkable
+class TimedMission(Mission, Protocol):
+    """A mission whose time limit depends on what it was given (a navigation: its route,
+    :func:`jackson.host.control.guard.route_timeout_s`) [s of MCU time]."""
+
+    timeout_s: float
+
+
+@runtime_checkable
 class LimitedMission(Mission, Protocol):
     """A mission that plans within the daemon's speed and acceleration limits (a navigation):
     told when they change at run time (:mod:`jackson.host.core.settings`)."""

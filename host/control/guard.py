@@ -6,7 +6,8 @@ predicting (the yaw freezes with a dead gyro) and the mission can chase a goal i
 reason to abort; the host then brakes and exits non-zero with that reason. Rules:
 
 - **timeout**: the mission has run ``timeout_s`` since its first command (default per mission:
-  :data:`MISSION_TIMEOUT_S`, about three times its nominal duration);
+  :data:`MISSION_TIMEOUT_S`, about three times its nominal duration; a navigation's from its
+  route, :func:`route_timeout_s`);
 - **no gyro bias**: the IMU gave no usable sample for ``bias_wait_s`` after the start, so the
   gyro bias (and the yaw rate) cannot be measured;
 - **IMU silent**: no frame with ``IMU_OK`` for ``imu_silence_s``;
@@ -20,10 +21,24 @@ whether the mission goes on in a degraded mode or stops.
 
 from __future__ import annotations
 
+import itertools
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 MISSION_TIMEOUT_S = {"square": 150.0, "figure8": 300.0, "navigate": 180.0}  # [s] of MCU time
 DEFAULT_TIMEOUT_S = 600.0  # [s] a mission not in the table
+ROUTE_SPEED_M_S = 0.25  # [m/s] a navigation's average along its route (surveys: 0.26)
+ROUTE_MARGIN = 3.0  # a route's limit: this many times its straight-line length at that speed
+
+
+def route_timeout_s(points: Sequence[tuple[float, float]]) -> float:
+    """The limit of a navigation through ``points`` (the start, then each goal) [s of MCU
+    time]: :data:`ROUTE_MARGIN` times the straight-line route at :data:`ROUTE_SPEED_M_S`, and
+    never below the Stage 3 navigation's 180 s; a survey of a whole floor gets the time it
+    needs (a 64 m ring: 768 s), where a fixed 180 s stopped it a third of the way round."""
+    route = sum(math.dist(a, b) for a, b in itertools.pairwise(points))
+    return max(MISSION_TIMEOUT_S["navigate"], ROUTE_MARGIN * route / ROUTE_SPEED_M_S)
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ Two localisers (``localisation``):
 
 * ``amcl``: a particle filter on a known map (:class:`jackson.host.nav.amcl.ParticleFilter`),
   started at the given start pose, as Nav2 with an initial pose;
-* ``slam``: a map built as the robot drives (:class:`jackson.host.nav.mapping.Mapper`, scan
+* ``slam``: a map built as the robot drives (:class:`jackson.host.nav.slam.mapper.Mapper`, scan
   matching against the map so far), as slam_toolbox; the navigator's static map is then a
   blank grid over ``extent`` whose unknown space counts as free, so the robot explores on what
   its scans show.
@@ -32,6 +32,7 @@ import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -39,6 +40,7 @@ import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.control.base import NavState
+from jackson.host.control.guard import route_timeout_s
 from jackson.host.control.navigator import (
     NavCommand,
     Navigator,
@@ -48,7 +50,7 @@ from jackson.host.control.navigator import (
 from jackson.host.control.route import check_route
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
-from jackson.host.nav.mapping import Mapper, MappingConfig
+from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 
 Localisation = Literal["amcl", "slam"]
@@ -168,6 +170,10 @@ class NavigateMission:
         keep_samples: bool = True,
     ) -> None:
         self.config = config
+        # the guard's limit (TimedMission): a survey of a whole floor gets the time it needs
+        self.timeout_s = route_timeout_s(
+            [(config.start.x, config.start.y), *((g.x, g.y) for g in config.goals)]
+        )
         self.done = False
         self.failure: str | None = None
         self.samples: list[NavSample] | deque[NavSample] = (
@@ -311,8 +317,22 @@ class NavigateMission:
         return dict(self.navigator.recoveries)
 
     def built_map(self) -> OccupancyGrid | None:
-        """The map built in ``slam`` mode (None with ``amcl``)."""
+        """The map built in ``slam`` mode so far (None with ``amcl``)."""
         return self.mapper.grid() if self.mapper is not None else None
+
+    def finish_map(self, map_yaml: Path) -> OccupancyGrid | None:
+        """The survey is over: the last look for a loop closure taken, the map saved to
+        ``map_yaml`` (map_server YAML + PGM) and its pose graph beside it
+        (:mod:`jackson.host.nav.slam.store`); the map, None with ``amcl`` (nothing saved)."""
+        if self.mapper is None:
+            return None
+        from jackson.host.nav.slam.store import graph_path, save_graph
+
+        self.mapper.finish()
+        grid = self.mapper.grid()
+        grid.save(map_yaml)
+        save_graph(self.mapper, graph_path(map_yaml))
+        return grid
 
 
 def parse_pose(text: str, limit_m: float = 1e4) -> Pose2D:

@@ -14,7 +14,7 @@ matcher maximises its mean over a scan.
 :class:`LikelihoodField` works on any grid, e.g. a map loaded from map_server files, and measures
 between cell centres, so it places an obstacle only to within half a cell. :class:`PointField`
 measures to a point given in each occupied cell (where in the cell the obstacle was seen), which
-a mapper that keeps its returns can supply; the scan matcher of :mod:`jackson.host.nav.mapping`
+a mapper that keeps its returns can supply; the scan matcher of :mod:`jackson.host.nav.slam.mapper`
 uses it to resolve the pose below the cell size.
 
 Unknown cells (-1) count as free: only cells at or above ``occupied_threshold`` attract points.

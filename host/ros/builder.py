@@ -14,6 +14,7 @@ from rosbags.typesys.stores import ros2_jazzy as jazzy
 
 from jackson.host.nav.types import Pose2D
 from jackson.host.ros.diagnostics import DiagnosticValues, diagnostic_statuses
+from jackson.host.ros.scan_bins import binned_ranges
 from jackson.host.ros.scan_timer import SCAN_PERIOD_S
 from jackson.host.ros.settings import RosSettings
 from jackson.host.ros.stamp_clock import NS_PER_S, StampClock
@@ -266,7 +267,7 @@ class MessageBuilder:
     def scan(
         self, scan: Scan, start_s: float | None = None, period_s: float = SCAN_PERIOD_S
     ) -> Any:
-        """/scan in the laser frame: one revolution, evenly spread over its angles, stamped
+        """/scan in the laser frame: one revolution binned by angle (:mod:`.scan_bins`), stamped
         with its first measurement's MCU time ``start_s`` (the LaserScan convention; default:
         one period before ``scan.t_s``) and timed by its revolution's ``period_s``."""
         n = len(scan.angles_rad)
@@ -281,7 +282,7 @@ class MessageBuilder:
             scan_time=period_s,
             range_min=SCAN_RANGE_M[0],
             range_max=SCAN_RANGE_M[1],
-            ranges=np.asarray(scan.ranges_m, dtype=np.float32),
+            ranges=binned_ranges(scan.angles_rad, scan.ranges_m),  # each at its own angle
             intensities=np.zeros(0, dtype=np.float32),
         )
 

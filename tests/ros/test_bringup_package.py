@@ -33,7 +33,7 @@ from jackson.host.nav.amcl import AmclConfig
 from jackson.host.nav.astar import AStarConfig
 from jackson.host.nav.costmap import ENVELOPE_X_M, ENVELOPE_Y_M, CostmapConfig
 from jackson.host.nav.dwb import CRITICS, DwbConfig
-from jackson.host.nav.mapping import MappingConfig
+from jackson.host.nav.slam.mapper import MappingConfig
 from jackson.host.ros.names import FRAMES, TOPICS
 from jackson.main import build_parser
 

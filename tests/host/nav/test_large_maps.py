@@ -14,7 +14,7 @@ from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.control.navigator import Navigator, NavigatorConfig, NavigatorState
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.grid import BYTES_PER_CELL, MAX_CELLS, MapFileError, OccupancyGrid
-from jackson.host.nav.mapping import Mapper, MappingConfig
+from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.sim.lidar import A1M8_ANGLE_INCREMENT_RAD, A1M8_BEAMS, Obstacles, cast
 
@@ -87,9 +87,10 @@ def test_the_particle_filter_localises_on_a_50_m_floor_as_on_a_piece_of_it(
 
 def test_mapping_without_a_map_starts_where_the_robot_stands() -> None:
     world = Obstacles(segments=[(40.0, -45.0, 40.0, -35.0), (35.0, -36.0, 45.0, -36.0)])
-    mapper = Mapper(MappingConfig(scan_matching=False))
+    mapper = Mapper(MappingConfig(scan_matching=False, min_travel_m=0.0))
     pose = Pose2D(38.0, -40.0, 0.0)
-    mapper.update(scan_from(pose, world), pose)
+    for _ in range(2):  # a cell is known once two scans saw it
+        mapper.update(scan_from(pose, world), pose)
     g = mapper.grid()
     assert g.width * g.height < 400 * 400  # around the robot, not from the origin
     r, c = g.world_to_cell(40.02, -40.0)

@@ -23,7 +23,7 @@ import pytest
 from jackson.experiments.metrics import MetricInputError, map_ssim
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.likelihood import LikelihoodField, PointField
-from jackson.host.nav.mapping import Mapper, MappingConfig
+from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
 from jackson.sim.config import Cylinder, WorldSpec, load_world
@@ -240,11 +240,11 @@ def test_a_scan_clears_the_cells_up_to_a_wall_and_marks_the_wall() -> None:
         assert grid.inside(row, col)
         return int(grid.data[row, col])
 
-    assert 50 < value(1.03, 0.0) <= 65  # the wall's cell x 1.00-1.05 after one hit
+    assert value(1.03, 0.0) == -1 and value(0.5, 0.0) == -1  # one scan: nothing known yet
     mapper.update(scan_at(sensor, Pose2D(), world), Pose2D(), MOUNT)
     grid = mapper.grid()
-    assert value(1.03, 0.0) > 65  # occupied after two
-    assert 0 <= value(0.5, 0.0) < 50 and 0 <= value(0.97, 0.2) < 50  # crossed by beams
+    assert value(1.03, 0.0) == 100  # the wall's cell x 1.00-1.05, hit by both scans
+    assert value(0.5, 0.0) == 0 and value(0.97, 0.2) == 0  # crossed by beams
     assert value(1.2, 0.0) == -1  # behind the wall: never seen
     assert value(-0.5, 0.0) == -1  # no return behind the robot: left unknown by default
     assert round(grid.origin_x_m / RES) * RES == pytest.approx(grid.origin_x_m)
@@ -252,34 +252,41 @@ def test_a_scan_clears_the_cells_up_to_a_wall_and_marks_the_wall() -> None:
 
 def test_no_return_beams_clear_only_when_configured() -> None:
     empty = Obstacles()
-    off = Mapper()
-    off.update(scan_at(lidar(), Pose2D(), empty), Pose2D(), MOUNT)
+    still = {"min_travel_m": 0.0, "min_heading_rad": 0.0, "scan_matching": False}
+    off = Mapper(MappingConfig(**still))
+    on = Mapper(MappingConfig(no_return_free_m=1.0, **still))
+    for _ in range(2):
+        off.update(scan_at(lidar(), Pose2D(), empty), Pose2D(), MOUNT)
+        on.update(scan_at(lidar(), Pose2D(), empty), Pose2D(), MOUNT)
     assert (off.grid().data == -1).all()
-    on = Mapper(MappingConfig(no_return_free_m=1.0))
-    on.update(scan_at(lidar(), Pose2D(), empty), Pose2D(), MOUNT)
     grid = on.grid()
     row, col = grid.world_to_cell([0.9, -0.6, 1.2], [0.0, 0.6, 0.0])
     assert grid.inside(row, col).all()
-    assert grid.data[row, col].tolist()[:2] == [40, 40]  # one pass: p = 0.4
+    assert grid.data[row, col].tolist()[:2] == [0, 0]  # passed twice: free
     assert grid.data[row[2], col[2]] == -1  # beyond 1 m
 
 
-def test_a_hit_wins_over_a_grazing_pass_and_repeated_passes_forget_a_removed_obstacle() -> None:
+def test_a_thin_wall_some_scans_hit_stays_while_many_pass_beside_it() -> None:
+    """A cell stays occupied while at least a tenth of the scans that saw it hit it (a thin
+    wall seen along its length), however many passed through it; a hit wins over a pass of
+    the same scan; only when the passes outnumber the hits ninefold is it free again."""
     sensor = lidar()
     with_box = Obstacles([[1.0, -0.3, 1.0, 0.3]])
     mapper = Mapper(MappingConfig(min_travel_m=0.0, min_heading_rad=0.0, scan_matching=False))
-    mapper.update(scan_at(sensor, Pose2D(), with_box), Pose2D(), MOUNT)
+    for _ in range(2):
+        mapper.update(scan_at(sensor, Pose2D(), with_box), Pose2D(), MOUNT)
     grid = mapper.grid()
     row, col = grid.world_to_cell(1.0, 0.0)
-    one_hit = round(100 / (1 + math.exp(-MappingConfig().hit_log_odds)))
-    assert grid.data[row, col] == one_hit  # though neighbouring beams graze it
+    assert grid.data[row, col] == 100  # though neighbouring beams graze it
     behind = Obstacles([[2.0, -3.0, 2.0, 3.0]])  # the box is gone; a wall behind it
-    for _ in range(8):
+    for _ in range(18):  # 2 hits in 20 scans: still a wall
         mapper.update(scan_at(sensor, Pose2D(), behind), Pose2D(), MOUNT)
     grid = mapper.grid()
     row, col = grid.world_to_cell(1.0, 0.0)  # the grid has grown to hold the far wall
-    assert 0 <= grid.data[row, col] < 20  # cleared and clamped at p = 0.12
-    assert grid.data[row, col] == round(100 / (1 + math.exp(2.0)))
+    assert grid.data[row, col] == 100
+    mapper.update(scan_at(sensor, Pose2D(), behind), Pose2D(), MOUNT)  # 2 in 21
+    grid = mapper.grid()
+    assert grid.data[row, col] == 0
 
 
 def test_scans_integrate_only_after_enough_travel_or_turn() -> None:
@@ -300,12 +307,16 @@ def test_scans_integrate_only_after_enough_travel_or_turn() -> None:
 def test_the_grid_grows_and_keeps_what_it_has_mapped() -> None:
     sensor = lidar()
     world = Obstacles([[-0.5, -0.5, 0.5, -0.5], [5.5, -0.5, 6.5, -0.5]])
-    config = MappingConfig(scan_matching=False, grow_margin_m=0.2, max_range_m=2.5)
+    config = MappingConfig(
+        scan_matching=False, grow_margin_m=0.2, max_range_m=2.5, min_travel_m=0.0
+    )
     mapper = Mapper(config)
-    mapper.update(scan_at(sensor, Pose2D(), world), Pose2D(), MOUNT)
+    for _ in range(2):  # a cell is known once two scans saw it
+        mapper.update(scan_at(sensor, Pose2D(), world), Pose2D(), MOUNT)
     first = mapper.grid()
     far = Pose2D(6.0, 0.0, 0.0)
-    mapper.update(scan_at(sensor, far, world), far, MOUNT)
+    for _ in range(2):
+        mapper.update(scan_at(sensor, far, world), far, MOUNT)
     grown = mapper.grid()
     assert grown.width > first.width
     dr = round((first.origin_y_m - grown.origin_y_m) / RES)
@@ -415,11 +426,6 @@ def test_the_matched_map_is_structurally_close_to_the_world(matched: Run, unmatc
     drifted = map_ssim(*truth_on_world_extent(unmatched.mapper.grid()))
     assert good > 0.86  # measured 0.896; the paper: 0.885 (robot), 0.942 (Isaac twin)
     assert drifted < good - 0.1  # measured 0.706
-
-
-def test_an_update_takes_a_small_part_of_the_scan_period(matched: Run, unmatched: Run) -> None:
-    assert np.median(matched.integrate_s) < A1M8_SCAN_PERIOD_S / 4
-    assert np.median(unmatched.integrate_s) < np.median(matched.integrate_s)
 
 
 # ---------------------------------------------------------------------------- Eq. 15 helper

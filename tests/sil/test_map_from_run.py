@@ -1,0 +1,68 @@
+"""Mapping from a recording, end to end: a survey of the twin recorded by the real host daemon
+(its bag with /scan), mapped again offline by ``jackson map --from`` in a subprocess."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+from jackson.experiments.stage3 import map_quality, mapping_spec, run_nav_trial
+from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.ros.bag import bag_info
+from jackson.sim.config import load_world
+
+from .harness import JACKSON
+
+WORLD = "stage3_corridor"
+FINAL_LINE = re.compile(
+    r"map: (?P<yaml>\S+/built_map\.yaml) \(\+ \.pgm\) from (?P<scans>\d+) scans over "
+    r"(?P<robot_s>[\d.]+) s of robot time \(odometry: /odometry/filtered\); "
+    r"(?P<rate>[\d.]+) robot-seconds mapped per CPU-second"
+)
+
+
+def test_a_recorded_survey_maps_offline_as_well_as_it_did_live(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    live = run_nav_trial(mapping_spec("jackson_physical", WORLD, 0, run))
+    assert live["completed"], live["failure"]
+    assert bag_info(run / "bag").counts["/scan"] > 50
+
+    out = tmp_path / "offline"
+    done = subprocess.run(
+        [JACKSON, "map", "--from", str(run), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    last = done.stdout.strip().splitlines()[-1]
+    m = FINAL_LINE.fullmatch(last)
+    assert m is not None, last
+    assert Path(m["yaml"]) == out / "built_map.yaml"
+    assert int(m["scans"]) > 50 and float(m["robot_s"]) > 5.0 and float(m["rate"]) > 0.0
+    assert (out / "built_map.pgm").exists() and (out / "trajectory.csv").exists()
+
+    offline = map_quality(OccupancyGrid.load(out / "built_map.yaml"), load_world(WORLD))
+    assert offline >= live["map_ssim"] - 0.05, (offline, live["map_ssim"])
+
+
+def test_mapping_a_folder_without_a_bag_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    done = subprocess.run(
+        [JACKSON, "map", "--from", str(tmp_path)], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        f"jackson map: {tmp_path}: no bag (a run folder holds one in bag/ when it was recorded)"
+    )
+
+
+def test_from_refuses_the_survey_options_with_exit_2(tmp_path: Path) -> None:
+    done = subprocess.run(
+        [JACKSON, "map", "--from", str(tmp_path), "--world", "maze", "--seed", "3"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip().startswith("jackson map: --world, --seed: not with --from")
