@@ -8,10 +8,7 @@ map -> odom correction. For each scan it is given the odometry (or EKF) pose of 
 2. returns that prediction unless the robot has moved at least ``min_travel_m`` or turned at
    least ``min_heading_rad`` since the last integrated scan (or this is the first scan), as
    slam_toolbox's ``minimum_travel_distance`` / ``minimum_travel_heading`` (0.5 m / 0.5 rad by
-   default there; a 0.2 m robot in a 3 m maze needs 0.05 m / 0.05 rad), and unless it spins
-   on the spot (turning faster than ``spin_rad_s`` while moving slower than ``spin_m_s``,
-   from the odometry since the scan before): a spinning robot sees nothing new, and a
-   revolution paired with a pose a frame late is turned as a whole;
+   default there; a 0.2 m robot in a 3 m maze needs 0.05 m / 0.05 rad);
 3. searches a window around the prediction (default +-0.1 m, +-0.1 rad, and in heading at
    least ``turn_window_s`` times the turn rate since the scan before: a revolution paired with
    a pose a frame late while the robot spins at 1 rad/s is turned as a whole by about 0.1 rad,
@@ -103,9 +100,6 @@ class MappingConfig:
     max_match_points : int
         Returns used by the search, evenly thinned out of the scan's (every return is still
         written into the map).
-    spin_rad_s, spin_m_s : float
-        Scans taken while the odometry turns faster than ``spin_rad_s`` [rad/s] and moves
-        slower than ``spin_m_s`` [m/s] are not integrated (spinning on the spot).
     turn_window_s : float
         The search's heading half-width is at least this times the odometry's turn rate since
         the scan before [s].
@@ -145,8 +139,6 @@ class MappingConfig:
     min_match_score: float = 0.5
     min_match_points: int = 30
     max_match_points: int = 540
-    spin_rad_s: float = 0.35
-    spin_m_s: float = 0.05
     turn_window_s: float = 0.15
     chain_sigma_m: float = 0.01
     chain_sigma_rad: float = 0.005
@@ -170,8 +162,6 @@ class MappingConfig:
             "chain_sigma_m",
             "chain_sigma_rad",
             "turn_window_s",
-            "spin_rad_s",
-            "spin_m_s",
         )
         for name in positive:
             value = getattr(self, name)
@@ -307,10 +297,7 @@ class Mapper:
         seen, self._seen = self._seen, (scan.t_s, odom_pose)
         rate = 0.0  # the odometry's turn rate since the scan before [rad/s]
         if seen is not None and scan.t_s > seen[0]:
-            dt = scan.t_s - seen[0]
-            rate = abs(math.remainder(odom_pose.yaw - seen[1].yaw, math.tau)) / dt
-            if rate > cfg.spin_rad_s and odom_pose.distance(seen[1]) < cfg.spin_m_s * dt:
-                return predicted  # spinning on the spot
+            rate = abs(math.remainder(odom_pose.yaw - seen[1].yaw, math.tau)) / (scan.t_s - seen[0])
         last = self._last_odom
         if last is not None:
             turned = abs(math.remainder(odom_pose.yaw - last.yaw, math.tau))
