@@ -232,7 +232,7 @@ def test_every_suite_runs_through_the_registry() -> None:
     """Each entry is a function of ``quick`` (no module named by a string)."""
     assert list(SUITES) == [
         "protocol", "firmware", "twin", "lidar", "lockstep", "host", "daemon", "sil", "soak",
-        "campaign", "stage3", "ros",
+        "campaign", "stage3", "mapping", "ros",
     ]  # fmt: skip
     for name, suite in SUITES.items():
         assert callable(suite), name
