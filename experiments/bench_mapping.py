@@ -24,6 +24,7 @@ from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
 
 MAPPING_RATE_TARGET = 4.0  # robot-seconds per CPU-second: a quarter of a core at most
 MOUNT = Pose2D(0.04, 0.0, 0.0)
+# an 8 m x 5 m ring of 1.5 m corridors around a 5 m x 2 m block, with posts on the outer walls
 RING = Obstacles(
     [
         [0.0, 0.0, 8.0, 0.0],
@@ -43,7 +44,9 @@ RING = Obstacles(
 )
 
 
-def _route(v_m_s: float = 0.3) -> list[Pose2D]:
+def ring_route(v_m_s: float = 0.3) -> list[Pose2D]:
+    """True poses in :data:`RING`, one per scan period: round the corridors' middle (a 20 m
+    loop, corners turned on the spot) and 3 m on past the start."""
     corners = [(0.75, 0.75), (7.25, 0.75), (7.25, 4.25), (0.75, 4.25)]
     step = v_m_s * A1M8_SCAN_PERIOD_S
     poses: list[Pose2D] = []
@@ -64,7 +67,7 @@ def _route(v_m_s: float = 0.3) -> list[Pose2D]:
 def _drive() -> tuple[list[Scan], list[Pose2D]]:
     """The scans and the drifting odometry of the drive (cast before any timing)."""
     sensor = Lidar(LidarSpec(mount_x_m=MOUNT.x, mount_y_m=MOUNT.y), np.random.default_rng(3))
-    truth = _route()
+    truth = ring_route()
     scans, odoms = [], []
     odom = truth[0]
     for i, pose in enumerate(truth):

@@ -13,52 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from jackson.experiments.bench_mapping import RING, ring_route
 from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D
 from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
-from jackson.sim.lidar import Obstacles
 
 from .test_mapper import MOUNT, lidar, scan_at
-
-# an 8 m x 5 m ring of 1.5 m corridors around a 5 m x 2 m block, with posts on the outer walls
-RING = Obstacles(
-    [
-        [0.0, 0.0, 8.0, 0.0],
-        [8.0, 0.0, 8.0, 5.0],
-        [8.0, 5.0, 0.0, 5.0],
-        [0.0, 5.0, 0.0, 0.0],
-        [1.5, 1.5, 6.5, 1.5],
-        [6.5, 1.5, 6.5, 3.5],
-        [6.5, 3.5, 1.5, 3.5],
-        [1.5, 3.5, 1.5, 1.5],
-        [2.5, 0.0, 2.5, 0.3],  # posts
-        [5.2, 5.0, 5.2, 4.7],
-        [8.0, 2.2, 7.7, 2.2],
-        [0.0, 3.1, 0.3, 3.1],
-    ],
-    [(4.0, 0.45, 0.1)],
-)
-
-
-def ring_route(v_m_s: float = 0.3) -> list[Pose2D]:
-    """True poses, one per scan period: round the corridors' middle (a 20 m loop, corners
-    turned on the spot) and 3 m on past the start."""
-    corners = [(0.75, 0.75), (7.25, 0.75), (7.25, 4.25), (0.75, 4.25)]
-    step = v_m_s * A1M8_SCAN_PERIOD_S
-    poses: list[Pose2D] = []
-    for lap in range(2):
-        for k in range(4):
-            (x0, y0), (x1, y1) = corners[k], corners[(k + 1) % 4]
-            yaw = math.atan2(y1 - y0, x1 - x0)
-            n = round(math.hypot(x1 - x0, y1 - y0) / step)
-            for i in range(n if lap == 0 else round(3.0 / step)):
-                f = i / n
-                poses.append(Pose2D(x0 + f * (x1 - x0), y0 + f * (y1 - y0), yaw))
-            if lap == 1:
-                return poses
-            for turn in np.linspace(yaw, yaw + math.pi / 2, 6)[1:-1]:
-                poses.append(Pose2D(x1, y1, float(turn)))
-    return poses
 
 
 @dataclass
