@@ -12,10 +12,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from rosbags.typesys.stores import ros2_jazzy as jazzy
 
+from jackson.host.lidar.scan_timer import SCAN_PERIOD_S
 from jackson.host.nav.types import Pose2D
 from jackson.host.ros.diagnostics import DiagnosticValues, diagnostic_statuses
 from jackson.host.ros.scan_bins import binned_ranges
-from jackson.host.ros.scan_timer import SCAN_PERIOD_S
 from jackson.host.ros.settings import RosSettings
 from jackson.host.ros.stamp_clock import NS_PER_S, StampClock
 from jackson.protocol import Telemetry

@@ -17,7 +17,7 @@ This module gathers their names in one place; each piece is a module of its own 
 
 - :mod:`~jackson.host.ros.settings`: :class:`RosSettings` and every topic (:data:`TOPIC_TYPES`);
 - :mod:`~jackson.host.ros.stamp_clock`: :class:`StampClock`, MCU time to ROS time;
-- :mod:`~jackson.host.ros.scan_timer`: :class:`ScanTimer`, when each LiDAR revolution was
+- :mod:`~jackson.host.lidar.scan_timer`: :class:`ScanTimer`, when each LiDAR revolution was
   measured;
 - :mod:`~jackson.host.ros.diagnostics`: what /diagnostics says (:class:`DiagnosticValues`,
   :class:`NavigationValues`, the statuses);
@@ -25,6 +25,7 @@ This module gathers their names in one place; each piece is a module of its own 
 - :mod:`~jackson.host.ros.output`: :class:`RosOutput`, the core's listener feeding the sinks.
 """
 
+from jackson.host.lidar.scan_timer import SCAN_PERIOD_S, ScanTimer
 from jackson.host.ros.builder import (
     SCAN_RANGE_M,
     MessageBuilder,
@@ -49,7 +50,6 @@ from jackson.host.ros.output import (
     navigation_of,
     wire_bytes,
 )
-from jackson.host.ros.scan_timer import SCAN_PERIOD_S, ScanTimer
 from jackson.host.ros.settings import TOPIC_TYPES, RosSettings
 from jackson.host.ros.stamp_clock import CLOCK_SLEW, CLOCK_WINDOW_S, NS_PER_S, StampClock
 

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from jackson.host.core.results import CoreListener, FrameResult
+from jackson.host.lidar.scan_timer import ScanTimer
 from jackson.host.ros.builder import MessageBuilder, TFMessage
 from jackson.host.ros.diagnostics import DiagnosticValues
-from jackson.host.ros.scan_timer import ScanTimer
 from jackson.protocol import PROTOCOL_VERSION, Frame, TelemetryFlags, crc32c
 
 if TYPE_CHECKING:
