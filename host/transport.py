@@ -14,6 +14,13 @@ it sends HELLO again. When the port stays open but the device falls silent (an M
 a UART bridge ends the session), it re-sends HELLO every ``silence_s``. The daemon never
 restarts.
 
+**One session id per connection.** Every HELLO carries the connection's session id (drawn at
+random each time the port is opened, protocol/spec.md §6.3). A device still in that session
+answers a repeated HELLO without restarting anything, so a HELLO sent after a silence that was
+only this host being slow (a busy machine, a twin starved of CPU) leaves the device's interlock,
+telemetry schedule and IMU averaging as they were; a device that did reset has no session and
+starts the new one.
+
 **A session starts at the answer to its HELLO.** A device that streamed while nobody read its
 port (a real USB CDC device's transmit buffer; the twin's 8 KiB queue behind its pty) still
 holds frames of that time when a host opens the port, and they arrive after the host has
@@ -70,6 +77,7 @@ from jackson.protocol import (
     Telemetry,
     encode_frame,
     hello,
+    new_session_id,
 )
 from jackson.protocol.frame import CRC_SIZE, HEADER_SIZE
 
@@ -195,11 +203,14 @@ class Session:
         self.hellos = 0  # HELLOs sent (first, after reconnects, after silence)
         self.hello_s = 0.0  # the last HELLO (monotonic s)
         self.wait_s = 0.0  # since when this connection waits for its INFO (monotonic s)
+        self.id = new_session_id()  # this connection's session id, in each of its HELLOs
 
     def connected(self, now_s: float) -> None:
-        """A new connection: no session yet, its wait for an INFO starts ``now_s``."""
+        """A new connection: no session yet, a new session id, its wait for an INFO starts
+        ``now_s``."""
         self.started = False
         self.wait_s = now_s
+        self.id = new_session_id()
 
     def hello_sent(self) -> None:
         """A HELLO goes out now."""
@@ -472,9 +483,10 @@ class SerialTransport:
             self.send_hello()
 
     def send_hello(self) -> None:
-        """HELLO: starts (or restarts) the device's session."""
+        """HELLO with this connection's session id: starts the device's session, or resumes it
+        unchanged when the device is still in it."""
         self._session.hello_sent()
-        self.send(hello())
+        self.send(hello(self._session.id))
 
     def _drop(self, detail: str) -> None:
         with self._lock:

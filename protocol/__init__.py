@@ -24,7 +24,7 @@ from jackson.protocol.frame import (
     decode_message,
     encode_frame,
 )
-from jackson.protocol.handshake import check_peer, hello
+from jackson.protocol.handshake import check_peer, hello, new_session_id
 from jackson.protocol.messages import (
     MAX_PAYLOAD,
     MESSAGES,
@@ -92,4 +92,5 @@ __all__ = [
     "decode_message",
     "encode_frame",
     "hello",
+    "new_session_id",
 ]

@@ -2,13 +2,22 @@
 
 from __future__ import annotations
 
+import secrets
+
 from jackson.protocol.errors import ProtocolMismatchError
 from jackson.protocol.messages import PROTOCOL_VERSION, SCHEMA_HASH, Hello, Info
 
 
-def hello() -> Hello:
-    """The HELLO this build sends: its protocol version and schema hash."""
-    return Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH)
+def hello(session: int = 0) -> Hello:
+    """The HELLO this build sends: its protocol version and schema hash, and ``session``, the
+    connection's id (spec §6.3): a device already in that session resumes it instead of starting
+    over; 0 always starts a new session."""
+    return Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH, session=session)
+
+
+def new_session_id() -> int:
+    """A connection's session id: random, never 0 (a HELLO's 0 means no session to resume)."""
+    return secrets.randbits(32) or 1
 
 
 def check_peer(info: Info) -> None:

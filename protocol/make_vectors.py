@@ -133,7 +133,11 @@ def sample_messages() -> list[tuple[str, Message, int]]:
         ("log_text", Log(level=2, text="IMU: WHO_AM_I 0x00, retry in 400 ms"), 4),
         ("log_empty", Log(level=0, text=""), 5),
         ("log_utf8_full", Log(level=3, text="°" * 50), 6),
-        ("hello_typical", Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH), 0),
+        (
+            "hello_typical",
+            Hello(protocol_version=PROTOCOL_VERSION, schema_hash=SCHEMA_HASH, session=0x5E55_1011),
+            0,
+        ),
         ("heartbeat_typical", Heartbeat(ack_seq=7, host_state=1), 1),
         ("set_rate_200", SetRate(rate_hz=200), 2),
         ("zero_counters_both", ZeroCounters(mask=0b11), 3),

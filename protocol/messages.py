@@ -1,4 +1,4 @@
-"""Message classes generated from protocol/schema.yaml (schema 0xc8da2512).
+"""Message classes generated from protocol/schema.yaml (schema 0xd0cfa9fd).
 
 Do not edit: change the schema and run ``python -m jackson.protocol.codegen``.
 """
@@ -13,7 +13,7 @@ from typing import ClassVar
 Buffer = bytes | bytearray | memoryview
 
 PROTOCOL_VERSION = 1
-SCHEMA_HASH = 0xc8da2512
+SCHEMA_HASH = 0xd0cfa9fd
 MAX_PAYLOAD = 120
 PARTIAL_TIMEOUT_US = 20000
 
@@ -99,7 +99,7 @@ _INFO = struct.Struct("<BI3BHHBBBB9f3ffI")
 _ACK = struct.Struct("<BBI")
 _NACK = struct.Struct("<BBBI")
 _LOG = struct.Struct("<B")
-_HELLO = struct.Struct("<BI")
+_HELLO = struct.Struct("<BII")
 _HEARTBEAT = struct.Struct("<BB")
 _SET_RATE = struct.Struct("<H")
 _ZERO_COUNTERS = struct.Struct("<B")
@@ -277,25 +277,26 @@ class Log:
 
 @dataclass(frozen=True, slots=True)
 class Hello:
-    """First message of a session. The device answers INFO and ACK (NACK VERSION_MISMATCH when version or hash differ) and starts telemetry."""
+    """First message of a session. The device answers INFO and ACK (NACK VERSION_MISMATCH when version or hash differ) and starts telemetry. A HELLO carrying the session in progress resumes it: answered the same way, nothing restarts (the host's HELLO after a silence on a link it still holds)."""
 
     TYPE: ClassVar[int] = 0x80
     NAME: ClassVar[str] = 'hello'
-    SIZE: ClassVar[int] = 5
+    SIZE: ClassVar[int] = 9
     protocol_version: int = 0
     schema_hash: int = 0
+    session: int = 0
 
     def pack(self) -> bytes:
         """Payload bytes of this message."""
-        return _HELLO.pack(self.protocol_version, self.schema_hash)
+        return _HELLO.pack(self.protocol_version, self.schema_hash, self.session)
 
     @classmethod
     def unpack(cls, payload: Buffer) -> Hello:
         """Decode a payload; missing trailing bytes read as zero, extra bytes are ignored."""
-        if len(payload) < 5:
-            payload = bytes(payload) + bytes(5 - len(payload))
+        if len(payload) < 9:
+            payload = bytes(payload) + bytes(9 - len(payload))
         v = _HELLO.unpack_from(payload)
-        return cls(v[0], v[1])
+        return cls(v[0], v[1], v[2])
 
 
 @dataclass(frozen=True, slots=True)

@@ -312,6 +312,13 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
     }
     return;
   }
+  if (f.type == proto::Hello::kType && f.len < proto::Hello::kSize) {
+    // an older host's HELLO (no session id): its protocol is not ours; INFO lets it say so
+    send_info();
+    nack(f, NackError::kVersionMismatch);
+    session_ = false;
+    return;
+  }
   // Every other command: the payload must hold all fields, else nothing changes.
   size_t need = 0;
   proto::visit_message(f.type, f.payload, f.len,
@@ -330,7 +337,15 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
         session_ = false;
         return;
       }
+      if (session_ && h.session != 0 && h.session == session_id_) {
+        // the same host's HELLO again (it heard nothing for a while): the session goes on as it
+        // was, its interlock, telemetry schedule and IMU averaging untouched
+        send_info();
+        ack(f);
+        return;
+      }
       session_ = true;
+      session_id_ = h.session;
       averager_ = ImuAverager{};  // the first frame averages only samples of this session
       heartbeat_seen_ = false;  // the interlock drops until this session's first HEARTBEAT
       host_shutdown_ = false;
@@ -380,6 +395,8 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
         return;
       }
       const ImuCalibration previous = cal_;
+      const bool same = calibrated_ && r == cal_.rotation && b == cal_.gyro_bias_rad_s &&
+                        m.accel_scale == cal_.accel_scale;
       cal_.rotation = r;
       cal_.gyro_bias_rad_s = b;
       cal_.accel_scale = m.accel_scale;
@@ -392,7 +409,7 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
         calibration_stored_ = true;
       }
       calibrated_ = true;
-      averager_ = ImuAverager{};  // never mix raw and calibrated samples in one mean
+      if (!same) averager_ = ImuAverager{};  // never mix two calibrations' samples in one mean
       ack(f);
       return;
     }

@@ -118,6 +118,7 @@ class Firmware {
   protocol::FrameDecoder decoder_{true};
 
   bool session_ = false;
+  uint32_t session_id_ = 0;  ///< the HELLO's session id of the session in progress (0: none given)
   uint8_t tx_seq_ = 0;
   uint32_t frames_sent_ = 0;
   uint32_t tx_dropped_ = 0;

@@ -186,11 +186,13 @@ struct Bench {
     return out;
   }
 
-  /// HELLO with this build's version; returns what came back.
-  std::vector<Sent> hello(uint8_t seq = 0) {
+  /// HELLO with this build's version and `session` (0: always a new session); returns what
+  /// came back.
+  std::vector<Sent> hello(uint8_t seq = 0, uint32_t session = 0) {
     protocol::Hello h;
     h.protocol_version = protocol::kProtocolVersion;
     h.schema_hash = protocol::kSchemaHash;
+    h.session = session;
     serial.host_sends(h, seq);
     fw.tick();
     return take_sent();

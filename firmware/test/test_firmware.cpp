@@ -205,6 +205,33 @@ TEST(Firmware, CalibrationIsAppliedOnceFlaggedPersistedAndReported) {
   EXPECT_EQ(info.accel_scale, 2.0f);
 }
 
+TEST(Firmware, TheSameCalibrationAgainKeepsTheFramesAverage) {
+  // a host that says HELLO again re-sends its calibration: a frame's mean must not lose the
+  // samples taken before it (a new calibration does restart the mean)
+  auto frame_gyro_x = [](bool same) {
+    Bench b;
+    b.fw.begin();
+    b.hello();
+    proto::SetImuCalibration c;
+    c.imu_rotation = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    c.gyro_bias = {0, 0, 0};
+    c.accel_scale = 1.0f;
+    b.serial.host_sends(c, 1);
+    b.fw.tick();
+    b.run_for(60'000);  // the first frame; the second is due 50 ms after it
+    b.take_sent();
+    b.i2c.set_sample({100, -200, 16384}, -1700, {1000, -20, 30});
+    b.run_for(20'000);
+    if (!same) c.accel_scale = 1.5f;
+    b.serial.host_sends(c, 2);
+    b.fw.tick();
+    b.run_for(40'000);
+    return only<proto::Telemetry>(b.take_sent()).back().as<proto::Telemetry>().gyro[0];
+  };
+  EXPECT_LT(frame_gyro_x(true), 1000);  // samples of 10 before the repeat are in the mean
+  EXPECT_EQ(frame_gyro_x(false), 1000);  // a new calibration: only its own samples
+}
+
 TEST(Firmware, InvalidCalibrationIsNackedAndStorageFailureLeavesNothingChanged) {
   Bench b;
   b.fw.begin();
@@ -570,6 +597,66 @@ TEST(Interlock, NewHelloReleasesUntilItsFirstHeartbeat) {
   heartbeat(b, 6);
   b.fw.tick();
   EXPECT_TRUE(b.enable.enabled);
+}
+
+TEST(Interlock, TheSameSessionsHelloChangesNothing) {
+  Bench b(false);
+  b.fw.begin();
+  b.hello(0, 0x5E55u);
+  heartbeat(b, 1);
+  b.fw.tick();
+  b.run_for(70'000);  // telemetry 50 ms after the HELLO
+  const auto before = only<proto::Telemetry>(b.take_sent());
+  ASSERT_EQ(before.size(), 1u);
+  const auto again = b.hello(5, 0x5E55u);  // the host heard nothing for a while: HELLO again
+  EXPECT_EQ(only<proto::Info>(again).size(), 1u);
+  EXPECT_TRUE(acked(again, proto::Hello::kType, 5));
+  EXPECT_TRUE(b.enable.enabled);  // the interlock holds
+  EXPECT_EQ(b.enable.changes, (std::vector<bool>{false, true}));
+  b.run_for(100'000);
+  const auto t = only<proto::Telemetry>(b.take_sent());
+  ASSERT_EQ(t.size(), 2u);
+  // on the session's schedule (a new session's would be 50 ms after the HELLO, not the frame)
+  EXPECT_EQ(t[0].as<proto::Telemetry>().t_us - before[0].as<proto::Telemetry>().t_us, 50'000u);
+  EXPECT_EQ(t[1].as<proto::Telemetry>().t_us - t[0].as<proto::Telemetry>().t_us, 50'000u);
+}
+
+TEST(Interlock, AnotherSessionsHelloStartsOver) {
+  Bench b(false);
+  b.fw.begin();
+  b.hello(0, 0x5E55u);
+  heartbeat(b, 1);
+  b.fw.tick();
+  b.run_for(20'000);
+  ASSERT_TRUE(b.enable.enabled);
+  b.hello(5, 0x5E56u);  // another connection
+  EXPECT_FALSE(b.enable.enabled);
+  b.hello(6, 0x5E55u);  // the first id is not the session in progress any more
+  b.hello(7, 0x5E55u);  // but now it is: answered, and nothing restarts
+  heartbeat(b, 8);
+  b.fw.tick();
+  EXPECT_TRUE(b.enable.enabled);
+  b.hello(9, 0x5E55u);
+  EXPECT_TRUE(b.enable.enabled);
+}
+
+TEST(Firmware, HelloWithoutASessionIdIsAnotherSchema) {
+  Bench b;
+  b.fw.begin();
+  // the HELLO of the schema before the session id: version and hash only (5 bytes)
+  std::vector<uint8_t> body = {proto::kProtocolVersion, proto::Hello::kType, 3, 5,
+                               proto::kProtocolVersion};
+  for (int i = 0; i < 4; ++i) body.push_back(static_cast<uint8_t>(0xc8da2512u >> (8 * i)));
+  const uint32_t crc = proto::crc32c(body.data(), body.size());
+  std::vector<uint8_t> f = {proto::kSync0, proto::kSync1};
+  f.insert(f.end(), body.begin(), body.end());
+  for (int i = 0; i < 4; ++i) f.push_back(static_cast<uint8_t>(crc >> (8 * i)));
+  b.serial.rx = f;
+  b.fw.tick();
+  const auto sent = b.take_sent();
+  EXPECT_EQ(only<proto::Info>(sent).size(), 1u);  // so that host can name both hashes
+  EXPECT_EQ(nack_of(sent).error, static_cast<uint8_t>(proto::NackError::kVersionMismatch));
+  EXPECT_FALSE(b.fw.session_active());
 }
 
 TEST(Interlock, TelemetryAndStatusFlagMirrorTheLine) {

@@ -132,6 +132,8 @@ def test_a_silent_device_gets_hello_again(pty: tuple[int, str]) -> None:
     try:
         hellos = [m for m in device_reads(master, 3) if isinstance(m, Hello)]
         assert len(hellos) >= 3  # the first, then one per silent period
+        # one connection, one session id: a device still in it resumes instead of restarting
+        assert len({h.session for h in hellos}) == 1 and hellos[0].session != 0
         kinds = []
         while True:
             try:
@@ -422,6 +424,15 @@ def test_reconnection_waits_0_1_s_then_doubles_to_2_s_and_starts_over_once_open(
     r.opened()
     r.lost()
     assert r.left_s() == pytest.approx(0.1) and r.count == 1
+
+
+def test_each_connection_draws_its_own_session_id() -> None:
+    s = Session()
+    ids = {s.id}
+    for _ in range(50):
+        s.connected(0.0)
+        ids.add(s.id)
+    assert len(ids) == 51 and 0 not in ids
 
 
 def test_a_session_starts_at_its_info_and_counts_the_frames_before_it_stale() -> None:

@@ -1,4 +1,4 @@
-// Message structs generated from protocol/schema.yaml (schema 0xc8da2512).
+// Message structs generated from protocol/schema.yaml (schema 0xd0cfa9fd).
 // Do not edit: change the schema and run `python -m jackson.protocol.codegen`.
 #pragma once
 
@@ -12,7 +12,7 @@
 namespace jackson::protocol {
 
 constexpr uint8_t kProtocolVersion = 1;
-constexpr uint32_t kSchemaHash = 0xc8da2512u;
+constexpr uint32_t kSchemaHash = 0xd0cfa9fdu;
 constexpr size_t kMaxPayload = 120;
 constexpr uint32_t kPartialTimeoutUs = 20000;
 
@@ -473,20 +473,22 @@ struct Log {
   }
 };
 
-/// First message of a session. The device answers INFO and ACK (NACK VERSION_MISMATCH when version or hash differ) and starts telemetry.
+/// First message of a session. The device answers INFO and ACK (NACK VERSION_MISMATCH when version or hash differ) and starts telemetry. A HELLO carrying the session in progress resumes it: answered the same way, nothing restarts (the host's HELLO after a silence on a link it still holds).
 struct Hello {
   static constexpr uint8_t kType = 0x80;
   static constexpr const char* kName = "hello";
-  static constexpr size_t kSize = 5;  ///< fixed part, bytes
-  static constexpr size_t kMaxSize = 5;
+  static constexpr size_t kSize = 9;  ///< fixed part, bytes
+  static constexpr size_t kMaxSize = 9;
   uint8_t protocol_version = 0;
   uint32_t schema_hash = 0;
+  uint32_t session = 0;
 
   /// Writes the payload to `out` (at least kMaxSize bytes); returns its length.
   size_t encode(uint8_t* out) const noexcept {
     size_t o = 0;
     o += wire::put(out + o, protocol_version);
     o += wire::put(out + o, schema_hash);
+    o += wire::put(out + o, session);
     (void)out;
     return o;
   }
@@ -498,6 +500,7 @@ struct Hello {
     size_t o = 0;
     o += wire::get(buf + o, protocol_version);
     o += wire::get(buf + o, schema_hash);
+    o += wire::get(buf + o, session);
     (void)buf;
     (void)o;
   }
@@ -506,12 +509,14 @@ struct Hello {
   void for_each_field(F&& f) {
     f("protocol_version", protocol_version);
     f("schema_hash", schema_hash);
+    f("session", session);
     (void)f;
   }
   template <class F>
   void for_each_field(F&& f) const {
     f("protocol_version", protocol_version);
     f("schema_hash", schema_hash);
+    f("session", session);
     (void)f;
   }
 };
