@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from jackson.commands.checks import (
     CliError,
@@ -15,6 +17,9 @@ from jackson.commands.checks import (
     refuse_bad_route,
 )
 from jackson.common.args import nonneg_int, pose_text
+
+if TYPE_CHECKING:
+    from jackson.sim.config import WorldSpec
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -92,6 +97,7 @@ def _cmd_map_world(args: argparse.Namespace) -> int:
     world_spec = load_world(args.world)
     refuse_bad_route(lambda: check_world_route(world_spec, spec.goals), f"--world {args.world}")
     r = run_nav_trial(spec)
+    _report(out, out, world_spec)
     if not r["completed"]:
         print(f"jackson map: the survey stopped: {r['failure']}; the partial map is in {out}")
         return 1
@@ -145,9 +151,28 @@ def _cmd_map_from(args: argparse.Namespace) -> int:
             progress.update(task, completed=read, info=f"{robot_s:.1f} s of robot time")
 
         summary = map_recording(run, out, progress=on_scan, plan=plan)
+    _report(out, run, None)
     print(
         f"map: {summary.map_yaml} (+ .pgm) from {summary.scans_paired} scans over "
         f"{summary.robot_s:.1f} s of robot time (odometry: {summary.odometry_topic}); "
         f"{summary.robot_s_per_cpu_s:.1f} robot-seconds mapped per CPU-second"
     )
     return 0
+
+
+def _report(out: Path, run: Path, world: WorldSpec | None) -> None:
+    """Write the map's report (``built_map.png``, ``map_quality.json``) and print its figures;
+    nothing when the run wrote no map. ``world``: the twin's (None: the one the run's
+    ``meta.json`` names, if it is a twin run)."""
+    from jackson.experiments.map_report import write_map_report
+    from jackson.experiments.metrics.inputs import MetricInputError
+
+    if not (out / "built_map.yaml").is_file() or not (out / "built_map.graph.npz").is_file():
+        return
+    print(f"judging the map and drawing its report ({out / 'built_map.png'}) ...", file=sys.stderr)
+    try:
+        report = write_map_report(out, run, world)
+    except MetricInputError as exc:
+        raise CliError(f"the map's report: {exc}") from exc
+    print(f"report: {report.png}, {report.json}")
+    print("\n".join(report.lines()))

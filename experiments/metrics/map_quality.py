@@ -41,6 +41,8 @@ from jackson.experiments.metrics.inputs import MetricInputError
 from jackson.experiments.metrics.maps import map_ssim
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
     from jackson.host.nav.grid import OccupancyGrid
     from jackson.sim.config import WorldSpec
 
@@ -244,7 +246,10 @@ def judge_map(
 
 
 def judge_run(
-    folder: str | Path, world: WorldSpec | None = None, max_range_m: float | None = None
+    folder: str | Path,
+    world: WorldSpec | None = None,
+    max_range_m: float | None = None,
+    map_yaml: str | Path | None = None,
 ) -> MapQuality:
     """Judge the map a mapping run wrote (``jackson map --out FOLDER``).
 
@@ -260,6 +265,9 @@ def judge_run(
         The world to judge against; default the one named in ``meta.json``.
     max_range_m : float, optional
         The mapper's range; default :class:`jackson.host.nav.slam.mapper.MappingConfig`'s.
+    map_yaml : str or Path, optional
+        The map to judge; default the run's own ``built_map.yaml`` (another: the run mapped
+        again from its recording, ``jackson map --from FOLDER``).
 
     Returns
     -------
@@ -275,14 +283,18 @@ def judge_run(
     from jackson.sim.config import load_robot, load_world
 
     run = Path(folder)
-    for name in ("built_map.yaml", "ground_truth.csv", "meta.json"):
+    needed = ("ground_truth.csv", "meta.json") + (() if map_yaml else ("built_map.yaml",))
+    for name in needed:
         if not (run / name).is_file():
             raise MetricInputError(f"{run}: no {name}; is this the folder of a mapping run?")
+    map_path = Path(map_yaml) if map_yaml else run / "built_map.yaml"
+    if not map_path.is_file():
+        raise MetricInputError(f"{map_path}: no such map")
     meta = json.loads((run / "meta.json").read_text())
     if world is None:
         world = load_world(meta["world"])
     mount = load_robot(meta.get("robot", "jackson_physical")).lidar
-    x, y, yaw = _truth_path(run / "ground_truth.csv")
+    _, x, y, yaw = truth_path(run / "ground_truth.csv")
     c, s = np.cos(yaw), np.sin(yaw)
     lidar = np.column_stack(
         (
@@ -290,7 +302,7 @@ def judge_run(
             y + s * mount.mount_x_m + c * mount.mount_y_m,
         )
     )
-    grid = OccupancyGrid.load(run / "built_map.yaml")
+    grid = OccupancyGrid.load(map_path)
     rng = MappingConfig().max_range_m if max_range_m is None else max_range_m
     return judge_map(grid, world, lidar, rng)
 
@@ -298,16 +310,26 @@ def judge_run(
 # ------------------------------------------------------------------------------ the pieces
 
 
-def _truth_path(path: Path) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """x, y [m] and yaw [rad] of the true path in a run's ``ground_truth.csv``."""
-    with path.open() as f:
-        header = f.readline().strip().split(",")
-        data = np.loadtxt(f, delimiter=",", ndmin=2).reshape(-1, len(header))
-    missing = [k for k in ("x_m", "y_m", "yaw_rad") if k not in header]
+def truth_path(path: Path) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """t [s], x, y [m] and yaw [rad] of the true path in a run's ``ground_truth.csv``.
+
+    Raises
+    ------
+    MetricInputError
+        The file is missing or unreadable, has no rows or lacks one of those columns.
+    """
+    columns = ("t_s", "x_m", "y_m", "yaw_rad")
+    try:
+        with path.open() as f:
+            header = f.readline().strip().split(",")
+            data = np.loadtxt(f, delimiter=",", ndmin=2).reshape(-1, len(header))
+    except (OSError, ValueError) as exc:
+        raise MetricInputError(f"{path}: not a ground truth ({exc})") from exc
+    missing = [k for k in columns if k not in header]
     if missing or len(data) == 0:
         raise MetricInputError(f"{path}: no rows or no column {', '.join(missing)}")
-    x, y, yaw = (data[:, header.index(k)] for k in ("x_m", "y_m", "yaw_rad"))
-    return x, y, yaw
+    t, x, y, yaw = (data[:, header.index(k)] for k in columns)
+    return t, x, y, yaw
 
 
 def _samples(walls: FloatArray, circles: FloatArray) -> tuple[FloatArray, IntArray]:
@@ -438,6 +460,59 @@ def _truth(grid: OccupancyGrid, world: WorldSpec) -> tuple[npt.NDArray[np.int8],
 # ------------------------------------------------------------------------------ the figure
 
 
+def draw_map(ax: Axes, grid: OccupancyGrid) -> None:
+    """The map on ``ax`` in world coordinates: free white, occupied dark grey, unknown light
+    grey (cells as squares)."""
+    image = np.full(grid.data.shape, 0.75)
+    image[(grid.data >= 0) & (grid.data < OCCUPIED_VALUE)] = 1.0
+    image[grid.data >= OCCUPIED_VALUE] = 0.25
+    x1 = grid.origin_x_m + grid.width * grid.resolution_m
+    y1 = grid.origin_y_m + grid.height * grid.resolution_m
+    ax.imshow(
+        image,
+        origin="lower",
+        cmap="gray",
+        vmin=0.0,
+        vmax=1.0,
+        extent=(grid.origin_x_m, x1, grid.origin_y_m, y1),
+        interpolation="nearest",
+    )
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal")
+
+
+def draw_quality(ax: Axes, quality: MapQuality, scale: float = 1.0) -> None:
+    """The judgement over a map drawn by :func:`draw_map`: the true walls' samples green where
+    covered, red where seen but missed, faint grey where never seen; occupied cells farther
+    than the tolerance from any true obstacle in magenta. ``scale`` multiplies the markers'
+    areas (smaller for a large floor)."""
+    s = quality.samples
+    layers = (
+        (s.xy[~s.seen], 0.6, "0.55", "o", "wall not in view"),
+        (s.xy[s.seen & s.covered], 2.0, "tab:green", "o", "wall covered"),
+        (s.xy[s.seen & ~s.covered], 4.0, "red", "o", "wall missed"),
+        (quality.stray_xy, 4.0, "magenta", "s", f"occupied > {quality.tol_m * 100:g} cm off"),
+    )
+    for xy, size, colour, marker, label in layers:
+        if len(xy):
+            ax.scatter(
+                xy[:, 0], xy[:, 1], s=size * scale, c=colour, marker=marker, lw=0, label=label
+            )
+
+
+def quality_text(quality: MapQuality) -> str:
+    """The figures of ``quality`` in two lines, for a title."""
+    worst = quality.worst
+    return (
+        f"{quality.covered_fraction:.0%} of {len(quality.judged)} segments in view "
+        f"≥ {COVERED:.0%} covered (worst {worst.coverage if worst else math.nan:.0%}), "
+        f"precision {quality.precision:.1%}, SSIM {quality.ssim:.3f},\n"
+        f"misplacement p99 {quality.misplacement_p99_m * 100:.1f} cm, "
+        f"max {quality.misplacement_max_m * 100:.1f} cm"
+    )
+
+
 def plot_map_quality(
     path: str | Path,
     grid: OccupancyGrid,
@@ -475,48 +550,15 @@ def plot_map_quality(
     from jackson.common.figures import save_figure
 
     png = Path(path)
-    image = np.full(grid.data.shape, 0.75)
-    image[(grid.data >= 0) & (grid.data < OCCUPIED_VALUE)] = 1.0
-    image[grid.data >= OCCUPIED_VALUE] = 0.25
-    x1 = grid.origin_x_m + grid.width * grid.resolution_m
-    y1 = grid.origin_y_m + grid.height * grid.resolution_m
     width_in = 9.0
-    aspect = (y1 - grid.origin_y_m) / max(x1 - grid.origin_x_m, 1e-9)
+    aspect = grid.height / max(grid.width, 1)
     fig, ax = plt.subplots(figsize=(width_in, min(14.0, width_in * aspect + 1.2)))
-    ax.imshow(
-        image,
-        origin="lower",
-        cmap="gray",
-        vmin=0.0,
-        vmax=1.0,
-        extent=(grid.origin_x_m, x1, grid.origin_y_m, y1),
-        interpolation="nearest",
-    )
-    s = quality.samples
-    layers = (
-        (s.xy[~s.seen], 0.6, "0.55", "o", "not in view"),
-        (s.xy[s.seen & s.covered], 2.0, "tab:green", "o", "covered"),
-        (s.xy[s.seen & ~s.covered], 4.0, "red", "o", "missed"),
-        (quality.stray_xy, 4.0, "magenta", "s", f"occupied > {quality.tol_m * 100:g} cm off"),
-    )
-    for xy, size, colour, marker, label in layers:
-        if len(xy):
-            ax.scatter(xy[:, 0], xy[:, 1], s=size, c=colour, marker=marker, lw=0, label=label)
+    draw_map(ax, grid)
+    draw_quality(ax, quality)
     if poses_xy is not None:
         p = np.asarray(poses_xy, np.float64)
         ax.plot(p[:, 0], p[:, 1], c="tab:blue", lw=0.6, alpha=0.7, label="LiDAR path")
-    worst = quality.worst
-    ax.set_title(
-        f"{world.name}: {quality.covered_fraction:.0%} of {len(quality.judged)} segments in view "
-        f"≥ {COVERED:.0%} covered (worst {worst.coverage if worst else math.nan:.0%}), "
-        f"precision {quality.precision:.1%}, SSIM {quality.ssim:.3f},\n"
-        f"misplacement p99 {quality.misplacement_p99_m * 100:.1f} cm, "
-        f"max {quality.misplacement_max_m * 100:.1f} cm",
-        fontsize=9,
-    )
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_aspect("equal")
+    ax.set_title(f"{world.name}: {quality_text(quality)}", fontsize=9)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, markerscale=3)
     save_figure(fig, png, bbox_inches="tight")
     return png
