@@ -6,8 +6,12 @@ On a floor of a few hundred square metres the graph holds a few thousand nodes: 
 and writing every scan again takes seconds of CPU, which inside the frame loop would stall the
 daemon long past the MCU's 200 ms failsafe. So :func:`look` runs on a snapshot of the graph (the
 nodes are never changed once made) while the frame loop goes on, and the mapper takes its
-result when it next looks (``loop_every`` nodes later), waiting for it then if the thread has
-not finished. The result therefore always lands at the same node, however fast the machine:
+result when it next looks, waiting for it then if the thread has not finished. The next look
+comes ``loop_every`` nodes later, or a share of the graph's size later when that is more
+(``MappingConfig.look_share``): writing the map again costs in proportion to the nodes, and
+the robot lays nodes down at the same pace whatever the graph's size, so the wait stays
+away on a large floor too. The result therefore always lands at the same node, however fast
+the machine:
 a run and its replay, idle or on a busy machine, build the same map. The nodes added meanwhile
 move with the node the closure was found at (the drift between them is the front end's, and
 small); the map is the thread's, with their scans written on top.
@@ -90,8 +94,9 @@ def look(
         return Closure(k, edge)
     graph.optimise()
     cells = CountGrid(insertion)
-    for i, node in enumerate(nodes[: k + 1]):
-        cells.write(node.scan, graph.pose(i).compose(node.mount))
+    cells.write_all(
+        [(n.scan, graph.pose(i).compose(n.mount)) for i, n in enumerate(nodes[: k + 1])]
+    )
     return Closure(k, edge, graph.poses(), cells)
 
 

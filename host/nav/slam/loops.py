@@ -59,6 +59,11 @@ class LoopConfig:
         Returns of node k's scan used by the match.
     sigma_m, sigma_rad : float
         The closure edge's standard deviations [m], [rad].
+    max_spread_m : float
+        A match whose nearly as good positions spread wider than this along some direction
+        (:class:`~jackson.host.nav.slam.matcher.Match`) is not a closure [m]: a scan of a
+        corridor matched against the same corridor, or against the other side of its wall,
+        fits anywhere along it.
     """
 
     min_chain_m: float = 6.0
@@ -69,6 +74,7 @@ class LoopConfig:
     max_points: int = 270
     sigma_m: float = 0.03
     sigma_rad: float = 0.015
+    max_spread_m: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -130,8 +136,8 @@ def close_loop(
     bx, by = base_points(node.scan, node.mount, insertion.max_range_m, cfg.max_points)
     if bx.size == 0:
         return None
-    pose, score = search(field, bx, by, graph.pose(k), cfg.window)
-    if score < cfg.min_score:
+    match = search(field, bx, by, graph.pose(k), cfg.window)
+    if match.score < cfg.min_score or match.widest_m() > cfg.max_spread_m:
         return None
-    z = graph.pose(j).inverse().compose(pose)
-    return Edge(j, k, z, cfg.sigma_m, cfg.sigma_rad, loop=True), score
+    z = graph.pose(j).inverse().compose(match.pose)
+    return Edge(j, k, z, cfg.sigma_m, cfg.sigma_rad, loop=True), match.score

@@ -19,12 +19,13 @@ map -> odom correction. For each scan it is given the odometry (or EKF) pose of 
 4. adds the scan to the graph as a node, joined to the one before by the relative pose of the
    two (an edge of ``chain_sigma_m`` / ``chain_sigma_rad``, wider when the match failed), and
    writes it into the map;
-5. every ``loop_every`` nodes, looks for a loop closure (:mod:`jackson.host.nav.slam.loops`):
+5. every ``loop_every`` nodes (or ``look_share`` of the graph's nodes, when more), looks for a
+   loop closure (:mod:`jackson.host.nav.slam.loops`):
    a place visited at least ``loop.min_chain_m`` of travel earlier whose scans match this one.
    A closure that disagrees with the graph by more than half a cell or 0.3 degrees optimises
    the graph and writes every scan again at its new pose, so walls seen twice become one. The
-   look runs in a thread of its own and its result is taken at the next look, ``loop_every``
-   nodes later, whatever the machine's speed (:mod:`jackson.host.nav.slam.backend`);
+   look runs in a thread of its own and its result is taken at the next look, whatever the
+   machine's speed (:mod:`jackson.host.nav.slam.backend`);
 6. updates ``map_to_odom = node ⊕ odom_pose⁻¹`` from the node's pose in the graph.
 
 The graph can be saved beside the map and loaded to go on mapping (:mod:`.slam.store`).
@@ -109,12 +110,21 @@ class MappingConfig:
     loop_closure : bool
         Look for loop closures and optimise the graph.
     loop_every : int
-        Nodes between two looks for a closure.
+        Nodes between two looks for a closure, at least.
+    look_share : float
+        ... and at least this share of the graph's nodes: a look's result lands at the next
+        look, and writing the map again takes longer the more nodes there are (about 1 ms a
+        node here, twice for the two passes; the robot lays one down every 0.1-0.2 s).
     loop : LoopConfig
         How closures are found and accepted.
     background : bool
         Look for closures in a thread of their own (the result lands at the same node either
         way); False looks in the caller's thread.
+    wall_hits, wall_share, wall_margin_m : int, float, float
+        Beams end at walls: a cell hit by ``wall_hits`` scans or more, and by ``wall_share``
+        of the scans that saw it, stops a beam that crosses it more than ``wall_margin_m``
+        before its return, which is then not written (0 hits: beams pass everything;
+        :class:`~jackson.host.nav.slam.occupancy.Insertion`).
     """
 
     resolution_m: float = 0.05
@@ -144,8 +154,12 @@ class MappingConfig:
     chain_sigma_rad: float = 0.005
     loop_closure: bool = True
     loop_every: int = 10
+    look_share: float = 0.05
     loop: LoopConfig = field(default_factory=LoopConfig)
     background: bool = True
+    wall_hits: int = 3
+    wall_share: float = 0.3
+    wall_margin_m: float = 0.1
 
     def __post_init__(self) -> None:
         positive = (
@@ -170,6 +184,8 @@ class MappingConfig:
         nonnegative = (
             "no_return_free_m",
             "grow_margin_m",
+            "wall_margin_m",
+            "look_share",
             "min_travel_m",
             "min_heading_rad",
             "search_xy_m",
@@ -184,7 +200,7 @@ class MappingConfig:
                 f"MappingConfig.trace_step_cells: expected at most 1 cell, "
                 f"got {self.trace_step_cells}"
             )
-        for name in ("min_match_score", "occupancy_threshold"):
+        for name in ("min_match_score", "occupancy_threshold", "wall_share"):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"MappingConfig.{name}: expected 0..1, got {value}")
@@ -207,6 +223,9 @@ class MappingConfig:
             self.no_return_free_m,
             self.trace_step_cells,
             self.grow_margin_m,
+            self.wall_hits,
+            self.wall_share,
+            self.wall_margin_m,
         )
 
     def window(self) -> Window:
@@ -253,6 +272,8 @@ class Mapper:
         Score of the last match, NaN before the first.
     loops_closed, optimisations : int
         Closures added, and those that moved the graph (and rewrote the map).
+    next_look : int
+        The node at which the last look's result is taken and the next look starts.
     """
 
     def __init__(self, config: MappingConfig = MappingConfig()) -> None:
@@ -271,6 +292,7 @@ class Mapper:
         self._last_odom: Pose2D | None = None
         self._seen: tuple[float, Pose2D] | None = None  # the last scan's time and odometry
         self._backend = BackEnd(config.background)
+        self.next_look = config.loop_every  # the node at which the next look is taken
 
     # ------------------------------------------------------------------ public
 
@@ -320,9 +342,10 @@ class Mapper:
                 Edge(k - 1, k, z, widen * cfg.chain_sigma_m, widen * cfg.chain_sigma_rad)
             )
         self._cells.write(scan, corrected.compose(mount))
-        if cfg.loop_closure and k > 0 and k % cfg.loop_every == 0:
-            self._apply(self._backend.take())  # the look from loop_every nodes ago
+        if cfg.loop_closure and k >= self.next_look:
+            self._apply(self._backend.take())  # the look from the last one
             self._backend.submit(self.graph, self.nodes, k, cfg.loop, self._cells.insertion)
+            self.next_look = k + max(cfg.loop_every, math.ceil(cfg.look_share * k))
         node = self.graph.pose(k)
         self.map_to_odom = node.compose(odom_pose.inverse())
         self._last_odom = odom_pose
@@ -350,8 +373,11 @@ class Mapper:
         return self._cells.match_field(centre_xy, reach)
 
     def finish(self) -> None:
-        """Take the look still running, if any (before the map is saved)."""
+        """Take the look still running, if any, and write every scan again at its pose in the
+        graph, walls first (:meth:`rewrite`): the map to save."""
         self._apply(self._backend.take())
+        if self.nodes:
+            self.rewrite()
         if self.nodes and self._last_odom is not None:
             self.map_to_odom = self.graph.pose(len(self.nodes) - 1).compose(
                 self._last_odom.inverse()
@@ -367,12 +393,18 @@ class Mapper:
         self.loops_closed = sum(1 for e in self.graph.edges if e.loop)
         self.map_to_odom = Pose2D()
         self._last_odom = None
+        k = len(self.nodes) - 1
+        self.next_look = k + max(self.config.loop_every, math.ceil(self.config.look_share * k))
 
     def rewrite(self) -> None:
-        """Write every node's scan again at its pose in the graph (after it moved)."""
-        self._cells.clear()
-        for k, node in enumerate(self.nodes):
-            self._cells.write(node.scan, self.graph.pose(k).compose(node.mount))
+        """Write every node's scan again at its pose in the graph (after it moved), in two
+        passes (:meth:`~jackson.host.nav.slam.occupancy.CountGrid.write_all`)."""
+        self._cells.write_all(
+            [
+                (node.scan, self.graph.pose(k).compose(node.mount))
+                for k, node in enumerate(self.nodes)
+            ]
+        )
 
     # ------------------------------------------------------------------ internals
 
@@ -390,11 +422,11 @@ class Mapper:
             self.matches_rejected += 1
             return predicted, False
         field = self.match_field((predicted.x, predicted.y))
-        pose, score = search(field, bx, by, predicted, window)
-        self.last_match_score = score
-        if score >= cfg.min_match_score:
+        match = search(field, bx, by, predicted, window)
+        self.last_match_score = match.score
+        if match.score >= cfg.min_match_score:
             self.matches_accepted += 1
-            return pose, True
+            return match.pose, True
         self.matches_rejected += 1
         return predicted, False
 

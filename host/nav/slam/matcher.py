@@ -10,6 +10,13 @@ the scan cannot see, such as along a featureless corridor. The first level score
 of the window at the coarse steps; each further level halves the steps and scores the
 3 x 3 x 3 poses around the best so far until the fine steps are reached. A coarser level uses
 its translation step as sigma when that is wider, which widens its basin.
+
+The first level also says how sure the match is (:class:`Match`'s ``spread``): the
+score-weighted covariance of the positions whose score comes within ``SPREAD_MARGIN`` of the
+best one's (each position at its best heading), as Karto's correlative matcher computes its
+positional covariance. Along a corridor with nothing to see along it the positions the length
+of the window score alike and the spread is wide that way; a scan that sees corners scores
+one position and its neighbours well below it, and the spread is about a step.
 """
 
 from __future__ import annotations
@@ -24,6 +31,32 @@ from jackson.host.nav.likelihood import PointField
 from jackson.host.nav.types import Pose2D, Scan
 
 FloatArray = npt.NDArray[np.float64]
+
+SPREAD_MARGIN = 0.1  # share of the best score: the positions within it make the spread
+
+
+@dataclass(frozen=True)
+class Match:
+    """What :func:`search` found.
+
+    Attributes
+    ----------
+    pose : Pose2D
+        The best base pose.
+    score : float
+        Its mean likelihood in [0, 1].
+    spread : ndarray
+        2 x 2 covariance of the positions that scored nearly as well [m^2], at least that of
+        a uniform spread over one coarse step.
+    """
+
+    pose: Pose2D
+    score: float
+    spread: FloatArray
+
+    def widest_m(self) -> float:
+        """The spread's standard deviation along its widest direction [m]."""
+        return math.sqrt(float(np.linalg.eigvalsh(self.spread)[-1]))
 
 
 @dataclass(frozen=True)
@@ -71,8 +104,9 @@ def base_points(
 
 def search(
     field: PointField, bx: FloatArray, by: FloatArray, predicted: Pose2D, w: Window
-) -> tuple[Pose2D, float]:
-    """The best base pose in the window around ``predicted`` and its raw score in [0, 1].
+) -> Match:
+    """The best base pose in the window around ``predicted``, its raw score in [0, 1] and
+    how widely nearly as good positions spread.
 
     Parameters
     ----------
@@ -87,8 +121,8 @@ def search(
 
     Returns
     -------
-    tuple of (Pose2D, float)
-        The pose and its mean likelihood.
+    Match
+        The pose, its mean likelihood and the spread.
     """
     step_xy, step_yaw = w.coarse_xy_m, w.coarse_yaw_rad
     nxy = round(w.xy_m / step_xy)
@@ -96,10 +130,13 @@ def search(
     dx: FloatArray = np.arange(-nxy, nxy + 1, dtype=np.float64) * step_xy
     dyaw: FloatArray = np.arange(-nyaw, nyaw + 1, dtype=np.float64) * step_yaw
     best = (0.0, 0.0, 0.0)
+    spread: FloatArray | None = None
     while True:
         sigma = max(w.sigma_m, step_xy)
         ox, oy, oyaw = best
         weighted, raw = _score(field, bx, by, predicted, ox + dx, oy + dx, oyaw + dyaw, sigma, w)
+        if spread is None:
+            spread = _spread(raw, dx, step_xy)
         k = int(np.argmax(weighted))
         iyaw, ix, iy = np.unravel_index(k, weighted.shape)
         best = (ox + float(dx[ix]), oy + float(dx[iy]), oyaw + float(dyaw[iyaw]))
@@ -111,7 +148,31 @@ def search(
         dx = np.array((-step_xy, 0.0, step_xy))
         dyaw = np.array((-step_yaw, 0.0, step_yaw))
     yaw = math.remainder(predicted.yaw + best[2], math.tau)
-    return Pose2D(predicted.x + best[0], predicted.y + best[1], yaw), score
+    return Match(Pose2D(predicted.x + best[0], predicted.y + best[1], yaw), score, spread)
+
+
+def _spread(raw: FloatArray, offsets: FloatArray, step_m: float) -> FloatArray:
+    """The score-weighted covariance of the positions (each at its best heading) scoring
+    within :data:`SPREAD_MARGIN` of the best, about the best; at least a uniform spread over
+    one step."""
+    per_xy = raw.max(axis=0)  # (x, y)
+    top = float(per_xy.max())
+    near = per_xy >= top * (1.0 - SPREAD_MARGIN)
+    ix, iy = np.unravel_index(int(np.argmax(per_xy)), per_xy.shape)
+    wgt = per_xy[near]
+    xs, ys = np.meshgrid(offsets, offsets, indexing="ij")
+    ddx, ddy = xs[near] - offsets[ix], ys[near] - offsets[iy]
+    total = float(wgt.sum())
+    cov = np.array(
+        [
+            [float((wgt * ddx * ddx).sum()), float((wgt * ddx * ddy).sum())],
+            [float((wgt * ddx * ddy).sum()), float((wgt * ddy * ddy).sum())],
+        ]
+    ) / max(total, 1e-12)
+    floor = step_m * step_m / 12.0
+    cov[0, 0] += floor
+    cov[1, 1] += floor
+    return cov
 
 
 def _score(

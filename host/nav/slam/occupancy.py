@@ -31,6 +31,7 @@ same resolution lines up cell for cell.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,6 +68,14 @@ class Insertion:
         Spacing of the points sampled along a beam [cells].
     grow_margin_m : float
         Room added beyond a scan whenever the grid grows [m].
+    wall_hits : int
+        A cell hit by at least this many scans, and by ``wall_share`` of those that saw it,
+        is a wall that beams do not pass: a beam that crosses one more than ``wall_margin_m``
+        before its return ends there, its return unwritten (0: beams pass everything).
+    wall_share : float
+        See ``wall_hits``.
+    wall_margin_m : float
+        See ``wall_hits`` [m].
     """
 
     resolution_m: float = 0.05
@@ -76,6 +85,9 @@ class Insertion:
     no_return_free_m: float = 0.0
     trace_step_cells: float = 0.5
     grow_margin_m: float = 1.0
+    wall_hits: int = 3
+    wall_share: float = 0.3
+    wall_margin_m: float = 0.1
 
 
 class CountGrid:
@@ -92,6 +104,8 @@ class CountGrid:
         self._field: PointField | None = None
         self._field_window = (0, 0, 0, 0)
         self._occupied: npt.NDArray[np.bool_] | None = None
+        self._walls: npt.NDArray[np.bool_] | None = None
+        self._frozen_walls = False  # the walls of a first pass, kept through the second
 
     def clear(self) -> None:
         """Forget every scan, keeping the grid's extent."""
@@ -102,6 +116,44 @@ class CountGrid:
     def _changed(self) -> None:
         self._field = None
         self._occupied = None
+        if not self._frozen_walls:
+            self._walls = None
+
+    def walls(self) -> npt.NDArray[np.bool_]:
+        """The cells beams do not pass (``Insertion.wall_hits``), over the whole grid."""
+        if self._walls is None:
+            ins = self.insertion
+            hits = self._hits[2]
+            self._walls = (hits >= max(1, ins.wall_hits)) & (
+                hits >= ins.wall_share * (hits + self._passes)
+            )
+        return self._walls
+
+    def write_all(self, scans: Sequence[tuple[Scan, Pose2D]]) -> None:
+        """Write these scans (each with its map-frame sensor pose) from scratch, in two
+        passes: the first finds the walls, the second writes every scan again against them, so
+        a beam written before a wall was known to stop it (a scan whose pose erred, its returns
+        behind the wall) is judged as a beam written after."""
+        self.clear()
+        if self.insertion.wall_hits <= 0:
+            for scan, sensor in scans:
+                self.write(scan, sensor)
+            return
+        self._frozen_walls = True
+        self._walls = None
+        try:
+            for scan, sensor in scans:
+                self.write(scan, sensor, through=True)
+            self.walls()
+            self._passes[:] = 0
+            self._hits[:] = 0.0
+            self._field = None
+            self._occupied = None
+            for scan, sensor in scans:
+                self.write(scan, sensor)
+        finally:
+            self._frozen_walls = False
+        self._changed()
 
     def occupied(self) -> npt.NDArray[np.bool_]:
         """Which cells are occupied (the module's rule), over the whole grid."""
@@ -174,8 +226,9 @@ class CountGrid:
             self._field_window = window
         return self._field
 
-    def write(self, scan: Scan, sensor: Pose2D) -> None:
-        """Write one scan taken from the map-frame sensor pose."""
+    def write(self, scan: Scan, sensor: Pose2D, through: bool = False) -> None:
+        """Write one scan taken from the map-frame sensor pose; a beam ends at the first wall
+        it crosses (:meth:`walls`) unless ``through``."""
         ins = self.insertion
         res = ins.resolution_m
         r = scan.ranges_m.astype(np.float64)
@@ -205,6 +258,16 @@ class CountGrid:
         t = k * step
         free_col = np.floor((sensor.x + t * cos_a[beam]) * inv).astype(np.intp)
         free_row = np.floor((sensor.y + t * sin_a[beam]) * inv).astype(np.intp)
+        if not through and ins.wall_hits > 0 and self._passes.size:
+            stop = self._stops(beam, t, free_row, free_col, free_m)
+            if stop is not None:
+                keep = t < stop[beam]
+                beam, t, free_col, free_row = beam[keep], t[keep], free_col[keep], free_row[keep]
+                ended = hit & np.isfinite(stop)
+                if ended.any():
+                    kept = ~ended[hit]
+                    hit_x, hit_y = hit_x[kept], hit_y[kept]
+                    hit_col, hit_row = hit_col[kept], hit_row[kept]
 
         s_col, s_row = math.floor(sensor.x * inv), math.floor(sensor.y * inv)
         lo_row, hi_row = _span(s_row, hit_row, free_row)
@@ -231,6 +294,24 @@ class CountGrid:
         ).reshape(h, w)
         sums[2] += hits.reshape(h, w)
         self._changed()
+
+    def _stops(
+        self, beam: IntArray, t: FloatArray, row: IntArray, col: IntArray, free_m: FloatArray
+    ) -> FloatArray | None:
+        """Per beam, where along it [m] it first crosses a wall more than ``wall_margin_m``
+        before its end (inf: never); None when no beam does."""
+        walls = self.walls()
+        rows, cols = walls.shape
+        r, c = row - self._row0, col - self._col0
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        on = np.zeros(beam.size, np.bool_)
+        on[inside] = walls[r[inside], c[inside]]
+        on &= t < free_m[beam] - self.insertion.wall_margin_m
+        if not on.any():
+            return None
+        stop = np.full(free_m.size, np.inf)
+        np.minimum.at(stop, beam[on], t[on])
+        return stop
 
     def _cover(self, lo_row: int, hi_row: int, lo_col: int, hi_col: int) -> None:
         """Grow the grid (by ``grow_margin_m`` beyond the request) to hold these cells."""

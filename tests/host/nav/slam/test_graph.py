@@ -67,6 +67,7 @@ def test_a_saved_graph_loads_with_the_same_map_and_goes_on(tmp_path: Path) -> No
     for k in range(30):
         ranges = np.full(360, 2.0) + rng.normal(0, 0.01, 360)
         mapper.update(Scan(0.1 * k, angles, ranges), Pose2D(0.06 * k, 0.0, 0.0))
+    mapper.finish()  # the map to save: every scan written again, walls first
     path = tmp_path / "built_map.graph.npz"
     save_graph(mapper, path)
     again = load_graph(path, config)

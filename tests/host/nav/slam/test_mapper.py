@@ -424,8 +424,10 @@ def test_walls_on_cell_edges_do_not_pull_the_matched_pose() -> None:
 def test_the_matched_map_is_structurally_close_to_the_world(matched: Run, unmatched: Run) -> None:
     good = map_ssim(*truth_on_world_extent(matched.mapper.grid()))
     drifted = map_ssim(*truth_on_world_extent(unmatched.mapper.grid()))
-    assert good > 0.86  # measured 0.896; the paper: 0.885 (robot), 0.942 (Isaac twin)
-    assert drifted < good - 0.1  # measured 0.706
+    assert good > 0.86  # measured 0.872; the paper: 0.885 (robot), 0.942 (Isaac twin)
+    # measured 0.789 (0.772 before beams ended at walls: a drifted scan's returns behind a wall
+    # the earlier scans made are no longer written, so less of the drift doubles the walls)
+    assert drifted < good - 0.05
 
 
 # ---------------------------------------------------------------------------- Eq. 15 helper
