@@ -255,7 +255,7 @@ class CountGrid:
         n = np.ceil(free_m / step).astype(np.intp)
         beam = np.repeat(np.arange(n.size), n)
         k = np.arange(beam.size) - np.repeat(np.cumsum(n) - n, n)
-        t = k * step
+        t: FloatArray = k * np.float64(step)
         free_col = np.floor((sensor.x + t * cos_a[beam]) * inv).astype(np.intp)
         free_row = np.floor((sensor.y + t * sin_a[beam]) * inv).astype(np.intp)
         if not through and ins.wall_hits > 0 and self._passes.size:
