@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jackson.commands.checks import check_twin_files, host_config, out_folder
+from jackson.commands.checks import check_twin_files, host_config, map_file, out_folder
 from jackson.common.args import nonneg_int, positive_float, positive_int
 
 
@@ -24,6 +24,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="run for this much MCU time instead of a number of goals (the soak)",
     )
     p.add_argument("--seed", type=nonneg_int, default=0, help="seed of the goals, drops, noise")
+    p.add_argument(
+        "--map",
+        type=Path,
+        metavar="M.yaml",
+        help="the map the daemon localises and plans on (map_server YAML in the world's frame, "
+        "as jackson map --world W builds it; default: the world's own raster)",
+    )
     p.add_argument("--config", type=Path, metavar="FILE", help="host YAML (default: shipped)")
     p.add_argument("--budget-mb", type=positive_float, default=2000.0, help="recording budget [MB]")
     p.add_argument(
@@ -45,6 +52,7 @@ def _cmd_patrol(args: argparse.Namespace) -> int:
     from jackson.experiments.patrol import Patrol, PatrolSpec
 
     check_twin_files("jackson", args.world)
+    map_yaml = map_file(args.map)
     out = out_folder(args.out or Path("build/patrol") / f"{Path(args.world).stem}-{args.seed}")
     spec = PatrolSpec(
         args.world,
@@ -55,8 +63,9 @@ def _cmd_patrol(args: argparse.Namespace) -> int:
         config=host_config(args.config),
         budget_mb=args.budget_mb,
         sample_s=args.sample_s,
+        map_yaml=map_yaml.resolve() if map_yaml is not None else None,
     )
-    patrol = Patrol(spec)
+    patrol = Patrol(spec)  # refuses a map that is not one of the world in its frame
     hours = args.robot_hours
     with Progress(
         TextColumn("{task.description}"),
@@ -80,7 +89,7 @@ def _cmd_patrol(args: argparse.Namespace) -> int:
         result = patrol.run(on_step)
     summary = json.loads((out / "summary.json").read_text())
     for key, value in summary.items():
-        print(f"{key}: {value}")
+        print(f"{key}: {_figure(key, value)}")
     print(f"plot: {out / 'patrol.png'}\ngoals: {out / 'patrol.csv'}\nsamples: {out / 'soak.csv'}")
     good = (
         result.failure is None
@@ -89,3 +98,19 @@ def _cmd_patrol(args: argparse.Namespace) -> int:
         and not result.exclusions
     )
     return 0 if good else 1
+
+
+def _figure(key: str, value: object) -> object:
+    """The localisation error and the path ratio as one readable line each."""
+    if key == "localisation_error" and isinstance(value, dict) and value.get("max_m") is not None:
+        return (
+            f"median {100 * value['median_m']:.1f} cm, p99 {100 * value['p99_m']:.1f} cm, "
+            f"max {100 * value['max_m']:.1f} cm at {value['max_at_xy_m']} "
+            f"({value['samples']} samples while driving)"
+        )
+    if key == "path_ratio" and isinstance(value, dict) and value.get("max") is not None:
+        return (
+            f"median {value['median']:.3f}, p95 {value['p95']:.3f}, max {value['max']:.3f}, "
+            f"{value['above_1_25']} of {value['goals']} reached goals above 1.25"
+        )
+    return value

@@ -17,7 +17,18 @@ from typing import Any
 import numpy as np
 import yaml
 
-from jackson.experiments.patrol.floor import MIN_TRIP_M, goal_cells, patrol_world
+from jackson.experiments.patrol.floor import (
+    MIN_TRIP_M,
+    check_map_frame,
+    goal_cells,
+    patrol_world,
+)
+from jackson.experiments.patrol.localisation import (
+    daemon_map_poses,
+    localisation_errors,
+    read_truth,
+)
+from jackson.experiments.patrol.paths import MIN_SHORTEST_M, ShortestPaths, path_length
 from jackson.experiments.patrol.processes import TruthTail, cpu_s, rss_mb
 from jackson.experiments.patrol.records import (
     GoalOutcome,
@@ -28,6 +39,8 @@ from jackson.experiments.patrol.records import (
 )
 from jackson.experiments.patrol.report import plot_patrol, summarise
 from jackson.host.config import DEFAULT_CONFIG, dump_config, load_config
+from jackson.host.nav.costmap import CostmapConfig
+from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.service.control import ControlError, ask
 from jackson.sim.config import load_world
 
@@ -52,8 +65,10 @@ class Patrol:
                 f"world {spec.world}: no patrol: section (drop_spots, unreachable); a patrol "
                 "needs one (docs/patrol.md)"
             )
+        self.grid = self._map()
         self.rng = np.random.default_rng([spec.seed, 2])
-        self.cand_x, self.cand_y = goal_cells(self.world)
+        self.cand_x, self.cand_y = goal_cells(self.world, grid=self.grid)
+        self.goal_points = (len(self.cand_x), len(goal_cells(self.world)[0]))
         if len(self.cand_x) < 10:
             raise PatrolError(f"world {spec.world}: fewer than 10 free points to send goals to")
         self.result = PatrolResult()
@@ -67,9 +82,18 @@ class Patrol:
 
     # ------------------------------------------------------------------ set-up
 
-    def start(self) -> None:
+    def _map(self) -> OccupancyGrid:
+        """The map the daemon gets: ``spec.map_yaml`` (checked to lie in the world's frame),
+        else the world's own raster."""
         from jackson.experiments.stage3 import world_grid
 
+        if self.spec.map_yaml is None:
+            return world_grid(self.world)
+        grid = OccupancyGrid.load(self.spec.map_yaml)  # MapFileError: one line
+        check_map_frame(grid, self.world, str(self.spec.map_yaml))
+        return grid
+
+    def start(self) -> None:
         out = self.out
         out.mkdir(parents=True, exist_ok=True)
         horizon = (
@@ -78,7 +102,7 @@ class Patrol:
             else self.spec.goals * 60.0
         )
         world_file = patrol_world(self.spec, self.world, horizon)
-        world_grid(self.world).save(out / "map.yaml")
+        self.grid.save(out / "map.yaml")
         cfg = load_config(self.spec.config or DEFAULT_CONFIG)
         cfg = dataclasses.replace(
             cfg,
@@ -228,6 +252,8 @@ class Patrol:
         r = float(self.rng.random())
         t0 = self.t_s()
         if r < u_unreach:
+            if self.world.patrol is None or not self.world.patrol.unreachable:
+                return self._goal(n, "goal", *self.pick(), t0)  # a floor with nothing shut off
             return self._unreachable(n, t0)
         r -= u_unreach
         if r < u_cancel:
@@ -306,7 +332,7 @@ class Patrol:
             return started
         old_id, _, _ = started
         x2, y2 = self.pick()
-        second = self._goal(n, "preempt", x2, y2, t0)
+        second = self._goal(n, "preempt", x2, y2, self.t_s())  # its path starts here
         old = self.follow(old_id)
         preempted = old.get("status") == "canceled" and "preempted" in old.get("reason", "")
         second.ok = second.ok and (preempted or old.get("status") == "succeeded")
@@ -444,9 +470,33 @@ class Patrol:
             for o in self.result.outcomes:
                 w.writerow([getattr(o, c) for c in cols])
 
+    def measure(self) -> None:
+        """The daemon's localisation error over the patrol and each reached goal's path
+        against the shortest (:mod:`.localisation`, :mod:`.paths`), from the truth and the
+        daemon's run folders."""
+        try:
+            truth = read_truth(self.out / "truth.csv")
+        except (OSError, ValueError):
+            return  # the twin never wrote a row: nothing to measure against
+        estimate, self.result.unread_bags = daemon_map_poses(self.out / "runs")
+        if len(estimate):
+            self.result.localisation = localisation_errors(estimate, truth)
+        shortest = ShortestPaths.of_world(self.world, CostmapConfig().robot_radius_m)
+        for o in self.result.outcomes:
+            if o.kind not in ("goal", "preempt") or not o.ok:
+                continue
+            inside = (truth.t_s > o.t_sent_s) & (truth.t_s < o.t_end_s)
+            ends = truth.xy_at([o.t_sent_s, o.t_end_s])
+            o.path_m = path_length(np.vstack((ends[:1], truth.xy_at(truth.t_s[inside]), ends[1:])))
+            a, b = (float(ends[0, 0]), float(ends[0, 1])), (float(ends[1, 0]), float(ends[1, 1]))
+            o.shortest_m = shortest.length_m(a, b)
+            if o.shortest_m >= MIN_SHORTEST_M:
+                o.path_ratio = o.path_m / o.shortest_m
+
     def write(self) -> dict[str, Any]:
+        self.measure()
         self._write_outcomes()
-        summary = summarise(self.spec, self.result)
+        summary = summarise(self.spec, self.result, self.goal_points)
         (self.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        plot_patrol(self.out / "patrol.png", self.world, self.result, summary)
+        plot_patrol(self.out / "patrol.png", self.world, self.result, summary, self.grid)
         return summary

@@ -3,10 +3,12 @@ of the processes, and the whole result."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from jackson.common.errors import JacksonError
+from jackson.experiments.patrol.localisation import LocalisationErrors
 
 
 class PatrolError(JacksonError, RuntimeError):
@@ -42,6 +44,9 @@ class PatrolSpec:
         Shares of unreachable goals, cancels, preemptions and teleop bursts.
     sample_s : float
         Wall time between two samples of the processes [s].
+    map_yaml : Path or None
+        The map the daemon localises and plans on (map_server YAML, in the world's frame: as
+        ``jackson map`` builds it from the world's start pose); None: the world's own raster.
     """
 
     world: str
@@ -55,6 +60,7 @@ class PatrolSpec:
     drop_period_s: float = 120.0
     mix: tuple[float, float, float, float] = (0.08, 0.08, 0.08, 0.05)
     sample_s: float = 20.0
+    map_yaml: Path | None = None
 
 
 @dataclass
@@ -68,11 +74,14 @@ class GoalOutcome:
     y: float
     status: str
     reason: str
-    t_sent_s: float  # MCU time when sent (the status before)
+    t_sent_s: float  # MCU time when sent (the status before; a preemption's second goal's)
     t_end_s: float  # MCU time it ended
     truth_error_m: float  # truth at the end to the goal (nan for the kinds that do not arrive)
     ok: bool  # what this kind must do, done
     recoveries: int = 0
+    path_m: float = math.nan  # the truth's path from sent to ended (reached goals)
+    shortest_m: float = math.nan  # the shortest collision-free path between its ends
+    path_ratio: float = math.nan  # path_m / shortest_m
 
     @property
     def answered_s(self) -> float:
@@ -104,3 +113,5 @@ class PatrolResult:
     suspicions: int = 0  # health transitions to suspect (braked until the sensor passes again)
     daemon_exit: int | None = None
     failure: str | None = None
+    localisation: LocalisationErrors | None = None  # the daemon's pose against the truth
+    unread_bags: int = 0  # bags of the daemon's run folders that could not be read
