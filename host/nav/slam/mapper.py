@@ -42,7 +42,7 @@ import numpy.typing as npt
 
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.likelihood import LikelihoodField, PointField
-from jackson.host.nav.slam.backend import BackEnd, Closure
+from jackson.host.nav.slam.backend import BackEnd, Closure, look
 from jackson.host.nav.slam.graph import Edge, PoseGraph
 from jackson.host.nav.slam.loops import LoopConfig, Node
 from jackson.host.nav.slam.matcher import Window, base_points, search
@@ -373,9 +373,17 @@ class Mapper:
         return self._cells.match_field(centre_xy, reach)
 
     def finish(self) -> None:
-        """Take the look still running, if any, and write every scan again at its pose in the
-        graph, walls first (:meth:`rewrite`): the map to save."""
+        """Take the look still running, if any, look once more from the last node (a survey
+        that ends where it began closes its loop here, maybe after the last look), and write
+        every scan again at its pose in the graph, walls first (:meth:`rewrite`): the map to
+        save."""
         self._apply(self._backend.take())
+        k = len(self.nodes) - 1
+        if self.config.loop_closure and k > 0:
+            snapshot = self.graph.copy()
+            self._apply(
+                look(snapshot, list(self.nodes), k, self.config.loop, self._cells.insertion)
+            )
         if self.nodes:
             self.rewrite()
         if self.nodes and self._last_odom is not None:

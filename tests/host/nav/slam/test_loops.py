@@ -84,3 +84,12 @@ def test_the_threaded_look_lands_at_the_same_node_as_the_inline_one(closed: Driv
     assert np.array_equal(inline.graph.poses(), m.graph.poses())
     assert inline.graph.edges == m.graph.edges
     assert np.array_equal(inline.grid().data, m.grid().data)
+
+
+def test_a_survey_that_ends_where_it_began_closes_its_loop_when_it_finishes() -> None:
+    """Looks far apart (a look only every 10 000 nodes): none during the drive, so only the
+    look ``finish`` takes from the last node finds the way back to the start."""
+    rare = MappingConfig(scan_matching=False, loop_every=10_000)
+    d = drive(rare)
+    assert d.mapper.loops_closed == 1 and d.mapper.optimisations == 1
+    assert max(closure_errors(d)) < 0.05
