@@ -239,18 +239,22 @@ class NavigateMission:
         self._odom = self._odom_pose(s)
         self.scans += 1
         mount = self.config.lidar_mount
+        # the odometry when the revolution ended, not at the frame it came with (up to 50 ms
+        # later: 1.3 cm at 0.26 m/s, and the estimate trailed the robot by as much)
+        at_end = self._odom_at_revolution_end(scan, s)
         if self.filter is not None:
-            self.filter.update(self._odom, scan, mount)
-            self.map_to_odom = self.filter.map_to_odom(self._odom)
+            self.filter.update(at_end, scan, mount)
+            self.map_to_odom = self.filter.map_to_odom(at_end)
+            self.filter.update(self._odom, None, mount)  # and on to this frame
         elif self.mapper is not None:
-            at_end = self._odom_at_revolution_end(scan, s)
             self.mapper.update(scan, at_end, mount)
             # the correction holds for the odometry's frame at any instant
             self.map_to_odom = self.mapper.map_to_odom
         self._scan_points = scan.points(self.pose_map(), mount)
 
     def _odom_at_revolution_end(self, scan: Scan, s: NavState) -> Pose2D:
-        """The odometry pose when the revolution ended, for the mapper: between the frame
+        """The odometry pose when the revolution ended, for the localiser and the mapper:
+        between the frame
         before and this one, where :class:`~jackson.host.lidar.scan_timer.ScanTimer` puts its
         end (the frame's own pose while the timer has no phase yet). A revolution paired with
         the frame it came with is up to a frame late: 0.05 rad of heading in a 1 rad/s turn,
