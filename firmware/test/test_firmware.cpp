@@ -436,9 +436,9 @@ bool flag_set(const Sent& s, uint16_t bit) {
 }
 
 /// A session with one heartbeat, on the PCA9685 path (no MCU motor output).
-Bench& live_session(Bench& b) {
+Bench& live_session(Bench& b, uint32_t session = 0) {
   b.fw.begin();
-  b.hello();
+  b.hello(0, session);
   heartbeat(b, 1);
   b.fw.tick();
   b.take_sent();
@@ -601,10 +601,7 @@ TEST(Interlock, NewHelloReleasesUntilItsFirstHeartbeat) {
 
 TEST(Interlock, TheSameSessionsHelloChangesNothing) {
   Bench b(false);
-  b.fw.begin();
-  b.hello(0, 0x5E55u);
-  heartbeat(b, 1);
-  b.fw.tick();
+  live_session(b, 0x5E55u);
   b.run_for(70'000);  // telemetry 50 ms after the HELLO
   const auto before = only<proto::Telemetry>(b.take_sent());
   ASSERT_EQ(before.size(), 1u);
@@ -623,10 +620,7 @@ TEST(Interlock, TheSameSessionsHelloChangesNothing) {
 
 TEST(Interlock, AnotherSessionsHelloStartsOver) {
   Bench b(false);
-  b.fw.begin();
-  b.hello(0, 0x5E55u);
-  heartbeat(b, 1);
-  b.fw.tick();
+  live_session(b, 0x5E55u);
   b.run_for(20'000);
   ASSERT_TRUE(b.enable.enabled);
   b.hello(5, 0x5E56u);  // another connection
