@@ -7,10 +7,6 @@ never matches a newer one that reuses the SEQ (one SEQ counter serves every mess
 in 1.3 s at 200 Hz). A configuration command without an answer within :data:`ANSWER_TIMEOUT_S`
 is sent again (commands are idempotent), :data:`RETRIES` times; a NACK, or a command still
 unanswered after its retries, is a :class:`CommandError` naming the command and the reason.
-The time is the tracker's clock: the daemon gives it the MCU's (its newest telemetry frame),
-so a device that streams on without answering is sent the command again, while a device that
-was not heard from at all (a twin kept from running on a busy machine) is waited for, and
-its silence is the link's to judge.
 
 MOTOR_PWM is tracked for its NACK only: it is sent at every telemetry frame, so a missing ACK is
 not retried (the next frame's command replaces it) but counted.
@@ -27,7 +23,7 @@ from dataclasses import dataclass, field
 from jackson.common.errors import JacksonError
 from jackson.protocol import Ack, Frame, Message, MotorPwm, Nack, NackError, decode_message
 
-ANSWER_TIMEOUT_S = 0.25  # [s] of the clock, for an ACK/NACK before the command is sent again
+ANSWER_TIMEOUT_S = 0.25  # [s] wall time for an ACK/NACK before the command is sent again
 RETRIES = 3  # sends after the first one
 
 NACK_REASONS = {

@@ -148,9 +148,7 @@ class Daemon:
         self.folders = RunFolders(
             cfg, run_folder, {**(meta or {}), **lidar_meta(lidar)}, rotate, self._say
         )
-        # commands are answered within ANSWER_TIMEOUT_S of the MCU's clock, not the wall's: a
-        # twin (or a device) that was not heard from at all on a busy machine is waited for
-        self.commands = CommandTracker(transport.encode, self._send_frame, self._mcu_time)
+        self.commands = CommandTracker(transport.encode, self._send_frame)
         if mission is None and mission_name:
             mission = make_mission(mission_name, cfg.square, cfg.figure8)
         self.lidar = lidar  # a started RplidarDriver (its raw bytes go to the core), or None
@@ -472,12 +470,6 @@ class Daemon:
             self.latency.written(time.monotonic_ns())  # after the frame's motor command
             return sent
         return self.commands.send(msg)
-
-    def _mcu_time(self) -> float:
-        """The MCU's time of the newest telemetry frame [s] (0 before the first)."""
-        core = getattr(self, "core", None)
-        t = core.t_s if core is not None else None
-        return 0.0 if t is None else t
 
     def _send_frame(self, frame: bytes) -> object:
         recorder = self.folders.recorder
