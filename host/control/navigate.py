@@ -186,7 +186,7 @@ class NavigateMission:
         self.goal_index = 0
         self._scan_points: npt.NDArray[np.float64] | None = None
         self._odom = Pose2D()  # start ⊕ the EKF's odometry pose, at the last tick or scan
-        # the mapper's scan timing: the last two frames' (MCU time, odometry pose), the timer
+        # when each revolution ended: the last two frames' (MCU time, odometry pose), the timer
         self._frames: deque[tuple[float, Pose2D]] = deque(maxlen=2)
         self._scan_timer = ScanTimer()
         self._last_scan_t_s: float | None = None
@@ -254,10 +254,10 @@ class NavigateMission:
 
     def _odom_at_revolution_end(self, scan: Scan, s: NavState) -> Pose2D:
         """The odometry pose when the revolution ended, for the localiser and the mapper:
-        between the frame
-        before and this one, where :class:`~jackson.host.lidar.scan_timer.ScanTimer` puts its
-        end (the frame's own pose while the timer has no phase yet). A revolution paired with
-        the frame it came with is up to a frame late: 0.05 rad of heading in a 1 rad/s turn,
+        between the frame before and this one, where
+        :class:`~jackson.host.lidar.scan_timer.ScanTimer` puts its end (the frame's own pose
+        while the timer has no phase yet). A revolution paired with the frame it came with is
+        up to a frame late: 0.05 rad of heading in a 1 rad/s turn,
         which printed walls turned by as much."""
         frames = self._frames
         if not frames or s.t_s > frames[-1][0]:

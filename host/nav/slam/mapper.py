@@ -345,7 +345,7 @@ class Mapper:
         if cfg.loop_closure and k >= self.next_look:
             self._apply(self._backend.take())  # the look from the last one
             self._backend.submit(self.graph, self.nodes, k, cfg.loop, self._cells.insertion)
-            self.next_look = k + max(cfg.loop_every, math.ceil(cfg.look_share * k))
+            self.next_look = self._look_after(k)
         node = self.graph.pose(k)
         self.map_to_odom = node.compose(odom_pose.inverse())
         self._last_odom = odom_pose
@@ -379,13 +379,14 @@ class Mapper:
         save."""
         self._apply(self._backend.take())
         k = len(self.nodes) - 1
+        optimised = self.optimisations
         if self.config.loop_closure and k > 0:
             snapshot = self.graph.copy()
             self._apply(
                 look(snapshot, list(self.nodes), k, self.config.loop, self._cells.insertion)
             )
-        if self.nodes:
-            self.rewrite()
+        if self.nodes and self.optimisations == optimised:
+            self.rewrite()  # (an optimisation at the last node already wrote every scan so)
         if self.nodes and self._last_odom is not None:
             self.map_to_odom = self.graph.pose(len(self.nodes) - 1).compose(
                 self._last_odom.inverse()
@@ -401,8 +402,7 @@ class Mapper:
         self.loops_closed = sum(1 for e in self.graph.edges if e.loop)
         self.map_to_odom = Pose2D()
         self._last_odom = None
-        k = len(self.nodes) - 1
-        self.next_look = k + max(self.config.loop_every, math.ceil(self.config.look_share * k))
+        self.next_look = self._look_after(len(self.nodes) - 1)
 
     def rewrite(self) -> None:
         """Write every node's scan again at its pose in the graph (after it moved), in two
@@ -415,6 +415,11 @@ class Mapper:
         )
 
     # ------------------------------------------------------------------ internals
+
+    def _look_after(self, k: int) -> int:
+        """The node at which the look started at node ``k`` is taken: ``loop_every`` nodes
+        later, or ``look_share`` of the graph later when that is more."""
+        return k + max(self.config.loop_every, math.ceil(self.config.look_share * k))
 
     def _match(
         self, scan: Scan, mount: Pose2D, predicted: Pose2D, rate_rad_s: float

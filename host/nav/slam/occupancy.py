@@ -145,10 +145,7 @@ class CountGrid:
             for scan, sensor in scans:
                 self.write(scan, sensor, through=True)
             self.walls()
-            self._passes[:] = 0
-            self._hits[:] = 0.0
-            self._field = None
-            self._occupied = None
+            self.clear()  # the counts only: the walls stay frozen for the second pass
             for scan, sensor in scans:
                 self.write(scan, sensor)
         finally:
