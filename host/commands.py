@@ -8,6 +8,13 @@ in 1.3 s at 200 Hz). A configuration command without an answer within :data:`ANS
 is sent again (commands are idempotent), :data:`RETRIES` times; a NACK, or a command still
 unanswered after its retries, is a :class:`CommandError` naming the command and the reason.
 
+The timeout is counted on what the host has *heard*, not on the wall clock alone: an answer is
+late only when the host has read and handled everything the device sent for
+:data:`ANSWER_TIMEOUT_S` after the command, and the answer was not in it
+(:meth:`~jackson.host.transport.SerialTransport.heard_s`). A host that a busy machine keeps
+behind its own input (an ACK queued behind frames it has not handled yet) therefore never
+calls a command unanswered; a mute device still is, after about a second.
+
 MOTOR_PWM is tracked for its NACK only: it is sent at every telemetry frame, so a missing ACK is
 not retried (the next frame's command replaces it) but counted.
 """
@@ -23,7 +30,7 @@ from dataclasses import dataclass, field
 from jackson.common.errors import JacksonError
 from jackson.protocol import Ack, Frame, Message, MotorPwm, Nack, NackError, decode_message
 
-ANSWER_TIMEOUT_S = 0.25  # [s] wall time for an ACK/NACK before the command is sent again
+ANSWER_TIMEOUT_S = 0.25  # [s] heard time for an ACK/NACK before the command is sent again
 RETRIES = 3  # sends after the first one
 
 NACK_REASONS = {
@@ -89,7 +96,11 @@ class CommandTracker:
     send_frame : callable
         Writes a frame to the link (may drop it when the link is down: the retry covers it).
     clock : callable
-        Wall time [s]; ``time.monotonic`` unless a test steps it.
+        Wall time [s]; ``time.monotonic`` unless a test steps it. Commands are stamped with it.
+    heard : callable, optional
+        The time [s, on ``clock``] up to which everything the device sent has been read and
+        handled (:meth:`~jackson.host.transport.SerialTransport.heard_s`); an answer is
+        awaited until this is :data:`ANSWER_TIMEOUT_S` past the send. None: ``clock``.
     """
 
     def __init__(
@@ -97,10 +108,12 @@ class CommandTracker:
         encode: Callable[[Message], bytes],
         send_frame: Callable[[bytes], object],
         clock: Callable[[], float] = time.monotonic,
+        heard: Callable[[], float] | None = None,
     ) -> None:
         self.encode = encode
         self.send_frame = send_frame
         self.clock = clock
+        self.heard = clock if heard is None else heard
         self.pending: dict[tuple[int, int, int], _Pending] = {}
         self.counters = CommandCounters()
         self._motor: dict[tuple[int, int, int], float] = {}
@@ -112,7 +125,7 @@ class CommandTracker:
         now = self.clock()
         if isinstance(msg, MotorPwm):
             self._motor[frame_key(frame)] = now
-            self._expire_motor(now)
+            self._expire_motor(self.heard())
         else:
             self.pending[frame_key(frame)] = _Pending(msg, frame, now)
         self.send_frame(frame)
@@ -163,10 +176,10 @@ class CommandTracker:
         CommandError
             A command got no answer after :data:`RETRIES` retries.
         """
-        now = self.clock()
+        heard = self.heard()
         for key, p in list(self.pending.items()):
-            if now - p.sent_s < ANSWER_TIMEOUT_S:
-                continue
+            if heard - p.sent_s < ANSWER_TIMEOUT_S:
+                continue  # what came after it is not all read yet: its answer may be in it
             if p.tries > RETRIES:
                 del self.pending[key]
                 text = (
@@ -184,18 +197,18 @@ class CommandTracker:
                 raise CommandError(text)
             # the same frame again: same SEQ and CRC, so either answer matches it
             p.tries += 1
-            p.sent_s = now
+            p.sent_s = self.clock()
             self.counters.retried += 1
             self.send_frame(p.frame)
-        self._expire_motor(now)
+        self._expire_motor(heard)
 
     def forget(self) -> None:
         """Drop every waiting command (a new session: the device has forgotten them)."""
         self.pending.clear()
         self._motor.clear()
 
-    def _expire_motor(self, now: float) -> None:
+    def _expire_motor(self, heard: float) -> None:
         for key, sent in list(self._motor.items()):
-            if now - sent >= ANSWER_TIMEOUT_S:
+            if heard - sent >= ANSWER_TIMEOUT_S:
                 del self._motor[key]
                 self.counters.motor_unacked += 1

@@ -148,7 +148,8 @@ class Daemon:
         self.folders = RunFolders(
             cfg, run_folder, {**(meta or {}), **lidar_meta(lidar)}, rotate, self._say
         )
-        self.commands = CommandTracker(transport.encode, self._send_frame)
+        # an answer is late only once everything the device sent after the command was heard
+        self.commands = CommandTracker(transport.encode, self._send_frame, heard=transport.heard_s)
         if mission is None and mission_name:
             mission = make_mission(mission_name, cfg.square, cfg.figure8)
         self.lidar = lidar  # a started RplidarDriver (its raw bytes go to the core), or None

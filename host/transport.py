@@ -151,6 +151,11 @@ class Link(Protocol):
         went on streaming left many; a twin in lockstep, which waited for the caller, one."""
         ...
 
+    def heard_s(self) -> float:
+        """Monotonic time [s] up to which everything received has been handed to the caller
+        (:meth:`SerialTransport.heard_s`): commands' answers are awaited on it."""
+        ...
+
     def encode(self, msg: Message) -> bytes:
         """The frame of ``msg`` with this link's next SEQ."""
         ...
@@ -327,6 +332,10 @@ class SerialTransport:
         self._stall = StallWatch()
         self._stall.peer.peer = Peer(self._find_twin)
         self._twin_thread: int | None = None  # a twin in this process: its thread's native id
+        # heard_s: the last read's mark (all the device sent before it is in :attr:`items`),
+        # and the newest mark whose frames the caller has all taken
+        self._read_mark_ns = 0
+        self._heard_ns = 0
 
     # ------------------------------------------------------------------ state
 
@@ -404,6 +413,21 @@ class SerialTransport:
     def stalled(self) -> bool:
         """The ``stalled`` event was sent."""
         return self._stall.stalled
+
+    def heard_s(self) -> float:
+        """Monotonic time [s] up to which the caller has taken everything the device sent.
+
+        A frame is handled only after all that came before it, so an answer the device sent
+        before this time has reached the caller by now (:mod:`jackson.host.commands` counts
+        its timeouts on this clock). Behind the wall clock by one read while frames of that
+        read are still queued, and by as much as the caller lags its input when a busy machine
+        slows it; frozen while the port is down. Call it from the thread that calls
+        :meth:`get`.
+        """
+        mark = self._read_mark_ns  # first: a read's frames are queued before its mark is set
+        if self.items.empty():
+            self._heard_ns = max(self._heard_ns, mark)
+        return self._heard_ns / 1e9
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -528,10 +552,11 @@ class SerialTransport:
                 data = b""
             else:
                 data = port.read(max(1, port.in_waiting))
-                if data:  # the rest of what arrived with the first byte: one decode per wake
-                    waiting = port.in_waiting
-                    if waiting:
-                        data += port.read(waiting)
+            mark = time.monotonic_ns()  # what the device sent before this is read below
+            if data:  # the rest of what arrived with the first byte: one decode per wake
+                waiting = port.in_waiting
+                if waiting:
+                    data += port.read(waiting)
         except (serial.SerialException, OSError, TypeError, ValueError) as exc:
             self._drop(str(exc))
             return
@@ -545,6 +570,7 @@ class SerialTransport:
             self.items.put((now, frame))
             if frame.type == Telemetry.TYPE:
                 self._stall.telemetry_rx_s = now / 1e9
+        self._read_mark_ns = mark  # after its frames are queued (heard_s reads it first)
         if frames:
             self._last_rx_s = now / 1e9
             return

@@ -194,6 +194,11 @@ class CorePort:
 
     def acknowledged(self, seq: int) -> bool:
         mcu = self.mcu
+        if not mcu.telemetry_sent:
+            # a HELLO began a new session since frame ``seq`` went out: the host of the old one
+            # is gone (a calibration's next run, a reconnect) and the new one never acknowledges
+            # it; its own first frame is waited for instead
+            return True
         return mcu.heartbeat_seen and mcu.heartbeat_ack == seq
 
     def heartbeat_mark(self) -> int:

@@ -250,7 +250,8 @@ class FirmwarePort:
 
     def acknowledged(self, seq: int) -> bool:
         status = self.process.last_status
-        return status is not None and status.heartbeat_ack == seq
+        # a new session (no telemetry sent in it) no longer awaits an older one's frame
+        return status is not None and (status.heartbeat_ack == seq or status.telemetry_seq == -1)
 
     def heartbeat_mark(self) -> int:
         """The newest HEARTBEAT's ack_seq (-1 before one)."""

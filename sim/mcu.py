@@ -233,6 +233,11 @@ class Mcu:
         return int(self._core.last_heartbeat_us)
 
     @property
+    def telemetry_sent(self) -> bool:
+        """A TELEMETRY frame was sent in this session (False again at a new session's HELLO)."""
+        return self._core.last_telemetry_seq is not None
+
+    @property
     def last_telemetry_seq(self) -> int:
         """SEQ of the last TELEMETRY frame the link took (0 before one)."""
         seq = self._core.last_telemetry_seq

@@ -88,7 +88,8 @@ class McuPort(Protocol):
         ...
 
     def acknowledged(self, seq: int) -> bool:
-        """The newest HEARTBEAT acknowledges telemetry frame ``seq``."""
+        """The newest HEARTBEAT acknowledges telemetry frame ``seq``, or no HEARTBEAT will: a
+        new session began after it (its host is gone)."""
         ...
 
     def heartbeat_mark(self) -> int:

@@ -6,7 +6,8 @@
 //   t <t_us> <enc_left> <enc_right> <imu_ok> <28 hex digits: MPU-6050 registers 0x3B..0x48>
 //       set the sensors, advance the clock to t_us running every deadline on the way, reply
 //   w <seq> <timeout_ms>
-//       wait (wall clock) until the host's HEARTBEAT acknowledges telemetry SEQ, then reply
+//       wait (wall clock) until the host's HEARTBEAT acknowledges telemetry SEQ, or a HELLO
+//       starts a new session (whose host never acknowledges an older one's frame), then reply
 //   s   reply only;   q   quit
 //
 // Each reply is one line:
@@ -128,7 +129,8 @@ struct Process {
     std::fflush(stdout);
   }
 
-  // Serves the host link on the wall clock until HEARTBEAT acknowledges `seq` or time runs out.
+  // Serves the host link on the wall clock until HEARTBEAT acknowledges `seq`, a new session
+  // begins (no telemetry sent in it yet), or time runs out.
   void wait_heartbeat(int seq, int timeout_ms) {
     const uint64_t t = clock.now64();
     for (int waited = 0; waited <= timeout_ms;) {
@@ -136,6 +138,8 @@ struct Process {
       fw.tick();
       uint8_t hb = 0;
       if (fw.last_heartbeat_ack(hb) && hb == seq) return;
+      uint8_t sent_seq = 0;
+      if (!fw.last_telemetry_seq(sent_seq)) return;  // a HELLO began a new session
       pollfd p{serial.fd(), POLLIN, 0};
       const int step = timeout_ms - waited < 5 ? timeout_ms - waited : 5;
       ::poll(&p, 1, step > 0 ? step : 1);

@@ -193,3 +193,19 @@ def test_client_can_close_and_reopen_the_port(fw: PosixFirmware) -> None:
     fw.step(t + 5 * PERIOD_US, 5, 5)
     tel = [m for m in fw.receive() if isinstance(m, Telemetry)]
     assert tel and tel[-1].enc_left == 5
+
+
+def test_a_new_sessions_hello_ends_the_wait_for_the_old_sessions_frame(
+    fw: PosixFirmware,
+) -> None:
+    """Lockstep waits for a frame's HEARTBEAT; a HELLO with another session id means that
+    frame's host is gone (the new host never acknowledges it): the wait ends at once, not at
+    its timeout (ten minutes here, beyond the test's own limit)."""
+    fw.step(100_000)
+    fw.send(hello(0x1111))
+    reply = fw.step(100_000 + 3 * PERIOD_US)  # the first session's first telemetry frames
+    assert reply.session and reply.telemetry_seq >= 0
+    fw.send(hello(0x2222))  # the next host, before any HEARTBEAT of the first
+    reply = fw.wait_heartbeat(reply.telemetry_seq, timeout_ms=600_000)
+    assert reply.session and reply.telemetry_seq == -1  # the new session, none of its frames yet
+    assert reply.heartbeat_ack == -1

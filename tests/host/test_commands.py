@@ -82,6 +82,34 @@ def test_a_command_without_answer_is_sent_again_then_reported() -> None:
         link.tracker.poll()
 
 
+def test_a_host_behind_its_input_waits_for_what_it_has_not_heard() -> None:
+    """A busy machine keeps the host 2 s behind its input: the answer may be in what it has
+    not read yet, so no retry and no error until what it heard passes the timeout."""
+    link = Link()
+    heard = [0.0]
+    link.tracker = CommandTracker(link.encode, link.sent.append, lambda: link.now, lambda: heard[0])
+    frame = link.tracker.send(SetRate(rate_hz=50))
+    for _ in range(20):
+        link.now += 0.1  # two seconds of wall time; nothing heard after the send
+        link.tracker.poll()
+    assert len(link.sent) == 1 and link.tracker.counters.retried == 0
+    heard[0] = link.now  # it catches up: the ACK was in what it had not read
+    link.answer(ack_of(frame))
+    link.tracker.poll()
+    assert not link.tracker.pending and link.tracker.counters.retried == 0
+
+
+def test_a_mute_device_is_still_reported_on_the_heard_clock() -> None:
+    link = Link()
+    link.tracker = CommandTracker(link.encode, link.sent.append, lambda: link.now, lambda: link.now)
+    link.tracker.send(SetRate(rate_hz=50))
+    with pytest.raises(CommandError, match="never answered SET_RATE"):
+        for _ in range(RETRIES + 1):
+            link.now += ANSWER_TIMEOUT_S
+            link.tracker.poll()
+    assert len(link.sent) == 1 + RETRIES
+
+
 def test_an_answer_to_a_retry_clears_the_command() -> None:
     link = Link()
     link.tracker.send(SetRate(rate_hz=20))

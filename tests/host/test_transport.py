@@ -189,6 +189,56 @@ def test_without_the_reader_thread_get_reads_the_port_itself(pty: tuple[int, str
         t.close()
 
 
+def test_heard_time_waits_until_the_caller_has_taken_every_frame_read(
+    pty: tuple[int, str],
+) -> None:
+    """An answer queued behind frames the caller has not taken yet is not "unheard": the
+    heard clock stays at the read before until the caller has taken them all."""
+    master, path = pty
+    t = SerialTransport(path)
+    t.open(reader_thread=False)
+    try:
+        up = t.get(1.0)
+        assert isinstance(up, LinkEvent) and up.kind == "up"
+        assert t.get(0.01) is None  # a read that found nothing: heard up to it
+        quiet = t.heard_s()
+        assert 0.0 < quiet <= time.monotonic()
+        os.write(master, INFO + b"".join(encode_frame(Telemetry(t_us=k), k) for k in range(5)))
+        wrote = time.monotonic()
+        first = t.get(10.0)  # one read takes all six; the caller has taken one
+        assert first is not None and not isinstance(first, LinkEvent)
+        assert t.heard_s() == quiet  # five of that read still wait: not heard yet
+        for _ in range(4):
+            assert t.get(10.0) is not None
+            assert t.heard_s() == quiet
+        assert t.get(10.0) is not None  # the last of them
+        assert t.heard_s() >= wrote  # all taken: heard up to that read
+    finally:
+        t.close()
+
+
+def test_heard_time_with_the_reader_thread_follows_the_queue(pty: tuple[int, str]) -> None:
+    master, path = pty
+    t = SerialTransport(path)
+    t.open()
+    try:
+        assert isinstance(t.get(10.0), LinkEvent)
+        os.write(master, INFO + encode_frame(Telemetry(t_us=1), 0))
+        wrote = time.monotonic()
+        deadline = time.monotonic() + 10.0
+        while t.items.qsize() < 2 and time.monotonic() < deadline:
+            time.sleep(0.001)  # condition: the reader queued both frames
+        before = t.heard_s()
+        assert before < wrote  # both wait in the queue
+        assert t.get(10.0) is not None and t.get(10.0) is not None
+        deadline = time.monotonic() + 10.0
+        while t.heard_s() < wrote and time.monotonic() < deadline:
+            time.sleep(0.001)  # the reader's next read (it reads on while the port is quiet)
+        assert t.heard_s() >= wrote
+    finally:
+        t.close()
+
+
 def test_without_the_reader_thread_silence_and_partial_frames_are_handled_in_get(
     pty: tuple[int, str],
 ) -> None:

@@ -20,9 +20,10 @@ import sys
 from pathlib import Path
 
 from jackson.host.recording import KIND_LINK, KIND_RX, read_log
-from jackson.protocol import Info, Telemetry, TelemetryFlags
+from jackson.host.transport import LinkEvent, SerialTransport
+from jackson.protocol import Heartbeat, Info, Telemetry, TelemetryFlags, decode_message
 
-from .harness import JACKSON
+from .harness import JACKSON, TwinThread, wait_for
 
 _BUSY_SIM = """
 import sys, time
@@ -96,3 +97,49 @@ def test_a_twin_held_up_past_the_silence_limit_resumes_and_the_run_is_the_idle_o
     # and what the daemon made of it is the idle run's, byte for byte
     for name in FILES:
         assert (busy / name).read_bytes() == (idle / name).read_bytes(), name
+
+
+def test_a_new_session_releases_the_twin_from_the_last_frame_of_the_one_before(
+    tmp_path: Path,
+) -> None:
+    """One host's session ends without a HEARTBEAT for the last frame it was sent (a
+    calibration's run ends; the next run of the same process opens the port at once). The new
+    session's HELLO must release the lockstep twin: it streams the new session's telemetry at
+    once, without judging any host gone (which a host still busy in the same process never is).
+    """
+    twin = TwinThread(tmp_path, heartbeat_timeout_s=600.0, stall_s=None)
+    try:
+
+        def session(frames: int, ack_last: bool) -> int:
+            """Open the port, take ``frames`` telemetry frames (a HEARTBEAT for each but,
+            unless ``ack_last``, the last), close it; the last frame's MCU time [us]."""
+            link = SerialTransport(twin.serial)
+            link.open(reader_thread=False)
+            got, t_us = 0, 0
+            try:
+                while got < frames:
+                    item = link.get(120.0)  # a far backstop: the twin answers in microseconds
+                    assert item is not None, f"no telemetry after {got} frames"
+                    if isinstance(item, LinkEvent):
+                        continue
+                    msg = decode_message(item[1])
+                    if isinstance(msg, Telemetry):
+                        got += 1
+                        t_us = msg.t_us
+                        if got < frames or ack_last:
+                            link.send(Heartbeat(ack_seq=item[1].seq))
+            finally:
+                link.close()
+            return t_us
+
+        first_end = session(10, ack_last=False)  # the twin now waits for frame 10's HEARTBEAT
+        wait_for(
+            lambda: twin.runner.watch.waiting_since is not None,
+            timeout_s=120.0,
+            what="the twin to wait for the first session's last HEARTBEAT",
+        )
+        second_end = session(5, ack_last=True)
+        assert twin.runner.watch.timeouts == 0  # nobody was judged gone: the HELLO released it
+        assert second_end > first_end
+    finally:
+        twin.stop()
