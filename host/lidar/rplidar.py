@@ -86,7 +86,7 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 
-RANGE_CAP_M = 8.0  # [m] REFERENCE: "software cap 8 m"
+RANGE_CAP_M = 12.0  # [m] the A1M8's range (REFERENCE); navigation caps it at 8 m (AMCL)
 ANSWER_TIMEOUT_S = 1.0  # [s] for GET_HEALTH, GET_INFO and the SCAN descriptor
 SILENCE_S = 0.02  # [s] no byte for this long after STOP: the device has stopped sending
 SILENCE_TIMEOUT_S = 1.0  # [s] a device still sending after this long ignores STOP

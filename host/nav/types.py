@@ -62,15 +62,16 @@ class Scan:
     ranges_m : ndarray of float
         Range of each measurement [m]; ``inf`` where there was no return in range.
     range_min_m, range_max_m : float
-        Readings outside [range_min_m, range_max_m] are no returns [m] (the A1M8: 0.15 m; the
-        robot's software cap of 8 m).
+        Readings outside [range_min_m, range_max_m] are no returns [m] (the A1M8: 0.15 m to
+        12 m; navigation caps it at 8 m itself, AMCL's ``laser_max_range``, as the paper's robot
+        did, while the mapper uses the whole range).
     """
 
     t_s: float
     angles_rad: FloatArray
     ranges_m: FloatArray
     range_min_m: float = 0.15
-    range_max_m: float = 8.0
+    range_max_m: float = 12.0
 
     def __post_init__(self) -> None:
         if self.angles_rad.shape != self.ranges_m.shape or self.angles_rad.ndim != 1:

@@ -55,7 +55,7 @@ UInt8MultiArray = jazzy.std_msgs__msg__UInt8MultiArray
 MultiArrayLayout = jazzy.std_msgs__msg__MultiArrayLayout
 Clock = jazzy.rosgraph_msgs__msg__Clock
 
-SCAN_RANGE_M = (0.15, 8.0)  # [m] the A1M8's minimum and the robot's software cap
+SCAN_RANGE_M = (0.15, 12.0)  # [m] the A1M8's range, as rplidar_ros publishes it
 
 
 def planar_pose(pose: Any) -> Pose2D:

@@ -250,10 +250,10 @@ def test_a_trial_stopped_by_the_wall_clock_backstop_says_so(tmp_path: Path) -> N
         daemon.transport.close()
         twin.stop()
     assert status == 0 and daemon.wall_limit_hit and daemon.stalled is None
-    t = daemon.core.t_s
-    assert t is not None
+    t = daemon.core.t_s  # None when a busy machine let no frame through in that second
+    at = "before the first frame" if t is None else f"at {t:.2f} s of MCU time"
     assert cut_reason(daemon, "navigate") == (
-        f"not ended: wall-clock backstop: 1800 s of wall time passed at {t:.2f} s of MCU time "
+        f"not ended: wall-clock backstop: 1800 s of wall time passed {at} "
         "(the mission's limit is 180 s of MCU time)"
     )
     assert cut_reason(daemon, "navigate", "lockstep stalled: x") == (

@@ -71,7 +71,11 @@ class MappingConfig:
         pass-through 2): a lone return beyond a wall stays unknown.
     max_range_m : float
         Returns farther than this clear up to it and mark no hit [m] (REFERENCE: the robot's
-        8 m software cap).
+        8 m software cap); the loop closures match within it too.
+    match_range_m : float
+        The front end matches the returns within this against the map [m] (the A1M8's 12 m):
+        door frames and wall ends far along a corridor pin how far the robot has come, which
+        the side walls do not (docs/mapping.md, "Range").
     no_return_free_m : float
         Beams with no return clear this far [m]; 0 clears nothing.
     trace_step_cells : float
@@ -131,6 +135,7 @@ class MappingConfig:
     occupancy_threshold: float = 0.1
     min_observations: int = 2
     max_range_m: float = 8.0
+    match_range_m: float = 12.0
     no_return_free_m: float = 0.0
     trace_step_cells: float = 0.5
     grow_margin_m: float = 1.0
@@ -165,6 +170,7 @@ class MappingConfig:
         positive = (
             "resolution_m",
             "max_range_m",
+            "match_range_m",
             "trace_step_cells",
             "coarse_xy_step_m",
             "coarse_yaw_step_rad",
@@ -368,8 +374,8 @@ class Mapper:
 
     def match_field(self, centre_xy: tuple[float, float] | None = None) -> PointField:
         """The field the scan matcher uses: the mean return of every occupied cell, over the
-        cells within ``max_range_m`` + ``search_xy_m`` + 1 m of ``centre_xy`` (None: all)."""
-        reach = self.config.max_range_m + self.config.search_xy_m + 1.0
+        cells within ``match_range_m`` + ``search_xy_m`` + 1 m of ``centre_xy`` (None: all)."""
+        reach = self.config.match_range_m + self.config.search_xy_m + 1.0
         return self._cells.match_field(centre_xy, reach)
 
     def finish(self) -> None:
@@ -430,7 +436,7 @@ class Mapper:
         window = self._window
         if cfg.turn_window_s * rate_rad_s > window.yaw_rad:
             window = dataclasses.replace(window, yaw_rad=cfg.turn_window_s * rate_rad_s)
-        bx, by = base_points(scan, mount, cfg.max_range_m, cfg.max_match_points)
+        bx, by = base_points(scan, mount, cfg.match_range_m, cfg.max_match_points)
         if bx.size < cfg.min_match_points:
             self.matches_rejected += 1
             return predicted, False

@@ -328,21 +328,21 @@ def test_the_grid_grows_and_keeps_what_it_has_mapped() -> None:
 
 
 def test_the_matcher_builds_its_field_near_the_robot_only_with_the_same_distances() -> None:
-    """On a 30 m map the scan matcher's field covers the scan's reach around the predicted
-    pose, not the map: within 8 m of the robot it measures what the whole map's field does."""
+    """On a 50 m map the scan matcher's field covers the scan's reach around the predicted
+    pose, not the map: within its 12 m range it measures what the whole map's field does."""
     sensor = lidar()
-    walls = [[x, -1.0, x, 1.0] for x in np.arange(0.0, 30.1, 3.0)] + [[0, -1.0, 30.0, -1.0]]
+    walls = [[x, -1.0, x, 1.0] for x in np.arange(0.0, 50.1, 3.0)] + [[0, -1.0, 50.0, -1.0]]
     world = Obstacles(walls)
     mapper = Mapper(MappingConfig(scan_matching=False, min_travel_m=0.5))
-    for x in np.arange(1.5, 29.0, 1.0):
+    for x in np.arange(1.5, 49.0, 1.0):
         pose = Pose2D(float(x), 0.0, 0.0)
         mapper.update(scan_at(sensor, pose, world), pose, MOUNT)
     whole = mapper.match_field()
-    near = mapper.match_field((15.0, 0.0))
+    near = mapper.match_field((25.0, 0.0))
     assert near.nearest_x_m.size < 0.8 * whole.nearest_x_m.size
     rng = np.random.default_rng(2)
-    a, r = rng.uniform(-math.pi, math.pi, 2000), rng.uniform(0.0, 8.0, 2000)
-    x, y = 15.0 + r * np.cos(a), r * np.sin(a)
+    a, r = rng.uniform(-math.pi, math.pi, 2000), rng.uniform(0.0, 12.0, 2000)
+    x, y = 25.0 + r * np.cos(a), r * np.sin(a)
     assert np.array_equal(near.distance_xy(x, y), whole.distance_xy(x, y))
 
 
