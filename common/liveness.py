@@ -12,10 +12,11 @@ lockstep) is neither.
 
 :class:`PeerWatch` turns these looks into a verdict for an end that has waited long: ``None``
 while the peer works (the wait starts over) or a short while has not yet passed, else a reason
-(``"gone"``, ``"stopped"``, ``"idle"``). Which processes are the peer is found once, lazily,
-when a wait first gets long (:func:`pty_peers`): the processes that hold the other side of the
-twin's pty (the host's serial port). Nothing here reads the wall clock for simulated results:
-it only decides when an end stops waiting.
+(``"gone"``, ``"stopped"``, ``"idle"``). Which processes are the peer is found lazily, anew
+for each wait that gets long (:func:`pty_peers`): the processes that hold the other side of the
+twin's pty (the host's serial port), which change whenever a new host process opens the port.
+Nothing here reads the wall clock for simulated results: it only decides when an end stops
+waiting.
 """
 
 from __future__ import annotations
@@ -128,22 +129,42 @@ Finder = Callable[[], "Sequence[ProcessPeer | ThreadPeer] | None"]
 
 class Peer:
     """What a watch looks at: one or more processes or threads (:class:`ProcessPeer`,
-    :class:`ThreadPeer`), found by ``find`` when first needed (None: unknown)."""
+    :class:`ThreadPeer`), found by ``find`` when first needed (None: unknown).
+
+    Who the peer is can change over a lockstep's life: each ``jackson calibrate`` run, or a
+    daemon restarted by systemd, is a new process on the same pty. So the peers found are kept
+    for one wait only (:meth:`forget` at a new wait), and found again within a wait when none
+    of them is alive any more (the old host gone, a new one perhaps already on the port).
+    """
 
     def __init__(self, find: Finder) -> None:
         self._find = find
         self._peers: Sequence[ProcessPeer | ThreadPeer] | None = None
         self._found = False
+        self.finds = 0  # how many times the peers were found: CPU times compare within one find
 
     @classmethod
     def of(cls, *peers: ProcessPeer | ThreadPeer) -> Peer:
         """Peers known from the start."""
         return cls(lambda: peers)
 
+    def forget(self) -> None:
+        """Find the peers again at the next look."""
+        self._found = False
+
     def look(self) -> list[PeerState] | None:
         """One look at each of them; None when who they are is unknown."""
-        if not self._found:
+        fresh = not self._found
+        if fresh:
             self._peers, self._found = self._find(), True
+            self.finds += 1
+        if self._peers is None:
+            return None
+        states = [p.look() for p in self._peers]
+        if fresh or any(s.alive for s in states):
+            return states
+        self._peers = self._find()  # those found are gone: who is there now
+        self.finds += 1
         return None if self._peers is None else [p.look() for p in self._peers]
 
 
@@ -162,12 +183,18 @@ class PeerWatch:
 
     peer: Peer | None = None
     backstop_s: float = BACKSTOP_S
-    _last: tuple[float, float] | None = field(default=None, repr=False)  # wall, peer CPU
+    _last: tuple[float, float, int] | None = field(default=None, repr=False)  # wall, CPU, find
+    seen: str = ""  # what the last look at the peer found, in words (for a log line)
     _idle_since: float | None = field(default=None, repr=False)
 
     def reset(self) -> None:
-        """A new wait: the next look is a first one."""
+        """A new wait: the next look is a first one, at the peers found anew."""
         self._last = self._idle_since = None
+        if self.peer is not None:
+            self.peer.forget()
+
+    def _finds(self) -> int:
+        return 0 if self.peer is None else self.peer.finds
 
     def busy(self, now: float) -> bool | None:
         """Whether a peer that has not answered in time is still working on its answer: True
@@ -177,14 +204,19 @@ class PeerWatch:
         """
         states = None if self.peer is None else self.peer.look()
         if states is None or not any(s.alive for s in states):
+            self.seen = "is not known" if states is None else "is gone"
             return False
         if all(s.stopped or not s.alive for s in states):
+            self.seen = "is stopped"
             return False
-        cpu = sum(s.cpu_s for s in states if s.alive)
-        last, self._last = self._last, (now, cpu)
-        if last is None or now - last[0] <= 0.0:
+        cpu, finds = sum(s.cpu_s for s in states if s.alive), self._finds()
+        last, self._last = self._last, (now, cpu, finds)
+        if last is None or now - last[0] <= 0.0 or last[2] != finds:  # a first look at them
+            self.seen = "was looked at once"
             return None
-        return cpu - last[1] >= WORK_SHARE * (now - last[0])
+        used, wall = cpu - last[1], now - last[0]
+        self.seen = f"used {used * 1e3:.0f} ms of CPU in {wall:.2f} s"
+        return used >= WORK_SHARE * wall
 
     def verdict(self, now: float, peer_waits: bool = False) -> Verdict | Literal["working"] | None:
         """A look at the peer at monotonic ``now``, once the end has waited long:
@@ -205,9 +237,9 @@ class PeerWatch:
             return "gone"
         if all(s.stopped or not s.alive for s in states):
             return "stopped"
-        cpu = sum(s.cpu_s for s in states if s.alive)
-        self._last = (now, cpu)
-        if last is None:
+        cpu, finds = sum(s.cpu_s for s in states if s.alive), self._finds()
+        self._last = (now, cpu, finds)
+        if last is None or last[2] != finds:  # a first look at these peers
             return None
         if cpu - last[1] >= WORK_SHARE * (now - last[0]):
             self._idle_since = now

@@ -13,6 +13,10 @@ In lockstep, a twin that has waited ``--stall-timeout`` seconds for one HEARTBEA
 when ``--heartbeat-timeout`` is longer) looks at the host, and when it is gone, stopped or
 does no work (:mod:`jackson.sim.lockstep`) gives up: it prints its summary, then one line on
 stderr (``jackson sim: lockstep stalled: the twin waited ...``), and exits with status 75.
+A host that does not answer within ``--heartbeat-timeout`` and is not working on its answer
+counts as gone: the twin says so on stderr (``jackson sim: no HEARTBEAT for 3.0 s after frame
+N ... and the host used 0 ms of CPU in 0.50 s: the twin runs on in real time ...``), and says
+again when a HEARTBEAT brings it back into lockstep.
 """
 
 from __future__ import annotations
@@ -266,6 +270,7 @@ def run(args: argparse.Namespace) -> int:
         text = os_error_line(exc) if isinstance(exc, OSError) else str(exc)
         print(f"jackson sim: {text}", file=sys.stderr)
         return 2
+    runner.watch.tell = _tell
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -393,6 +398,11 @@ def _announce(
         scan = ", /twin/scan" if publisher.scan_pub is not None else ""
         topics = f"/clock, /ground_truth/odom{scan}"
         print(f"ros: publishing {topics} on sim time", flush=True)
+
+
+def _tell(line: str) -> None:
+    """A line of the lockstep's own (the host judged gone, back again), on stderr."""
+    print(f"jackson sim: {line}", file=sys.stderr, flush=True)
 
 
 def _what_runs(args: argparse.Namespace) -> str:

@@ -67,6 +67,9 @@ class HostWatch:
         Wall and simulated time [s] the twin runs in real time from, while nobody answers.
     peer : PeerWatch
         The host's liveness, looked at once a wait reaches ``stall_s``.
+    tell : callable or None
+        Called with one line when the host is judged gone and when it answers again (``jackson
+        sim`` prints them on stderr): a twin that went on without its host is never silent.
     """
 
     timeout_s: float
@@ -78,6 +81,7 @@ class HostWatch:
     gone: int | None = None
     pace_origin: tuple[float, float] = (0.0, 0.0)
     peer: PeerWatch = field(default_factory=PeerWatch)
+    tell: Callable[[str], None] | None = None
 
     def stalled_for(self, start: float, now: float) -> float | None:
         """How long the lockstep has stood still waiting for the host, since ``start``

@@ -419,6 +419,12 @@ class TwinRunner:
             port.await_heartbeat(seq, 0.0, self._serve)
             if port.heartbeat_mark() != watch.gone:
                 watch.gone = None  # the host is back: lockstep again
+                if watch.tell is not None:
+                    watch.tell(
+                        f"a HEARTBEAT again at sim time {self.twin.t_s:.2f} s, after "
+                        f"{self.twin.t_s - watch.pace_origin[1]:.2f} s in real time: lockstep "
+                        "again"
+                    )
             else:
                 self._pace(*watch.pace_origin)
             return
@@ -442,6 +448,12 @@ class TwinRunner:
                 watch.gone = port.heartbeat_mark()
                 watch.pace_origin = (time.monotonic(), self.twin.t_s)
                 watch.waiting_since = None
+                if watch.tell is not None:
+                    watch.tell(
+                        f"no HEARTBEAT for {now - began:.1f} s after frame {self.frames} (sim "
+                        f"time {self.twin.t_s:.2f} s) and the host {watch.peer.seen}: the twin "
+                        "runs on in real time until the host answers"
+                    )
                 return
             wait = min(left, WAKE_S)
             stalled_for = watch.stalled_for(start, now)

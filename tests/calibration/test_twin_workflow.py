@@ -91,21 +91,23 @@ class Sim:
     """``jackson sim --robot FILE --truth PATH`` in its own process, as a user runs it."""
 
     def __init__(self, robot: Path, truth: Path) -> None:
-        self.proc = subprocess.Popen(
-            [
-                JACKSON,
-                "sim",
-                "--robot",
-                str(robot),
-                "--truth",
-                str(truth),
-                "--no-lidar",
-                "--heartbeat-timeout",
-                f"{HOST_SILENT_S:g}",
-            ],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-        )
+        self.err = truth.with_name("sim.err")  # its lines on stderr (the host judged gone, back)
+        with self.err.open("w") as err:
+            self.proc = subprocess.Popen(
+                [
+                    JACKSON,
+                    "sim",
+                    "--robot",
+                    str(robot),
+                    "--truth",
+                    str(truth),
+                    "--no-lidar",
+                    "--heartbeat-timeout",
+                    f"{HOST_SILENT_S:g}",
+                ],
+                stdout=subprocess.PIPE,
+                stderr=err,
+            )
         lines = self._lines_until("truth: ", timeout_s=STARTUP_BACKSTOP_S)
         self.serial = lines["serial"]
         self.i2c = lines["i2c"]
@@ -222,7 +224,7 @@ def test_the_documented_order_recovers_a_robot_never_seen_within_1_percent(
         argv = [str(sim.truth) if a == "truth.csv" else a for a in recipe[procedure]]
         rc = main(["calibrate", procedure, *link, "--out", str(out / procedure), *argv, *write])
         captured = capsys.readouterr()
-        assert rc == 0, f"calibrate {procedure}: {captured.err}"
+        assert rc == 0, f"calibrate {procedure}: {captured.err}\n{sim.err.read_text()}"
         assert "nan" not in captured.out.lower(), captured.out
         assert "frames lost" not in captured.out, captured.out  # a clean start after idleness
         return load_config(config)

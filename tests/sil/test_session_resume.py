@@ -143,3 +143,96 @@ def test_a_new_session_releases_the_twin_from_the_last_frame_of_the_one_before(
         assert second_end > first_end
     finally:
         twin.stop()
+
+
+_HOST = """
+import sys, time
+from jackson.host.transport import LinkEvent, SerialTransport
+from jackson.protocol import Heartbeat, Telemetry, TelemetryFlags, decode_message
+
+LOST = TelemetryFlags.HOST_LOST | TelemetryFlags.FAILSAFE_ACTIVE
+port, frames, busy_at, busy_s = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+link = SerialTransport(port)
+link.open(reader_thread=False)
+got, lost, times = 0, 0, []
+while got < frames:
+    item = link.get(120.0)  # a far backstop
+    if item is None:
+        sys.exit(f"no telemetry after {got} frames")
+    if isinstance(item, LinkEvent):
+        continue
+    msg = decode_message(item[1])
+    if not isinstance(msg, Telemetry):
+        continue
+    got += 1
+    times.append(msg.t_us)
+    # the session's first frame is before any HEARTBEAT (the interlock waits for one)
+    lost += got > 1 and bool(msg.flags & LOST)
+    if got == busy_at:  # a long computation on this frame: working on it, not answering
+        end = time.monotonic() + busy_s
+        while time.monotonic() < end:
+            sum(range(1000))
+    if got < frames:
+        link.send(Heartbeat(ack_seq=item[1].seq))
+link.close()
+gaps = sorted({b - a for a, b in zip(times[1:], times[2:])})
+print(lost, *gaps)
+"""
+
+
+def _host(port: str, frames: int, busy_at: int = 0, busy_s: float = 0.0) -> list[int]:
+    """A host process on the twin's port: ``frames`` telemetry frames, each answered but the
+    last; on frame ``busy_at`` it computes for ``busy_s`` of wall time first. The frames that
+    carried the MCU's host-lost or failsafe flag, then the distinct gaps between frames [us]."""
+    done = subprocess.run(
+        [sys.executable, "-c", _HOST, port, str(frames), str(busy_at), str(busy_s)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    return [int(w) for w in done.stdout.split()]
+
+
+def test_a_later_host_process_busy_on_a_frame_is_waited_for_not_judged_gone(
+    tmp_path: Path,
+) -> None:
+    """Each run of ``jackson calibrate`` (or a restarted daemon) is a new process on the twin's
+    pty. The twin must judge the host there now: judging the first one it found, gone since,
+    made any later host that took longer than ``--heartbeat-timeout`` on a frame count as gone,
+    and the twin ran on in real time under it (a step then started late on the MCU's clock)."""
+    stderr = tmp_path / "sim.err"
+    with stderr.open("w") as err:
+        twin = subprocess.Popen(
+            [JACKSON, "sim", "--no-lidar", "--heartbeat-timeout", "1"],
+            stdout=subprocess.PIPE,
+            stderr=err,
+            text=True,
+        )
+    try:
+        assert twin.stdout is not None
+        port = twin.stdout.readline().split(": ", 1)[1].strip()
+        twin.stdout.readline()  # i2c
+        # the first host leaves without answering its last frame: the twin judges it gone
+        assert _host(port, 10)[0] == 0
+        wait_for(
+            lambda: "no HEARTBEAT" in stderr.read_text(),
+            timeout_s=120.0,
+            what="the twin to judge the first host gone",
+        )
+        # the second works 3 s (three heartbeat timeouts) on its 20th frame
+        lost, *gaps = _host(port, 40, busy_at=20, busy_s=3.0)
+        assert lost == 0 and gaps == [50_000], (lost, gaps, stderr.read_text())
+    finally:
+        twin.send_signal(signal.SIGINT)
+        twin.communicate(timeout=60)
+    lines = stderr.read_text().splitlines()
+    # told: the first host gone (and how it was found), then the second's first HEARTBEAT;
+    # nothing while the second worked on its frame (a line at its end may follow)
+    assert lines[0].startswith("jackson sim: no HEARTBEAT for 1.0 s after frame 10 "), lines
+    assert lines[0].endswith(
+        "and the host is gone: the twin runs on in real time until the host answers"
+    )
+    assert lines[1].startswith("jackson sim: a HEARTBEAT again at sim time "), lines
+    assert lines[1].endswith(" s in real time: lockstep again"), lines
+    assert not any("frame 3" in ln for ln in lines[2:]), lines

@@ -115,6 +115,46 @@ def test_a_stopped_then_killed_process_is_told_at_the_first_look(
     assert watch.verdict(time.monotonic()) == "gone"
 
 
+def test_a_new_host_process_on_the_port_is_found_and_judged_by_its_own_cpu(
+    child: list[subprocess.Popen[bytes]],
+) -> None:
+    """Each ``jackson calibrate`` run is a new process on the twin's pty: the watch must look at
+    the one there now, not at the first it found (gone since, which would make any slow frame
+    of a later run count as its host gone)."""
+    first = _spawn(child, BURN)
+    holders = [ProcessPeer(first.pid)]
+    finds: list[int] = []
+
+    def find() -> list[ProcessPeer]:
+        finds.append(len(holders))
+        return list(holders)
+
+    watch = PeerWatch(Peer(find))
+    path = f"/proc/{first.pid}/stat"
+    t0 = time.monotonic()
+    assert watch.busy(t0) is None  # a first look
+    _burnt(path, 2 * WORK_SHARE * STEP_S)
+    assert watch.busy(t0 + STEP_S) is True
+    first.kill()
+    first.wait()
+    second = _spawn(child, BURN)  # the next run's host
+    holders[:] = [ProcessPeer(second.pid)]
+    # within the same wait: the old peer is dead, the new one is found; its CPU time is not
+    # compared with the old one's (a first look at it), then it is judged by its own
+    assert watch.busy(t0 + 2 * STEP_S) is None
+    _burnt(f"/proc/{second.pid}/stat", 2 * WORK_SHARE * STEP_S)
+    assert watch.busy(t0 + 3 * STEP_S) is True
+    # a new wait finds the peers again even when those found are alive
+    n = len(finds)
+    watch.reset()
+    assert watch.busy(t0 + 4 * STEP_S) is None and len(finds) == n + 1
+    second.kill()
+    second.wait()
+    holders.clear()  # nobody holds the port: gone
+    assert watch.busy(t0 + 5 * STEP_S) is False
+    assert watch.verdict(t0 + 6 * STEP_S) == "gone"
+
+
 def test_a_thread_of_this_process_is_judged_by_its_own_cpu_time() -> None:
     stop = threading.Event()
 
