@@ -16,7 +16,7 @@ stderr (``jackson sim: lockstep stalled: the twin waited ...``), and exits with 
 A host that does not answer within ``--heartbeat-timeout`` and is not working on its answer
 counts as gone: the twin says so on stderr (``jackson sim: no HEARTBEAT for 3.0 s after frame
 N ... and the host used 0 ms of CPU in 0.50 s: the twin runs on in real time ...``), and says
-again when a HEARTBEAT brings it back into lockstep.
+again when the host is back in lockstep (a HEARTBEAT, or a HELLO that begins a session).
 """
 
 from __future__ import annotations

@@ -93,8 +93,9 @@ class McuPort(Protocol):
         ...
 
     def heartbeat_mark(self) -> int:
-        """A value that changes when a new HEARTBEAT arrives (a host gone silent is back
-        when it differs from the one taken when it went)."""
+        """A value that changes when a new HEARTBEAT arrives, or (the in-process core) a HELLO
+        begins a session (a host gone silent is back when it differs from the one taken when
+        it went)."""
         ...
 
     def await_heartbeat(

@@ -413,21 +413,21 @@ class TwinRunner:
 
     def _wait_heartbeat(self, seq: int) -> None:
         """Lockstep: serve the host until it acknowledges frame ``seq``. After a timeout the
-        host counts as gone: the twin then runs in real time until a heartbeat comes back."""
+        host counts as gone: the twin then runs in real time until a heartbeat comes back, or
+        a HELLO begins a session; this frame is then waited for in lockstep."""
         port, watch = self.port, self.watch
         if watch.gone is not None:
             port.await_heartbeat(seq, 0.0, self._serve)
-            if port.heartbeat_mark() != watch.gone:
-                watch.gone = None  # the host is back: lockstep again
-                if watch.tell is not None:
-                    watch.tell(
-                        f"a HEARTBEAT again at sim time {self.twin.t_s:.2f} s, after "
-                        f"{self.twin.t_s - watch.pace_origin[1]:.2f} s in real time: lockstep "
-                        "again"
-                    )
-            else:
+            if port.heartbeat_mark() == watch.gone:
                 self._pace(*watch.pace_origin)
-            return
+                return
+            watch.gone = None  # the host is back: lockstep again, from this frame
+            if watch.tell is not None:
+                watch.tell(
+                    f"the host is back (a HEARTBEAT or a new session's HELLO) at sim time "
+                    f"{self.twin.t_s:.2f} s, after {self.twin.t_s - watch.pace_origin[1]:.2f} "
+                    "s in real time: lockstep again"
+                )
         start = began = time.monotonic()
         watch.waiting_since = start
         deadline = start + watch.timeout_s

@@ -223,6 +223,16 @@ def test_a_later_host_process_busy_on_a_frame_is_waited_for_not_judged_gone(
         # the second works 3 s (three heartbeat timeouts) on its 20th frame
         lost, *gaps = _host(port, 40, busy_at=20, busy_s=3.0)
         assert lost == 0 and gaps == [50_000], (lost, gaps, stderr.read_text())
+        # the third is slow to start: 2 s on its session's first frame, before any HEARTBEAT.
+        # Its HELLO shows it is there: the twin, which judged the second gone when it left,
+        # waits for it in lockstep instead of streaming the session on in real time
+        wait_for(
+            lambda: stderr.read_text().count("no HEARTBEAT") >= 2,
+            timeout_s=120.0,
+            what="the twin to judge the second host gone",
+        )
+        lost, *gaps = _host(port, 20, busy_at=1, busy_s=2.0)
+        assert lost == 0 and gaps == [50_000], (lost, gaps, stderr.read_text())
     finally:
         twin.send_signal(signal.SIGINT)
         twin.communicate(timeout=60)
@@ -233,6 +243,9 @@ def test_a_later_host_process_busy_on_a_frame_is_waited_for_not_judged_gone(
     assert lines[0].endswith(
         "and the host is gone: the twin runs on in real time until the host answers"
     )
-    assert lines[1].startswith("jackson sim: a HEARTBEAT again at sim time "), lines
+    assert lines[1].startswith(
+        "jackson sim: the host is back (a HEARTBEAT or a new session's HELLO) at sim time "
+    ), lines
     assert lines[1].endswith(" s in real time: lockstep again"), lines
     assert not any("frame 3" in ln for ln in lines[2:]), lines
+    assert sum(ln.startswith("jackson sim: the host is back") for ln in lines) == 2, lines
