@@ -50,6 +50,7 @@ from jackson.host.control.navigator import (
 from jackson.host.control.route import check_route
 from jackson.host.lidar.scan_timer import ScanTimer
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
+from jackson.host.nav.ekf_lag import base_pose
 from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
 from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
@@ -186,8 +187,9 @@ class NavigateMission:
         self.goal_index = 0
         self._scan_points: npt.NDArray[np.float64] | None = None
         self._odom = Pose2D()  # start ⊕ the EKF's odometry pose, at the last tick or scan
-        # when each revolution ended: the last two frames' (MCU time, odometry pose), the timer
-        self._frames: deque[tuple[float, Pose2D]] = deque(maxlen=2)
+        # when each revolution ended: the last two frames' (MCU time, odometry pose, the base's
+        # pose at that time: _base_pose), the timer
+        self._frames: deque[tuple[float, Pose2D, Pose2D]] = deque(maxlen=2)
         self._scan_timer = ScanTimer()
         self._last_scan_t_s: float | None = None
         self.static_map = static_map
@@ -241,39 +243,51 @@ class NavigateMission:
         mount = self.config.lidar_mount
         # the odometry when the revolution ended, not at the frame it came with (up to 50 ms
         # later: 1.3 cm at 0.26 m/s, and the estimate trailed the robot by as much)
-        at_end = self._odom_at_revolution_end(scan, s)
+        at_end, base_at_end, t_end_s = self._odom_at_revolution_end(scan, s)
         if self.filter is not None:
             self.filter.update(at_end, scan, mount)
             self.map_to_odom = self.filter.map_to_odom(at_end)
             self.filter.update(self._odom, None, mount)  # and on to this frame
         elif self.mapper is not None:
-            self.mapper.update(scan, at_end, mount)
+            # the base's pose, not the EKF's, which trails it by a frame (ekf_lag); the
+            # mapper only ever sees these, so its correction holds for them, and composed with
+            # the EKF's pose below it puts the robot where the EKF's lag puts it, as before
+            # stamped with its end, as the poses are (the graph's times, trajectory.csv)
+            self.mapper.update(dataclasses.replace(scan, t_s=t_end_s), base_at_end, mount)
             # the correction holds for the odometry's frame at any instant
             self.map_to_odom = self.mapper.map_to_odom
         self._scan_points = scan.points(self.pose_map(), mount)
 
-    def _odom_at_revolution_end(self, scan: Scan, s: NavState) -> Pose2D:
-        """The odometry pose when the revolution ended, for the localiser and the mapper:
-        between the frame before and this one, where
-        :class:`~jackson.host.lidar.scan_timer.ScanTimer` puts its end (the frame's own pose
-        while the timer has no phase yet). A revolution paired with the frame it came with is
-        up to a frame late: 0.05 rad of heading in a 1 rad/s turn,
-        which printed walls turned by as much."""
+    def _odom_at_revolution_end(self, scan: Scan, s: NavState) -> tuple[Pose2D, Pose2D, float]:
+        """The odometry pose when the revolution ended, for the localiser, the base's pose then
+        (:mod:`jackson.host.nav.ekf_lag`), for the mapper, and that MCU time: between the frame
+        before and this one, where :class:`~jackson.host.lidar.scan_timer.ScanTimer` puts its
+        end (the frame's own pose and time while the timer has no phase yet). A revolution
+        paired with the frame it came with is up to a frame late: 0.05 rad of heading in a
+        1 rad/s turn, which printed walls turned by as much."""
+        self._add_frame(s)
         frames = self._frames
-        if not frames or s.t_s > frames[-1][0]:
-            frames.append((s.t_s, self._odom))
         since = frames[-2][0] if len(frames) > 1 else None
         if self._last_scan_t_s == s.t_s:
             since = s.t_s  # another revolution with the same frame: not alone in its window
         self._last_scan_t_s = s.t_s
         stamps = self._scan_timer.stamp([len(scan.angles_rad)], s.t_s, since)
         if not stamps or len(frames) < 2:
-            return self._odom
+            return self._odom, frames[-1][2], s.t_s
         start, duration = stamps[-1]
-        (t0, p0), (t1, p1) = frames[-2], frames[-1]
+        (t0, p0, b0), (t1, p1, b1) = frames[-2], frames[-1]
         f = min(1.0, max(0.0, (start + duration - t0) / (t1 - t0))) if t1 > t0 else 1.0
-        step = p0.inverse().compose(p1)
-        return p0.compose(Pose2D(f * step.x, f * step.y, f * step.yaw))
+        return _between(p0, p1, f), _between(b0, b1, f), t0 + f * (t1 - t0)
+
+    def _add_frame(self, s: NavState) -> None:
+        """Keep this frame's odometry pose (``_odom``, set by the caller) for pairing
+        revolutions with, and the base's pose at its time (the EKF's trails it by a frame:
+        :mod:`jackson.host.nav.ekf_lag`)."""
+        frames = self._frames
+        if not frames or s.t_s > frames[-1][0]:
+            period = s.t_s - frames[-1][0] if frames else 0.0
+            base = base_pose(self._odom, s.v_m_s, s.w_rad_s, period)
+            frames.append((s.t_s, self._odom, base))
 
     # ------------------------------------------------------------------ the tick
 
@@ -285,8 +299,7 @@ class NavigateMission:
         """Follow the odometry to this tick (the localiser's motion update, without a scan);
         the robot's pose in the map frame."""
         self._odom = self._odom_pose(s)
-        if not self._frames or s.t_s > self._frames[-1][0]:
-            self._frames.append((s.t_s, self._odom))
+        self._add_frame(s)
         if self.filter is not None:
             self.filter.update(self._odom, None, self.config.lidar_mount)
         return self.pose_map()
@@ -369,6 +382,12 @@ class NavigateMission:
         grid.save(map_yaml)
         save_graph(self.mapper, graph_path(map_yaml))
         return grid
+
+
+def _between(a: Pose2D, b: Pose2D, f: float) -> Pose2D:
+    """The pose a share ``f`` of the way from ``a`` to ``b`` (in ``a``'s frame, linearly)."""
+    step = a.inverse().compose(b)
+    return a.compose(Pose2D(f * step.x, f * step.y, f * step.yaw))
 
 
 def parse_pose(text: str, limit_m: float = 1e4) -> Pose2D:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from jackson.host.nav.ekf_lag import FRAME_PERIOD_S, base_pose
 from jackson.host.nav.offline.errors import NoOverlapError
 from jackson.host.nav.offline.pairing import (
     POSE_FRACTION,
@@ -22,6 +23,7 @@ from jackson.host.nav.offline.pairing import (
     stamp_s,
 )
 from jackson.host.nav.offline.recording import (
+    EKF_TOPIC,
     SCAN_TOPIC,
     RecordingPlan,
     find_mount,
@@ -146,13 +148,14 @@ def map_recording(
             track.trim(track.last_s - KEEP_ODOMETRY_S)
 
     topics = (SCAN_TOPIC, plan.odometry_topic)
+    ekf = plan.odometry_topic == EKF_TOPIC
     for topic, msg in messages(plan.bags, topics):
         if topic == SCAN_TOPIC:
             read += 1
             if len(msg.ranges) >= 2:
                 waiting.append(laser_scan(msg, pose_fraction))
         else:
-            track.add(OdomSample(stamp_s(msg.header), _odom_pose(msg)))
+            track.add(OdomSample(stamp_s(msg.header), _odom_pose(msg, ekf)))
         feed()
         if progress is not None and topic == SCAN_TOPIC:
             progress(read, max(span[1] - span[0], 0.0))
@@ -182,9 +185,14 @@ def map_recording(
     )
 
 
-def _odom_pose(msg: Any) -> Pose2D:
-    """A nav_msgs/Odometry message's planar pose."""
-    return planar_pose(msg.pose.pose)
+def _odom_pose(msg: Any, ekf: bool) -> Pose2D:
+    """A nav_msgs/Odometry message's planar pose; the EKF's carried on to the base's pose at
+    its stamp (:mod:`jackson.host.nav.ekf_lag`)."""
+    pose = planar_pose(msg.pose.pose)
+    if not ekf:
+        return pose
+    twist = msg.twist.twist
+    return base_pose(pose, float(twist.linear.x), float(twist.angular.z), FRAME_PERIOD_S)
 
 
 def write_trajectory(path: Path, rows: Sequence[tuple[float, Pose2D]]) -> None:

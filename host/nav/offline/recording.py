@@ -20,7 +20,8 @@ from jackson.host.nav.types import Pose2D
 from jackson.host.ros.builder import Point, Pose, planar_pose
 
 SCAN_TOPIC = "/scan"
-ODOMETRY_TOPICS = ("/odometry/filtered", "/wheel/odom")  # preferred first
+EKF_TOPIC = "/odometry/filtered"
+ODOMETRY_TOPICS = (EKF_TOPIC, "/wheel/odom")  # preferred first
 TF_STATIC_TOPIC = "/tf_static"
 
 

@@ -2,16 +2,20 @@
 between two of them, and the poses that best agree with all the edges.
 
 An edge ``i -> j`` says where node ``j`` lies seen from node ``i`` (``z = x_i⁻¹ ⊕ x_j``), with a
-standard deviation in translation and in heading. Consecutive nodes are joined by the scan
-matcher's result (the front end); a loop closure joins a node to one laid down much earlier
-that its scan was matched against. :meth:`PoseGraph.optimise` finds the poses that minimise the
-weighted squared residuals, node 0 held fixed (it defines the map frame), by Levenberg-Marquardt
-on the sparse normal equations (scipy.sparse, SuperLU), as slam_toolbox's sparse pose
-adjustment does with Ceres: a 2-D graph of a few thousand nodes has a banded, very sparse
-Hessian and solves in tens of milliseconds. Every edge is squared, without a robust kernel
-(slam_toolbox's default too): a closure is only added once its scan match is sure
-(:mod:`.loops`), and a kernel cannot tell a true closure, whose error before the optimisation
-is the whole drift of the loop (tens of standard deviations), from a false one.
+standard deviation in translation and in heading, and the translation's covariance may be
+widened along some direction (``spread``): a scan matched in a corridor with nothing along it
+fixes where the robot is across the corridor but hardly along it, so the optimisation puts a
+loop's correction there, where the drift came from, as Karto's matcher covariance does.
+Consecutive nodes are joined by the scan matcher's result (the front end); a loop closure joins
+a node to one laid down much earlier that its scan was matched against.
+:meth:`PoseGraph.optimise` finds the poses that minimise the weighted squared residuals, node 0
+held fixed (it defines the map frame), by Levenberg-Marquardt on the sparse normal equations
+(scipy.sparse, SuperLU), as slam_toolbox's sparse pose adjustment does with Ceres: a 2-D graph
+of a few thousand nodes has a banded, very sparse Hessian and solves in tens of milliseconds.
+Every edge is squared, without a robust kernel (slam_toolbox's default too): a closure is only
+added once its scan match is sure (:mod:`.loops`), and a kernel cannot tell a true closure,
+whose error before the optimisation is the whole drift of the loop (tens of standard
+deviations), from a false one.
 
 scipy rather than GTSAM: scipy is already required and installs everywhere the host runs
 (aarch64, Python 3.10), while GTSAM is a large native package whose wheels do not cover every
@@ -50,6 +54,9 @@ class Edge:
         Its standard deviations in translation [m] and heading [rad].
     loop : bool
         A loop closure rather than the chain of consecutive scans.
+    spread : tuple of float
+        Covariance added to the translation's ``sigma_m² I``, in node ``i``'s frame:
+        (xx, xy, yy) [m²].
     """
 
     i: int
@@ -58,6 +65,18 @@ class Edge:
     sigma_m: float
     sigma_rad: float
     loop: bool = False
+    spread: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def whitening(self) -> tuple[float, float, float, float]:
+        """``(u11, u12, u22, 1 / sigma_rad)``: the upper Cholesky factor ``U`` of the
+        translation's information matrix (``Uᵀ U = Σ⁻¹``) and the heading's weight."""
+        v = self.sigma_m * self.sigma_m
+        a, b, c = v + self.spread[0], self.spread[1], v + self.spread[2]
+        det = a * c - b * b
+        oxx, oxy, oyy = c / det, -b / det, a / det  # Σ⁻¹
+        u11 = math.sqrt(oxx)
+        u12 = oxy / u11
+        return u11, u12, math.sqrt(oyy - u12 * u12), 1.0 / self.sigma_rad
 
 
 @dataclass(frozen=True)
@@ -173,7 +192,7 @@ class _EdgeArrays:
     i: npt.NDArray[np.intp]
     j: npt.NDArray[np.intp]
     z: FloatArray  # (m, 3)
-    w: FloatArray  # (m, 3) inverse standard deviations
+    w: FloatArray  # (m, 4) u11, u12, u22 of the translation's whitening, the heading's weight
     loop: npt.NDArray[np.bool_]
 
     @staticmethod
@@ -182,7 +201,7 @@ class _EdgeArrays:
             np.array([e.i for e in edges], np.intp),
             np.array([e.j for e in edges], np.intp),
             np.array([(e.z.x, e.z.y, e.z.yaw) for e in edges], np.float64),
-            np.array([(1 / e.sigma_m, 1 / e.sigma_m, 1 / e.sigma_rad) for e in edges], np.float64),
+            np.array([e.whitening() for e in edges], np.float64).reshape(-1, 4),
             np.array([e.loop for e in edges], np.bool_),
         )
 
@@ -197,17 +216,19 @@ def _residuals(
     rx = c * dx + s * dy - e.z[:, 0]
     ry = -s * dx + c * dy - e.z[:, 1]
     rt = np.remainder(xj[:, 2] - xi[:, 2] - e.z[:, 2] + math.pi, math.tau) - math.pi
-    r = (np.stack((rx, ry, rt), axis=1) * e.w).ravel()
+    u11, u12, u22, wt = e.w[:, 0], e.w[:, 1], e.w[:, 2], e.w[:, 3]
+    r = np.stack((u11 * rx + u12 * ry, u22 * ry, wt * rt), axis=1).ravel()
     if not with_jacobian:
         return r, None
     m = len(e.i)
-    wx, wy, wt = e.w[:, 0], e.w[:, 1], e.w[:, 2]
     zero = np.zeros(m)
     # rows: rx, ry, rt of each edge; columns: xi, yi, ti, xj, yj, tj
+    jx = np.stack((-c, -s, -s * dx + c * dy, c, s, zero), 1)
+    jy = np.stack((s, -c, -c * dx - s * dy, -s, c, zero), 1)
     blocks = np.stack(
         (
-            np.stack((-c, -s, -s * dx + c * dy, c, s, zero), 1) * wx[:, None],
-            np.stack((s, -c, -c * dx - s * dy, -s, c, zero), 1) * wy[:, None],
+            jx * u11[:, None] + jy * u12[:, None],
+            jy * u22[:, None],
             np.stack((zero, zero, -np.ones(m), zero, zero, np.ones(m)), 1) * wt[:, None],
         ),
         axis=1,

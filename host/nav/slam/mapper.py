@@ -17,8 +17,9 @@ map -> odom correction. For each scan it is given the odometry (or EKF) pose of 
    (:func:`~jackson.host.nav.slam.matcher.search`); the best pose replaces the prediction when
    its score reaches ``min_match_score``, otherwise the prediction stands;
 4. adds the scan to the graph as a node, joined to the one before by the relative pose of the
-   two (an edge of ``chain_sigma_m`` / ``chain_sigma_rad``, wider when the match failed), and
-   writes it into the map;
+   two (an edge of ``chain_sigma_m`` / ``chain_sigma_rad``, wider when the match failed, and
+   wider along the directions the match could not tell apart: its spread, when
+   ``chain_spread``), and writes it into the map;
 5. every ``loop_every`` nodes (or ``look_share`` of the graph's nodes, when more), looks for a
    loop closure (:mod:`jackson.host.nav.slam.loops`):
    a place visited at least ``loop.min_chain_m`` of travel earlier whose scans match this one.
@@ -111,6 +112,11 @@ class MappingConfig:
     chain_sigma_m, chain_sigma_rad : float
         Standard deviations of the edge between consecutive nodes whose match was accepted
         [m], [rad]; four times these when it was not (the odometry alone).
+    chain_spread : bool
+        Add the match's spread (the positions that scored nearly as well, less the one coarse
+        step every match has) to the chain edge's translation covariance, as Karto does: a
+        loop's correction then goes along corridors, where the front end could not see how
+        far the robot went, instead of bending every edge alike.
     loop_closure : bool
         Look for loop closures and optimise the graph.
     loop_every : int
@@ -157,6 +163,7 @@ class MappingConfig:
     turn_window_s: float = 0.15
     chain_sigma_m: float = 0.01
     chain_sigma_rad: float = 0.005
+    chain_spread: bool = True
     loop_closure: bool = True
     loop_every: int = 10
     look_share: float = 0.05
@@ -331,9 +338,9 @@ class Mapper:
             turned = abs(math.remainder(odom_pose.yaw - last.yaw, math.tau))
             if odom_pose.distance(last) < cfg.min_travel_m and turned < cfg.min_heading_rad:
                 return predicted
-        corrected, matched = predicted, False
+        corrected, matched, spread = predicted, False, None
         if self.nodes and cfg.scan_matching:
-            corrected, matched = self._match(scan, mount, predicted, rate)
+            corrected, matched, spread = self._match(scan, mount, predicted, rate)
         k = self.graph.add_node(corrected)
         travel = self.nodes[-1].travel_m if self.nodes else 0.0
         if last is not None:
@@ -343,10 +350,13 @@ class Mapper:
             # a resumed map's first new scan: where the robot is now says nothing of where the
             # saved graph ended, so only the match ties it in
             widen = RESUMED_WIDEN if last is None else 1.0 if matched else 4.0
-            z = self.graph.pose(k - 1).inverse().compose(corrected)
-            self.graph.add_edge(
-                Edge(k - 1, k, z, widen * cfg.chain_sigma_m, widen * cfg.chain_sigma_rad)
-            )
+            before = self.graph.pose(k - 1)
+            z = before.inverse().compose(corrected)
+            extra = (0.0, 0.0, 0.0)
+            if matched and spread is not None and cfg.chain_spread and last is not None:
+                extra = _in_frame(spread, before.yaw, cfg.coarse_xy_step_m**2 / 12.0)
+            sigma_m, sigma_rad = widen * cfg.chain_sigma_m, widen * cfg.chain_sigma_rad
+            self.graph.add_edge(Edge(k - 1, k, z, sigma_m, sigma_rad, spread=extra))
         self._cells.write(scan, corrected.compose(mount))
         if cfg.loop_closure and k >= self.next_look:
             self._apply(self._backend.take())  # the look from the last one
@@ -429,9 +439,9 @@ class Mapper:
 
     def _match(
         self, scan: Scan, mount: Pose2D, predicted: Pose2D, rate_rad_s: float
-    ) -> tuple[Pose2D, bool]:
-        """The accepted scan-matched pose (True), or ``predicted`` (False); counts it. The
-        heading window widens with the turn rate ``rate_rad_s``."""
+    ) -> tuple[Pose2D, bool, FloatArray | None]:
+        """The accepted scan-matched pose (True) and the match's spread, or ``predicted``
+        (False); counts it. The heading window widens with the turn rate ``rate_rad_s``."""
         cfg = self.config
         window = self._window
         if cfg.turn_window_s * rate_rad_s > window.yaw_rad:
@@ -439,15 +449,15 @@ class Mapper:
         bx, by = base_points(scan, mount, cfg.match_range_m, cfg.max_match_points)
         if bx.size < cfg.min_match_points:
             self.matches_rejected += 1
-            return predicted, False
+            return predicted, False, None
         field = self.match_field((predicted.x, predicted.y))
         match = search(field, bx, by, predicted, window)
         self.last_match_score = match.score
         if match.score >= cfg.min_match_score:
             self.matches_accepted += 1
-            return match.pose, True
+            return match.pose, True, match.spread
         self.matches_rejected += 1
-        return predicted, False
+        return predicted, False, None
 
     def _apply(self, closure: Closure | None) -> None:
         """A look's result: its edge added; when it moved the graph, every node to ``k`` put
@@ -474,3 +484,15 @@ class Mapper:
             node = self.nodes[i]
             self._cells.write(node.scan, self.graph.pose(i).compose(node.mount))
         self.optimisations += 1
+
+
+def _in_frame(spread: FloatArray, yaw: float, floor: float) -> tuple[float, float, float]:
+    """A match's map-frame position spread less ``floor`` on its diagonal (the one coarse step
+    every match has), turned into the frame of a node at heading ``yaw``: (xx, xy, yy)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array(((c, -s), (s, c)))
+    extra = spread - floor * np.eye(2)
+    local = rot.T @ extra @ rot
+    w, v = np.linalg.eigh(local)
+    local = (v * np.maximum(w, 0.0)) @ v.T  # no direction narrower than the edge's own sigma
+    return float(local[0, 0]), float(local[0, 1]), float(local[1, 1])

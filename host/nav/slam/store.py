@@ -4,8 +4,9 @@
 One NumPy ``.npz`` file (``built_map.graph.npz`` beside ``built_map.yaml``): every node's pose
 in the graph, odometry pose, LiDAR mount, travel and scan (time, angles, ranges, range limits,
 the scans' arrays laid end to end with their lengths), every edge (nodes, measured relative
-pose, standard deviations, whether it closes a loop), the mapping parameters that shape the
-map (resolution, occupancy threshold, minimum observations, ranges) and a format version. The
+pose, standard deviations and spread, whether it closes a loop), the mapping parameters that
+shape the map (resolution, occupancy threshold, minimum observations, ranges) and a format
+version. The
 map is the scans written at the nodes' poses, so loading writes them again and the map comes
 back cell for cell; the mapper then goes on from the last node: its next scan's odometry is
 taken relative to that node's, so a robot that starts again where the graph ended (the map
@@ -24,7 +25,8 @@ from jackson.host.nav.slam.loops import Node
 from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 
-GRAPH_FORMAT = 1
+GRAPH_FORMAT = 2  # 2 added the edges' spread; a format 1 file loads with none
+READABLE_FORMATS = (1, 2)
 GRAPH_SUFFIX = ".graph.npz"  # beside the map's YAML: built_map.yaml -> built_map.graph.npz
 
 
@@ -65,6 +67,7 @@ def save_graph(mapper: Mapper, path: Path) -> None:
         edge_z=np.array([(e.z.x, e.z.y, e.z.yaw) for e in edges]).reshape(-1, 3),
         edge_sigma=np.array([(e.sigma_m, e.sigma_rad) for e in edges]).reshape(-1, 2),
         edge_loop=np.array([e.loop for e in edges], np.bool_),
+        edge_spread=np.array([e.spread for e in edges], np.float64).reshape(-1, 3),
     )
 
 
@@ -83,8 +86,10 @@ def load_graph(path: Path, config: MappingConfig | None = None) -> Mapper:
             data = {k: f[k] for k in f.files}
     except (OSError, ValueError, EOFError) as exc:
         raise GraphFileError(f"{path}: not a pose-graph file ({exc})") from exc
-    if int(data.get("format", -1)) != GRAPH_FORMAT:
-        raise GraphFileError(f"{path}: not a pose-graph file of format {GRAPH_FORMAT}")
+    if int(data.get("format", -1)) not in READABLE_FORMATS:
+        raise GraphFileError(
+            f"{path}: not a pose-graph file of format {' or '.join(map(str, READABLE_FORMATS))}"
+        )
     res, threshold, min_obs, _ = (float(v) for v in data["settings"])
     made = (res, threshold, int(min_obs))
     if made != (config.resolution_m, config.occupancy_threshold, config.min_observations):
@@ -108,11 +113,19 @@ def load_graph(path: Path, config: MappingConfig | None = None) -> Mapper:
                 float(data["travel"][k]),
             )
         )
-    for (i, j), z, (sm, sr), loop in zip(
-        data["edge_nodes"], data["edge_z"], data["edge_sigma"], data["edge_loop"], strict=True
+    spreads = data.get("edge_spread", np.zeros((len(data["edge_nodes"]), 3)))
+    for (i, j), z, (sm, sr), loop, (sxx, sxy, syy) in zip(
+        data["edge_nodes"],
+        data["edge_z"],
+        data["edge_sigma"],
+        data["edge_loop"],
+        spreads,
+        strict=True,
     ):
+        z_pose = Pose2D(*(float(v) for v in z))
+        spread = (float(sxx), float(sxy), float(syy))
         mapper.graph.add_edge(
-            Edge(int(i), int(j), Pose2D(*(float(v) for v in z)), float(sm), float(sr), bool(loop))
+            Edge(int(i), int(j), z_pose, float(sm), float(sr), bool(loop), spread=spread)
         )
     mapper.resume()
     return mapper

@@ -1,17 +1,21 @@
-"""The mapper takes each revolution with the odometry pose at the revolution's end, where the
+"""The mapper takes each revolution with the base's pose at the revolution's end, where the
 LiDAR's timeline puts it between the frame before and the one it came with, not at that
-frame: in a turn, a frame late is a heading off by the turn rate times up to 50 ms."""
+frame: in a turn, a frame late is a heading off by the turn rate times up to 50 ms. And the
+base's pose, not the EKF's, which trails it by a frame (robot_localization's order: the pose
+is predicted with the twist from before the frame's measurements)."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+import pytest
 
 from jackson.host.config import HostConfig
 from jackson.host.control.base import NavState
 from jackson.host.control.navigate import NavigateConfig, NavigateMission
 from jackson.host.lidar.scan_timer import SCAN_PERIOD_S
+from jackson.host.nav.ekf_lag import MAX_LAG_S, base_pose
 from jackson.host.nav.slam.mapper import MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 
@@ -29,18 +33,33 @@ def test_a_revolution_is_mapped_with_the_pose_at_its_end_not_at_its_frame() -> N
     mission = NavigateMission(nav, HostConfig().limits)
     angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
     ends = [k * SCAN_PERIOD_S for k in range(1, 60)]  # each revolution's end on MCU time
-    mapped: list[tuple[float, float]] = []  # (the revolution's end, the heading it got)
+    mapped: list[tuple[float, float, float]] = []  # (the revolution's end, its heading, time)
     for k in range(1, 160):
         t = k * FRAME_S
-        s = NavState(t, 0.0, 0.0, W_RAD_S * t, 0.0, W_RAD_S)
+        # the EKF's heading at a frame is the base's at the frame before
+        s = NavState(t, 0.0, 0.0, W_RAD_S * (t - FRAME_S), 0.0, W_RAD_S)
         mission.track(s)
         for end in [e for e in ends if t - FRAME_S < e <= t]:  # came with this frame
             before = mission.mapper.scans_integrated if mission.mapper else 0
             mission.on_scan(Scan(t, angles, np.full(360, 2.0)), s)
             assert mission.mapper is not None
             if mission.mapper.scans_integrated > before:
-                mapped.append((end, mission.mapper.nodes[-1].odom.yaw))
-    late = [abs(math.remainder(yaw - W_RAD_S * end, math.tau)) for end, yaw in mapped[-20:]]
+                node = mission.mapper.nodes[-1]
+                mapped.append((end, node.odom.yaw, node.scan.t_s))
+    late = [abs(math.remainder(yaw - W_RAD_S * end, math.tau)) for end, yaw, _ in mapped[-20:]]
     # once the timer has the phase: within 3 ms of the end (0.003 rad), where the frame's own
-    # heading was up to 0.05 rad ahead
+    # heading was up to 0.05 rad ahead and the EKF's trailed by 0.05 rad
     assert len(late) == 20 and max(late) < 0.004
+    assert all(abs(t - end) < 0.004 for end, _, t in mapped[-20:])  # the node's time: the end
+
+
+def test_the_base_pose_carries_the_ekf_pose_on_by_its_twist_over_the_frame() -> None:
+    ahead = base_pose(Pose2D(1.0, 2.0, 0.0), 0.2, 0.0, 0.05)
+    assert ahead == Pose2D(1.01, 2.0, 0.0)
+    arc = base_pose(Pose2D(0.0, 0.0, math.pi / 2), 0.2, 1.0, 0.05)  # along the chord of an arc
+    assert arc.yaw == math.pi / 2 + 0.05
+    assert math.hypot(arc.x, arc.y) == pytest.approx(0.01)
+    assert math.atan2(arc.y, arc.x) == pytest.approx(math.pi / 2 + 0.025)
+    # a long gap (frames lost) carries the twist over two frames at most
+    assert base_pose(Pose2D(), 0.2, 0.0, 1.0) == base_pose(Pose2D(), 0.2, 0.0, MAX_LAG_S)
+    assert base_pose(Pose2D(), 0.2, 0.0, -1.0) == Pose2D()

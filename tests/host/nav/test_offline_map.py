@@ -26,6 +26,7 @@ from jackson.host.nav.offline import (
     plan_recording,
     tf_chain,
 )
+from jackson.host.nav.slam.mapper import MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.host.ros.bag import BagRecorder
 from jackson.host.ros.messages import RosSettings
@@ -54,17 +55,22 @@ def record(
     odometry: str | None = "filtered",
     settings: RosSettings | None = None,
     scan_offset_s: float = 0.0,
+    ekf_lag: tuple[float, float] | None = None,
 ) -> None:
     """A run folder whose bag holds the odometry of ``poses`` and a scan every 0.1 s, seen
-    from the laser frame of ``settings``."""
+    from the laser frame of ``settings``; with ``ekf_lag`` (the twist: v [m/s], w [rad/s]),
+    /odometry/filtered carries that twist and the pose of the frame before, as the EKF does."""
     ros = settings or RosSettings()
     mount = Pose2D(
         ros.base_link_offset_m[0] + ros.laser_offset_m[0],
         ros.base_link_offset_m[1] + ros.laser_offset_m[1],
     )
     with BagRecorder(run / "bag", settings) as bag:
-        for t_s, p in poses:
-            if odometry == "filtered":
+        for k, (t_s, p) in enumerate(poses):
+            if odometry == "filtered" and ekf_lag is not None:
+                q = poses[max(k - 1, 0)][1]  # where the base was a frame before
+                bag.filtered(t_s, q.x, q.y, q.yaw, ekf_lag[0], 0.0, ekf_lag[1], None)
+            elif odometry == "filtered":
                 bag.filtered(t_s, p.x, p.y, p.yaw, 0.0, 0.0, 0.0, None)
             elif odometry == "wheel":
                 bag.wheel_odom(t_s, p.x, p.y, p.yaw, 0.0, 0.0)
@@ -172,6 +178,22 @@ def test_a_drive_maps_the_room_and_writes_its_trajectory(tmp_path: Path) -> None
     t = float(last["t_s"])
     truth = poses[round(t * 20)][1]
     assert math.hypot(float(last["x_m"]) - truth.x, float(last["y_m"]) - truth.y) < 0.03
+
+
+def test_the_ekf_pose_a_frame_behind_is_carried_on_to_the_base_by_its_twist(
+    tmp_path: Path,
+) -> None:
+    poses = drive(v_m_s=0.2, w_rad_s=1.0)  # turning at 1 rad/s: a frame is 0.05 rad
+    record(tmp_path / "run", poses, ekf_lag=(0.2, 1.0))
+    odometry_only = MappingConfig(scan_matching=False, loop_closure=False)
+    map_recording(tmp_path / "run", tmp_path / "out", config=odometry_only)
+    with (tmp_path / "out" / "trajectory.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) > 10
+    for row in rows:
+        truth = poses[round(float(row["t_s"]) * 20)][1]
+        assert abs(math.remainder(float(row["yaw_rad"]) - truth.yaw, math.tau)) < 1e-5
+        assert math.hypot(float(row["x_m"]) - truth.x, float(row["y_m"]) - truth.y) < 1e-5
 
 
 def test_wheel_odometry_is_the_fallback_and_the_start_anchors_the_map(tmp_path: Path) -> None:

@@ -3,6 +3,7 @@ where it is, and the graph saved beside a map comes back with the same map."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -51,6 +52,42 @@ def test_one_closure_pulls_a_drifted_loop_shut_and_node_0_stays() -> None:
     assert worst < 0.2  # one closure: the middle keeps part of the drift (measured 0.13 m)
 
 
+def test_an_edge_whitens_by_its_covariance() -> None:
+    edge = Edge(0, 1, Pose2D(), 0.01, 0.005, spread=(0.003, 0.001, 0.0005))
+    u11, u12, u22, wt = edge.whitening()
+    u = np.array(((u11, u12), (0.0, u22)))
+    cov = np.array(((0.0001 + 0.003, 0.001), (0.001, 0.0001 + 0.0005)))
+    assert np.allclose(u.T @ u, np.linalg.inv(cov))
+    assert wt == pytest.approx(200.0)
+
+
+def _corridor_then_room(spread: float) -> PoseGraph:
+    """Ten 1 m steps along x, the first five matched in a corridor (wide along x by
+    ``spread`` [m²]), the last five in a room; a closure from the start says the end lies
+    0.3 m short of where the chain put it."""
+    graph = PoseGraph()
+    for k in range(11):
+        graph.add_node(Pose2D(float(k), 0.0, 0.0))
+    for k in range(1, 11):
+        extra = (spread, 0.0, 0.0) if k <= 5 else (0.0, 0.0, 0.0)
+        graph.add_edge(Edge(k - 1, k, Pose2D(1.0, 0.0, 0.0), 0.01, 0.005, spread=extra))
+    graph.add_edge(Edge(0, 10, Pose2D(9.7, 0.0, 0.0), 0.01, 0.005, loop=True))
+    return graph
+
+
+def test_a_loop_correction_goes_where_the_matches_could_not_see_along() -> None:
+    graph = _corridor_then_room(0.005)  # a 7 cm spread, as a corridor's match in +-0.1 m
+    graph.optimise()
+    x = graph.poses()[:, 0]
+    corridor, room = x[5] - x[0], x[10] - x[5]
+    assert corridor == pytest.approx(4.7, abs=0.01)  # the corridor takes the 0.3 m
+    assert room == pytest.approx(5.0, abs=0.01)  # the room, seen well, keeps its length
+    assert np.allclose(graph.poses()[:, 1:], 0.0, atol=1e-9)  # across: nothing to correct
+    even = _corridor_then_room(0.0)
+    even.optimise()
+    assert even.poses()[5, 0] == pytest.approx(5.0 - 0.15 * 10 / 11)  # without: shared alike
+
+
 def test_a_graph_without_edges_or_with_one_node_is_left_alone() -> None:
     graph = PoseGraph()
     graph.add_node(Pose2D(1.0, 2.0, 0.3))
@@ -68,11 +105,18 @@ def test_a_saved_graph_loads_with_the_same_map_and_goes_on(tmp_path: Path) -> No
         ranges = np.full(360, 2.0) + rng.normal(0, 0.01, 360)
         mapper.update(Scan(0.1 * k, angles, ranges), Pose2D(0.06 * k, 0.0, 0.0))
     mapper.finish()  # the map to save: every scan written again, walls first
+    wide = Edge(3, 9, Pose2D(0.36, 0.0, 0.0), 0.01, 0.005, spread=(0.004, 0.0005, 0.0001))
+    mapper.graph.add_edge(wide)  # a match along a corridor: its spread is saved
     path = tmp_path / "built_map.graph.npz"
     save_graph(mapper, path)
     again = load_graph(path, config)
     assert np.array_equal(again.grid().data, mapper.grid().data)
     assert len(again.graph) == 30 and again.graph.edges == mapper.graph.edges
+    with np.load(path) as f:  # a file from before edges had a spread (format 1) loads
+        old = {k: f[k] for k in f.files if k != "edge_spread"}
+    np.savez_compressed(tmp_path / "old.npz", **(old | {"format": np.array(1)}))
+    edges = load_graph(tmp_path / "old.npz", config).graph.edges
+    assert edges[-1] == dataclasses.replace(wide, spread=(0.0, 0.0, 0.0))
     pose = again.update(Scan(3.0, angles, np.full(360, 2.0)), Pose2D(0.5, 0.0, 0.0))
     assert len(again.graph) == 31 and pose == Pose2D(0.5, 0.0, 0.0)
     with pytest.raises(GraphFileError, match=r"resolution 0\.05 m"):
