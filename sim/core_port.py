@@ -107,7 +107,6 @@ class CorePort:
         self._twin = twin
         self.line = line
         self._serial_link = serial_link
-        self._sessions = 0  # sessions a HELLO began
         self.link: PtyLink | None = PtyLink(serial_link)
         self._path = self.link.path
         self.mcu = Mcu(
@@ -148,18 +147,7 @@ class CorePort:
             return
         data = self.link.read()
         if data:
-            before = self._session_state()
             self.mcu.receive(data, now_us)  # handled now, or at the next tick
-            self._count_session(before)
-
-    def _session_state(self) -> tuple[bool, bool]:
-        return self.mcu.session, self.mcu.telemetry_sent
-
-    def _count_session(self, before: tuple[bool, bool]) -> None:
-        """Count a session a HELLO began since ``before`` (a host is there)."""
-        session, sent = self._session_state()
-        if (session and not before[0]) or (before[1] and not sent):
-            self._sessions += 1
 
     def unplug(self) -> None:
         """Close the pty: the core's frames go nowhere until :meth:`plug`."""
@@ -180,9 +168,7 @@ class CorePort:
         mcu = self.mcu
         frames_before = mcu.telemetry_frames
         self.line.lost = False
-        before = self._session_state()
         mcu.tick(now_us)  # the host's bytes that waited for this instant first
-        self._count_session(before)
         return Tick(mcu.telemetry_frames != frames_before, self.line.lost)
 
     def next_deadline(self, now_us: int) -> int | None:
@@ -219,7 +205,8 @@ class CorePort:
         """HEARTBEATs taken since boot, plus the sessions HELLOs began: a host that starts a
         session is there, and its first frames are waited for in lockstep (a daemon slow to
         start on a busy machine would otherwise see them come in real time and fall behind)."""
-        return self.mcu.heartbeats + self._sessions
+        mcu = self.mcu
+        return mcu.heartbeats + mcu.sessions  # both counted by the firmware core
 
     def await_heartbeat(
         self, seq: int | None, timeout_s: float, serve: Callable[[float], bool]

@@ -217,6 +217,11 @@ class Mcu:
         return int(self._core.heartbeats)
 
     @property
+    def sessions(self) -> int:
+        """Sessions a HELLO began since boot (a new session id, or the first HELLO)."""
+        return int(self._core.sessions)
+
+    @property
     def heartbeat_seen(self) -> bool:
         """A HEARTBEAT arrived in this session."""
         return self._core.heartbeat_ack is not None

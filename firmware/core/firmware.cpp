@@ -346,6 +346,7 @@ void Firmware::handle(const proto::Frame& f, uint32_t now) {
       }
       session_ = true;
       session_id_ = h.session;
+      ++sessions_;
       averager_ = ImuAverager{};  // the first frame averages only samples of this session
       heartbeat_seen_ = false;  // the interlock drops until this session's first HEARTBEAT
       host_shutdown_ = false;

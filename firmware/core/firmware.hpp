@@ -81,6 +81,9 @@ class Firmware {
   uint32_t host_lost_us() const noexcept { return last_heartbeat_us_ + 1000u * cfg_.failsafe_ms; }
   /// HEARTBEATs taken in sessions since boot (a simulator tells a host that came back by it).
   uint32_t heartbeats() const noexcept { return heartbeats_; }
+  /// Sessions a HELLO began since boot (a new session id, or the first HELLO after none): a
+  /// simulator tells by it that a host is there before its first HEARTBEAT.
+  uint32_t sessions() const noexcept { return sessions_; }
   /// The flags a TELEMETRY or STATUS frame sent at `now` carries (PCNT_OVERFLOW aside).
   uint16_t telemetry_flags(uint32_t now) const noexcept;
   const Mpu6050& imu() const noexcept { return imu_; }
@@ -132,6 +135,7 @@ class Firmware {
   bool heartbeat_seen_ = false;
   uint8_t heartbeat_ack_ = 0;
   uint32_t heartbeats_ = 0;
+  uint32_t sessions_ = 0;
   uint32_t last_heartbeat_us_ = 0;
   bool host_shutdown_ = false;  ///< the newest HEARTBEAT said SHUTDOWN
   bool motor_enable_ = false;

@@ -515,6 +515,7 @@ TEST(Interlock, HeartbeatsAreCountedAndTheLostInstantIsFailsafeMsAfterTheLast) {
   heartbeat(b, 2);
   b.fw.tick();
   EXPECT_EQ(b.fw.heartbeats(), 2u);
+  EXPECT_EQ(b.fw.sessions(), 1u);
   EXPECT_EQ(b.fw.last_heartbeat_us(), b.clock.t);
   EXPECT_EQ(b.fw.host_lost_us(), b.clock.t + 1000u * b.fw.config().failsafe_ms);
   const uint32_t lost = b.fw.host_lost_us();
@@ -523,6 +524,23 @@ TEST(Interlock, HeartbeatsAreCountedAndTheLostInstantIsFailsafeMsAfterTheLast) {
   EXPECT_FALSE(b.enable.enabled);
   EXPECT_TRUE(b.fw.telemetry_flags(lost) & proto::telemetry_flags::kHostLost);
   EXPECT_FALSE(b.fw.telemetry_flags(lost) & proto::telemetry_flags::kMotorEnable);
+}
+
+TEST(Interlock, EverySessionAHelloBeginsIsCountedTheSameHostsRepeatIsNot) {
+  // a simulator tells that a host is there by it, before the session's first HEARTBEAT
+  Bench b(false);
+  b.fw.begin();
+  EXPECT_EQ(b.fw.sessions(), 0u);
+  b.hello(0, 7);
+  EXPECT_EQ(b.fw.sessions(), 1u);
+  b.hello(1, 7);  // the same host again, its session going on
+  EXPECT_EQ(b.fw.sessions(), 1u);
+  b.hello(2, 8);  // a new host before any frame of the old session went out
+  EXPECT_EQ(b.fw.sessions(), 2u);
+  b.hello(3, 0);  // a host without a session id: a session each time
+  b.hello(4, 0);
+  EXPECT_EQ(b.fw.sessions(), 4u);
+  EXPECT_EQ(b.fw.heartbeats(), 0u);
 }
 
 TEST(Interlock, NextDeadlineIncludesTheInstantTheLineDrops) {

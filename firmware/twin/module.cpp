@@ -146,6 +146,7 @@ PYBIND11_MODULE(jackson_firmware_core, m) {
                              [](const Core& c) { return c.fw().last_heartbeat_us(); })
       .def_property_readonly("host_lost_us", [](const Core& c) { return c.fw().host_lost_us(); })
       .def_property_readonly("heartbeats", [](const Core& c) { return c.fw().heartbeats(); })
+      .def_property_readonly("sessions", [](const Core& c) { return c.fw().sessions(); })
       .def_property_readonly("heartbeat_ack",
                              [](const Core& c) {
                                uint8_t seq = 0;
