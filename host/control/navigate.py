@@ -249,13 +249,14 @@ class NavigateMission:
             self.map_to_odom = self.filter.map_to_odom(at_end)
             self.filter.update(self._odom, None, mount)  # and on to this frame
         elif self.mapper is not None:
-            # the base's pose, not the EKF's, which trails it by a frame (ekf_lag); the
-            # mapper only ever sees these, so its correction holds for them, and composed with
-            # the EKF's pose below it puts the robot where the EKF's lag puts it, as before
-            # stamped with its end, as the poses are (the graph's times, trajectory.csv)
-            self.mapper.update(dataclasses.replace(scan, t_s=t_end_s), base_at_end, mount)
-            # the correction holds for the odometry's frame at any instant
-            self.map_to_odom = self.mapper.map_to_odom
+            # the base's pose, not the EKF's, which trails it by a frame (ekf_lag), stamped
+            # with the revolution's end (the graph's times, trajectory.csv)
+            placed = self.mapper.update(dataclasses.replace(scan, t_s=t_end_s), base_at_end, mount)
+            # the correction for the EKF's odometry: where the scan placed the base, against the
+            # EKF's pose at the same instant (the frame's lag taken up in it, as AMCL's is), so
+            # that the navigator's pose is the base's now, not a frame ago; it holds for the
+            # odometry's frame at any instant
+            self.map_to_odom = placed.compose(at_end.inverse())
         self._scan_points = scan.points(self.pose_map(), mount)
 
     def _odom_at_revolution_end(self, scan: Scan, s: NavState) -> tuple[Pose2D, Pose2D, float]:

@@ -34,6 +34,7 @@ def test_a_revolution_is_mapped_with_the_pose_at_its_end_not_at_its_frame() -> N
     angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
     ends = [k * SCAN_PERIOD_S for k in range(1, 60)]  # each revolution's end on MCU time
     mapped: list[tuple[float, float, float]] = []  # (the revolution's end, its heading, time)
+    behind: list[float] = []  # the navigator's heading against the base's at the frame
     for k in range(1, 160):
         t = k * FRAME_S
         # the EKF's heading at a frame is the base's at the frame before
@@ -46,11 +47,14 @@ def test_a_revolution_is_mapped_with_the_pose_at_its_end_not_at_its_frame() -> N
             if mission.mapper.scans_integrated > before:
                 node = mission.mapper.nodes[-1]
                 mapped.append((end, node.odom.yaw, node.scan.t_s))
+                # and the navigator's pose is the base's now, not a frame behind as the EKF's
+                behind.append(abs(math.remainder(mission.pose_map().yaw - W_RAD_S * t, math.tau)))
     late = [abs(math.remainder(yaw - W_RAD_S * end, math.tau)) for end, yaw, _ in mapped[-20:]]
     # once the timer has the phase: within 3 ms of the end (0.003 rad), where the frame's own
     # heading was up to 0.05 rad ahead and the EKF's trailed by 0.05 rad
     assert len(late) == 20 and max(late) < 0.004
     assert all(abs(t - end) < 0.004 for end, _, t in mapped[-20:])  # the node's time: the end
+    assert max(behind[-20:]) < 1e-9  # 0.05 rad (a frame of the turn) with the EKF's own pose
 
 
 def test_the_base_pose_carries_the_ekf_pose_on_by_its_twist_over_the_frame() -> None:
