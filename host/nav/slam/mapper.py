@@ -338,9 +338,10 @@ class Mapper:
             turned = abs(math.remainder(odom_pose.yaw - last.yaw, math.tau))
             if odom_pose.distance(last) < cfg.min_travel_m and turned < cfg.min_heading_rad:
                 return predicted
-        corrected, matched, spread = predicted, False, None
+        corrected, spread = predicted, None
         if self.nodes and cfg.scan_matching:
-            corrected, matched, spread = self._match(scan, mount, predicted, rate)
+            corrected, spread = self._match(scan, mount, predicted, rate)
+        matched = spread is not None
         k = self.graph.add_node(corrected)
         travel = self.nodes[-1].travel_m if self.nodes else 0.0
         if last is not None:
@@ -353,7 +354,7 @@ class Mapper:
             before = self.graph.pose(k - 1)
             z = before.inverse().compose(corrected)
             extra = (0.0, 0.0, 0.0)
-            if matched and spread is not None and cfg.chain_spread and last is not None:
+            if spread is not None and cfg.chain_spread and last is not None:
                 extra = _in_frame(spread, before.yaw, cfg.coarse_xy_step_m**2 / 12.0)
             sigma_m, sigma_rad = widen * cfg.chain_sigma_m, widen * cfg.chain_sigma_rad
             self.graph.add_edge(Edge(k - 1, k, z, sigma_m, sigma_rad, spread=extra))
@@ -439,9 +440,9 @@ class Mapper:
 
     def _match(
         self, scan: Scan, mount: Pose2D, predicted: Pose2D, rate_rad_s: float
-    ) -> tuple[Pose2D, bool, FloatArray | None]:
-        """The accepted scan-matched pose (True) and the match's spread, or ``predicted``
-        (False); counts it. The heading window widens with the turn rate ``rate_rad_s``."""
+    ) -> tuple[Pose2D, FloatArray | None]:
+        """The accepted scan-matched pose and the match's spread, or ``predicted`` and None;
+        counts it. The heading window widens with the turn rate ``rate_rad_s``."""
         cfg = self.config
         window = self._window
         if cfg.turn_window_s * rate_rad_s > window.yaw_rad:
@@ -449,15 +450,15 @@ class Mapper:
         bx, by = base_points(scan, mount, cfg.match_range_m, cfg.max_match_points)
         if bx.size < cfg.min_match_points:
             self.matches_rejected += 1
-            return predicted, False, None
+            return predicted, None
         field = self.match_field((predicted.x, predicted.y))
         match = search(field, bx, by, predicted, window)
         self.last_match_score = match.score
         if match.score >= cfg.min_match_score:
             self.matches_accepted += 1
-            return match.pose, True, match.spread
+            return match.pose, match.spread
         self.matches_rejected += 1
-        return predicted, False, None
+        return predicted, None
 
     def _apply(self, closure: Closure | None) -> None:
         """A look's result: its edge added; when it moved the graph, every node to ``k`` put

@@ -6,11 +6,10 @@ in the graph, odometry pose, LiDAR mount, travel and scan (time, angles, ranges,
 the scans' arrays laid end to end with their lengths), every edge (nodes, measured relative
 pose, standard deviations and spread, whether it closes a loop), the mapping parameters that
 shape the map (resolution, occupancy threshold, minimum observations, ranges) and a format
-version. The
-map is the scans written at the nodes' poses, so loading writes them again and the map comes
-back cell for cell; the mapper then goes on from the last node: its next scan's odometry is
-taken relative to that node's, so a robot that starts again where the graph ended (the map
-frame) continues the same map.
+version. The map is the scans written at the nodes' poses, so loading writes them again and the
+map comes back cell for cell; the mapper then goes on from the last node: its next scan's
+odometry is taken relative to that node's, so a robot that starts again where the graph ended
+(the map frame) continues the same map.
 """
 
 from __future__ import annotations
