@@ -353,6 +353,7 @@ def _navigation_from_meta(
             localisation=nav["localisation"],
             extent=tuple(nav["extent"]),
             lidar_mount=Pose2D(*nav["lidar_mount"]),
+            deskew=bool(nav.get("deskew", False)),  # runs from before revolutions were deskewed
             seed=int(nav["seed"]),
         )
     except (KeyError, TypeError, ValueError) as exc:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -209,6 +210,10 @@ class Obstacles:
         return f"Obstacles({len(self._segments)} segments, {len(self._circles)} circles)"
 
 
+AHEAD_SHARE = 0.2  # share of a turn an emulated device sends with the turn before (<= 25 ms: 0.19)
+MOVING_CHUNKS = 36  # pieces of a turn cast from one pose each (3.7 ms of an A1M8's 134.65 ms)
+
+
 def _unit_directions(angles_rad: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.vstack((np.cos(angles_rad), np.sin(angles_rad)))
 
@@ -365,10 +370,15 @@ class Lidar:
     as the sensor's driver filters what it measured). Random numbers come only from ``rng``: the
     same generator state gives the same scan.
 
-    The whole scan is taken at the one pose given, although the real head turns for
-    ``scan_period_s`` while it measures; motion distortion (about 1 cm and 0.04 rad per scan at the
-    robot's 0.08 m/s and 0.3 rad/s) is not modelled. The twin calls :meth:`scan` once per
-    ``scan_period_s`` of simulated time.
+    :meth:`scan` takes the whole scan at the one pose given. The real head turns for
+    ``scan_period_s`` while it measures, and a robot that moves meanwhile distorts the scan: the
+    first samples of a turn were measured a whole period before its end (3.5 cm and 0.13 rad
+    apart at the robot's 0.26 m/s and 1 rad/s). :meth:`scan_moving` models that, given the
+    poses at the start and the end of the turn: each beam is cast from the pose at its own
+    instant (heading ``h``, clockwise from the head's zero mark, measured at fraction
+    ``h / 360°`` of the turn), the pose interpolated linearly between the two in
+    :data:`MOVING_CHUNKS` pieces of the turn. The twin calls :meth:`scan_moving` once per
+    ``scan_period_s`` of simulated time, from its pose at the scan before to its pose now.
 
     Parameters
     ----------
@@ -419,6 +429,65 @@ class Lidar:
         d = rotation @ self._directions
         return _cast_directions(sx, sy, d, obstacles, self._spec.range_max_m)
 
+    def beam_fractions(self) -> NDArray[np.float64]:
+        """The share of the turn gone by when each beam is measured, in [0, 1): its heading
+        (clockwise from the head's zero mark, ``-angle`` wrapped) over a full turn."""
+        return np.mod(-self._angles, 2.0 * math.pi) / (2.0 * math.pi)
+
+    def true_ranges_moving(
+        self,
+        start: tuple[float, float, float],
+        end: tuple[float, float, float],
+        obstacles: Obstacles,
+    ) -> NDArray[np.float64]:
+        """Exact distances along the beams, each cast from the base pose at its instant of
+        the turn: ``start`` at the turn's beginning, ``end`` at its end, linearly between them
+        (the heading along the shorter arc) in :data:`MOVING_CHUNKS` pieces."""
+        if start == end:
+            return self.true_ranges(*end, obstacles)
+        chunk = np.minimum(
+            (self.beam_fractions() * MOVING_CHUNKS).astype(np.intp), MOVING_CHUNKS - 1
+        )
+        out = np.empty(self._spec.beams)
+        x0, y0, yaw0 = start
+        dx, dy = end[0] - x0, end[1] - y0
+        dyaw = math.remainder(end[2] - yaw0, 2.0 * math.pi)
+        for c in range(MOVING_CHUNKS):
+            beams = np.flatnonzero(chunk == c)
+            if beams.size == 0:
+                continue
+            f = (c + 0.5) / MOVING_CHUNKS
+            sx, sy, syaw = self.sensor_pose(x0 + f * dx, y0 + f * dy, yaw0 + f * dyaw)
+            co, sn = math.cos(syaw), math.sin(syaw)
+            d = np.array(((co, -sn), (sn, co))) @ self._directions[:, beams]
+            out[beams] = _cast_directions(sx, sy, d, obstacles, self._spec.range_max_m)
+        return out
+
+    def scan_moving(
+        self,
+        start: tuple[float, float, float],
+        end: tuple[float, float, float],
+        obstacles: Obstacles,
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """One scan over a turn in which the base moved from ``start`` to ``end`` (each
+        ``(x [m], y [m], yaw [rad])`` in the world frame): :meth:`scan` with each beam cast
+        from the pose at its instant (:meth:`true_ranges_moving`), and what the beams of the
+        next turn's beginning read just after this one ended (an emulated device sends those
+        with this turn: :mod:`jackson.sim.rplidar`): the same ranges with the beams in the
+        first :data:`AHEAD_SHARE` of a turn (and the last 1 %, their neighbours) cast from
+        ``end``. One set of noise draws for both, the draws :meth:`scan` makes.
+        """
+        moving = self.true_ranges_moving(start, end, obstacles)
+        ahead = moving.copy()
+        if start != end:
+            f = self.beam_fractions()
+            near = np.flatnonzero((f < AHEAD_SHARE) | (f > 0.99))
+            sx, sy, syaw = self.sensor_pose(*end)
+            co, sn = math.cos(syaw), math.sin(syaw)
+            d = np.array(((co, -sn), (sn, co))) @ self._directions[:, near]
+            ahead[near] = _cast_directions(sx, sy, d, obstacles, self._spec.range_max_m)
+        return self._measured(moving, ahead)
+
     def scan(
         self, pose_x: float, pose_y: float, pose_yaw: float, obstacles: Obstacles
     ) -> NDArray[np.float32]:
@@ -429,11 +498,33 @@ class Lidar:
         numpy.ndarray
             ``(beams,)`` float32 ranges [m], ``LaserScan.ranges``; ``inf`` for no return.
         """
+        return self._measured(self.true_ranges(pose_x, pose_y, pose_yaw, obstacles))
+
+    @overload
+    def _measured(self, ranges: NDArray[np.float64]) -> NDArray[np.float32]: ...
+
+    @overload
+    def _measured(
+        self, ranges: NDArray[np.float64], other: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32]]: ...
+
+    def _measured(
+        self, ranges: NDArray[np.float64], other: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float32] | tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """The exact ``ranges`` (and ``other``, with the same draws) with the sensor's noise,
+        dropout and limits, as float32."""
         spec = self._spec
-        ranges = self.true_ranges(pose_x, pose_y, pose_yaw, obstacles)
+        out = [ranges] if other is None else [ranges, other]
         if self._sigma_m > 0.0:
-            ranges += self._rng.normal(0.0, self._sigma_m, spec.beams)
+            noise = self._rng.normal(0.0, self._sigma_m, spec.beams)
+            for r in out:
+                r += noise
         if spec.dropout_probability > 0.0:
-            ranges[self._rng.random(spec.beams) < spec.dropout_probability] = np.inf
-        ranges[(ranges < spec.range_min_m) | (ranges > spec.range_max_m)] = np.inf
-        return ranges.astype(np.float32)
+            lost = self._rng.random(spec.beams) < spec.dropout_probability
+            for r in out:
+                r[lost] = np.inf
+        for r in out:
+            r[(r < spec.range_min_m) | (r > spec.range_max_m)] = np.inf
+        if other is None:
+            return ranges.astype(np.float32)
+        return ranges.astype(np.float32), other.astype(np.float32)

@@ -84,15 +84,18 @@ class LidarFeed:
         if self.emulator is not None:
             self.emulator.serve(self.clock_s())
 
-    def _scan_for(self, end_s: float) -> NDArray[np.float32] | None:
+    def _scan_for(
+        self, end_s: float
+    ) -> NDArray[np.float32] | tuple[NDArray[np.float32], NDArray[np.float32]] | None:
         """The twin's scan for the revolution ending at ``end_s``: the one it took at the
-        first physics step at or after that instant (the two share one schedule); None when a
+        first physics step at or after that instant (the two share one schedule), with what
+        the next turn's first beams read (:class:`~jackson.sim.twin_scans.Scan`); None when a
         ``lidar_dropout`` fault lost it (nothing goes on the line)."""
         twin = self.twin
         dt = twin.dt
         for scan in reversed(twin.scans):
             if end_s - 1e-6 <= scan.t_s < end_s + dt - 1e-9:
-                return scan.ranges
+                return scan.ranges if scan.ahead is None else (scan.ranges, scan.ahead)
             if scan.t_s < end_s - 1e-6:
                 break
         if any(end_s - 1e-6 <= t < end_s + dt - 1e-9 for t in twin.lost_scans):

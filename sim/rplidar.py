@@ -70,6 +70,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -164,9 +165,12 @@ PARALLAX_ITERATIONS = 3
 ULTRA_OFFSET_START_DEG = 7.5  # the parallax model's offset below 50 mm: where iterating starts
 RECENT_REQUESTS = 256
 
-RangesFn = Callable[[float], npt.ArrayLike | None]
+# a revolution's ranges, or (its ranges, what the next turn's first beams read just after it
+# ended: the lookahead samples' ranges), or None for a revolution lost
+RangesFn = Callable[[float], npt.ArrayLike | tuple[npt.ArrayLike, npt.ArrayLike] | None]
 F64Array = npt.NDArray[np.float64]
 I64Array = npt.NDArray[np.int64]
+ScalarT = TypeVar("ScalarT", bound=np.generic)
 
 
 def ranges_at(spec: LidarSpec, ranges_m: F64Array, heading_deg: F64Array) -> F64Array:
@@ -261,13 +265,15 @@ class _SampleStream:
             return 1
         return 2 * fmt.samples + (1 if fmt is ULTRA_CAPSULED else 0)
 
-    def revolution(self, end_s: float, ranges_m: F64Array) -> bytes:
+    def revolution(
+        self, end_s: float, ranges_m: F64Array, ahead_m: F64Array | None = None
+    ) -> bytes:
         """Take the samples of the revolution ending at ``end_s``, and the :attr:`lookahead`
-        samples of the next one (ranged on this revolution's cast: the twin casts a turn at
-        one instant, and these follow its end by at most 25 ms); the wire bytes they
-        complete."""
-        n0, n1 = self._sample_range(end_s)
-        n1 = max(n0, n1 + self.lookahead)
+        samples of the next one, ranged on ``ahead_m`` (what the beams of the next turn's
+        beginning read just after this one ended; None: on ``ranges_m``, which a scan of a
+        robot standing still is); the wire bytes they complete."""
+        n0, n_end = self._sample_range(end_s)
+        n1 = max(n0, n_end + self.lookahead)
         self.next_n = n1
         self.samples += n1 - n0
         period = self.spec.scan_period_s
@@ -279,16 +285,35 @@ class _SampleStream:
             turn = np.floor((t - self.t0_s) / period + TIME_TOLERANCE_S)
             before = np.floor((t - self.dt_s - self.t0_s) / period + TIME_TOLERANCE_S)
             start = (turn > before) | (n == 0)
-            return self._nodes(heading, ranges_at(self.spec, ranges_m, heading), start)
+            ranges = self._split(n < n_end, heading, ranges_m, ahead_m, self._ranges_at)
+            return self._nodes(heading, ranges, start)
         mm: I64Array
         if self.format is ULTRA_CAPSULED:
-            mm = self._parallax_ranged(ranges_m, heading)
+            mm = self._split(n < n_end, heading, ranges_m, ahead_m, self._parallax_ranged)
         else:
             top = CAPSULE_DISTANCE_MM_MAX if self.format is CAPSULED else 0xFFFF
-            mm = _millimetres(ranges_at(self.spec, ranges_m, heading), top)
+            r = self._split(n < n_end, heading, ranges_m, ahead_m, self._ranges_at)
+            mm = _millimetres(r, top)
         self.heading_deg = np.concatenate((self.heading_deg, heading))
         self.distance_mm = np.concatenate((self.distance_mm, mm))
         return self._capsules()
+
+    def _ranges_at(self, ranges_m: F64Array, heading: F64Array) -> F64Array:
+        return ranges_at(self.spec, ranges_m, heading)
+
+    @staticmethod
+    def _split(
+        own: npt.NDArray[np.bool_],
+        heading: F64Array,
+        ranges_m: F64Array,
+        ahead_m: F64Array | None,
+        ranged: Callable[[F64Array, F64Array], npt.NDArray[ScalarT]],
+    ) -> npt.NDArray[ScalarT]:
+        """``ranged(ranges, heading)`` of the samples, those not ``own`` (the next turn's
+        first) ranged on ``ahead_m`` when given."""
+        if ahead_m is None or own.all():
+            return ranged(ranges_m, heading)
+        return np.concatenate((ranged(ranges_m, heading[own]), ranged(ahead_m, heading[~own])))
 
     def _nodes(self, heading: F64Array, ranges: F64Array, start: npt.NDArray[np.bool_]) -> bytes:
         distance_q2 = 4 * _millimetres(ranges, 0xFFFF // 4)
@@ -357,18 +382,24 @@ class _BeamScan:
         self._start[0] = True
         self._own_start_node = True  # the next revolution must carry its own S node
 
-    def revolution(self, end_s: float, ranges_m: F64Array) -> bytes:
+    def revolution(
+        self, end_s: float, ranges_m: F64Array, ahead_m: F64Array | None = None
+    ) -> bytes:
         """The wire bytes of the revolution ending at ``end_s``: its nodes (its S node went out
-        with the previous turn, unless that was dropped), then the next turn's S node."""
+        with the previous turn, unless that was dropped), then the next turn's S node, ranged
+        on ``ahead_m`` when given (what it read just after this turn ended)."""
+        nodes = self._encode(ranges_m)
+        body = nodes if self._own_start_node else nodes[NODE_BYTES:]
+        self._own_start_node = False
+        return body + (nodes if ahead_m is None else self._encode(ahead_m))[:NODE_BYTES]
+
+    def _encode(self, ranges_m: F64Array) -> bytes:
         r = ranges_m[self._order]
         ok = np.isfinite(r) & (r > 0.0)
         distance_q2 = np.zeros(len(r), dtype=np.int64)
         distance_q2[ok] = np.clip(np.rint(r[ok] * 4000.0), 1, 0xFFFF)
         quality = np.where(distance_q2 > 0, QUALITY_RETURN, 0)
-        nodes = encode_nodes(self._start, quality, self._angle_q6, distance_q2)
-        body = nodes if self._own_start_node else nodes[NODE_BYTES:]
-        self._own_start_node = False
-        return body + nodes[:NODE_BYTES]
+        return encode_nodes(self._start, quality, self._angle_q6, distance_q2)
 
     def lose(self, end_s: float) -> None:
         """The revolution ending at ``end_s`` was lost: nothing is sent, and the S node already
@@ -681,12 +712,17 @@ class RplidarEmulator:
                 self.revolutions_lost += 1
                 stream.lose(end_s)
             else:
+                ahead = None
+                if isinstance(ranges, tuple):
+                    ranges, ahead = ranges
                 r = np.asarray(ranges, dtype=np.float64)
-                if r.shape != (self.spec.beams,):
-                    raise ValueError(
-                        f"a revolution needs {self.spec.beams} ranges, got shape {r.shape}"
-                    )
-                self._write(stream.revolution(end_s, r))
+                a = None if ahead is None else np.asarray(ahead, dtype=np.float64)
+                for what in (r, a):
+                    if what is not None and what.shape != (self.spec.beams,):
+                        raise ValueError(
+                            f"a revolution needs {self.spec.beams} ranges, got shape {what.shape}"
+                        )
+                self._write(stream.revolution(end_s, r, a))
             self._next_turn += 1
             self._turns_scheduled += 1
             ended += 1

@@ -1,5 +1,7 @@
 """The twin's LiDAR scans: one a scan period, taken at the first physics step at or after its
-instant, with the twin's faults applied; the newest kept."""
+instant, each beam from the pose at its own instant of the turn (from the pose at the scan
+before to the pose now: :meth:`~jackson.sim.lidar.Lidar.scan_moving`), with the twin's faults
+applied; the newest kept."""
 
 from __future__ import annotations
 
@@ -16,10 +18,13 @@ from jackson.sim.lidar import Lidar, Obstacles
 
 @dataclass(frozen=True)
 class Scan:
-    """One LiDAR scan taken at ``t_s`` (ranges in metres, inf for no return)."""
+    """One LiDAR scan that ended at ``t_s`` (ranges in metres, inf for no return), and the
+    ranges ``ahead``: what the beams of the next turn's beginning read just after it ended
+    (:meth:`~jackson.sim.lidar.Lidar.scan_moving`; None: the same as ``ranges``)."""
 
     t_s: float
     ranges: NDArray[np.float32]
+    ahead: NDArray[np.float32] | None = None
 
 
 class TwinScans:
@@ -57,14 +62,20 @@ class TwinScans:
         self.taken = 0
         self.lost: deque[float] = deque(maxlen=history)
         self.lost_count = 0
+        self._last_pose: tuple[float, float, float] | None = None  # at the scan before
 
     def take(
         self, t_s: float, x: float, y: float, yaw: float, faults: FaultInjector | None
     ) -> None:
-        """Scan from the pose ``(x, y, yaw)`` at ``t_s``; a fault may change or lose it."""
+        """The scan of the turn that ends at ``t_s`` with the base at ``(x, y, yaw)``, moved
+        there from its pose at the scan before (the first: from where it is); a fault may
+        change or lose it."""
         lidar = self.lidar
         assert lidar is not None
-        ranges = lidar.scan(x, y, yaw, self.obstacles)
+        end = (x, y, yaw)
+        start, self._last_pose = self._last_pose or end, end
+        ranges, moved_ahead = lidar.scan_moving(start, end, self.obstacles)
+        ahead: NDArray[np.float32] | None = moved_ahead
         self.next_s += self.period_s
         if faults is not None:
             spec = lidar.spec
@@ -73,6 +84,8 @@ class TwinScans:
                 self.lost.append(t_s)
                 self.lost_count += 1
                 return
+            if faulty is not ranges:
+                ahead = None  # a fault's scan, as the turn's own
             ranges = faulty
-        self.kept.append(Scan(t_s, ranges))
+        self.kept.append(Scan(t_s, ranges, ahead))
         self.taken += 1

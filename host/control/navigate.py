@@ -28,6 +28,7 @@ the correction the localiser reports is then relative to the start-anchored odom
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -50,6 +51,7 @@ from jackson.host.control.navigator import (
 from jackson.host.control.route import check_route
 from jackson.host.lidar.scan_timer import ScanTimer
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
+from jackson.host.nav.deskew import deskew
 from jackson.host.nav.ekf_lag import base_pose
 from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
 from jackson.host.nav.slam.mapper import Mapper, MappingConfig
@@ -76,6 +78,11 @@ class NavigateConfig:
         (x_min, y_min, x_max, y_max) [m] of the navigator's blank map in ``slam`` mode.
     lidar_mount : Pose2D
         The LiDAR's pose in the base frame.
+    deskew : bool
+        Take each revolution as the sensor would have measured it from the base's pose at
+        its end, from the base's motion over it (:mod:`jackson.host.nav.deskew`), before the
+        localiser, the mapper and the costmaps see it; False takes it as measured (a replay
+        of a run recorded before revolutions were deskewed).
     seed : int
         Seed of the particle filter's random numbers (a run is reproducible).
     navigator : NavigatorConfig
@@ -91,6 +98,7 @@ class NavigateConfig:
     localisation: Localisation = "amcl"
     extent: tuple[float, float, float, float] = (-2.0, -2.0, 2.0, 2.0)
     lidar_mount: Pose2D = field(default_factory=Pose2D)
+    deskew: bool = True
     seed: int = 0
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     amcl: AmclConfig = field(default_factory=AmclConfig)
@@ -105,6 +113,10 @@ class NavigateConfig:
         if not (x1 > x0 and y1 > y0):
             raise ValueError(f"NavigateConfig.extent must be x0 < x1, y0 < y1, got {self.extent}")
 
+
+FRAMES_KEPT = 6
+"""Telemetry frames the mission keeps for pairing a revolution with the base's motion over it
+(0.25 s at 20 Hz: an A1M8's 0.135 s revolution and the frame it came with)."""
 
 RECENT_SAMPLES = 200
 """Control ticks a daemon's navigation keeps (10 s at 20 Hz) when it does not keep them all."""
@@ -187,9 +199,9 @@ class NavigateMission:
         self.goal_index = 0
         self._scan_points: npt.NDArray[np.float64] | None = None
         self._odom = Pose2D()  # start ⊕ the EKF's odometry pose, at the last tick or scan
-        # when each revolution ended: the last two frames' (MCU time, odometry pose, the base's
-        # pose at that time: _base_pose), the timer
-        self._frames: deque[tuple[float, Pose2D, Pose2D]] = deque(maxlen=2)
+        # when each revolution began and ended: the last frames' (MCU time, odometry pose, the
+        # base's pose at that time: _base_pose), enough for a revolution and a frame, the timer
+        self._frames: deque[tuple[float, Pose2D, Pose2D]] = deque(maxlen=FRAMES_KEPT)
         self._scan_timer = ScanTimer()
         self._last_scan_t_s: float | None = None
         self.static_map = static_map
@@ -243,7 +255,10 @@ class NavigateMission:
         mount = self.config.lidar_mount
         # the odometry when the revolution ended, not at the frame it came with (up to 50 ms
         # later: 1.3 cm at 0.26 m/s, and the estimate trailed the robot by as much)
-        at_end, base_at_end, t_end_s = self._odom_at_revolution_end(scan, s)
+        at_end, base_at_end, t_end_s, t_start_s = self._odom_at_revolution_end(scan, s)
+        if self.config.deskew and t_start_s is not None:
+            motion = self._base_at(t_start_s).inverse().compose(base_at_end)
+            scan = deskew(scan, mount, motion)
         if self.filter is not None:
             self.filter.update(at_end, scan, mount)
             self.map_to_odom = self.filter.map_to_odom(at_end)
@@ -259,11 +274,14 @@ class NavigateMission:
             self.map_to_odom = placed.compose(at_end.inverse())
         self._scan_points = scan.points(self.pose_map(), mount)
 
-    def _odom_at_revolution_end(self, scan: Scan, s: NavState) -> tuple[Pose2D, Pose2D, float]:
+    def _odom_at_revolution_end(
+        self, scan: Scan, s: NavState
+    ) -> tuple[Pose2D, Pose2D, float, float | None]:
         """The odometry pose when the revolution ended, for the localiser, the base's pose then
         (:mod:`jackson.host.nav.ekf_lag`), for the mapper, and that MCU time: between the frame
         before and this one, where :class:`~jackson.host.lidar.scan_timer.ScanTimer` puts its
-        end (the frame's own pose and time while the timer has no phase yet). A revolution
+        end (the frame's own pose and time while the timer has no phase yet); and the MCU time
+        the revolution began (None while the timer has no phase). A revolution
         paired with the frame it came with is up to a frame late: 0.05 rad of heading in a
         1 rad/s turn, which printed walls turned by as much."""
         self._add_frame(s)
@@ -274,11 +292,22 @@ class NavigateMission:
         self._last_scan_t_s = s.t_s
         stamps = self._scan_timer.stamp([len(scan.angles_rad)], s.t_s, since)
         if not stamps or len(frames) < 2:
-            return self._odom, frames[-1][2], s.t_s
+            return self._odom, frames[-1][2], s.t_s, None
         start, duration = stamps[-1]
         (t0, p0, b0), (t1, p1, b1) = frames[-2], frames[-1]
         f = min(1.0, max(0.0, (start + duration - t0) / (t1 - t0))) if t1 > t0 else 1.0
-        return _between(p0, p1, f), _between(b0, b1, f), t0 + f * (t1 - t0)
+        return _between(p0, p1, f), _between(b0, b1, f), t0 + f * (t1 - t0), start
+
+    def _base_at(self, t_s: float) -> Pose2D:
+        """The base's pose at MCU time ``t_s`` from the frames kept (the oldest one's before
+        them, the newest one's after)."""
+        frames = self._frames
+        if t_s <= frames[0][0]:
+            return frames[0][2]
+        for (t0, _, b0), (t1, _, b1) in itertools.pairwise(frames):
+            if t_s <= t1:
+                return _between(b0, b1, (t_s - t0) / (t1 - t0))
+        return frames[-1][2]
 
     def _add_frame(self, s: NavState) -> None:
         """Keep this frame's odometry pose (``_odom``, set by the caller) for pairing
@@ -445,6 +474,7 @@ def navigate_meta(config: NavigateConfig) -> dict[str, object]:
         "localisation": config.localisation,
         "extent": list(config.extent),
         "lidar_mount": _pose_list(config.lidar_mount),
+        "deskew": config.deskew,
         "seed": config.seed,
         "map": f"{MAP_NAME}.yaml" if config.localisation == "amcl" else None,
     }

@@ -11,7 +11,7 @@ import pytest
 from numpy.typing import NDArray
 
 from jackson.sim.bench_lidar import scans_per_second, square_room
-from jackson.sim.lidar import Lidar, LidarSpec, Obstacles, cast
+from jackson.sim.lidar import MOVING_CHUNKS, Lidar, LidarSpec, Obstacles, cast
 
 EXACT = LidarSpec(noise_sigma_m=0.0)
 GRAZE_M = 1e-9  # random tests skip beams passing this close to an endpoint or a tangent point
@@ -390,3 +390,33 @@ def test_the_benchmark_room_and_rate() -> None:
     lidar = Lidar(EXACT, np.random.default_rng(0))
     assert np.isfinite(lidar.scan(0.0, 0.0, 0.0, obstacles)).all()
     assert scans_per_second(seconds=0.05) > 0.0
+
+
+def test_a_scan_of_a_turning_robot_casts_each_beam_from_the_pose_at_its_instant() -> None:
+    # a head turning clockwise from its zero mark measures beam i at the share
+    # mod(-angle_i, 2 pi) / 2 pi of the turn: the start's pose for the first, the end's near
+    # the last, a pose between them in between
+    walls = square_room(4, 3)
+    spec = EXACT
+    lidar = Lidar(spec, np.random.default_rng(0))
+    start, end = (0.4, -0.3, 0.2), (0.5, -0.25, 0.35)  # 10 cm and 0.15 rad in a turn
+    ranges, ahead = lidar.scan_moving(start, end, walls)
+    share = lidar.beam_fractions()
+    assert share.min() >= 0.0 and share.max() < 1.0
+    for i in (10, 300, 540, 800, 1070):
+        f = (math.floor(share[i] * MOVING_CHUNKS) + 0.5) / MOVING_CHUNKS  # its piece's middle
+        pose = tuple(a + f * (b - a) for a, b in zip(start, end, strict=True))
+        at_instant = Lidar(spec, np.random.default_rng(0)).scan(*pose, walls)[i]
+        assert ranges[i] == pytest.approx(at_instant, abs=1e-5)
+        static_end = Lidar(spec, np.random.default_rng(0)).scan(*end, walls)[i]
+        if share[i] < 0.2:  # what the next turn's first beams read just after the end
+            assert ahead[i] == pytest.approx(static_end, abs=1e-6)
+        else:
+            assert ahead[i] == ranges[i]
+    # the first beams of the turn were measured a whole turn before the last ones
+    first, last = int(np.argmin(share)), int(np.argmax(share))
+    assert share[last] - share[first] > 0.99
+    # standing still, the scan is the one-pose scan, draw for draw
+    a, _ = Lidar(LidarSpec(), np.random.default_rng(5)).scan_moving(end, end, walls)
+    b = Lidar(LidarSpec(), np.random.default_rng(5)).scan(*end, walls)
+    assert np.array_equal(a, b)

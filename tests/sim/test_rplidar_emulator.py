@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import itertools
 import math
 import os
 import select
@@ -433,9 +434,12 @@ def _stream(
     *,
     device_standard_scan: bool = False,
     lost: frozenset[int] = frozenset(),
+    ahead_m: float | None = None,
 ) -> Stream:
     """Start a scan with ``packet``, advance ``turns`` revolutions of the pillar room (noise
-    free), and decode what came as Slamtec's SDK does; turns in ``lost`` the twin lost."""
+    free), and decode what came as Slamtec's SDK does; turns in ``lost`` the twin lost; with
+    ``ahead_m``, what the next turn's first beams read just after each turn is the room's
+    ranges plus that much."""
     spec = LidarSpec(noise_sigma_m=0.0)
     ranges = Lidar(spec, np.random.default_rng(0)).true_ranges(0.0, 0.0, 0.0, _room())
     emulator = RplidarEmulator(spec, device_standard_scan=device_standard_scan)
@@ -444,7 +448,10 @@ def _stream(
     try:
         data = _ask(emulator, fd, packet, 7)
         for k in range(1, turns + 1):
+            turn: NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]] | None
             turn = None if k in lost else ranges
+            if turn is not None and ahead_m is not None:
+                turn = (ranges, ranges + ahead_m)
             emulator.advance(k * spec.scan_period_s, lambda end_s, turn=turn: turn)
             emulator.link.flush()
             while select.select([fd], [], [], 0.05)[0]:
@@ -506,6 +513,34 @@ def test_each_scan_mode_samples_at_its_own_rate_where_the_decoder_places_them(
     assert error[sent & ~edge].max() < 0.01
     assert (sent & edge).sum() <= 4 * 12  # two edges a turn, both sides
     assert (~sent).sum() <= s.emulator.edge_dropouts <= 4 * 12  # (the last few not yet sent)
+
+
+@pytest.mark.parametrize(
+    ("packet", "device_standard_scan"),
+    [(encode_request(Command.SCAN), True), (encode_request(Command.SCAN), False)]
+    + [(encode_request(Command.EXPRESS_SCAN, bytes((m, 0, 0, 0, 0))), False) for m in (0, 3, 4)],
+    ids=["scan", "beams", "legacy_express", "sensitivity", "stability"],
+)
+def test_the_next_turns_first_samples_read_what_the_head_saw_just_after_the_turn(
+    packet: bytes, device_standard_scan: bool
+) -> None:
+    # they go out with the turn before (a host sees it end at once) and were measured just
+    # after it ended: ranged on what the beams read then, not on the turn's own first beams,
+    # measured a turn earlier
+    s = _stream(packet, 8, device_standard_scan=device_standard_scan, ahead_m=0.5)
+    near = np.stack([_exact(s.heading_deg + d) for d in (-0.34, 0.0, 0.34)])
+    edge = np.ptp(near, axis=0) > 0.1 * near.min(axis=0)
+    sent = (s.range_m > 0) & ~edge
+    ahead = sent & (np.abs(s.range_m - near[1] - 0.5) < 0.01)
+    own = sent & (np.abs(s.range_m - near[1]) < 0.01)
+    assert (ahead | own)[sent].all()
+    starts = np.flatnonzero(s.start)
+    lookahead = getattr(s.emulator._stream, "lookahead", 1)  # nodes: the next turn's S node
+    for a, b in itertools.pairwise(starts[1:]):  # whole turns after the first
+        read_ahead = np.flatnonzero(ahead[a:b])
+        # its beginning only (the decoders flag a turn's start a sample early or on time)
+        assert len(read_ahead) > 0 and read_ahead.max() <= lookahead
+        assert own[a + lookahead + 1 : b][sent[a + lookahead + 1 : b]].all()
 
 
 def test_express_headings_drift_from_turn_to_turn_as_the_clock_runs() -> None:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from jackson.host.nav.deskew import deskew
 from jackson.host.nav.ekf_lag import FRAME_PERIOD_S, base_pose
 from jackson.host.nav.offline.errors import NoOverlapError
 from jackson.host.nav.offline.pairing import (
@@ -95,6 +96,7 @@ def map_recording(
     pose_fraction: float = POSE_FRACTION,
     progress: ProgressFn | None = None,
     plan: RecordingPlan | None = None,
+    deskewed: bool = True,
 ) -> OfflineMapSummary:
     """Build a map from a recorded run (module docstring) and write it into ``out``.
 
@@ -112,6 +114,9 @@ def map_recording(
         Called after every scan with the scans read and the robot seconds mapped so far.
     plan : RecordingPlan or None
         The checked inputs (default: :func:`plan_recording`).
+    deskewed : bool
+        Take each revolution as seen from the base's pose at its pose time, from the
+        odometry's motion over it (:mod:`jackson.host.nav.deskew`), as the survey does.
 
     Raises
     ------
@@ -126,18 +131,23 @@ def map_recording(
     anchor = pose_of(nav["start"], run, "start") if "start" in nav else Pose2D()
     mapper = Mapper(config or MappingConfig())
     track = OdometryTrack()
-    waiting: deque[tuple[float, Scan]] = deque()
+    waiting: deque[tuple[float, Scan, float]] = deque()  # pose time, scan, its first one's
     rows: list[tuple[float, Pose2D]] = []
     read = paired = 0
     span = [math.inf, -math.inf]
 
     def feed() -> None:
         nonlocal paired
-        while waiting and waiting[0][0] <= track.last_s + STAMP_SLACK_S:
-            t_s, scan = waiting.popleft()
+        while waiting and waiting[0][1].t_s <= track.last_s + STAMP_SLACK_S:
+            t_s, scan, first_s = waiting.popleft()
+            at_first = track.pose_at(first_s)  # (asked in time order: the track drops the past)
             odom = track.pose_at(t_s)
+            at_last = track.pose_at(scan.t_s)
             if odom is None:  # before the odometry began
                 continue
+            if deskewed and at_first is not None and at_last is not None:
+                at = (t_s - first_s) / (scan.t_s - first_s) if scan.t_s > first_s else 1.0
+                scan = deskew(scan, mount, at_first.inverse().compose(at_last), at)
             before = mapper.scans_integrated
             corrected = mapper.update(scan, anchor.compose(odom), mount)
             paired += 1
@@ -153,7 +163,7 @@ def map_recording(
         if topic == SCAN_TOPIC:
             read += 1
             if len(msg.ranges) >= 2:
-                waiting.append(laser_scan(msg, pose_fraction))
+                waiting.append((*laser_scan(msg, pose_fraction), stamp_s(msg.header)))
         else:
             track.add(OdomSample(stamp_s(msg.header), _odom_pose(msg, ekf)))
         feed()
