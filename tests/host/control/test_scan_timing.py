@@ -67,3 +67,46 @@ def test_the_base_pose_carries_the_ekf_pose_on_by_its_twist_over_the_frame() -> 
     # a long gap (frames lost) carries the twist over two frames at most
     assert base_pose(Pose2D(), 0.2, 0.0, 1.0) == base_pose(Pose2D(), 0.2, 0.0, MAX_LAG_S)
     assert base_pose(Pose2D(), 0.2, 0.0, -1.0) == Pose2D()
+
+
+@pytest.mark.parametrize("deskewed", [True, False])
+def test_a_revolution_measured_in_a_turn_is_mapped_deskewed(deskewed: bool) -> None:
+    # the twin's A1M8 measures each beam from the pose at its instant of the turn; at 1 rad/s a
+    # revolution's first and last beams are 0.13 rad apart, which the mission takes out before
+    # the mapper writes it
+    from jackson.sim.lidar import Lidar, LidarSpec, Obstacles
+
+    room = Obstacles()
+    room.add_polygon([(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)])
+    spec = LidarSpec(noise_sigma_m=0.0)
+    lidar = Lidar(spec, np.random.default_rng(0))
+    nav = NavigateConfig(
+        start=Pose2D(),
+        goals=(Pose2D(1.0, 0.0),),
+        localisation="slam",
+        deskew=deskewed,
+        mapping=MappingConfig(scan_matching=False, loop_closure=False),
+    )
+    mission = NavigateMission(nav, HostConfig().limits)
+    ends = [k * SCAN_PERIOD_S for k in range(1, 60)]
+    off: list[float] = []  # the mapped returns' distance from the walls, once timed
+    for k in range(1, 160):
+        t = k * FRAME_S
+        s = NavState(t, 0.0, 0.0, W_RAD_S * (t - FRAME_S), 0.0, W_RAD_S)
+        mission.track(s)
+        for end in [e for e in ends if t - FRAME_S < e <= t]:
+            ranges, _ = lidar.scan_moving(
+                (0.0, 0.0, W_RAD_S * (end - SCAN_PERIOD_S)), (0.0, 0.0, W_RAD_S * end), room
+            )
+            before = mission.mapper.scans_integrated if mission.mapper else 0
+            mission.on_scan(Scan(t, lidar.angles(), ranges.astype(np.float64)), s)
+            assert mission.mapper is not None
+            if mission.mapper.scans_integrated > before and k > 60:
+                node = mission.mapper.nodes[-1]
+                pts = node.scan.points(mission.mapper.graph.pose(len(mission.mapper.nodes) - 1))
+                off.append(float(np.max(np.abs(3.0 - np.abs(pts).max(axis=1)))))
+    assert len(off) >= 10
+    if deskewed:  # within the twin's 3.7 ms pieces of a turn and the timer's 3 ms
+        assert max(off) < 0.02
+    else:  # bent by the turn: up to 0.13 rad at 3-4 m
+        assert max(off) > 0.2
