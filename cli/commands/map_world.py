@@ -37,6 +37,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="map a recorded run folder offline (its bag's /scan and odometry) instead of "
         "surveying a world; not with --world, --robot, --waypoint, --seed or --config",
     )
+    p.add_argument(
+        "--no-deskew",
+        dest="deskew",
+        action="store_false",
+        help="with --from: take each revolution as recorded instead of moving its returns to "
+        "the base's pose at its end (docs/mapping.md, Deskewing)",
+    )
     p.add_argument("--world", help="world (default maze)")
     p.add_argument("--robot", help="twin robot (default jackson_physical)")
     p.add_argument(
@@ -66,6 +73,10 @@ def _cmd_map(args: argparse.Namespace) -> int:
     """Survey the world on the twin while the host maps it; the map and its SSIM."""
     if args.run is not None:
         return _cmd_map_from(args)
+    if not args.deskew:
+        raise CliError(
+            "--no-deskew: only with --from (a survey on the twin deskews as the daemon does)"
+        )
     args.world = args.world or "maze"
     args.robot = args.robot or "jackson_physical"
     args.seed = args.seed if args.seed is not None else 0
@@ -150,7 +161,7 @@ def _cmd_map_from(args: argparse.Namespace) -> int:
         def on_scan(read: int, robot_s: float) -> None:
             progress.update(task, completed=read, info=f"{robot_s:.1f} s of robot time")
 
-        summary = map_recording(run, out, progress=on_scan, plan=plan)
+        summary = map_recording(run, out, progress=on_scan, plan=plan, deskewed=args.deskew)
     _report(out, run, None)
     print(
         f"map: {summary.map_yaml} (+ .pgm) from {summary.scans_paired} scans over "

@@ -76,6 +76,17 @@ def test_a_recorded_survey_maps_offline_as_well_as_it_did_live(tmp_path: Path) -
     assert again["ssim"] == pytest.approx(offline, abs=0.005)
     assert again["world"] == WORLD and 0.0 < again["precision"] <= 1.0
 
+    # the revolutions as recorded, not moved to the base's pose at their ends: another map
+    raw = tmp_path / "raw"
+    done = subprocess.run(
+        [JACKSON, "map", "--from", str(run), "--no-deskew", "--out", str(raw)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert (raw / "built_map.pgm").read_bytes() != (out / "built_map.pgm").read_bytes()
+
 
 def test_mapping_a_folder_without_a_bag_is_one_line_and_exit_2(tmp_path: Path) -> None:
     done = subprocess.run(
@@ -96,3 +107,14 @@ def test_from_refuses_the_survey_options_with_exit_2(tmp_path: Path) -> None:
     )
     assert done.returncode == 2
     assert done.stderr.strip().startswith("jackson map: --world, --seed: not with --from")
+
+
+def test_no_deskew_is_refused_without_from_with_exit_2() -> None:
+    done = subprocess.run(
+        [JACKSON, "map", "--world", "maze", "--no-deskew"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip().startswith("jackson map: --no-deskew: only with --from")
