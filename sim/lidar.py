@@ -398,6 +398,14 @@ class Lidar:
         self._angles = angles
         self._directions = _unit_directions(self._angles)
         self._sigma_m = spec.range_sigma_m
+        # fixed per sensor: when in a turn each beam is measured, the beams of each piece of the
+        # turn (scan_moving), and those the next turn's beginning re-reads (scan_moving's ahead)
+        self._fractions = np.mod(-angles, 2.0 * math.pi) / (2.0 * math.pi)
+        piece = np.minimum((self._fractions * MOVING_CHUNKS).astype(np.intp), MOVING_CHUNKS - 1)
+        self._pieces = [b for b in (np.flatnonzero(piece == c) for c in range(MOVING_CHUNKS))]
+        self._near_start = np.flatnonzero(
+            (self._fractions < AHEAD_SHARE) | (self._fractions > 0.99)
+        )
 
     @property
     def spec(self) -> LidarSpec:
@@ -423,16 +431,25 @@ class Lidar:
         self, pose_x: float, pose_y: float, pose_yaw: float, obstacles: Obstacles
     ) -> NDArray[np.float64]:
         """Exact distances along the beams, no noise or limits (``inf`` beyond ``range_max``)."""
-        sx, sy, syaw = self.sensor_pose(pose_x, pose_y, pose_yaw)
+        return self._cast((pose_x, pose_y, pose_yaw), obstacles, self._directions)
+
+    def _cast(
+        self,
+        pose: tuple[float, float, float],
+        obstacles: Obstacles,
+        directions: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """Exact distances along ``directions`` (sensor frame, (2, R)) from the sensor with the
+        base at ``pose``."""
+        sx, sy, syaw = self.sensor_pose(*pose)
         c, sn = math.cos(syaw), math.sin(syaw)
-        rotation = np.array(((c, -sn), (sn, c)))
-        d = rotation @ self._directions
+        d = np.array(((c, -sn), (sn, c))) @ directions
         return _cast_directions(sx, sy, d, obstacles, self._spec.range_max_m)
 
     def beam_fractions(self) -> NDArray[np.float64]:
         """The share of the turn gone by when each beam is measured, in [0, 1): its heading
         (clockwise from the head's zero mark, ``-angle`` wrapped) over a full turn."""
-        return np.mod(-self._angles, 2.0 * math.pi) / (2.0 * math.pi)
+        return self._fractions.copy()
 
     def true_ranges_moving(
         self,
@@ -445,22 +462,15 @@ class Lidar:
         (the heading along the shorter arc) in :data:`MOVING_CHUNKS` pieces."""
         if start == end:
             return self.true_ranges(*end, obstacles)
-        chunk = np.minimum(
-            (self.beam_fractions() * MOVING_CHUNKS).astype(np.intp), MOVING_CHUNKS - 1
-        )
         out = np.empty(self._spec.beams)
         x0, y0, yaw0 = start
         dx, dy = end[0] - x0, end[1] - y0
         dyaw = math.remainder(end[2] - yaw0, 2.0 * math.pi)
-        for c in range(MOVING_CHUNKS):
-            beams = np.flatnonzero(chunk == c)
-            if beams.size == 0:
-                continue
-            f = (c + 0.5) / MOVING_CHUNKS
-            sx, sy, syaw = self.sensor_pose(x0 + f * dx, y0 + f * dy, yaw0 + f * dyaw)
-            co, sn = math.cos(syaw), math.sin(syaw)
-            d = np.array(((co, -sn), (sn, co))) @ self._directions[:, beams]
-            out[beams] = _cast_directions(sx, sy, d, obstacles, self._spec.range_max_m)
+        for c, beams in enumerate(self._pieces):
+            if beams.size:
+                f = (c + 0.5) / MOVING_CHUNKS
+                pose = (x0 + f * dx, y0 + f * dy, yaw0 + f * dyaw)
+                out[beams] = self._cast(pose, obstacles, self._directions[:, beams])
         return out
 
     def scan_moving(
@@ -480,12 +490,8 @@ class Lidar:
         moving = self.true_ranges_moving(start, end, obstacles)
         ahead = moving.copy()
         if start != end:
-            f = self.beam_fractions()
-            near = np.flatnonzero((f < AHEAD_SHARE) | (f > 0.99))
-            sx, sy, syaw = self.sensor_pose(*end)
-            co, sn = math.cos(syaw), math.sin(syaw)
-            d = np.array(((co, -sn), (sn, co))) @ self._directions[:, near]
-            ahead[near] = _cast_directions(sx, sy, d, obstacles, self._spec.range_max_m)
+            near = self._near_start
+            ahead[near] = self._cast(end, obstacles, self._directions[:, near])
         return self._measured(moving, ahead)
 
     def scan(
