@@ -81,8 +81,8 @@ class BarePymunk:
     Parameters
     ----------
     lidar : bool
-        Also take the twin's scans (at its scan period, from the body's pose) with the LiDAR
-        model alone.
+        Also take the twin's scans (at its scan period, each beam from the body's pose at its
+        instant of the turn, as the twin casts them) with the LiDAR model alone.
     """
 
     def __init__(self, lidar: bool) -> None:
@@ -97,6 +97,7 @@ class BarePymunk:
         self.scan_period_s = twin.scan_period_s if self.scanner is not None else math.inf
         self.step = 0
         self.next_scan_s = 0.0
+        self.last_scan_pose: tuple[float, float, float] | None = None
 
     def period(self, vx: float, vy: float, wz: float) -> None:
         """One 20 Hz period: the body given these velocities, then 10 physics steps.
@@ -117,7 +118,9 @@ class BarePymunk:
             if self.obstacles is not None and self.step * dt + 1e-9 >= self.next_scan_s:
                 assert self.scanner is not None
                 x, y = body.position
-                self.scanner.scan(x, y, body.angle, self.obstacles)
+                pose = (x, y, body.angle)
+                self.scanner.scan_moving(self.last_scan_pose or pose, pose, self.obstacles)
+                self.last_scan_pose = pose
                 self.next_scan_s += self.scan_period_s
 
 

@@ -259,6 +259,21 @@ def _cast_directions(
     w[3 * n_seg :] = g
     p = w @ d
 
+    _nearest(p, n_seg, q[:, None], best, max_range_m)
+    return best
+
+
+def _nearest(
+    p: NDArray[np.float64],
+    n_seg: int,
+    q: NDArray[np.float64],
+    best: NDArray[np.float64],
+    max_range_m: float,
+) -> None:
+    """Fold the nearest hit of each ray into ``best`` from ``p``, the per-pair rows
+    :func:`_cast_directions` builds (beta, alpha, 1/t of ``n_seg`` segments, then d . g of the
+    circles), and ``q = |g|^2 - r^2`` of the circles (``(C, 1)``, or ``(C, R)`` when the rays
+    start from different origins); ``p`` is overwritten."""
     # Segments: 1/t where min(alpha, beta) >= 0, else <= 0 (a miss).
     beta = p[0:n_seg]
     np.minimum(p[n_seg : 2 * n_seg], beta, out=beta)
@@ -268,18 +283,58 @@ def _cast_directions(
     # Circles: 1/t = (b +/- sqrt(b^2 - q)) / q, NaN where the ray misses, < 0 behind the origin.
     b = p[3 * n_seg :]
     root = b * b
-    root -= q[:, None]
+    root -= q
     with np.errstate(invalid="ignore"):
         np.sqrt(root, out=root)
-    root *= np.where(q > 0.0, 1.0, -1.0)[:, None]
+    root *= np.where(q > 0.0, 1.0, -1.0)
     b += root
-    b *= (1.0 / q)[:, None]
+    b *= 1.0 / q
 
     inv_best = np.fmax.reduce(p[2 * n_seg :], axis=0)
-    t = np.full(n_rays, np.inf)
+    t = np.full(p.shape[1], np.inf)
     np.divide(1.0, inv_best, out=t, where=inv_best > 0.0)
     np.minimum(best, t, out=best)
     best[best > max_range_m] = np.inf
+
+
+def _cast_pieces(
+    origins: NDArray[np.float64],
+    d: NDArray[np.float64],
+    obstacles: Obstacles,
+    max_range_m: float,
+) -> NDArray[np.float64] | None:
+    """:func:`_cast_directions` for rays from several origins in one pass: ``d`` ((P, 2, M))
+    holds ``M`` unit directions for each of the ``P`` ``origins`` ((P, 2)). The per-segment and
+    per-circle terms are built once per origin and multiplied with that origin's rays in one
+    batched product. Returns the (P * M,) distances, origin by origin; None when an origin is
+    collinear with a segment or on a circle (the caller casts origin by origin, which handles
+    those)."""
+    seg_a, seg_b = obstacles._seg_a, obstacles._seg_b
+    n_seg, n_circ = len(seg_a), len(obstacles._circle_c)
+    n_org, n_dir = d.shape[0], d.shape[2]
+    best = np.full(n_org * n_dir, np.inf)
+    if n_seg + n_circ == 0:
+        return best
+    wa = seg_a[None, :, :] - origins[:, None, :]  # (P, N, 2)
+    wb = seg_b[None, :, :] - origins[:, None, :]
+    k = wa[:, :, 0] * wb[:, :, 1] - wa[:, :, 1] * wb[:, :, 0]  # (P, N)
+    g = obstacles._circle_c[None, :, :] - origins[:, None, :]  # (P, C, 2)
+    q = (g * g).sum(axis=2) - obstacles._circle_r2  # (P, C)
+    if (k == 0.0).any() or (q == 0.0).any():
+        return None
+    inv_k = 1.0 / k
+    e = obstacles._seg_dir
+    w = np.empty((n_org, 3 * n_seg + n_circ, 2))
+    w[:, 0:n_seg, 0] = -wa[:, :, 1] * inv_k
+    w[:, 0:n_seg, 1] = wa[:, :, 0] * inv_k
+    w[:, n_seg : 2 * n_seg, 0] = wb[:, :, 1] * inv_k
+    w[:, n_seg : 2 * n_seg, 1] = -wb[:, :, 0] * inv_k
+    w[:, 2 * n_seg : 3 * n_seg, 0] = e[:, 1] * inv_k
+    w[:, 2 * n_seg : 3 * n_seg, 1] = -e[:, 0] * inv_k
+    w[:, 3 * n_seg :] = g
+    p = np.matmul(w, d)  # (P, 3N + C, M)
+    p = p.transpose(1, 0, 2).reshape(3 * n_seg + n_circ, n_org * n_dir)
+    _nearest(p, n_seg, np.repeat(q.T, n_dir, axis=1), best, max_range_m)
     return best
 
 
@@ -403,6 +458,17 @@ class Lidar:
         self._fractions = np.mod(-angles, 2.0 * math.pi) / (2.0 * math.pi)
         piece = np.minimum((self._fractions * MOVING_CHUNKS).astype(np.intp), MOVING_CHUNKS - 1)
         self._pieces = [b for b in (np.flatnonzero(piece == c) for c in range(MOVING_CHUNKS))]
+        # the pieces' beams as a (pieces, slots) table for one batched cast (a short piece's
+        # spare slots repeat its first beam and are dropped)
+        slots = max(len(b) for b in self._pieces)
+        table = np.array(
+            [np.resize(b, slots) if b.size else np.zeros(slots, np.intp) for b in self._pieces]
+        )
+        used = np.array([np.arange(slots) < len(b) for b in self._pieces]).reshape(-1)
+        self._slot_directions = self._directions[:, table].transpose(1, 0, 2).copy()
+        self._slot_used = np.flatnonzero(used)
+        self._slot_beams = table.reshape(-1)[self._slot_used]
+        self._piece_middles = (np.arange(MOVING_CHUNKS) + 0.5) / MOVING_CHUNKS
         self._near_start = np.flatnonzero(
             (self._fractions < AHEAD_SHARE) | (self._fractions > 0.99)
         )
@@ -462,10 +528,30 @@ class Lidar:
         (the heading along the shorter arc) in :data:`MOVING_CHUNKS` pieces."""
         if start == end:
             return self.true_ranges(*end, obstacles)
-        out = np.empty(self._spec.beams)
         x0, y0, yaw0 = start
         dx, dy = end[0] - x0, end[1] - y0
         dyaw = math.remainder(end[2] - yaw0, 2.0 * math.pi)
+        # all pieces in one cast, each beam from its piece's sensor pose
+        mid = self._piece_middles
+        spec = self._spec
+        yaw = yaw0 + mid * dyaw
+        cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
+        origins = np.column_stack(
+            (
+                x0 + mid * dx + cos_yaw * spec.mount_x_m - sin_yaw * spec.mount_y_m,
+                y0 + mid * dy + sin_yaw * spec.mount_x_m + cos_yaw * spec.mount_y_m,
+            )
+        )
+        syaw = (yaw + spec.mount_yaw_rad)[:, None]
+        cb, sb = np.cos(syaw), np.sin(syaw)
+        u = self._slot_directions  # (pieces, 2, slots)
+        d = np.stack((cb * u[:, 0] - sb * u[:, 1], sb * u[:, 0] + cb * u[:, 1]), axis=1)
+        fast = _cast_pieces(origins, d, obstacles, spec.range_max_m)
+        if fast is not None:
+            out = np.empty(spec.beams)
+            out[self._slot_beams] = fast[self._slot_used]
+            return out
+        out = np.empty(spec.beams)
         for c, beams in enumerate(self._pieces):
             if beams.size:
                 f = (c + 0.5) / MOVING_CHUNKS

@@ -420,3 +420,34 @@ def test_a_scan_of_a_turning_robot_casts_each_beam_from_the_pose_at_its_instant(
     a, _ = Lidar(LidarSpec(), np.random.default_rng(5)).scan_moving(end, end, walls)
     b = Lidar(LidarSpec(), np.random.default_rng(5)).scan(*end, walls)
     assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize(
+    ("start", "end", "mount_y_m"),
+    [
+        ((2.0, 1.3, 0.3), (2.04, 1.33, 0.42), 0.02),
+        # every sensor origin on the line of the shelf at y = 0: cast piece by piece instead
+        ((-1.0, 0.0, 0.0), (-0.96, 0.0, 0.1), 0.0),
+    ],
+)
+def test_every_beam_of_a_moving_scan_is_its_pieces_one_pose_cast(
+    start: tuple[float, float, float], end: tuple[float, float, float], mount_y_m: float
+) -> None:
+    # the turn is cast in one batched pass; each beam must read what a cast from its piece's
+    # middle pose alone reads, cylinders, mount offset and mount yaw included
+    walls = square_room(6, 4)
+    walls.add_circle(-2.0, 2.5, 0.2)
+    walls.add_segment(1.0, 0.0, 2.0, 0.0)
+    spec = LidarSpec(noise_sigma_m=0.0, mount_x_m=0.0, mount_y_m=mount_y_m, mount_yaw_rad=0.1)
+    lidar = Lidar(spec, np.random.default_rng(0))
+    moving = lidar.true_ranges_moving(start, end, walls)
+    piece = np.minimum((lidar.beam_fractions() * MOVING_CHUNKS).astype(int), MOVING_CHUNKS - 1)
+    expected = np.empty_like(moving)
+    for c in range(MOVING_CHUNKS):
+        f = (c + 0.5) / MOVING_CHUNKS
+        pose = tuple(a + f * (b - a) for a, b in zip(start, end, strict=True))
+        expected[piece == c] = lidar.true_ranges(*pose, walls)[piece == c]
+    assert np.array_equal(np.isfinite(moving), np.isfinite(expected))
+    ok = np.isfinite(moving)
+    assert ok.sum() > 1000
+    np.testing.assert_allclose(moving[ok], expected[ok], rtol=0, atol=1e-9)
