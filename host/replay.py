@@ -52,6 +52,7 @@ if TYPE_CHECKING:  # the missions load when a run is replayed, not for jackson -
     from jackson.host.control import Mission
     from jackson.host.control.navigate import NavigateConfig
     from jackson.host.core.settings import LiveSettings
+    from jackson.host.nav.amcl import AmclConfig
     from jackson.host.nav.grid import OccupancyGrid
     from jackson.host.service.navigation import NavigationService, Request
 
@@ -354,6 +355,7 @@ def _navigation_from_meta(
             extent=tuple(nav["extent"]),
             lidar_mount=Pose2D(*nav["lidar_mount"]),
             deskew=bool(nav.get("deskew", False)),  # runs from before revolutions were deskewed
+            amcl=_amcl_from_meta(nav.get("amcl")),
             seed=int(nav["seed"]),
         )
     except (KeyError, TypeError, ValueError) as exc:
@@ -365,6 +367,18 @@ def _navigation_from_meta(
         except MapFileError as exc:
             raise RecordingError(str(exc)) from exc
     return config, grid
+
+
+def _amcl_from_meta(entry: object) -> AmclConfig:
+    """The particle filter's parameters a run recorded; a run from before they were recorded
+    ran with Nav2's translation noise (``alpha3``, ``alpha4`` 0.2) and the defaults else."""
+    from jackson.host.nav.amcl import AmclConfig
+
+    if entry is None:
+        return AmclConfig(alpha3=0.2, alpha4=0.2)
+    if not isinstance(entry, Mapping):
+        raise TypeError(f"amcl: expected a mapping, got {entry!r}")
+    return AmclConfig(**{str(k): v for k, v in entry.items()})
 
 
 def _mission_from_meta(run: Path, meta: Mapping[str, object], limits: LimiterConfig) -> Mission:

@@ -475,6 +475,7 @@ def navigate_meta(config: NavigateConfig) -> dict[str, object]:
         "extent": list(config.extent),
         "lidar_mount": _pose_list(config.lidar_mount),
         "deskew": config.deskew,
+        "amcl": dataclasses.asdict(config.amcl),
         "seed": config.seed,
         "map": f"{MAP_NAME}.yaml" if config.localisation == "amcl" else None,
     }
