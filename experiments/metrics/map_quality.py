@@ -2,11 +2,15 @@
 
 Four figures, each answering a question a user of the map asks:
 
-- **Wall coverage**: is every wall the robot could see in the map? Every true wall segment
+- **Wall coverage**: is every wall the survey's scans hit in the map? Every true wall segment
   (and every cylinder's outline) is sampled every :data:`SAMPLE_STEP_M`. A sample counts as
-  *seen* when some LiDAR position of the survey lies within ``max_range_m`` of it with a clear
-  line of sight (no other wall or cylinder in between, tested exactly against the segments
-  and circles); a seen sample is *covered* when an occupied map cell (value at least
+  *seen* when one of the survey's beams, cast exactly at the true pose of each revolution
+  (the sensor's own beam angles, its mount), ends on it within ``max_range_m`` (the sample
+  nearest the beam's end, within one sample step). Given LiDAR positions only, a sample is
+  seen when one of them lies within ``max_range_m`` of it with a clear line of sight (no
+  other wall or cylinder in between, tested exactly against the segments and circles): that
+  counts faces no beam returns from, such as one seen only edge-on. A seen sample is
+  *covered* when an occupied map cell (value at least
   :data:`OCCUPIED_VALUE`, map_server's ``occupied_thresh`` 0.65) has its centre within
   ``tol_m`` of it. A segment's coverage is the fraction of its seen samples that are covered;
   segments seen over less than :data:`MIN_SEEN_SAMPLES` samples are not judged.
@@ -175,6 +179,7 @@ def judge_map(
     poses_xy: npt.ArrayLike,
     max_range_m: float,
     tol_m: float = TOL_M,
+    beam_angles_rad: npt.ArrayLike | None = None,
 ) -> MapQuality:
     """Judge ``grid`` against ``world``'s true walls and cylinders (module docstring).
 
@@ -184,12 +189,17 @@ def judge_map(
         The built map, in the world frame.
     world : WorldSpec
         The world it was built in (its triggered cylinders are not judged).
-    poses_xy : array_like, shape (N, 2)
-        Where the LiDAR was during the survey, from the ground truth [m].
+    poses_xy : array_like, shape (N, 2) or (N, 3)
+        Where the LiDAR was during the survey, from the ground truth [m]; with
+        ``beam_angles_rad``, its pose (x, y [m], heading [rad]) at each revolution.
     max_range_m : float
         Range within which the mapper takes a return [m].
     tol_m : float
         Distance within which an occupied cell counts as on a wall [m].
+    beam_angles_rad : array_like, optional
+        The sensor's beam angles in its own frame [rad]: a sample is seen when a beam cast
+        from one of the poses ends on it (module docstring); without them, when a position
+        has it in sight.
 
     Returns
     -------
@@ -201,8 +211,11 @@ def judge_map(
         No poses, a range or tolerance that is not > 0, a world without walls or cylinders.
     """
     poses = np.asarray(poses_xy, np.float64)
-    if poses.ndim != 2 or poses.shape[1] != 2 or len(poses) == 0:
-        raise MetricInputError(f"poses_xy: expected an (N, 2) array, N >= 1, got {poses.shape}")
+    width = 2 if beam_angles_rad is None else 3
+    if poses.ndim != 2 or poses.shape[1] != width or len(poses) == 0:
+        raise MetricInputError(
+            f"poses_xy: expected an (N, {width}) array, N >= 1, got {poses.shape}"
+        )
     if not (0.0 < max_range_m < math.inf and 0.0 < tol_m < math.inf):
         raise MetricInputError(f"max_range_m, tol_m: expected > 0, got {max_range_m}, {tol_m}")
     walls = np.asarray(world.walls, np.float64).reshape(-1, 4)
@@ -211,7 +224,10 @@ def judge_map(
     if len(walls) + len(circles) == 0:
         raise MetricInputError(f"world {world.name}: no walls or cylinders to judge a map by")
     xy, segment = _samples(walls, circles)
-    seen = _seen(xy, _thin(poses), walls, circles, max_range_m)
+    if beam_angles_rad is None:
+        seen = _seen(xy, _thin(poses), walls, circles, max_range_m)
+    else:
+        seen = _hit(xy, poses, np.asarray(beam_angles_rad, np.float64), walls, circles, max_range_m)
     occupied = grid.data >= OCCUPIED_VALUE
     rows, cols = np.nonzero(occupied)
     cx, cy = grid.cell_to_world(rows, cols)
@@ -254,8 +270,9 @@ def judge_run(
     """Judge the map a mapping run wrote (``jackson map --out FOLDER``).
 
     Reads ``built_map.yaml`` (+ PGM), the true path ``ground_truth.csv`` and, from
-    ``meta.json``, the world and robot the run used; the LiDAR's positions are the true poses
-    moved by the robot's LiDAR mount.
+    ``meta.json``, the world and robot the run used. The samples seen are those the A1M8's
+    1080 beams hit, cast from the true pose at every revolution's end (one scan period
+    apart) moved by the robot's LiDAR mount.
 
     Parameters
     ----------
@@ -281,6 +298,7 @@ def judge_run(
     from jackson.host.nav.grid import OccupancyGrid
     from jackson.host.nav.slam.mapper import MappingConfig
     from jackson.sim.config import load_robot, load_world
+    from jackson.sim.lidar import LidarSpec
 
     run = Path(folder)
     needed = ("ground_truth.csv", "meta.json") + (() if map_yaml else ("built_map.yaml",))
@@ -294,17 +312,24 @@ def judge_run(
     if world is None:
         world = load_world(meta["world"])
     mount = load_robot(meta.get("robot", "jackson_physical")).lidar
-    _, x, y, yaw = truth_path(run / "ground_truth.csv")
+    spec = LidarSpec()
+    t, x, y, yaw = truth_path(run / "ground_truth.csv")
+    # the true pose at each revolution's end, one scan period apart
+    at = np.arange(t[0] + spec.scan_period_s, t[-1] + 1e-9, spec.scan_period_s)
+    x, y = np.interp(at, t, x), np.interp(at, t, y)
+    yaw = np.interp(at, t, np.unwrap(yaw))
     c, s = np.cos(yaw), np.sin(yaw)
     lidar = np.column_stack(
         (
             x + c * mount.mount_x_m - s * mount.mount_y_m,
             y + s * mount.mount_x_m + c * mount.mount_y_m,
+            yaw + mount.mount_yaw_rad,
         )
     )
+    angles = spec.angle_min_rad + spec.angle_increment_rad * np.arange(spec.beams)
     grid = OccupancyGrid.load(map_path)
     rng = MappingConfig().max_range_m if max_range_m is None else max_range_m
-    return judge_map(grid, world, lidar, rng)
+    return judge_map(grid, world, lidar, rng, beam_angles_rad=angles)
 
 
 # ------------------------------------------------------------------------------ the pieces
@@ -374,6 +399,33 @@ def _seen(
         if len(todo):
             seen[todo[_clear(p, xy[todo], walls, circles)]] = True
     return seen
+
+
+def _hit(
+    xy: FloatArray,
+    poses: FloatArray,
+    angles: FloatArray,
+    walls: FloatArray,
+    circles: FloatArray,
+    max_range_m: float,
+) -> BoolArray:
+    """Which samples a beam cast from one of the sensor ``poses`` (x, y, heading) at the
+    sensor-frame ``angles`` ends on within range (the sample nearest its end, within one
+    sample step): the twin's exact cast, without noise."""
+    from jackson.sim.lidar import Obstacles, cast
+
+    obstacles = Obstacles(walls, circles)
+    tree = cKDTree(xy)
+    hit = np.zeros(len(xy), np.bool_)
+    for x, y, heading in poses:
+        a = angles + heading
+        r = cast((x, y), a, obstacles, max_range_m)
+        ok = np.isfinite(r)
+        if ok.any():
+            ends = np.column_stack((x + r[ok] * np.cos(a[ok]), y + r[ok] * np.sin(a[ok])))
+            d, i = tree.query(ends, distance_upper_bound=SAMPLE_STEP_M)
+            hit[i[np.isfinite(d)]] = True
+    return hit
 
 
 def _clear(p: FloatArray, q: FloatArray, walls: FloatArray, circles: FloatArray) -> BoolArray:

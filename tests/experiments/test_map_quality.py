@@ -130,6 +130,30 @@ def test_walls_out_of_range_or_out_of_sight_are_not_judged() -> None:
     assert q.covered_fraction == 1.0 and len(q.judged) == len(boxed.walls) - 2
 
 
+def test_judged_by_the_beams_a_face_no_beam_hits_does_not_count() -> None:
+    # the partition (x = 3, y 1-3) seen only from its own line, below it: every sample of it
+    # is in sight (nothing lies between), but a beam along the line ends on its near end
+    # and none reaches the rest of it
+    without = dataclasses.replace(ROOM, walls=ROOM.walls[:PARTITION])
+    grid = best_map(without)
+    poses = np.array([(3.0, 0.3 + 0.05 * k, math.pi / 2) for k in range(5)])
+    angles = np.linspace(-math.pi, math.pi, 1080, endpoint=False)
+    in_sight = judge_map(grid, ROOM, poses[:, :2], max_range_m=8.0)
+    assert coverage(in_sight)[PARTITION] == 0.0  # judged, and missed
+    beams = judge_map(grid, ROOM, poses, max_range_m=8.0, beam_angles_rad=angles)
+    assert math.isnan(coverage(beams)[PARTITION])  # not judged
+    assert beams.covered_fraction == 1.0
+    # a face the beams do hit is judged as before: the room's walls, and the partition
+    # seen from the side
+    side = np.array([(2.0, 2.0, 0.0), (4.0, 2.0, math.pi)])
+    q = judge_map(grid, ROOM, side, max_range_m=8.0, beam_angles_rad=angles)
+    assert coverage(q)[PARTITION] == 0.0 and coverage(q)[0] == 1.0
+    full = judge_map(best_map(ROOM), ROOM, side, max_range_m=8.0, beam_angles_rad=angles)
+    assert coverage(full)[PARTITION] == 1.0
+    with pytest.raises(MetricInputError, match="poses_xy"):  # beams need the headings
+        judge_map(grid, ROOM, side[:, :2], max_range_m=8.0, beam_angles_rad=angles)
+
+
 def test_a_survey_without_poses_is_refused() -> None:
     with pytest.raises(MetricInputError, match="poses_xy"):
         judge_map(best_map(ROOM), ROOM, np.zeros((0, 2)), max_range_m=8.0)

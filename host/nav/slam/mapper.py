@@ -135,6 +135,11 @@ class MappingConfig:
         of the scans that saw it, stops a beam that crosses it more than ``wall_margin_m``
         before its return, which is then not written (0 hits: beams pass everything;
         :class:`~jackson.host.nav.slam.occupancy.Insertion`).
+    wall_extent_sigmas, wall_extent_floor_m : float
+        Only the beams that pass within ``wall_extent_sigmas`` standard deviations of a wall
+        cell's returns (their mean and covariance, widened by ``wall_extent_floor_m``) end
+        there: a beam that passes a wall's end inside the end's cell goes on (0: every beam
+        that crosses a wall cell ends there).
     """
 
     resolution_m: float = 0.05
@@ -172,6 +177,8 @@ class MappingConfig:
     wall_hits: int = 3
     wall_share: float = 0.3
     wall_margin_m: float = 0.1
+    wall_extent_sigmas: float = 2.0
+    wall_extent_floor_m: float = 0.005
 
     def __post_init__(self) -> None:
         positive = (
@@ -198,6 +205,8 @@ class MappingConfig:
             "no_return_free_m",
             "grow_margin_m",
             "wall_margin_m",
+            "wall_extent_sigmas",
+            "wall_extent_floor_m",
             "look_share",
             "min_travel_m",
             "min_heading_rad",
@@ -239,6 +248,8 @@ class MappingConfig:
             self.wall_hits,
             self.wall_share,
             self.wall_margin_m,
+            self.wall_extent_sigmas,
+            self.wall_extent_floor_m,
         )
 
     def window(self) -> Window:

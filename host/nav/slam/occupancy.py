@@ -76,6 +76,11 @@ class Insertion:
         See ``wall_hits``.
     wall_margin_m : float
         See ``wall_hits`` [m].
+    wall_extent_sigmas, wall_extent_floor_m : float
+        Above 0: a wall cell stops only the beams that pass within this many standard
+        deviations of its returns (their mean and covariance in the cell, the covariance
+        widened by ``wall_extent_floor_m`` squared on both axes), not those that pass beside
+        the returns, as a beam does that grazes the end of a wall within the end's cell.
     """
 
     resolution_m: float = 0.05
@@ -88,6 +93,8 @@ class Insertion:
     wall_hits: int = 3
     wall_share: float = 0.3
     wall_margin_m: float = 0.1
+    wall_extent_sigmas: float = 2.0
+    wall_extent_floor_m: float = 0.005
 
 
 class CountGrid:
@@ -99,6 +106,9 @@ class CountGrid:
         # per cell: the sums of the returns' x and y offsets from its lower-left corner [m] and
         # the count of scans that hit it, so a cell's mean return places its obstacle finely
         self._hits = np.zeros((3, 0, 0), np.float64)
+        # per cell, the sums over the scans that hit it of their returns' mean x^2, x y and y^2
+        # offsets (as ``_hits`` sums their mean x and y): the spread of the returns in the cell
+        self._moments = np.zeros((3, 0, 0), np.float64)
         self._row0 = 0  # map-frame cell index of the grid's row 0 (origin_y = row0 * res)
         self._col0 = 0
         self._field: PointField | None = None
@@ -106,11 +116,13 @@ class CountGrid:
         self._occupied: npt.NDArray[np.bool_] | None = None
         self._walls: npt.NDArray[np.bool_] | None = None
         self._frozen_walls = False  # the walls of a first pass, kept through the second
+        self._wall_sums: tuple[FloatArray, FloatArray] | None = None  # and their returns
 
     def clear(self) -> None:
         """Forget every scan, keeping the grid's extent."""
         self._passes[:] = 0
         self._hits[:] = 0.0
+        self._moments[:] = 0.0
         self._changed()
 
     def _changed(self) -> None:
@@ -145,11 +157,14 @@ class CountGrid:
             for scan, sensor in scans:
                 self.write(scan, sensor, through=True)
             self.walls()
+            # the walls' returns too, for wall_extent_sigmas
+            self._wall_sums = (self._hits.copy(), self._moments.copy())
             self.clear()  # the counts only: the walls stay frozen for the second pass
             for scan, sensor in scans:
                 self.write(scan, sensor)
         finally:
             self._frozen_walls = False
+            self._wall_sums = None
         self._changed()
 
     def occupied(self) -> npt.NDArray[np.bool_]:
@@ -256,7 +271,7 @@ class CountGrid:
         free_col = np.floor((sensor.x + t * cos_a[beam]) * inv).astype(np.intp)
         free_row = np.floor((sensor.y + t * sin_a[beam]) * inv).astype(np.intp)
         if not through and ins.wall_hits > 0 and self._passes.size:
-            stop = self._stops(beam, t, free_row, free_col, free_m)
+            stop = self._stops(beam, t, free_row, free_col, free_m, sensor, cos_a, sin_a)
             if stop is not None:
                 keep = t < stop[beam]
                 beam, t, free_col, free_row = beam[keep], t[keep], free_col[keep], free_row[keep]
@@ -290,10 +305,24 @@ class CountGrid:
             n_hit, 1
         ).reshape(h, w)
         sums[2] += hits.reshape(h, w)
+        if ins.wall_extent_sigmas > 0.0:
+            ox, oy = hit_x - hit_col * res, hit_y - hit_row * res
+            moments = self._moments[:, r0 : r0 + h, c0 : c0 + w]
+            per = np.maximum(n_hit, 1).reshape(h, w)
+            for m, v in enumerate((ox * ox, ox * oy, oy * oy)):
+                moments[m] += np.bincount(hit_k, v, h * w).reshape(h, w) / per
         self._changed()
 
     def _stops(
-        self, beam: IntArray, t: FloatArray, row: IntArray, col: IntArray, free_m: FloatArray
+        self,
+        beam: IntArray,
+        t: FloatArray,
+        row: IntArray,
+        col: IntArray,
+        free_m: FloatArray,
+        sensor: Pose2D,
+        cos_a: FloatArray,
+        sin_a: FloatArray,
     ) -> FloatArray | None:
         """Per beam, where along it [m] it first crosses a wall more than ``wall_margin_m``
         before its end (inf: never); None when no beam does."""
@@ -306,6 +335,33 @@ class CountGrid:
         on &= t < free_m[beam] - self.insertion.wall_margin_m
         if not on.any():
             return None
+        k_sig = self.insertion.wall_extent_sigmas
+        if k_sig > 0.0:
+            idx = np.flatnonzero(on)
+            rr, cc, bb = r[idx], c[idx], beam[idx]
+            hits, moments = self._wall_sums or (self._hits, self._moments)
+            n = hits[2, rr, cc]  # >= wall_hits >= 1 on a wall
+            res = self.insertion.resolution_m
+            mx = hits[0, rr, cc] / n
+            my = hits[1, rr, cc] / n
+            floor2 = self.insertion.wall_extent_floor_m**2
+            sxx = moments[0, rr, cc] / n - mx * mx + floor2
+            sxy = moments[1, rr, cc] / n - mx * my
+            syy = moments[2, rr, cc] / n - my * my + floor2
+            # the returns' mean relative to the sensor, and the beam's direction
+            wx = (cc + self._col0) * res + mx - sensor.x
+            wy = (rr + self._row0) * res + my - sensor.y
+            dx, dy = cos_a[bb], sin_a[bb]
+            det = sxx * syy - sxy * sxy
+            # the squared Mahalanobis distance from the mean to the beam's line:
+            # w'S^-1 w - (d'S^-1 w)^2 / d'S^-1 d, with S^-1 = [[syy, -sxy], [-sxy, sxx]] / det
+            ww = syy * wx * wx - 2.0 * sxy * wx * wy + sxx * wy * wy
+            dw = syy * dx * wx - sxy * (dx * wy + dy * wx) + sxx * dy * wy
+            dd = syy * dx * dx - 2.0 * sxy * dx * dy + sxx * dy * dy
+            m2 = (ww - dw * dw / dd) / det
+            on[idx[m2 > k_sig * k_sig]] = False
+            if not on.any():
+                return None
         stop = np.full(free_m.size, np.inf)
         np.minimum.at(stop, beam[on], t[on])
         return stop
@@ -333,11 +389,13 @@ class CountGrid:
             new_c1 = c1 if hi_col < c1 else hi_col + m + 1
         passes = np.zeros((new_r1 - new_r0, new_c1 - new_c0), np.int32)
         hits = np.zeros((3, *passes.shape), np.float64)
+        moments = np.zeros((3, *passes.shape), np.float64)
         if rows > 0:
             dr, dc = self._row0 - new_r0, self._col0 - new_c0
             passes[dr : dr + rows, dc : dc + cols] = self._passes
             hits[:, dr : dr + rows, dc : dc + cols] = self._hits
-        self._passes, self._hits = passes, hits
+            moments[:, dr : dr + rows, dc : dc + cols] = self._moments
+        self._passes, self._hits, self._moments = passes, hits, moments
         self._row0, self._col0 = new_r0, new_c0
         self._changed()
 

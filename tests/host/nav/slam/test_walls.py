@@ -130,3 +130,35 @@ def test_a_look_lands_a_share_of_the_graph_later(nodes: int, look_every: int) ->
     assert later and all(gap == max(10, math.ceil(0.05 * k)) for k, gap in later)
     assert later[0][1] >= look_every
     assert gaps[0] == (10, 10)  # the first looks: every loop_every nodes
+
+
+END = 2.0125  # a wall's east end, 1.25 cm into its cell
+WALL_END = Obstacles([[0.0, 0.5, END, 0.5], [-1.0, -1.0, 4.0, -1.0]])
+
+
+@pytest.mark.parametrize(("sigmas", "beside"), [(0.0, -1), (2.0, 0)])
+def test_a_wall_cell_stops_only_the_beams_through_its_returns(sigmas: float, beside: int) -> None:
+    # scans from above make the wall's end cell a wall, its returns only in its west quarter.
+    # Beams from a sensor 3 cm east of the end pass the cell beside the wall: a wall cell that
+    # stops every beam crossing it ends them there and nothing below is seen (unknown); one
+    # that stops only the beams through its returns lets them by (free below, beside the end)
+    sensor = lidar()
+    above = [Pose2D(x, 1.5, -math.pi / 2) for x in np.linspace(0.3, 1.8, 16)]
+    beside_end = [Pose2D(END + 0.03, 1.5, -math.pi / 2)] * 5  # its mount: 4 cm south
+    cells = CountGrid(MappingConfig(wall_extent_sigmas=sigmas).insertion())
+    cells.write_all([(scan_at(sensor, p, WALL_END), p.compose(MOUNT)) for p in above + beside_end])
+    assert _value(cells, END - 0.005, 0.51) == 100  # the end cell is a wall either way
+    assert [_value(cells, END + 0.02, y) for y in (0.2, -0.5)] == [beside, beside]
+    assert _value(cells, 1.0, 0.0) == -1  # behind the wall itself: nothing passes
+
+
+def test_with_wall_extents_returns_behind_a_wall_are_still_not_written() -> None:
+    sensor = lidar()
+    cells = CountGrid(MappingConfig(wall_extent_sigmas=2.0).insertion())
+    for _ in range(5):
+        cells.write(scan_at(sensor, Pose2D(), WALL), MOUNT)
+    for _ in range(2):  # written 0.3 m too far ahead: these beams cross the wall's returns
+        cells.write(scan_at(sensor, Pose2D(), WALL), ERRED.compose(MOUNT))
+    assert _value(cells, 2.0, 0.0) == 100
+    assert _value(cells, 2.32, 0.0) == -1
+    assert _value(cells, 2.17, 0.0) == -1
