@@ -196,6 +196,7 @@ class MappingConfig:
             "chain_sigma_m",
             "chain_sigma_rad",
             "turn_window_s",
+            "wall_extent_floor_m",
         )
         for name in positive:
             value = getattr(self, name)
@@ -206,7 +207,6 @@ class MappingConfig:
             "grow_margin_m",
             "wall_margin_m",
             "wall_extent_sigmas",
-            "wall_extent_floor_m",
             "look_share",
             "min_travel_m",
             "min_heading_rad",

@@ -162,3 +162,11 @@ def test_with_wall_extents_returns_behind_a_wall_are_still_not_written() -> None
     assert _value(cells, 2.0, 0.0) == 100
     assert _value(cells, 2.32, 0.0) == -1
     assert _value(cells, 2.17, 0.0) == -1
+
+
+@pytest.mark.parametrize(
+    ("field", "value"), [("wall_extent_floor_m", 0.0), ("wall_extent_sigmas", -1.0)]
+)
+def test_a_wall_extent_setting_out_of_range_is_refused(field: str, value: float) -> None:
+    with pytest.raises(ValueError, match=f"MappingConfig.{field}: expected"):
+        MappingConfig(**{field: value})
