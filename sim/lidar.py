@@ -552,9 +552,8 @@ class Lidar:
             out[self._slot_beams] = fast[self._slot_used]
             return out
         out = np.empty(spec.beams)
-        for c, beams in enumerate(self._pieces):
+        for f, beams in zip(mid, self._pieces, strict=True):
             if beams.size:
-                f = (c + 0.5) / MOVING_CHUNKS
                 pose = (x0 + f * dx, y0 + f * dy, yaw0 + f * dyaw)
                 out[beams] = self._cast(pose, obstacles, self._directions[:, beams])
         return out

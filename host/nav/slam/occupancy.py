@@ -297,18 +297,15 @@ class CountGrid:
         passes &= ~hits
         self._passes[r0 : r0 + h, c0 : c0 + w] += passes.reshape(h, w)
         sums = self._hits[:, r0 : r0 + h, c0 : c0 + w]
-        n_hit = np.bincount(hit_k, None, h * w)
-        sums[0] += np.bincount(hit_k, hit_x - hit_col * res, h * w).reshape(h, w) / np.maximum(
-            n_hit, 1
-        ).reshape(h, w)
-        sums[1] += np.bincount(hit_k, hit_y - hit_row * res, h * w).reshape(h, w) / np.maximum(
-            n_hit, 1
-        ).reshape(h, w)
+        # each scan adds the mean of its returns in a cell (and of their squares, for the
+        # returns' spread), so a cell's sums count every scan that hit it once
+        per = np.maximum(np.bincount(hit_k, None, h * w), 1).reshape(h, w)
+        ox, oy = hit_x - hit_col * res, hit_y - hit_row * res
+        sums[0] += np.bincount(hit_k, ox, h * w).reshape(h, w) / per
+        sums[1] += np.bincount(hit_k, oy, h * w).reshape(h, w) / per
         sums[2] += hits.reshape(h, w)
         if ins.wall_extent_sigmas > 0.0:
-            ox, oy = hit_x - hit_col * res, hit_y - hit_row * res
             moments = self._moments[:, r0 : r0 + h, c0 : c0 + w]
-            per = np.maximum(n_hit, 1).reshape(h, w)
             for m, v in enumerate((ox * ox, ox * oy, oy * oy)):
                 moments[m] += np.bincount(hit_k, v, h * w).reshape(h, w) / per
         self._changed()
