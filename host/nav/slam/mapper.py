@@ -95,6 +95,10 @@ class MappingConfig:
         Steps of the first, exhaustive level of the search [m], [rad].
     fine_xy_step_m, fine_yaw_step_rad : float
         Steps of the last level [m], [rad] (slam_toolbox: 0.01 m, 0.00349 rad).
+    refine_match : bool
+        Place the match between the last level's steps, at the peak of a parabola through its
+        scores (:class:`~jackson.host.nav.slam.matcher.Window`): a pose on the steps' lattice
+        errs by up to half a step, 0.1 degrees in heading, which the map then carries on.
     match_sigma_m : float
         Standard deviation of the likelihood field's Gaussian [m].
     prior_sigma_m, prior_sigma_rad : float
@@ -159,6 +163,7 @@ class MappingConfig:
     coarse_yaw_step_rad: float = 0.05
     fine_xy_step_m: float = 0.005
     fine_yaw_step_rad: float = 0.0035
+    refine_match: bool = True
     match_sigma_m: float = 0.05
     prior_sigma_m: float = 0.5
     prior_sigma_rad: float = 1.0
@@ -264,6 +269,7 @@ class MappingConfig:
             self.match_sigma_m,
             self.prior_sigma_m,
             self.prior_sigma_rad,
+            self.refine_match,
         )
 
 
