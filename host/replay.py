@@ -356,6 +356,8 @@ def _navigation_from_meta(
             lidar_mount=Pose2D(*nav["lidar_mount"]),
             deskew=bool(nav.get("deskew", False)),  # runs from before revolutions were deskewed
             amcl=_amcl_from_meta(nav.get("amcl")),
+            # runs from before the planner took the mapper's map: never
+            map_update_s=float(nav.get("map_update_s", 0.0)),
             seed=int(nav["seed"]),
         )
     except (KeyError, TypeError, ValueError) as exc:

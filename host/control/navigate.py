@@ -91,6 +91,12 @@ class NavigateConfig:
         The particle filter.
     mapping : MappingConfig
         The mapper.
+    map_update_s : float
+        In ``slam`` mode, the global costmap's static layer takes the mapper's map every this
+        many seconds of scan time (slam_toolbox publishes /map every 5 s and Nav2's static
+        layer takes it); 0 never: the planner then knows only the obstacle layer's marks,
+        which the rays of every scan clear again, a thin partition seen along its length
+        with them.
     """
 
     start: Pose2D
@@ -103,8 +109,13 @@ class NavigateConfig:
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     amcl: AmclConfig = field(default_factory=AmclConfig)
     mapping: MappingConfig = field(default_factory=MappingConfig)
+    map_update_s: float = 5.0
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.map_update_s < math.inf:
+            raise ValueError(
+                f"NavigateConfig.map_update_s must be a number >= 0, got {self.map_update_s}"
+            )
         if self.localisation not in ("amcl", "slam"):
             raise ValueError(
                 f"NavigateConfig.localisation must be amcl or slam, got {self.localisation!r}"
@@ -206,6 +217,7 @@ class NavigateMission:
         self._last_scan_t_s: float | None = None
         self.static_map = static_map
         self.mapper: Mapper | None = None
+        self._map_sent_s = -math.inf  # scan time the mapper's map last went to the planner
         self.filter: ParticleFilter | None = None
         if config.localisation == "amcl":
             if static_map is None:
@@ -272,6 +284,10 @@ class NavigateMission:
             # that the navigator's pose is the base's now, not a frame ago; it holds for the
             # odometry's frame at any instant
             self.map_to_odom = placed.compose(at_end.inverse())
+            every = self.config.map_update_s
+            if every > 0.0 and t_end_s - self._map_sent_s >= every:
+                self.navigator.global_costmap.set_static_map(self.mapper.grid())
+                self._map_sent_s = t_end_s
         self._scan_points = scan.points(self.pose_map(), mount)
 
     def _odom_at_revolution_end(
@@ -476,6 +492,7 @@ def navigate_meta(config: NavigateConfig) -> dict[str, object]:
         "lidar_mount": _pose_list(config.lidar_mount),
         "deskew": config.deskew,
         "amcl": dataclasses.asdict(config.amcl),
+        "map_update_s": config.map_update_s,
         "seed": config.seed,
         "map": f"{MAP_NAME}.yaml" if config.localisation == "amcl" else None,
     }

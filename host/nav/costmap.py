@@ -463,6 +463,20 @@ class Costmap:
         self._static = self._sample_static()
         self._update_master()
 
+    def set_static_map(self, static_map: OccupancyGrid | None) -> None:
+        """Take a new map into the static layer and combine the layers again; the obstacle
+        layer's marks stay (Nav2's static layer on a new /map, as a SLAM node publishes one
+        every few seconds).
+
+        Parameters
+        ----------
+        static_map : OccupancyGrid or None
+            The map, sampled at this grid's cell centres; None for no static layer.
+        """
+        self._static_map = static_map
+        self._static = self._sample_static()
+        self._update_master()
+
     def update(self, points_xy: npt.ArrayLike, sensor_xy: tuple[float, float]) -> None:
         """Clear the rays to one scan's returns, mark the returns, re-inflate.
 

@@ -1,5 +1,5 @@
-"""What a navigation run's ``meta.json`` records of its particle filter, and what a replay of
-a run from before it was recorded takes instead."""
+"""What a navigation run's ``meta.json`` records of its particle filter and of the mapper's map
+handed to the planner, and what a replay of a run from before it was recorded takes instead."""
 
 from __future__ import annotations
 
@@ -44,4 +44,19 @@ def test_a_damaged_filter_entry_is_one_clear_error(tmp_path: Path, entry: object
     meta = _meta(NavigateConfig(start=Pose2D(0.0, 0.0, 0.0), goals=()))
     meta["navigate"]["amcl"] = entry  # type: ignore[index]
     with pytest.raises(RecordingError, match=r"meta\.json: navigate"):
+        _navigation_from_meta(tmp_path, meta)
+
+
+def test_a_mapping_run_replays_with_the_map_hand_over_it_recorded(tmp_path: Path) -> None:
+    config = NavigateConfig(
+        start=Pose2D(0.0, 0.0, 0.0), goals=(), localisation="slam", map_update_s=2.5
+    )
+    back, _ = _navigation_from_meta(tmp_path, _meta(config))
+    assert back.map_update_s == 2.5 and back == config
+    meta = _meta(config)
+    del meta["navigate"]["map_update_s"]  # type: ignore[attr-defined]
+    back, _ = _navigation_from_meta(tmp_path, meta)
+    assert back.map_update_s == 0.0  # from before: the planner never took the mapper's map
+    meta["navigate"]["map_update_s"] = -1.0  # type: ignore[index]
+    with pytest.raises(RecordingError, match=r"meta\.json: navigate: .*map_update_s"):
         _navigation_from_meta(tmp_path, meta)

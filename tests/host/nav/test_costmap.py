@@ -104,6 +104,29 @@ def test_scans_never_clear_the_static_map() -> None:
     assert cm.cost_at(1.2, 0.0) == LETHAL_OBSTACLE
 
 
+def test_a_new_static_map_holds_a_wall_the_scans_cleared() -> None:
+    """Mapping as it goes: the planner's costmap starts blank and only scans mark it, so a
+    beam that passes through a partition's cell clears it again; the mapper's map taken into
+    the static layer holds the partition, and the scans' marks stay."""
+    blank = OccupancyGrid.empty(3.0, 1.0, RES, origin_x_m=-1.5, origin_y_m=-0.5, fill=-1)
+    cm = Costmap.from_map(blank, CostmapConfig(track_unknown_space=False))
+    cm.update(np.array([[0.5, 0.0], [-1.0, 0.2]]), (0.0, 0.0))
+    assert cm.cost_at(0.5, 0.0) == LETHAL_OBSTACLE
+    cm.update(np.array([[1.2, 0.0]]), (0.0, 0.0))  # a beam beside the partition's end
+    assert cm.cost_at(0.5, 0.0) == FREE_SPACE
+    mapped = OccupancyGrid.empty(2.0, 1.0, RES, origin_x_m=-0.55, origin_y_m=-0.5, fill=0)
+    mapped.data[:, 21] = 100  # the partition at x = 0.5 m, on the mapper's own grid
+    version = cm.version
+    cm.set_static_map(mapped)
+    assert cm.version > version
+    assert cm.cost_at(0.52, 0.0) == LETHAL_OBSTACLE
+    assert cm.cost_at(-1.0, 0.2) == LETHAL_OBSTACLE  # the scan's mark, off the new map, stays
+    cm.update(np.array([[1.2, 0.0]]), (0.0, 0.0))
+    assert cm.cost_at(0.52, 0.0) == LETHAL_OBSTACLE  # scans no longer clear it
+    cm.set_static_map(None)
+    assert cm.cost_at(0.52, 0.0) == FREE_SPACE  # the ray cleared it in the obstacle layer
+
+
 def test_the_rolling_window_keeps_what_it_saw_while_it_moves() -> None:
     cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0)
     cm.update(np.array([[0.7, 0.3]]), (0.0, 0.0))
