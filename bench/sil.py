@@ -8,9 +8,11 @@ square) and ``jackson run maze`` (the host maps the maze, then navigates it). Fi
   (the run's ``metrics.json``: ``sim_s / wall_s``); its reference is the robot's own clock, so
   it is this machine's speed (the reference loop beside it says how fast the machine was).
   Targets: the square 100x, the maze navigation 30x;
-- the whole command's wall time over the run's own: what start-up, the report, the plots and
-  the CSVs add around the runs (for the maze, over its mapping and navigation runs together).
-  Target 1.5x.
+- what the whole command adds to its runs' wall time: start-up (the interpreter, the imports),
+  the report, the plots and the CSVs. For the square, whose run lasts about a second at the
+  target, in seconds (target: at most 1.5 s beyond the run; a ratio to a run that short says
+  more about the run than about the command); for the maze, as a ratio to its mapping and
+  navigation runs together (target 1.5x).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from jackson.common.bench import BenchResult, reference_loop_us
 SQUARE_RTF_TARGET = 100.0
 MAZE_RTF_TARGET = 30.0
 COMMAND_OVER_RUN_TARGET = 1.5
+COMMAND_OVERHEAD_S_TARGET = 1.5  # [s] beyond the run, for a command whose run is short
 TIMEOUT_S = 900.0
 
 
@@ -57,6 +60,7 @@ def figures(
     rtf_target: float,
     loop_us: float,
     judged: str = "",
+    overhead_in_seconds: bool = False,
 ) -> list[BenchResult]:
     """The suite's two figures for one command from its wall time and its runs' metrics.
 
@@ -75,6 +79,9 @@ def figures(
     judged : str
         The name of the run whose real-time factor is judged (its ``mission``-less label; the
         last run by default).
+    overhead_in_seconds : bool
+        Judge what the command adds to its runs in seconds (``sil.MISSION_command_overhead_s``)
+        instead of as a ratio to them (``sil.MISSION_command_over_run``).
 
     Returns
     -------
@@ -98,6 +105,20 @@ def figures(
             loop_us,
         ),
         BenchResult(
+            f"sil.{mission}_command_overhead_s",
+            command_s - run_wall,
+            "s beyond the run's wall time",
+            COMMAND_OVERHEAD_S_TARGET,
+            "lower",
+            f"the runs inside the command: jackson run {mission}'s whole wall time (start-up, "
+            f"report, plots, CSVs) less the wall time of its {len(runs)} run(s)",
+            command_s,
+            "s",
+            run_wall,
+            loop_us,
+        )
+        if overhead_in_seconds
+        else BenchResult(
             f"sil.{mission}_command_over_run",
             command_s / run_wall,
             "x the run's wall time",
@@ -120,7 +141,9 @@ def run(quick: bool = False) -> list[BenchResult]:
         out = Path(tmp)
         wall = timed_run("square", out / "square")
         square = json.loads((out / "square" / "metrics.json").read_text())
-        results = figures("square", wall, [square], SQUARE_RTF_TARGET, loop_us)
+        results = figures(
+            "square", wall, [square], SQUARE_RTF_TARGET, loop_us, overhead_in_seconds=True
+        )
         if not quick:
             wall = timed_run("maze", out / "maze")
             runs = [

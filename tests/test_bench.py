@@ -197,6 +197,15 @@ def test_sil_figures_judge_the_run_against_the_robots_clock_and_the_command_agai
     assert over.value == 2.0 and not over.met  # 5 s for 2.5 s of runs
     fast = figures("square", 0.5, [{"sim_s": 50.0, "wall_s": 0.4}], 100.0, 200.0)
     assert [f.met for f in fast] == [True, True]
+    # a run of under a second: what the command adds is judged in seconds, not as a ratio
+    short = figures(
+        "square", 2.0, [{"sim_s": 50.0, "wall_s": 0.4}], 100.0, 200.0, overhead_in_seconds=True
+    )
+    assert short[1].name == "sil.square_command_overhead_s"
+    assert short[1].value == pytest.approx(1.6) and not short[1].met  # 1.6 s beyond the run
+    assert figures(
+        "square", 1.8, [{"sim_s": 50.0, "wall_s": 0.4}], 100.0, 200.0, overhead_in_seconds=True
+    )[1].met  # 1.4 s, though 4.5x the run
 
 
 def test_the_vectorised_peer_sees_the_room_as_the_lidar_model_does() -> None:
