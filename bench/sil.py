@@ -90,6 +90,17 @@ def figures(
     last = runs[-1]
     run_wall = sum(float(r["wall_s"]) for r in runs)
     label = f"{mission}{'_' + judged if judged else ''}"
+    if overhead_in_seconds:
+        name, value, unit, target = (
+            "overhead_s",
+            command_s - run_wall,
+            "s beyond",
+            COMMAND_OVERHEAD_S_TARGET,
+        )
+        how = "less"
+    else:
+        name, value, unit, target = "over_run", command_s / run_wall, "x", COMMAND_OVER_RUN_TARGET
+        how = "over"
     return [
         BenchResult(
             f"sil.{label}_real_time_factor",
@@ -105,27 +116,13 @@ def figures(
             loop_us,
         ),
         BenchResult(
-            f"sil.{mission}_command_overhead_s",
-            command_s - run_wall,
-            "s beyond the run's wall time",
-            COMMAND_OVERHEAD_S_TARGET,
+            f"sil.{mission}_command_{name}",
+            value,
+            f"{unit} the run's wall time",
+            target,
             "lower",
             f"the runs inside the command: jackson run {mission}'s whole wall time (start-up, "
-            f"report, plots, CSVs) less the wall time of its {len(runs)} run(s)",
-            command_s,
-            "s",
-            run_wall,
-            loop_us,
-        )
-        if overhead_in_seconds
-        else BenchResult(
-            f"sil.{mission}_command_over_run",
-            command_s / run_wall,
-            "x the run's wall time",
-            COMMAND_OVER_RUN_TARGET,
-            "lower",
-            f"the runs inside the command: jackson run {mission}'s whole wall time (start-up, "
-            f"report, plots, CSVs) over the wall time of its {len(runs)} run(s)",
+            f"report, plots, CSVs) {how} the wall time of its {len(runs)} run(s)",
             command_s,
             "s",
             run_wall,
