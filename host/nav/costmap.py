@@ -35,6 +35,10 @@ quantisation plus LiDAR noise otherwise makes a robot passing a few centimetres 
 obstacle "touch" a cell and freeze. Cell distances bound the true clearances, so most poses
 are settled by one table lookup: far from every obstacle, certainly overlapping one, or (only
 these get the exact test) in between.
+
+The recoveries test the robot's body alone, more closely, at their handful of poses
+(:meth:`Costmap.body_contacts`): the envelope rectangle against the last scan's returns, each
+marked cell the capsule of its own and its neighbours' returns with the range noise taken out.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ INSCRIBED_INFLATED_OBSTACLE = 253
 LETHAL_OBSTACLE = 254
 NO_INFORMATION = 255
 MAX_NON_OBSTACLE = INSCRIBED_INFLATED_OBSTACLE - 1  # 252, the top of the inflated band
+BODY_STEP_M = 0.01  # [m] discs along a capsule in the body test (Costmap.body_contacts)
 
 # per-cell classes for collision checks: far from obstacles, near enough for the robot to reach
 # one, so near that the robot's disc certainly overlaps one, a centre on a lethal or unknown
@@ -96,6 +101,10 @@ class CostmapConfig:
         threshold, 65 %).
     track_unknown_space : bool
         Keep unknown cells as NO_INFORMATION (True) or treat them as free (False).
+    range_noise_m : float
+        The LiDAR's range noise, one standard deviation [m] (REFERENCE: 0.010 m): the
+        recoveries' body test (:meth:`Costmap.body_contacts`) tells a wall's noise from its
+        extent with it.
     """
 
     robot_radius_m: float = 0.16
@@ -109,6 +118,7 @@ class CostmapConfig:
     raytrace_min_range_m: float = 0.0
     lethal_threshold_percent: int = 65
     track_unknown_space: bool = False
+    range_noise_m: float = 0.010
 
     def __post_init__(self) -> None:
         if not 0.0 < self.robot_radius_m < math.inf:
@@ -133,6 +143,8 @@ class CostmapConfig:
                     f"CostmapConfig.{name}_max_range_m must exceed {name}_min_range_m >= 0, "
                     f"got {low}, {high}"
                 )
+        if not 0.0 <= self.range_noise_m < math.inf:
+            raise ValueError(f"CostmapConfig.range_noise_m must be >= 0, got {self.range_noise_m}")
         if not 0 < self.lethal_threshold_percent <= 100:
             raise ValueError(
                 "CostmapConfig.lethal_threshold_percent must be in 1..100, "
@@ -278,6 +290,8 @@ class Costmap:
         disc_shape = (rows, cols) if collision_checks else (0, 0)
         self._hit_xy = np.zeros((*disc_shape, 2))
         self._hit_spread_m = np.zeros(disc_shape)
+        # the last scan's marking returns [m] (the recoveries' body test)
+        self._last_returns: FloatArray = np.zeros((0, 2))
         self._static = self._sample_static()
         self.costs: CostArray = np.zeros((rows, cols), np.uint8)
         self.lethal_distance_m: FloatArray = np.full((rows, cols), math.inf)
@@ -501,6 +515,7 @@ class Costmap:
         ok = self.inside(r, c)
         r, c, q = r[ok], c[ok], p[mark][ok]
         self._obstacle[r, c] = LETHAL_OBSTACLE
+        self._last_returns = q
         if len(q) and self._collision_checks:
             cells, inv = np.unique(r * self.shape[1] + c, return_inverse=True)
             count = np.bincount(inv)
@@ -704,6 +719,7 @@ class Costmap:
         radius[scan] = self._hit_spread_m[rr[scan], cc[scan]]
         self._obstacle_xy = pts
         self._obstacle_r_m = radius
+        self._obstacle_cells = rr * cols + cc
         # how far from its cell centre an obstacle disc reaches, at most, and how far it may
         # fall short of it: bounds between cell-centre distances and true clearances
         # bounds between cell-centre distances and true clearances: how far beyond its cell
@@ -817,6 +833,98 @@ class Costmap:
         near = np.flatnonzero(cls == _NEAR)
         out[near] = self._footprint_hits(x[near], y[near], yaw[near])[0] > 0
         return out.reshape(shape)
+
+    def body_contacts(
+        self,
+        x_m: npt.ArrayLike,
+        y_m: npt.ArrayLike,
+        yaw_rad: npt.ArrayLike,
+        margin_m: float = 0.0,
+    ) -> tuple[FloatArray, FloatArray]:
+        """The robot's body alone against the obstacles, at a few poses (every obstacle is
+        tested; for the recoveries' handful of poses, not DWB's batches).
+
+        The body is the envelope rectangle (the footprint test's rectangle, without Nav2's
+        disc of ``robot_radius_m`` around it). Each cell the last scan marked is the capsule
+        of the returns in it and its eight neighbours (:func:`_capsules`): a segment along the
+        direction they spread most, as long as they reach along it, grown across it by what
+        remains of their spread once the range noise is taken out. A wall then reads where
+        its returns' mean lies, not where the shortest of them fell: the footprint test's
+        disc, as wide across a wall as along it, and a cell holding only returns that fell
+        short (a wall near a cell's edge) put a wall 19 cm away 3 cm nearer, where a robot
+        facing along it can neither turn nor back away from it. Any other lethal cell is the
+        footprint test's disc. A capsule is tested as discs along its segment, at most
+        :data:`BODY_STEP_M` apart, each grown by half that step.
+
+        Parameters
+        ----------
+        x_m, y_m, yaw_rad : array_like, shape (P,)
+            Poses, map frame.
+        margin_m : float
+            Grow the rectangle by this much on every side [m].
+
+        Returns
+        -------
+        tuple of ndarray
+            (depth [m] (P,): how far the rectangle, grown by each disc's radius, reaches past
+            the disc's centre, its largest over the discs inside it, ``-inf`` where none is, so
+            that the body touches an obstacle where it is >= 0; the centre's clearance [m]
+            (P,): its distance to the nearest disc's edge, ``inf`` without any obstacle).
+
+        Raises
+        ------
+        RuntimeError
+            If the costmap was made without collision checks.
+        """
+        if not self._collision_checks:
+            raise RuntimeError("body_contacts needs a costmap with collision checks")
+        x, y, yaw = (
+            np.ravel(a).astype(np.float64)
+            for a in np.broadcast_arrays(np.asarray(x_m), np.asarray(y_m), np.asarray(yaw_rad))
+        )
+        centre, radius = self._body_obstacles()
+        if len(centre) == 0:
+            return np.full(x.shape, -math.inf), np.full(x.shape, math.inf)
+        cx = centre[None, :, 0] - x[:, None]  # (P, N), from each pose
+        cy = centre[None, :, 1] - y[:, None]
+        h = radius[None, :]
+        clearance: FloatArray = (np.hypot(cx, cy) - h).min(axis=1)
+        cos, sin = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        lx, ly = cos * cx + sin * cy, cos * cy - sin * cx
+        g = h + margin_m
+        (x0, x1), (y0, y1) = self.config.footprint_x_m, self.config.footprint_y_m
+        inside = np.minimum(
+            np.minimum(lx - (x0 - g), (x1 + g) - lx), np.minimum(ly - (y0 - g), (y1 + g) - ly)
+        )
+        depth: FloatArray = np.where(inside >= 0.0, inside, -math.inf).max(axis=1)
+        return depth, clearance
+
+    def _body_obstacles(self) -> tuple[FloatArray, FloatArray]:
+        """The obstacles of :meth:`body_contacts` as discs: centres (N, 2) [m] and radii
+        (N,) [m]."""
+        cols = self.shape[1]
+        q: FloatArray = self._last_returns
+        r, c = self.world_to_cell(q[:, 0], q[:, 1])
+        ok = self.inside(r, c)  # the window may have moved since
+        q, r, c = q[ok], r[ok], c[ok]
+        ok = self._obstacle[r, c] == LETHAL_OBSTACLE  # and a recovery cleared it
+        q, r, c = q[ok], r[ok], c[ok]
+        marked = np.unique(r * cols + c)
+        centres, capsules = _capsules(q, r, c, marked, cols, self.config.range_noise_m)
+        # each capsule as discs along its segment
+        pieces = np.maximum(np.ceil(2.0 * capsules[:, 2] / BODY_STEP_M), 1.0).astype(np.intp)
+        which = np.repeat(np.arange(len(centres)), pieces + 1)
+        first = np.repeat(np.cumsum(pieces + 1) - (pieces + 1), pieces + 1)
+        f = (np.arange(len(which)) - first) / pieces[which] * 2.0 - 1.0  # -1 .. 1
+        along = f * capsules[which, 2]
+        points = centres[which] + along[:, None] * capsules[which, 0:2]
+        grown = capsules[which, 3] + 0.5 * (2.0 * capsules[which, 2] / pieces[which])
+        # the footprint test's discs of the other lethal cells
+        k = np.flatnonzero(~np.isin(self._obstacle_cells, marked))
+        return (
+            np.concatenate((points, self._obstacle_xy[k])),
+            np.concatenate((grown, self._obstacle_r_m[k])),
+        )
 
     def trajectories_collide(
         self,
@@ -1071,3 +1179,53 @@ class Costmap:
             (x0, x1), (y0, y1) = cfg.footprint_x_m, cfg.footprint_y_m
             hit[maybe] = (lx >= x0 - g) & (lx <= x1 + g) & (ly >= y0 - g) & (ly <= y1 + g)
         return np.bincount(pose_i[hit], minlength=n).astype(np.int_), clearance
+
+
+def _capsules(
+    q: FloatArray,
+    r: IntArray,
+    c: IntArray,
+    cells: IntArray,
+    cols: int,
+    noise_m: float,
+) -> tuple[FloatArray, FloatArray]:
+    """Each of ``cells`` (row * cols + col, sorted) as the capsule of the returns ``q`` (in
+    cells ``r``, ``c``) that lie in it or its eight neighbours: their centroid (n, 2) and
+    (unit direction of their largest spread, half-length along it, radius) (n, 4) [m].
+
+    Across a wall the returns spread by the range noise alone, about the wall, while their
+    centroid lies within 2 sigma / sqrt(n) of it: the radius is the farthest return across
+    less sigma sqrt(2 ln n) (about as far as the farthest of n noises reaches), no less than
+    0, plus 2 sigma / sqrt(n). An obstacle that really extends across keeps its extent; a
+    noisier LiDAR than ``noise_m`` only makes the capsules wider.
+    """
+    n = len(cells)
+    if n == 0:
+        return np.zeros((0, 2)), np.zeros((0, 4))
+    member, target = [], []
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            k = np.searchsorted(cells, (r + dr) * cols + (c + dc))
+            k = np.minimum(k, n - 1)
+            hit = cells[k] == (r + dr) * cols + (c + dc)
+            member.append(np.flatnonzero(hit))
+            target.append(k[hit])
+    i, g = np.concatenate(member), np.concatenate(target)
+    count = np.bincount(g, minlength=n).astype(np.float64)
+    centre = np.column_stack(
+        (np.bincount(g, q[i, 0], n) / count, np.bincount(g, q[i, 1], n) / count)
+    )
+    d = q[i] - centre[g]
+    sxx = np.bincount(g, d[:, 0] * d[:, 0], n)
+    sxy = np.bincount(g, d[:, 0] * d[:, 1], n)
+    syy = np.bincount(g, d[:, 1] * d[:, 1], n)
+    theta = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
+    out = np.zeros((n, 4))
+    out[:, 0], out[:, 1] = np.cos(theta), np.sin(theta)
+    along = d[:, 0] * out[g, 0] + d[:, 1] * out[g, 1]
+    across = d[:, 1] * out[g, 0] - d[:, 0] * out[g, 1]
+    np.maximum.at(out[:, 2], g, np.abs(along))
+    np.maximum.at(out[:, 3], g, np.abs(across))
+    noise = noise_m * np.sqrt(2.0 * np.log(count))  # how far the farthest of n noises reaches
+    out[:, 3] = np.maximum(out[:, 3] - noise, 0.0) + 2.0 * noise_m / np.sqrt(count)
+    return centre, out
