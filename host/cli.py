@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -302,5 +303,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print(f"replay differs from the run in {', '.join(r.differ)} (outputs in {out})")
         return 1
     what = "bit for bit" if r.complete else "on every row the run kept"
-    print(f"replay reproduces odometry, EKF and commands {what} ({out})")
+    if args.out:
+        print(f"replay reproduces odometry, EKF and commands {what} ({out})")
+    else:  # the outputs equal the run's own: a temporary copy is not kept
+        shutil.rmtree(out, ignore_errors=True)
+        print(f"replay reproduces odometry, EKF and commands {what} (--out DIR keeps the outputs)")
     return 0

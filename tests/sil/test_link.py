@@ -159,3 +159,4 @@ def test_a_killed_run_replays_as_far_as_it_was_kept(tmp_path: Path) -> None:
     assert out.returncode == 0, out.stdout + out.stderr
     assert "cut (no end record" in out.stdout
     assert f"replayed {r.frames} telemetry frames" in out.stdout
+    assert "(--out DIR keeps the outputs)" in out.stdout  # its temporary outputs not kept
