@@ -54,7 +54,7 @@ class NavigatorConfig:
         Spin recovery: angle [rad] (1.57), speed bounds [rad/s] (REFERENCE 0.30, 1.0),
         time limit [s] (10).
     backup_distance_m, backup_speed_m_s, backup_time_allowance_s
-        Back-up recovery [m] (0.30, Nav2 bringup's), [m/s] (0.05), [s] (10).
+        Back-up recovery [m] (0.15), [m/s] (0.05), [s] (10).
     wait_s : float
         Wait recovery [s] (Nav2 bringup tree: 5).
     unreachable_confirm_s : float
@@ -86,7 +86,7 @@ class NavigatorConfig:
     spin_min_rad_s: float = 0.30
     spin_max_rad_s: float = 1.0
     spin_time_allowance_s: float = 10.0
-    backup_distance_m: float = 0.30
+    backup_distance_m: float = 0.15
     backup_speed_m_s: float = 0.05
     backup_time_allowance_s: float = 10.0
     wait_s: float = 5.0

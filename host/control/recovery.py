@@ -10,10 +10,9 @@ behaviour of :data:`RECOVERIES`; after ``max_retries`` of them the goal fails:
   [``spin_min_rad_s``, ``spin_max_rad_s``] (0.30, the paper's minimum angular velocity, and
   1.0 rad/s) and to the limiter's ``max_w``, alpha being the limiter's bound;
 * ``wait``: ``wait_s`` (5 s) braked;
-* ``backup``: ``backup_distance_m`` (0.30, Nav2 bringup's) at ``backup_speed_m_s`` (0.05) in
-  6 s. Half of it leaves the 0.16 m inscribed band the robot can get caught in; a robot
-  stopped 17 cm from a wall, turned 9 degrees towards it, needs all of it before it has room
-  to turn (twin, ring_block: 0.15 m left it caught and the goal failed).
+* ``backup``: ``backup_distance_m`` (0.15, about half a body length: enough to leave the
+  0.16 m inscribed band the robot can get caught in) at ``backup_speed_m_s`` (0.05) in 3 s;
+  Nav2's tree backs up 0.30 m.
 
 Spin and back-up test the robot's body over what is left of the motion (up to
 ``simulate_ahead_time_s``, 2 s, Nav2's simulate_ahead_time) and end early instead of touching
@@ -56,8 +55,7 @@ RECOVERIES = ("clear_costmaps", "spin", "wait", "backup")
 
 BACKUP_RADII_M = (0.6, 0.3)
 """Radii of the back-up's arcs [m]: over 0.15 m the tighter one moves the centre 3.7 cm sideways
-and turns the robot 29 degrees, over 0.30 m 14 cm and 57 degrees; its front corner swings out
-by at most 2.1 cm on the way."""
+and turns the robot 29 degrees; its front corner swings out by at most 2.1 cm on the way."""
 
 BACKUP_SLACK_M = 0.01
 """How much nearer an obstacle than at its start [m] (the LiDAR's range noise) the back-up lets

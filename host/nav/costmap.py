@@ -941,14 +941,9 @@ class Costmap:
 
         Escape: when the start pose already overlaps obstacles (an obstacle appeared beside
         the robot, or a noisy return was marked next to it), a pose is allowed to overlap as
-        many obstacles as the start, no more, its rectangle may reach no deeper into any
-        obstacle than the start's does (an obstacle's centre no farther inside the rectangle
-        grown by its radius; not inside at all when the start's was not), and its centre may
-        come no nearer any obstacle than the start's. Without this every trajectory would
-        include the start and be rejected, and only a recovery could move the robot. Without
-        the rectangle's depth, a robot whose disc overlaps a wall could turn a corner into it:
-        the wall's obstacles under the disc are counted already, and the corner reaching them
-        adds none to the count.
+        many obstacles as the start, no more, and its centre may come no nearer any obstacle
+        than the start's. Without this every trajectory would include the start and be
+        rejected, and only a recovery could move the robot.
 
         Parameters
         ----------
@@ -979,14 +974,11 @@ class Costmap:
             raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m, got {margin_m}")
         m = x_m.shape[0]
         start = (float(x_m.flat[0]), float(y_m.flat[0]), float(yaw_rad.flat[0])) if m else None
-        allowed, floor_m, depth_m, depth_row = self._escape(
-            start, np.broadcast_to(margins, (m,)), escape
-        )
+        allowed, floor_m = self._escape(start, np.broadcast_to(margins, (m,)), escape)
         if self._native is not None:
             rule = native.Rule(
-                np.broadcast_to(margins, (m,)), allowed, floor_m, depth_m, depth_row,
-                self._class_padded, self.shape,
-            )  # fmt: skip
+                np.broadcast_to(margins, (m,)), allowed, floor_m, self._class_padded, self.shape
+            )
             return self._native.trajectories_collide(x_m, y_m, yaw_rad, rule)
         cls = np.take(self._class_padded, self._padded_index(x_m, y_m))
         escaping = allowed > 0
@@ -1013,8 +1005,6 @@ class Costmap:
             count, clearance = self._footprint_hits(
                 x_m[rows, cols], y_m[rows, cols], yaw_rad[rows, cols], any_escaping,
                 margins if margins.ndim == 0 else margins[rows],
-                np.where(escaping[rows], depth_row[rows], -1) if any_escaping else None,
-                depth_m,
             )  # fmt: skip
             bad = count > allowed[rows]
             if any_escaping:
@@ -1024,21 +1014,17 @@ class Costmap:
 
     def _escape(
         self, start: tuple[float, float, float] | None, margins: FloatArray, escape: bool
-    ) -> tuple[IntArray, FloatArray, FloatArray, IntArray]:
+    ) -> tuple[IntArray, FloatArray]:
         """The escape rule's allowance per trajectory: the obstacles its start pose overlaps
-        (with its margin), the clearance its centre must keep (``-inf``: none), and its row
-        of the table of how deep its rectangle may reach into each obstacle [m] (``-inf``: not
-        at all; one row per distinct margin)."""
+        (with its margin) and the clearance its centre must keep (``-inf``: none)."""
         m = margins.shape[0]
         allowed: IntArray = np.zeros(m, np.int_)
         floor_m: FloatArray = np.full(m, -math.inf)
-        depth_m: FloatArray = np.full((1, len(self._obstacle_r_m)), -math.inf)
-        depth_row: IntArray = np.zeros(m, np.int_)
         if not escape or start is None or m == 0:
-            return allowed, floor_m, depth_m, depth_row
+            return allowed, floor_m
         start_cls = int(self._class_padded[self._padded_index(start[0], start[1])])
         if _NEAR <= start_cls <= _DEEP:
-            # per distinct margin, the start pose's overlaps, clearance and depths
+            # per distinct margin, the start pose's overlaps and clearance
             values, which = np.unique(margins, return_inverse=True)
             count0, clear0 = self._footprint_hits(
                 np.repeat(start[0], len(values)), np.repeat(start[1], len(values)),
@@ -1046,26 +1032,7 @@ class Costmap:
             )  # fmt: skip
             allowed = count0[which]
             floor_m = np.where(allowed > 0, clear0[which] - 1e-9, -math.inf)
-            depth_m = np.stack([self._box_depths(start, float(v)) + 1e-9 for v in values])
-            depth_row = which.astype(np.int_)
-        return allowed, floor_m, depth_m, depth_row
-
-    def _box_depths(self, pose: tuple[float, float, float], margin_m: float) -> FloatArray:
-        """How far each obstacle's centre lies inside the footprint rectangle at ``pose`` grown
-        by the obstacle's radius and ``margin_m`` [m] (the least of its distances to the four
-        sides), ``-inf`` for those outside."""
-        cfg = self.config
-        dx = self._obstacle_xy[:, 0] - pose[0]
-        dy = self._obstacle_xy[:, 1] - pose[1]
-        cos, sin = math.cos(pose[2]), math.sin(pose[2])
-        lx = cos * dx + sin * dy
-        ly = cos * dy - sin * dx
-        g = self._obstacle_r_m + margin_m
-        (x0, x1), (y0, y1) = cfg.footprint_x_m, cfg.footprint_y_m
-        inside = np.minimum(
-            np.minimum(lx - (x0 - g), (x1 + g) - lx), np.minimum(ly - (y0 - g), (y1 + g) - ly)
-        )
-        return np.where(inside >= 0.0, inside, -math.inf)
+        return allowed, floor_m
 
     @property
     def compiled(self) -> bool:
@@ -1127,10 +1094,8 @@ class Costmap:
             raise ValueError(f"margin_m: one per roll-out, got {margins.shape}")
         if not np.all((margins >= 0.0) & (margins <= self.max_margin_m + 1e-12)):
             raise ValueError(f"margin_m must be in [0, {self.max_margin_m:g}] m")
-        allowed, floor_m, depth_m, depth_row = self._escape(start, margins, True)
-        rule = native.Rule(
-            margins, allowed, floor_m, depth_m, depth_row, self._class_padded, self.shape
-        )
+        allowed, floor_m = self._escape(start, margins, True)
+        rule = native.Rule(margins, allowed, floor_m, self._class_padded, self.shape)
         return self._native.rollouts_collide(
             (start[0], start[1]), ds_m, cos_sin, yaw_rad, iv, iw, stride, rule
         )
@@ -1142,8 +1107,6 @@ class Costmap:
         yaw: FloatArray,
         with_clearance: bool = False,
         margin_m: float | FloatArray = 0.0,
-        depth_row: IntArray | None = None,
-        depth_allowed_m: FloatArray | None = None,
     ) -> tuple[IntArray, FloatArray]:
         """Obstacles overlapping the robot, and the centre's clearance, at each pose.
 
@@ -1161,19 +1124,13 @@ class Costmap:
             Compute the clearance (else it is all ``inf``).
         margin_m : float or ndarray, shape (P,)
             Grow the disc and the rectangle by this much [m] (one value, or one per pose).
-        depth_row, depth_allowed_m : ndarray, optional
-            Per pose a row of ``depth_allowed_m`` (-1: none) whose value per obstacle is how
-            deep the rectangle may reach into it (the escape rule's,
-            :meth:`trajectories_collide`): a pose whose rectangle reaches deeper counts
-            ``len(obstacles) + 1`` overlaps, more than any start. Interpreted only: the
-            compiled tests apply the rule themselves.
 
         Returns
         -------
         tuple of ndarray
             (overlap count (P,), clearance [m] (P,)).
         """
-        if self._native is not None and depth_row is None:
+        if self._native is not None:
             return self._native.footprint_hits(x, y, yaw, with_clearance, margin_m)
         clearance = np.full(x.shape, math.inf)
         n = x.size
@@ -1212,9 +1169,7 @@ class Costmap:
         # only discs within the grown rectangle's corner radius can touch it
         grown = h + margin
         reach = cfg.circumscribed_radius_m + math.sqrt(2.0) * grown - h
-        deep = np.zeros(n, bool)
-        within = gap < reach
-        maybe = np.flatnonzero(within if depth_row is not None else ~hit & within)
+        maybe = np.flatnonzero(~hit & (gap < reach))
         if maybe.size:
             pi = pose_i[maybe]
             cos, sin = np.cos(yaw[pi]), np.sin(yaw[pi])
@@ -1222,20 +1177,8 @@ class Costmap:
             lx = cos * mx + sin * my
             ly = cos * my - sin * mx
             (x0, x1), (y0, y1) = cfg.footprint_x_m, cfg.footprint_y_m
-            box = (lx >= x0 - g) & (lx <= x1 + g) & (ly >= y0 - g) & (ly <= y1 + g)
-            hit[maybe] |= box
-            if depth_row is not None and depth_allowed_m is not None:
-                row = depth_row[pi]
-                inside = np.minimum(
-                    np.minimum(lx - (x0 - g), (x1 + g) - lx),
-                    np.minimum(ly - (y0 - g), (y1 + g) - ly),
-                )
-                too = box & (row >= 0)
-                too[too] = inside[too] > depth_allowed_m[row[too], obs[maybe][too]]
-                deep[pi[too]] = True
-        count = np.bincount(pose_i[hit], minlength=n).astype(np.int_)
-        count[deep] = len(self._obstacle_r_m) + 1
-        return count, clearance
+            hit[maybe] = (lx >= x0 - g) & (lx <= x1 + g) & (ly >= y0 - g) & (ly <= y1 + g)
+        return np.bincount(pose_i[hit], minlength=n).astype(np.int_), clearance
 
 
 def _capsules(

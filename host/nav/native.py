@@ -98,13 +98,13 @@ def load_library(path: Path) -> ctypes.CDLL:
     ]  # fmt: skip
     traj.restype = None
     traj.argtypes = [
-        _N, _N, _P, _P, _P, _P, _P, _P, _P, _P, _N, _P, _N, _N,
+        _N, _N, _P, _P, _P, _P, _P, _P, _P, _N, _N,
         _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
     ]  # fmt: skip
     rolls.restype = None
     rolls.argtypes = [
         _N, _N, _P, _P, _P, _P, _P, _N, _P, ctypes.c_double, ctypes.c_double, _P, _P, _P,
-        _P, _P, _N, _P, _N, _N, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
+        _P, _N, _N, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
     ]  # fmt: skip
     rays = lib.jackson_clear_rays
     rays.restype = None
@@ -189,15 +189,12 @@ LIB, REASON = _select()
 @dataclass(frozen=True)
 class Rule:
     """What a trajectory test decides by, besides the poses: per trajectory the margin [m],
-    the escape rule's allowance and floor [m] and its row of the depths the rectangle may
-    reach into each obstacle [m] (rows of one value per obstacle); the cell classes of the grid
-    padded by one cell, and the grid's (rows, cols)."""
+    the escape rule's allowance and floor [m]; the cell classes of the grid padded by one
+    cell, and the grid's (rows, cols)."""
 
     margin_m: npt.NDArray[np.float64]
     allowed: npt.NDArray[np.int_]
     floor_m: npt.NDArray[np.float64]
-    depth_allowed_m: npt.NDArray[np.float64]
-    depth_row: npt.NDArray[np.int_]
     classes_padded: npt.NDArray[np.uint8]
     grid_shape: tuple[int, int]
 
@@ -207,21 +204,12 @@ class Rule:
         margin = np.ascontiguousarray(self.margin_m, np.float64)
         allow = np.ascontiguousarray(self.allowed, np.int64)
         floor = np.ascontiguousarray(self.floor_m, np.float64)
-        depth = np.ascontiguousarray(self.depth_allowed_m, np.float64)
-        if depth.ndim != 2 or depth.shape[0] < 1:
-            raise ValueError(
-                f"depth_allowed_m: expected rows of one value per obstacle, got {depth.shape}"
-            )
-        rows = np.ascontiguousarray(self.depth_row, np.int64)
-        if rows.size and not (0 <= rows.min() and rows.max() < depth.shape[0]):
-            raise ValueError("depth_row: a row off the table")
         classes = np.ascontiguousarray(self.classes_padded, np.uint8)
         args = (
-            _ptr(margin, _F), _ptr(allow, _L), _ptr(floor, _F), _ptr(depth, _F),
-            _ptr(rows, _L), depth.shape[1], _ptr(classes, np.uint8),
+            _ptr(margin, _F), _ptr(allow, _L), _ptr(floor, _F), _ptr(classes, np.uint8),
             self.grid_shape[0], self.grid_shape[1],
         )  # fmt: skip
-        return (margin, allow, floor, depth, rows, classes), args
+        return (margin, allow, floor, classes), args
 
 
 class Obstacles:

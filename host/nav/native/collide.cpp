@@ -38,6 +38,7 @@ struct Robot {
 
 inline double clip(double v, double lo, double hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
+// Overlapping discs and the centre's clearance at one pose (clearance only when wanted).
 // The obstacles within reach of each padded cell, gathered from the neighbour offsets the
 // first time a pose lands in the cell, in offset order (the order of the numpy code's sums).
 class Candidates {
@@ -66,14 +67,10 @@ class Candidates {
 };
 
 // Overlapping discs and the centre's clearance at one pose (clearance only when wanted). With
-// ``first_only`` it stops at the first overlap (count 1): enough where none is allowed. With
-// ``depth_allowed`` (one value per obstacle) it also says whether the rectangle reaches deeper
-// into an obstacle than allowed (``too_deep``): how far the obstacle's centre lies inside the
-// rectangle grown by its radius, the least of its distances to the four sides.
+// ``first_only`` it stops at the first overlap (count 1): enough where none is allowed.
 inline std::int64_t hits_at(const Obstacles& o, Candidates& near, const Grid& g,
                             const Robot& rb, double x, double y, double yaw, double margin,
-                            bool with_clearance, bool first_only, double* clearance,
-                            const double* depth_allowed = nullptr, bool* too_deep = nullptr) {
+                            bool with_clearance, bool first_only, double* clearance) {
   const double kd = static_cast<double>(o.k);
   const auto col = static_cast<std::int64_t>(
       clip((x - g.origin_x) / g.res + kd, 0.0, static_cast<double>(o.padded_cols - 1)));
@@ -101,9 +98,9 @@ inline std::int64_t hits_at(const Obstacles& o, Candidates& near, const Grid& g,
     if (with_clearance && gap < clear) clear = gap;
     bool hit = gap < rb.radius + margin;
     const double grown = h + margin;
-    // the disc's reach (radius + margin) is within the rectangle's: beyond it neither touches
-    const double reach = rb.circumscribed + M_SQRT2 * grown - h;
-    if ((!hit || depth_allowed != nullptr) && gap < reach) {
+    if (!hit) {
+      const double reach = rb.circumscribed + M_SQRT2 * grown - h;
+      if (!(gap < reach)) continue;
       if (!turned) {
         c = std::cos(yaw);
         s = std::sin(yaw);
@@ -111,14 +108,8 @@ inline std::int64_t hits_at(const Obstacles& o, Candidates& near, const Grid& g,
       }
       const double lx = c * dx + s * dy;
       const double ly = c * dy - s * dx;
-      const bool box = lx >= rb.x0 - grown && lx <= rb.x1 + grown && ly >= rb.y0 - grown &&
-                       ly <= rb.y1 + grown;
-      if (box && depth_allowed != nullptr) {
-        const double in = std::fmin(std::fmin(lx - (rb.x0 - grown), (rb.x1 + grown) - lx),
-                                    std::fmin(ly - (rb.y0 - grown), (rb.y1 + grown) - ly));
-        if (in > depth_allowed[id]) *too_deep = true;
-      }
-      hit = hit || box;
+      hit = lx >= rb.x0 - grown && lx <= rb.x1 + grown && ly >= rb.y0 - grown &&
+            ly <= rb.y1 + grown;
     }
     if (hit) {
       ++count;
@@ -139,8 +130,7 @@ class Trajectory {
         cls_(static_cast<std::size_t>(max_len)) {}
 
   std::uint8_t collides(const double* x, const double* y, const double* yaw, std::int64_t len,
-                        double margin, std::int64_t allowed, double floor_m,
-                        const double* depth_allowed) {
+                        double margin, std::int64_t allowed, double floor_m) {
     const bool escaping = allowed > 0;
     const std::uint8_t lethal = escaping ? kBlocked : kDeep;
     const double top_col = static_cast<double>(g_.cols) + 1.0;
@@ -160,11 +150,9 @@ class Trajectory {
       if (cls_[j] == kClear) continue;
       // the C library's cosine and sine, which numpy's are (checked by the tests)
       double clearance = 0.0;
-      bool too_deep = false;
-      const std::int64_t count =
-          hits_at(o_, near_, g_, rb_, x[j], y[j], yaw[j], margin, escaping, !escaping,
-                  &clearance, escaping ? depth_allowed : nullptr, &too_deep);
-      if (count > allowed || too_deep || (count > 0 && clearance < floor_m)) return 1;
+      const std::int64_t count = hits_at(o_, near_, g_, rb_, x[j], y[j], yaw[j], margin, escaping,
+                                         !escaping, &clearance);
+      if (count > allowed || (count > 0 && clearance < floor_m)) return 1;
     }
     return 0;
   }
@@ -205,14 +193,11 @@ void jackson_footprint_hits(std::int64_t n, const double* x, const double* y, co
 // Costmap.trajectories_collide after its escape rule: which of m trajectories of len poses
 // (row-major) collide. A pose on a blocked cell collides; on a deep cell it collides unless its
 // trajectory escapes (allowed > 0), when it is tested; a near pose is tested: more discs than
-// allowed, an escaping rectangle deeper into an obstacle than its start's (row depth_row[t] of
-// depth_allowed, depth_stride values a row, one per obstacle), or an escaping centre nearer
-// than its floor, collides. A trajectory stops at its first collision.
+// allowed, or an escaping centre nearer than its floor, collides. A trajectory stops at its
+// first collision.
 void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double* x,
                                   const double* y, const double* yaw, const double* margin,
                                   const std::int64_t* allowed, const double* floor_m,
-                                  const double* depth_allowed, const std::int64_t* depth_row,
-                                  std::int64_t depth_stride,
                                   const std::uint8_t* classes, std::int64_t grid_rows,
                                   std::int64_t grid_cols, const std::int32_t* ids,
                                   std::int64_t padded_rows, std::int64_t padded_cols,
@@ -227,7 +212,7 @@ void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double
   Trajectory test(o, g, rb, classes, len);
   for (std::int64_t t = 0; t < m; ++t) {
     hit[t] = test.collides(x + t * len, y + t * len, yaw + t * len, len, margin[t], allowed[t],
-                           floor_m[t], depth_allowed + depth_row[t] * depth_stride);
+                           floor_m[t]);
   }
 }
 
@@ -242,8 +227,6 @@ void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int
                               const double* ds, const double* cs, std::int64_t w,
                               const double* yaw, double x0, double y0, const double* margin,
                               const std::int64_t* allowed, const double* floor_m,
-                              const double* depth_allowed, const std::int64_t* depth_row,
-                              std::int64_t depth_stride,
                               const std::uint8_t* classes, std::int64_t grid_rows,
                               std::int64_t grid_cols, const std::int32_t* ids,
                               std::int64_t padded_rows, std::int64_t padded_cols, std::int64_t k,
@@ -288,7 +271,7 @@ void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int
       }
     }
     hit[t] = test.collides(px.data(), py.data(), pyaw.data(), n, margin[t], allowed[t],
-                           floor_m[t], depth_allowed + depth_row[t] * depth_stride);
+                           floor_m[t]);
   }
 }
 
