@@ -104,7 +104,7 @@ fi
 # shell with PYTHONDONTWRITEBYTECODE set (many container images set it) never writes it, and
 # every jackson command then compiles about a thousand modules again as it starts: 3-4 s of
 # `jackson run square`'s 8.7 s. About 15 s of 2 cores here; tests folders are left out.
-pyc_key=$( (echo "$files_key"; ls "$VENV/.tf2-msgs-key" "$VENV/.nav2-msgs-key" 2>/dev/null | xargs cat 2>/dev/null) | sha256sum | cut -c1-16)
+pyc_key=$( (echo "$files_key"; cat "$VENV/.tf2-msgs-key" "$VENV/.nav2-msgs-key" 2>/dev/null || true) | sha256sum | cut -c1-16)
 if [ "$(cat "$VENV/.pyc-key" 2>/dev/null)" != "$pyc_key" ]; then
   say "writing the bytecode of the installed packages (about 15 s)"
   purelib=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')

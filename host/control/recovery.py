@@ -45,6 +45,7 @@ import numpy.typing as npt
 from jackson.common.geometry import wrap_angle
 from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.control.navigator_config import NavigatorConfig
+from jackson.host.estimation.odometry import integrate_arc
 from jackson.host.nav.costmap import Costmap
 from jackson.host.nav.types import Pose2D
 
@@ -292,17 +293,12 @@ class RecoveryBehaviours:
 
 
 def _arc(pose: Pose2D, s_m: FloatArray, curvature_per_m: float) -> tuple[FloatArray, ...]:
-    """Poses ``s_m`` along the arc of the given curvature from ``pose`` (negative s: backwards),
-    exactly: (x, y, yaw) arrays."""
-    yaw = pose.yaw + curvature_per_m * s_m
-    if curvature_per_m == 0.0:
-        return pose.x + s_m * math.cos(pose.yaw), pose.y + s_m * math.sin(pose.yaw), yaw
-    r = 1.0 / curvature_per_m
-    return (
-        pose.x + r * (np.sin(yaw) - math.sin(pose.yaw)),
-        pose.y - r * (np.cos(yaw) - math.cos(pose.yaw)),
-        yaw,
-    )
+    """Poses ``s_m`` along the arc of the given curvature from ``pose`` (negative s: backwards):
+    (x, y, yaw) arrays (the odometry's exact arc, :func:`integrate_arc`)."""
+    poses = np.array(
+        [integrate_arc(pose.x, pose.y, pose.yaw, s, curvature_per_m * s) for s in s_m.tolist()]
+    ).reshape(-1, 3)
+    return poses[:, 0], poses[:, 1], poses[:, 2]
 
 
 def _turn_margin(step_m: float, curvature_per_m: float, config: NavigatorConfig) -> float:

@@ -290,8 +290,10 @@ class Costmap:
         disc_shape = (rows, cols) if collision_checks else (0, 0)
         self._hit_xy = np.zeros((*disc_shape, 2))
         self._hit_spread_m = np.zeros(disc_shape)
-        # the last scan's marking returns [m] (the recoveries' body test)
+        # the last scan's marking returns [m] (the recoveries' body test), and the body test's
+        # obstacles made from them, for the costmap's version they were made at
         self._last_returns: FloatArray = np.zeros((0, 2))
+        self._body_cache: tuple[int, FloatArray, FloatArray] | None = None
         self._static = self._sample_static()
         self.costs: CostArray = np.zeros((rows, cols), np.uint8)
         self.lethal_distance_m: FloatArray = np.full((rows, cols), math.inf)
@@ -901,7 +903,11 @@ class Costmap:
 
     def _body_obstacles(self) -> tuple[FloatArray, FloatArray]:
         """The obstacles of :meth:`body_contacts` as discs: centres (N, 2) [m] and radii
-        (N,) [m]."""
+        (N,) [m]; made once per version of the costmap (a recovery's tick tests several
+        motions against the same ones)."""
+        cache = getattr(self, "_body_cache", None)
+        if cache is not None and cache[0] == self.version:
+            return cache[1], cache[2]
         cols = self.shape[1]
         q: FloatArray = self._last_returns
         r, c = self.world_to_cell(q[:, 0], q[:, 1])
@@ -921,10 +927,10 @@ class Costmap:
         grown = capsules[which, 3] + 0.5 * (2.0 * capsules[which, 2] / pieces[which])
         # the footprint test's discs of the other lethal cells
         k = np.flatnonzero(~np.isin(self._obstacle_cells, marked))
-        return (
-            np.concatenate((points, self._obstacle_xy[k])),
-            np.concatenate((grown, self._obstacle_r_m[k])),
-        )
+        centre = np.concatenate((points, self._obstacle_xy[k]))
+        radius = np.concatenate((grown, self._obstacle_r_m[k]))
+        self._body_cache = (self.version, centre, radius)
+        return centre, radius
 
     def trajectories_collide(
         self,
@@ -1205,9 +1211,9 @@ def _capsules(
     member, target = [], []
     for dr in (-1, 0, 1):
         for dc in (-1, 0, 1):
-            k = np.searchsorted(cells, (r + dr) * cols + (c + dc))
-            k = np.minimum(k, n - 1)
-            hit = cells[k] == (r + dr) * cols + (c + dc)
+            key = (r + dr) * cols + (c + dc)
+            k = np.minimum(np.searchsorted(cells, key), n - 1)
+            hit = cells[k] == key
             member.append(np.flatnonzero(hit))
             target.append(k[hit])
     i, g = np.concatenate(member), np.concatenate(target)
