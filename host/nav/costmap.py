@@ -1213,7 +1213,8 @@ def _capsules(
         for dc in (-1, 0, 1):
             key = (r + dr) * cols + (c + dc)
             k = np.minimum(np.searchsorted(cells, key), n - 1)
-            hit = cells[k] == key
+            # a column off the window's edge is not the next row's first or last cell
+            hit = (cells[k] == key) & (c + dc >= 0) & (c + dc < cols)
             member.append(np.flatnonzero(hit))
             target.append(k[hit])
     i, g = np.concatenate(member), np.concatenate(target)
