@@ -13,6 +13,9 @@ stretch: a regression anywhere in the frame path raises them.
 Beside them, the daemon's frame latency idle and loaded, at the normal policy and with
 ``--realtime`` (:mod:`jackson.bench.daemon_latency`): the figure a busy machine does stretch.
 
+Beside them, what the navigating run writes per robot-hour (its run folder's size over the
+robot's time), target 250 MB.
+
 Targets: with navigation and recording, 5 % of a core (about 15 % of a Jetson-class core),
 the p99 frame within half the period; the square, 2 % of a core at 20 Hz telemetry and 20 % at
 200 Hz (the config's ``serial.telemetry_rate_hz``), each frame at 200 Hz at most 1.2 times the
@@ -30,6 +33,7 @@ from typing import Any
 
 from jackson.bench import daemon_latency
 from jackson.common.bench import BenchResult, reference_loop_us
+from jackson.host.recording.budget import folder_bytes
 
 TELEMETRY_HZ = 20.0
 NAV_SHARE_TARGET = 0.05  # of one core, navigating and recording
@@ -37,6 +41,7 @@ SQUARE_SHARE_TARGET = 0.02  # of one core, the square and recording
 P99_TARGET = 0.5  # of the telemetry period
 FAST_HZ = 200  # the firmware's top telemetry rate
 LINEAR_TARGET = 1.2  # a frame at 200 Hz over one at 20 Hz: linear in the rate
+DISK_TARGET_MB_PER_H = 250.0  # a navigating robot-hour's run folder (bag, log, CSVs)
 RUN_TIMEOUT_S = 600.0
 NAV_RUNS = 3  # navigations whose median figures count (one in quick mode): one run of about
 # 11 robot-seconds spreads by +-0.03 of a core between runs of the same code
@@ -104,7 +109,10 @@ def daemon_run(
         if done.returncode not in ((0, 1) if aborted_ok else (0,)):
             raise RuntimeError(f"daemon bench: jackson daemon failed: {done.stdout}{done.stderr}")
         entry: dict[str, Any] = json.loads((run / "health.json").read_text())[report]
-        return {**entry, "said": done.stdout, "status": done.returncode}
+        return {
+            **entry, "said": done.stdout, "status": done.returncode,
+            "disk_bytes": folder_bytes(run),
+        }  # fmt: skip
     finally:
         sim.terminate()
         sim.wait(timeout=30)
@@ -163,6 +171,26 @@ def _results(
     ]
 
 
+def _disk(run: dict[str, Any], loop_us: float) -> BenchResult:
+    """What a navigating robot-hour writes: the run folder's bytes over the robot's time."""
+    mb = float(run["disk_bytes"]) / 1e6
+    hours = float(run["robot_s"]) / 3600.0
+    return BenchResult(
+        "daemon.disk_mb_per_robot_hour_navigating",
+        mb / hours,
+        "MB per robot-hour",
+        DISK_TARGET_MB_PER_H,
+        "lower",
+        "the robot's time: the navigating run's whole folder (bag, log.jrec, CSVs, map, "
+        "config) over the MCU time from its first telemetry frame to its last (the median "
+        f"run by CPU, {float(run['robot_s']):.1f} robot-seconds)",
+        mb,
+        "MB",
+        None,
+        loop_us,
+    )
+
+
 def _median_run(cpus: list[dict[str, Any]]) -> dict[str, Any]:
     """The run whose share of a core is the median of ``cpus`` (an odd number of runs): its
     share and its own frame statistics, so the figures belong to one run."""
@@ -187,6 +215,7 @@ def run(quick: bool = False) -> list[BenchResult]:
             cpus.append(daemon_run("maze", [*nav_args, f"--goal={GOAL}"], nav / str(i)))
         nav_cpu = _median_run(cpus)
         results = _results("navigating", nav_cpu, NAV_SHARE_TARGET, loop_us)
+        results.append(_disk(nav_cpu, loop_us))
         results += daemon_latency.measure(
             folder, [*nav_args, f"--goal={GOAL}"], loop_us, daemon_run
         )

@@ -101,6 +101,7 @@ class RunFolders:
             clock=clock,
             max_bytes=int(cfg.bag_max_mb * 1e6) if cfg.bag_max_mb > 0 else None,
             compression=cfg.bag_compression,
+            topic_hz=cfg.bag_topic_hz,
             flush_interval_s=None,  # flushed with the run folder's files, on MCU time
         )
 

@@ -94,6 +94,11 @@ class SerialSettings:
     telemetry_rate_hz: int = TELEMETRY_RATE_HZ_DEFAULT  # the device's own (protocol/schema.yaml)
 
 
+BAG_TOPIC_HZ: dict[str, float] = {"local_plan": 5.0}
+"""``recording.bag_topic_hz`` by default: /local_plan (the chosen roll-out, a visualisation,
+about 16 Hz as the local planner publishes it) at 5 Hz in the bag."""
+
+
 @dataclass(frozen=True)
 class HostConfig:
     """Everything the daemon believes about its robot."""
@@ -120,6 +125,9 @@ class HostConfig:
     recording_folder: Path = Path("runs")
     bag_max_mb: float = 1024.0  # a run's bag goes on in its next file beyond this (0: never)
     bag_compression: str = "zstd"  # the bag's MCAP chunk compression: zstd, lz4 or none
+    # at most this many messages per second of MCU time of each topic key in the bag (the live
+    # node publishes every one): Nav2 visualisation topics thinned, every other topic whole
+    bag_topic_hz: Mapping[str, float] = field(default_factory=lambda: dict(BAG_TOPIC_HZ))
     recording_split: str = "goal"  # a service's run folders: one per goal, per split_s, or none
     recording_split_s: float = 3600.0  # [s] of MCU time per run folder (split: duration)
     recording_budget_mb: float = 4000.0  # beyond it the oldest run folders go (0: never)
@@ -135,6 +143,7 @@ class HostConfig:
 
 
 BAG_COMPRESSIONS = ("zstd", "lz4", "none")
+
 RECORDING_SPLITS = ("goal", "duration", "none")
 """``recording.bag_compression``: the MCAP chunk compressions a run's bag may use."""
 
@@ -481,6 +490,7 @@ def _recording(s: Fields) -> dict[str, Any]:
         "bag_max_mb": s.number("bag_max_mb", DEFAULTS.bag_max_mb, 0.0),
         "bag_compression": s.text("bag_compression", DEFAULTS.bag_compression),
     }
+    out["bag_topic_hz"] = _bag_topic_hz(s)
     out["recording_split"] = s.text("split", DEFAULTS.recording_split)
     if out["recording_split"] not in RECORDING_SPLITS:
         raise s.fail(
@@ -494,6 +504,24 @@ def _recording(s: Fields) -> dict[str, Any]:
             f"{out['bag_compression']!r} is not one of {', '.join(BAG_COMPRESSIONS)}",
         )
     s.finish()
+    return out
+
+
+def _bag_topic_hz(s: Fields) -> dict[str, float]:
+    """``recording.bag_topic_hz``: topic key -> at most this many messages per second
+    (absent: :data:`BAG_TOPIC_HZ`; ``{}`` or null: every message of every topic)."""
+    from jackson.host.ros.settings import TOPIC_TYPES
+
+    if not s.has("bag_topic_hz"):
+        s.used.add("bag_topic_hz")
+        return dict(BAG_TOPIC_HZ)
+    rates = s.section("bag_topic_hz")
+    out = {}
+    for key in list(rates.data):
+        if key not in TOPIC_TYPES:
+            raise rates.fail(str(key), f"not a topic key (one of {', '.join(TOPIC_TYPES)})")
+        out[str(key)] = rates.number(str(key), 1.0, 0.0, lo_open=True)
+    rates.finish()
     return out
 
 
@@ -608,6 +636,7 @@ def dump_config(cfg: HostConfig) -> dict[str, Any]:
             "folder": str(cfg.recording_folder),
             "bag_max_mb": cfg.bag_max_mb,
             "bag_compression": cfg.bag_compression,
+            "bag_topic_hz": dict(cfg.bag_topic_hz),
             "split": cfg.recording_split,
             "split_s": cfg.recording_split_s,
             "budget_mb": cfg.recording_budget_mb,

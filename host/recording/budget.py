@@ -39,8 +39,17 @@ class Deleted:
     size_bytes: int
 
 
+def _file_bytes(entry: os.DirEntry[str]) -> int:
+    """A file's share of its bytes: a file with n hard links (the map and config.yaml that a
+    service's run folders share, :func:`~jackson.host.recording.split.carry_files`) counts
+    1/n at each, so a total over folders counts it once."""
+    st = entry.stat(follow_symlinks=False)
+    return st.st_size // max(st.st_nlink, 1)
+
+
 def folder_bytes(folder: Path) -> int:
-    """Bytes of the files under ``folder`` (0 when it is not there); symlinks not followed."""
+    """Bytes of the files under ``folder`` (0 when it is not there); symlinks not followed, a
+    hard-linked file counted by its share (:func:`_file_bytes`)."""
     total = 0
     stack = [folder]
     while stack:
@@ -53,7 +62,7 @@ def folder_bytes(folder: Path) -> int:
                 if e.is_dir(follow_symlinks=False):
                     stack.append(Path(e.path))
                 elif e.is_file(follow_symlinks=False):
-                    total += e.stat(follow_symlinks=False).st_size
+                    total += _file_bytes(e)
             except OSError:
                 continue
     return total
@@ -64,7 +73,7 @@ def _entry_bytes(entry: os.DirEntry[str]) -> int:
         if entry.is_dir(follow_symlinks=False):
             return folder_bytes(Path(entry.path))
         if entry.is_file(follow_symlinks=False):
-            return entry.stat(follow_symlinks=False).st_size
+            return _file_bytes(entry)
     except OSError:
         pass
     return 0

@@ -92,14 +92,23 @@ def part_folder(first: Path, part: int) -> Path:
 
 
 def carry_files(old: Path, new: Path) -> None:
-    """Copy the caller's files of run folder ``old`` (config.yaml, the map: all but
-    :data:`~jackson.host.recording.RECORDED` and the snapshot) into ``new``."""
+    """Give run folder ``new`` the caller's files of run folder ``old`` (config.yaml, the map:
+    all but :data:`~jackson.host.recording.RECORDED` and the snapshot).
+
+    Each is a hard link where the file system allows one (the files are written once and never
+    changed, so each folder stays whole on its own and a service's map is stored once however
+    many goals it serves: about 14 MB per robot-hour of a 180 kB map split per goal), else a
+    copy.
+    """
     for e in os.scandir(old):
         name = e.name
         if name in RECORDED or name == SNAPSHOT_NAME or name.startswith("."):
             continue
         if e.is_file(follow_symlinks=False) and not (new / name).exists():
-            shutil.copyfile(e.path, new / name)
+            try:
+                os.link(e.path, new / name)
+            except OSError:  # another file system, or one without hard links
+                shutil.copyfile(e.path, new / name)
 
 
 class FolderWorker:

@@ -85,6 +85,7 @@ class BagRecorder:
         hardware_id: str = "jackson",
         max_bytes: int | None = None,
         compression: str = "zstd",
+        topic_hz: Mapping[str, float] | None = None,
     ) -> None:
         """Create the bag folder ``path`` and register every topic.
 
@@ -114,6 +115,10 @@ class BagRecorder:
             The MCAP chunk compression: ``"zstd"`` (the default, as rosbag2's MCAP storage
             writes; a navigating run's bag about a third the size), ``"lz4"`` or ``"none"``.
             Readers decompress chunks themselves (the mcap library, rosbags, ``ros2 bag``).
+        topic_hz : mapping or None
+            At most this many messages per second of MCU time of each topic key named
+            (``recording.bag_topic_hz``): :meth:`write` files a message of such a topic only once
+            ``1 / rate`` has passed since the last one filed. None or absent keys: every one.
 
         Raises
         ------
@@ -131,6 +136,8 @@ class BagRecorder:
         self.flush_interval_ns = (
             None if flush_interval_s is None else stamp_ns(max(flush_interval_s, 0.0))
         )
+        self._periods_s = {key: 1.0 / hz for key, hz in (topic_hz or {}).items() if hz > 0.0}
+        self._filed_s: dict[str, float] = {}  # a thinned topic's last filed message [s]
         self._store = jazzy_store()
         self._state = _State()
         specs = topic_specs(self.settings)
@@ -392,9 +399,16 @@ class BagRecorder:
     # ---- internals ------------------------------------------------------------------------
 
     def _write(self, key: str, t_s: float, msg: Any) -> None:
-        """Serialise ``msg`` and file it under the topic with key ``key`` at ``t_s``."""
+        """Serialise ``msg`` and file it under the topic with key ``key`` at ``t_s`` (a thinned
+        topic's only once its period has passed since the last one filed)."""
         st = self._state
         ns = stamp_ns(t_s)  # refuses a negative or infinite time before anything is written
+        period_s = self._periods_s.get(key)
+        if period_s is not None:
+            last_s = self._filed_s.get(key)
+            if last_s is not None and t_s < last_s + period_s - 1e-9:
+                return
+            self._filed_s[key] = t_s
         if not self._claim():
             return
         try:

@@ -271,6 +271,14 @@ def test_top_level_must_be_a_mapping(tmp_path: Path) -> None:
             {"recording": {"bag_compression": "gzip"}},
             "recording.bag_compression: 'gzip' is not one of zstd, lz4, none",
         ),
+        (
+            {"recording": {"bag_topic_hz": {"local_plans": 5}}},
+            "recording.bag_topic_hz.local_plans: not a topic key (one of wheel_odom, imu,",
+        ),
+        (
+            {"recording": {"bag_topic_hz": {"scan": 0}}},
+            "recording.bag_topic_hz.scan: expected a number > 0, got 0",
+        ),
     ],
 )
 def test_each_bad_field_gives_one_line_naming_it(
@@ -282,6 +290,15 @@ def test_each_bad_field_gives_one_line_naming_it(
 
 
 # ------------------------------------------------------------------------- accepted values
+
+
+def test_the_bag_thins_local_plan_by_default_and_a_config_may_keep_every_message(
+    tmp_path: Path,
+) -> None:
+    assert load_config(DEFAULT_CONFIG).bag_topic_hz == {"local_plan": 5.0}
+    assert load_with(tmp_path, {"recording": {"bag_topic_hz": None}}).bag_topic_hz == {}
+    cfg = load_with(tmp_path, {"recording": {"bag_topic_hz": {"scan": 2, "local_plan": 1}}})
+    assert cfg.bag_topic_hz == {"scan": 2.0, "local_plan": 1.0}
 
 
 def test_per_side_values(tmp_path: Path) -> None:

@@ -3,8 +3,10 @@ replay starts from, the recording folder's budget, its cached size."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import pickle
+import shutil
 import time
 from pathlib import Path
 
@@ -102,6 +104,21 @@ def test_the_callers_files_are_carried_and_the_recordings_are_not(tmp_path: Path
     (old / SNAPSHOT_NAME).write_text("x")
     carry_files(old, new)
     assert sorted(p.name for p in new.iterdir()) == ["config.yaml", "map.pgm", "map.yaml"]
+    assert (new / "map.pgm").read_text() == "map.pgm"
+
+
+def test_carried_files_are_stored_once_and_counted_once(tmp_path: Path) -> None:
+    folders = [tmp_path / name for name in ("a", "b", "c")]
+    folders[0].mkdir()
+    (folders[0] / "map.pgm").write_bytes(bytes(180_000))
+    for old, new in itertools.pairwise(folders):
+        new.mkdir()
+        carry_files(old, new)
+    assert (folders[2] / "map.pgm").stat().st_ino == (folders[0] / "map.pgm").stat().st_ino
+    assert folder_bytes(tmp_path) == 180_000  # one map, however many folders hold it
+    shutil.rmtree(folders[0])  # the budget deletes the oldest: the others keep the map
+    assert (folders[1] / "map.pgm").read_bytes() == bytes(180_000)
+    assert folder_bytes(tmp_path) == 180_000
 
 
 # ---------------------------------------------------------------------- the budget

@@ -235,6 +235,16 @@ def test_bag_time_never_decreases_within_a_topic(tmp_path: Path) -> None:
     assert msgs["/imu/data"][0][0] == 1_000_000_000
 
 
+def test_a_thinned_topic_is_filed_at_its_rate_and_the_others_whole(tmp_path: Path) -> None:
+    with BagRecorder(tmp_path / "bag", topic_hz={"wheel_odom": 5.0}) as bag:
+        for k in range(20):  # 1 s of 20 Hz frames
+            bag.wheel_odom(0.05 * k, 0, 0, 0, 0, 0)
+            bag.imu(0.05 * k, (0, 0, 0), (0, 0, 0))
+    msgs = read_bag(tmp_path / "bag")
+    assert [ns for ns, _ in msgs["/wheel/odom"]] == [k * 200_000_000 for k in range(5)]
+    assert len(msgs["/imu/data"]) == 20
+
+
 def test_close_is_idempotent_and_later_writes_are_ignored(tmp_path: Path) -> None:
     bag = BagRecorder(tmp_path / "bag")
     bag.wheel_odom(0.1, 0, 0, 0, 0, 0)
