@@ -27,7 +27,7 @@ def vector_path(png: Path) -> Path:
     return png.with_suffix(VECTOR_SUFFIX)
 
 
-def save_figure(fig: Figure, png: Path, **savefig: Any) -> None:
+def save_figure(fig: Figure, png: Path, *, vector: bool = True, **savefig: Any) -> None:
     """Write ``fig`` as a PNG at :data:`FIGURE_DPI` and as a PDF beside it, then close it.
 
     The PDF embeds its fonts as TrueType (``pdf.fonttype`` 42, text a paper's editor can
@@ -39,6 +39,9 @@ def save_figure(fig: Figure, png: Path, **savefig: Any) -> None:
         The figure.
     png : Path
         The PNG's path; the PDF is :func:`vector_path` of it.
+    vector : bool
+        Write the PDF (False: the PNG only; the PDF of a figure costs about twice its PNG,
+        most of it embedding the fonts).
     **savefig
         More arguments to ``Figure.savefig`` (``bbox_inches="tight"``, ...).
     """
@@ -46,6 +49,7 @@ def save_figure(fig: Figure, png: Path, **savefig: Any) -> None:
     import matplotlib.pyplot as plt
 
     fig.savefig(png, dpi=FIGURE_DPI, **savefig)
-    with matplotlib.rc_context({"pdf.fonttype": 42}):
-        fig.savefig(vector_path(png), metadata={"CreationDate": None}, **savefig)
+    if vector:
+        with matplotlib.rc_context({"pdf.fonttype": 42}):
+            fig.savefig(vector_path(png), metadata={"CreationDate": None}, **savefig)
     plt.close(fig)

@@ -1,9 +1,10 @@
 """The figures of a campaign's report, laid out like the paper's (Figures 5-11).
 
 Trajectories with a zoom at the closure (:func:`plot_trajectories`), closure errors beside the
-paper's (:func:`plot_closure`) and the EKF's consistency (:func:`plot_nees`). Every figure is
-written twice (:func:`jackson.common.figures.save_figure`): a PNG at
-:data:`jackson.common.figures.FIGURE_DPI` and a PDF beside it.
+paper's (:func:`plot_closure`) and the EKF's consistency (:func:`plot_nees`). Every figure of a
+campaign is written twice (:func:`jackson.common.figures.save_figure`): a PNG at
+:data:`jackson.common.figures.FIGURE_DPI` and a PDF beside it (``jackson run``'s plot: the PDF
+with ``--pdf``).
 """
 
 from __future__ import annotations
@@ -176,7 +177,7 @@ def closure_zoom(ends: Sequence[tuple[float, float]]) -> tuple[float, float, flo
     return float(centre[0]), float(centre[1]), half
 
 
-def plot_trajectories(png: Path, mission: str, runs: list[Path]) -> None:
+def plot_trajectories(png: Path, mission: str, runs: list[Path], vector: bool = True) -> None:
     """Ground truth, EKF and raw wheel odometry of every run, with a zoom at the closure.
 
     Left, the whole path (every run anchored at (0, 0, 0), the nominal path under them);
@@ -195,6 +196,8 @@ def plot_trajectories(png: Path, mission: str, runs: list[Path]) -> None:
         "square" or "figure8" (the nominal path).
     runs : list of Path
         Run folders with ``ground_truth.csv``, ``ekf.csv`` and ``odometry.csv``.
+    vector : bool
+        Also write the PDF (False: the PNG only).
     """
     plt = pyplot()
     from matplotlib.lines import Line2D
@@ -286,7 +289,7 @@ def plot_trajectories(png: Path, mission: str, runs: list[Path]) -> None:
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     if n > 1:
         _run_colourbar(fig, [ax, zx], [run.name for run in runs])
-    save_figure(fig, png)
+    save_figure(fig, png, vector=vector)
 
 
 def _bar_label(ax: Axes, x: float, top: float, text: str) -> None:

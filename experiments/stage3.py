@@ -682,9 +682,10 @@ def write_stage3_report(
     plot_stage3(out / "stage3.png", out, results)
 
 
-def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]]) -> None:
+def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]], vector: bool = True) -> None:
     """The map, every run's true path (coloured by variant), the cylinder(s) and the robot's
-    envelope where it came closest to the cylinder in the run with the smallest d_min."""
+    envelope where it came closest to the cylinder in the run with the smallest d_min (the
+    PDF beside the PNG unless ``vector`` is False)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -752,4 +753,4 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]]) -> None:
     fig.tight_layout()
     from jackson.common.figures import save_figure
 
-    save_figure(fig, png, bbox_inches="tight")
+    save_figure(fig, png, vector=vector, bbox_inches="tight")

@@ -47,6 +47,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="maze: navigate here (world coordinates, repeatable; default the world "
         "file's goal, else the Stage 3 goal)",
     )
+    p.add_argument(
+        "--pdf",
+        action="store_true",
+        help="also write the plot as a PDF (trajectory.pdf, maze.pdf: vector, fonts embedded), "
+        "as a campaign's figures are",
+    )
     add_twin_options(p)
     p.set_defaults(func=_cmd_run)
 
@@ -87,7 +93,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     faults = tuple(args.fault)
     r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out, config, faults))
     png = out / "trajectory.png"
-    plot_trajectories(png, args.mission, [out])
+    plot_trajectories(png, args.mission, [out], vector=args.pdf)
     table = Table(title=f"{args.mission} on the twin ({args.robot}, {world}, seed {args.seed})")
     table.add_column("figure")
     table.add_column("value", justify="right")
@@ -158,7 +164,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     spec = dataclasses.replace(spec, goals=goals, lidar_mode=lidar_mode(args))
     r = run_nav_trial(spec)
     r["run"] = "nav"
-    plot_stage3(out / "maze.png", out, [r])
+    plot_stage3(out / "maze.png", out, [r], vector=args.pdf)
     _print_maze_table(f"maze on the twin ({args.robot}, {world}, seed {args.seed})", r)
     print(f"plot: {out / 'maze.png'}\nrun folder: {out / 'nav'}")
     return exit_status(r)

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from jackson.host.actuation.watchdog import CommandWatchdog
-from jackson.host.control.base import Mission, NavState, ServiceMission, TimedMission
+from jackson.host.control.base import Mission, NavState, ServiceMission, TimedMission, is_service
 from jackson.host.control.guard import MissionGuard
 
 
@@ -134,7 +134,7 @@ class CommandArbiter:
             self.watchdog.feed(t_s)
         self.external_in_force = False
         mission = self.mission
-        if isinstance(mission, ServiceMission):
+        if is_service(mission):
             return self._serve(mission, t_s, c, nav_state)
         if mission is not None:
             if abort_reason is not None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeGuard, runtime_checkable
 
 from jackson.common.geometry import wrap_angle as wrap_angle  # re-exported
 from jackson.host.nav.types import Scan
@@ -96,3 +96,28 @@ class ServiceMission(ScanMission, Protocol):
     def lidar_lost(self, reason: str) -> None:
         """The LiDAR's port failed."""
         ...
+
+
+_CONFORMS: dict[tuple[type, type], bool] = {}  # (a mission's class, protocol) -> conforms
+
+
+def _conforms(mission: object, protocol: type) -> bool:
+    """``isinstance(mission, protocol)`` for a runtime-checkable protocol, asked once per class:
+    the check looks up every member of the protocol (about 10 us), and the frame loop asks it
+    several times a frame. A mission's members are its class's methods and the attributes its
+    constructor sets, the same for every instance of the class."""
+    key = (type(mission), protocol)
+    hit = _CONFORMS.get(key)
+    if hit is None:
+        hit = _CONFORMS[key] = isinstance(mission, protocol)
+    return hit
+
+
+def is_service(mission: object) -> TypeGuard[ServiceMission]:
+    """Whether ``mission`` is a :class:`ServiceMission` (cached per class)."""
+    return _conforms(mission, ServiceMission)
+
+
+def is_scan(mission: object) -> TypeGuard[ScanMission]:
+    """Whether ``mission`` is a :class:`ScanMission` (cached per class)."""
+    return _conforms(mission, ScanMission)

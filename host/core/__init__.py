@@ -40,7 +40,7 @@ from jackson.host.actuation.watchdog import CommandWatchdog
 from jackson.host.config import HostConfig
 from jackson.host.control import Mission, NavState
 from jackson.host.control.arbiter import CommandArbiter, Conditions
-from jackson.host.control.base import LimitedMission, ScanMission, ServiceMission
+from jackson.host.control.base import LimitedMission, is_scan, is_service
 from jackson.host.core.chain import ActuationChain
 from jackson.host.core.frontend import FrontEnd
 from jackson.host.core.fusion import Fusion
@@ -421,7 +421,7 @@ class HostCore:
         if telemetry:
             self._take_settings(host_time_ns)
         mission = self.mission
-        if telemetry and isinstance(mission, ServiceMission):
+        if telemetry and is_service(mission):
             # the service's requests this frame applies, logged before it (as commands are)
             for request in mission.take_requests():
                 data = request.encode()
@@ -465,9 +465,9 @@ class HostCore:
         navigates by it is aborted (braked) now, not after a silence."""
         self.intake.gone(self.t_s if self.t_s is not None else 0.0, reason)
         self.fusion.report_health()
-        if isinstance(self.mission, ServiceMission):
+        if is_service(self.mission):
             self.mission.lidar_lost(reason)  # goals end and are refused; the service stays up
-        elif isinstance(self.mission, ScanMission) and not self.mission.done:
+        elif is_scan(self.mission) and not self.mission.done:
             self.abort(f"LiDAR lost: {reason}")
             self.brake()
 
@@ -552,19 +552,19 @@ class HostCore:
 
     def _take_scans(self, t_s: float) -> None:
         mission = self.mission
-        navigating = isinstance(mission, ScanMission)
+        navigating = is_scan(mission)
         needed = (
             navigating
             and mission is not None
             and not mission.done
-            and (not isinstance(mission, ServiceMission) or mission.navigating)
+            and (not is_service(mission) or mission.navigating)
         )
         for rev in self.intake.take(t_s, needed):
             # a scan too noisy to trust, or from an excluded LiDAR, is published (the
             # listeners) but not navigated by
             scan, use = self.intake.scan(t_s, rev)
             if navigating and use:
-                assert isinstance(self.mission, ScanMission)
+                assert is_scan(self.mission)
                 self.mission.on_scan(scan, self.nav_state())
             for listener in self.listeners:
                 listener.on_scan(scan)

@@ -12,7 +12,9 @@ inflation layer spreads every lethal cell over the distance d from its centre:
 
 with k the cost scaling factor (REFERENCE Stage 3: r_inscribed = robot radius 0.16 m,
 r_inflation = 0.25 m, k = 10.0). d comes from one Euclidean distance transform of the lethal
-cells (``scipy.ndimage.distance_transform_edt``), so the whole grid inflates at once.
+cells (``scipy.ndimage.distance_transform_edt``'s values, compiled in
+:func:`jackson.host.nav.native.distance_to` where the library is built), so the whole grid
+inflates at once.
 
 The obstacle layer is marked from LiDAR returns (within ``obstacle_max_range_m``) and cleared
 along each return's ray from the sensor (within ``raytrace_max_range_m``), all rays at once:
@@ -48,7 +50,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 
 from jackson.common.geometry import cell_to_world, world_to_cell
 from jackson.common.robot import ENVELOPE_X_M as ENVELOPE_X_M  # re-exported
@@ -620,14 +621,10 @@ class Costmap:
         take = known & ((master == NO_INFORMATION) | (obstacle > master))
         master[take] = obstacle[take]
         lethal = master == LETHAL_OBSTACLE
-        dist: FloatArray
-        if np.any(lethal):
-            dist = np.asarray(ndimage.distance_transform_edt(~lethal), np.float64)
-            dist *= self.resolution_m
-            if far_m < math.inf:
-                dist[dist > far_m] = math.inf
-        else:
-            dist = np.full(master.shape, math.inf)
+        dist = native.distance_to(lethal)  # scipy's EDT, bit for bit; inf without lethal cells
+        dist *= self.resolution_m
+        if far_m < math.inf:
+            dist[dist > far_m] = math.inf
         cfg = self.config
         inflated = inflation_cost(
             dist, cfg.robot_radius_m, cfg.inflation_radius_m, cfg.cost_scaling_factor
@@ -796,7 +793,7 @@ class Costmap:
         if self._clear_reach_padded is None:
             rows, cols = self.shape
             clear = self._class_padded.reshape(rows + 2, cols + 2) == _CLEAR
-            d = np.asarray(ndimage.distance_transform_edt(clear), np.float64)
+            d = native.distance_to(~clear)
             self._clear_reach_padded = (
                 d * self.resolution_m - math.sqrt(2.0) * self.resolution_m
             ).ravel()

@@ -597,6 +597,10 @@ class RosBridge:
 
     # ------------------------------------------------------------------ outputs
 
+    def wants(self, key: str, t_s: float) -> bool:
+        """Every message of a published topic is published."""
+        return key in self.publishers and not self._stop.is_set()
+
     def write(self, key: str, t_s: float, msg: Any) -> None:
         """Publish a built message (its CDR bytes) on the topic with key ``key``; inputs and
         the raw frames are not published."""

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.lidar.scan_timer import ScanTimer
@@ -21,7 +22,7 @@ if TYPE_CHECKING:
     from jackson.host.control.base import Mission
     from jackson.host.control.navigate import NavigateMission
     from jackson.host.estimation.ekf import EkfState
-    from jackson.host.nav.types import Scan
+    from jackson.host.nav.types import Pose2D, Scan
 
 MAP_PERIOD_S = 5.0  # [s] of MCU time between /map messages while mapping
 DIAGNOSTICS_PERIOD_S = 1.0  # [s] of MCU time between /diagnostics messages
@@ -55,6 +56,11 @@ class RosSink(Protocol):
     def write(self, key: str, t_s: float, msg: Any) -> None:
         """One message of the topic with key ``key``
         (:data:`~jackson.host.ros.settings.TOPIC_TYPES`) at MCU time."""
+        ...
+
+    def wants(self, key: str, t_s: float) -> bool:
+        """Whether a message of the topic with key ``key`` at MCU time ``t_s`` would be kept
+        (a thinned topic between two of its messages: not), so one nobody keeps is not built."""
         ...
 
 
@@ -204,6 +210,15 @@ class RosOutput(CoreListener):
         self.send("diagnostics", values.t_s, self.builder.diagnostics(values))
         return True
 
+    def _local_plan(self, t_s: float, local: npt.NDArray[np.float64], corr: Pose2D) -> None:
+        """/local_plan in odom, as Nav2's controller publishes it: map -> odom undone."""
+        if len(local):
+            b = self.builder
+            c, s_ = math.cos(corr.yaw), math.sin(corr.yaw)
+            dx, dy = local[:, 0] - corr.x, local[:, 1] - corr.y
+            in_odom = np.column_stack((c * dx + s_ * dy, -s_ * dx + c * dy, local[:, 2] - corr.yaw))
+            self.send("local_plan", t_s, b.path(t_s, in_odom, b.settings.odom_frame))
+
     def _navigation(self, result: FrameResult, t_s: float) -> None:
         """After a control tick of a navigation mission: /plan (each new global plan),
         /local_plan, map -> odom on /tf, and /map (once on a known map; every
@@ -220,12 +235,9 @@ class RosOutput(CoreListener):
             self.send("plan", t_s, b.path(t_s, nav.navigator.plan))
         self._plan_version = replans
         corr = nav.map_to_odom.compose(nav.config.start)  # odom starts at the start pose
-        local = nav.navigator.published_local_plan
-        if len(local):  # in odom, as Nav2's controller publishes it: map -> odom undone
-            c, s_ = math.cos(corr.yaw), math.sin(corr.yaw)
-            dx, dy = local[:, 0] - corr.x, local[:, 1] - corr.y
-            in_odom = np.column_stack((c * dx + s_ * dy, -s_ * dx + c * dy, local[:, 2] - corr.yaw))
-            self.send("local_plan", t_s, b.path(t_s, in_odom, b.settings.odom_frame))
+        # built only when a sink keeps it (the bag thins it, recording.bag_topic_hz)
+        if any(sink.wants("local_plan", t_s) for sink in self.sinks):
+            self._local_plan(t_s, nav.navigator.published_local_plan, corr)
         if b.settings.publish_tf:
             msg = TFMessage(
                 transforms=[

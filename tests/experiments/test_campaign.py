@@ -77,7 +77,7 @@ def test_campaign_is_deterministic_for_a_seed(tmp_path: Path) -> None:
 
 def test_jackson_run_prints_the_table_and_writes_the_plot(tmp_path: Path) -> None:
     out = subprocess.run(
-        [JACKSON, "run", "square", "--out", str(tmp_path / "run")],
+        [JACKSON, "run", "square", "--pdf", "--out", str(tmp_path / "run")],
         capture_output=True,
         text=True,
         timeout=120,

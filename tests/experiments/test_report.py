@@ -17,7 +17,7 @@ from PIL import Image
 from jackson.experiments import metrics as m
 from jackson.experiments.campaign import TrialProgress, trial_line
 from jackson.experiments.report import FIGURE_DPI, PAPER, summarise, write_report
-from jackson.experiments.report_plots import anchored_trace, closure_zoom
+from jackson.experiments.report_plots import anchored_trace, closure_zoom, plot_trajectories
 from jackson.experiments.trial import trial_metrics
 
 FloatArray = npt.NDArray[np.float64]
@@ -141,6 +141,15 @@ def test_every_figure_is_a_png_of_at_least_150_dpi_and_a_pdf(
             assert image.width >= 1500, name
         assert pdf.read_bytes()[:5] == b"%PDF-", name
         assert b"/FontFile2" in pdf.read_bytes(), name  # TrueType text, selectable
+
+
+def test_a_runs_plot_is_the_png_alone_unless_the_pdf_is_asked_for(tmp_path: Path) -> None:
+    run = _run(tmp_path / "run", (0.03, -0.02), (0.004, 0.001))
+    plot_trajectories(run / "trajectory.png", "square", [run], vector=False)
+    assert (run / "trajectory.png").stat().st_size > 10_000
+    assert not (run / "trajectory.pdf").exists()
+    plot_trajectories(run / "trajectory.png", "square", [run])
+    assert (run / "trajectory.pdf").read_bytes()[:5] == b"%PDF-"
 
 
 def test_the_trace_is_anchored_thinned_and_keeps_its_true_end(tmp_path: Path) -> None:

@@ -329,4 +329,74 @@ void jackson_grid_distance(std::int64_t rows, std::int64_t cols, const std::uint
     if (distance[i] < 0.0) distance[i] = unreached;
 }
 
+// The Euclidean distance transform (scipy.ndimage.distance_transform_edt(~feature)): each cell's
+// distance [cells] to the nearest feature cell's centre, the square root of a whole number of
+// squared cells, so exactly the double scipy returns; +inf everywhere when there is no feature.
+// Felzenszwalb and Huttenlocher's two passes: along each column the distance to the nearest
+// feature of that column, then along each row the lower envelope of the parabolas
+// (c - c')^2 + g(c')^2, the envelope's breakpoints compared as exact fractions of whole numbers.
+// g: rows x cols scratch (int64); v: cols (int64); zn, zd: cols + 1 (int64).
+void jackson_edt(std::int64_t rows, std::int64_t cols, const std::uint8_t* feature,
+                 double* distance, std::int64_t* g, std::int64_t* v, std::int64_t* zn,
+                 std::int64_t* zd) {
+  const std::int64_t far = rows + cols + 1;  // farther than any feature of the grid
+  bool any = false;
+  for (std::int64_t r = 0; r < rows; ++r) {  // down the columns, a row at a time
+    for (std::int64_t c = 0; c < cols; ++c) {
+      const std::int64_t i = r * cols + c;
+      if (feature[i]) {
+        g[i] = 0;
+        any = true;
+      } else {
+        g[i] = (r > 0 && g[i - cols] < far) ? g[i - cols] + 1 : far;
+      }
+    }
+  }
+  for (std::int64_t r = rows - 2; r >= 0; --r) {  // and up them
+    for (std::int64_t c = 0; c < cols; ++c) {
+      const std::int64_t i = r * cols + c;
+      if (g[i + cols] + 1 < g[i]) g[i] = g[i + cols] + 1;
+    }
+  }
+  if (!any) {
+    for (std::int64_t i = 0; i < rows * cols; ++i) distance[i] = HUGE_VAL;
+    return;
+  }
+  for (std::int64_t r = 0; r < rows; ++r) {
+    const std::int64_t* row = g + r * cols;
+    std::int64_t k = -1;  // the envelope's last parabola; breakpoint j is zn[j] / zd[j]
+    for (std::int64_t q = 0; q < cols; ++q) {
+      if (row[q] >= far) continue;  // no feature in this column
+      const std::int64_t fq = row[q] * row[q] + q * q;
+      while (k >= 0) {
+        const std::int64_t p = v[k];
+        const std::int64_t num = fq - (row[p] * row[p] + p * p);
+        const std::int64_t den = 2 * (q - p);
+        if (k > 0 && num * zd[k] <= zn[k] * den) {
+          --k;  // parabola p lies above the envelope from where it would start
+          continue;
+        }
+        ++k;
+        v[k] = q;
+        zn[k] = num;
+        zd[k] = den;
+        break;
+      }
+      if (k < 0) {
+        k = 0;
+        v[0] = q;
+        zn[0] = 0;
+        zd[0] = 0;  // from -infinity
+      }
+    }
+    std::int64_t j = 0;
+    for (std::int64_t q = 0; q < cols; ++q) {
+      while (j < k && zn[j + 1] <= q * zd[j + 1]) ++j;  // breakpoint j + 1 at or before q
+      const std::int64_t p = v[j];
+      const std::int64_t d2 = (q - p) * (q - p) + row[p] * row[p];
+      distance[r * cols + q] = std::sqrt(static_cast<double>(d2));
+    }
+  }
+}
+
 }  // extern "C"

@@ -186,6 +186,16 @@ class BagRecorder:
             self._state.static_written = True
         self._write(key, t_s, msg)
 
+    def wants(self, key: str, t_s: float) -> bool:
+        """Whether :meth:`write` would file a message of the topic with key ``key`` at MCU time
+        ``t_s`` (not a thinned topic's within its period of the last one filed, nor after
+        :meth:`close`)."""
+        if self.closed:
+            return False
+        period_s = self._periods_s.get(key)
+        last_s = self._filed_s.get(key)
+        return period_s is None or last_s is None or t_s >= last_s + period_s - 1e-9
+
     def wheel_odom(self, t_s: float, x: float, y: float, yaw: float, v: float, w: float) -> None:
         """Wheel odometry on /wheel/odom (Eq. 2, 3, 9), odom -> base_footprint.
 
@@ -403,10 +413,8 @@ class BagRecorder:
         topic's only once its period has passed since the last one filed)."""
         st = self._state
         ns = stamp_ns(t_s)  # refuses a negative or infinite time before anything is written
-        period_s = self._periods_s.get(key)
-        if period_s is not None:
-            last_s = self._filed_s.get(key)
-            if last_s is not None and t_s < last_s + period_s - 1e-9:
+        if key in self._periods_s:
+            if not self.wants(key, t_s):
                 return
             self._filed_s[key] = t_s
         if not self._claim():

@@ -119,7 +119,15 @@ def jazzy_store() -> Typestore:
     store (7 ms for /map's), and a long-running daemon opens a bag at each split of its run
     folders (docs/recording.md)."""
     if not _JAZZY:
-        _JAZZY.append(get_typestore(Stores.ROS2_JAZZY))
+        from jackson.host.ros.cdr import ENCODERS
+
+        store = get_typestore(Stores.ROS2_JAZZY)
+        # the serializers of the types rosbags packs (/map, /diagnostics, /plan's poses...)
+        # built now, before the frame loop, not at their first message (a 10-40 ms frame)
+        for msgtype, _, _ in TOPIC_TYPES.values():
+            if msgtype not in ENCODERS:
+                store.get_msgdef(msgtype)
+        _JAZZY.append(store)
     return _JAZZY[0]
 
 

@@ -220,3 +220,51 @@ def test_dwb_distance_maps_are_scipys_search_bit_for_bit(seed: int) -> None:
         assert got.tobytes() == want.tobytes(), (seed, trial)
         if not sources.any():
             assert (got == rows * cols).all()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_distance_transform_is_scipys_bit_for_bit(seed: int) -> None:
+    # the compiled two-pass transform against scipy's, on grids of every density (none and
+    # every cell a feature among them), one row or one column, and a costmap-sized one
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    for trial in range(80):
+        rows, cols = (int(x) for x in rng.integers(1, 90, 2))
+        density = [0.0, 1.0, 0.001, 0.02, 0.3, 0.8][trial % 6]
+        feature = rng.random((rows, cols)) < density
+        got = native.distance_to(feature)
+        if feature.any():
+            want = np.asarray(ndimage.distance_transform_edt(~feature), np.float64)
+        else:
+            want = np.full((rows, cols), np.inf)
+        assert got.tobytes() == want.tobytes(), (seed, trial)
+
+
+def test_the_costmap_inflates_as_with_scipys_transform(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the same scans on costmaps with the compiled transform and with the library switched off:
+    # a local one (collision checks, the whole grid) and a global one (windowed updates)
+    grid = OccupancyGrid.empty(4.0, 4.0, 0.05, -2.0, -2.0)
+    rng = np.random.default_rng(7)
+    angles = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    scans = [
+        (np.column_stack((r * np.cos(angles), r * np.sin(angles))) + sensor, sensor)
+        for sensor, r in (
+            (np.array([0.0, 0.0]), 1.0 + 0.6 * rng.random(720)),
+            (np.array([0.4, -0.2]), 0.8 + 0.2 * rng.random(720)),
+        )
+    ]
+    probe = (scans[0][0][:, 0] * 0.5, scans[0][0][:, 1] * 0.5)
+    results = []
+    for lib in (native.LIB, None):
+        monkeypatch.setattr(native, "LIB", lib)
+        maps = [Costmap.from_map(grid, CostmapConfig(), checks) for checks in (True, False)]
+        for costmap in maps:
+            for points, sensor in scans:
+                costmap.update(points, (float(sensor[0]), float(sensor[1])))
+        results.append(
+            [m.costs.tobytes() for m in maps]
+            + [m.lethal_distance_m.tobytes() for m in maps]
+            + [maps[0].clear_reach_m(*probe).tobytes()]
+        )
+    assert results[0] == results[1]

@@ -245,6 +245,17 @@ def test_a_thinned_topic_is_filed_at_its_rate_and_the_others_whole(tmp_path: Pat
     assert len(msgs["/imu/data"]) == 20
 
 
+def test_the_bag_says_which_messages_it_would_keep(tmp_path: Path) -> None:
+    bag = BagRecorder(tmp_path / "bag", topic_hz={"local_plan": 5.0})
+    assert bag.wants("local_plan", 1.0) and bag.wants("scan", 1.0)
+    bag.wheel_odom(1.0, 0, 0, 0, 0, 0)
+    bag.write("local_plan", 1.0, bag.builder.path(1.0, np.zeros((2, 3))))
+    assert not bag.wants("local_plan", 1.15) and bag.wants("local_plan", 1.2)
+    assert bag.wants("scan", 1.05)
+    bag.close()
+    assert not bag.wants("scan", 2.0)
+
+
 def test_close_is_idempotent_and_later_writes_are_ignored(tmp_path: Path) -> None:
     bag = BagRecorder(tmp_path / "bag")
     bag.wheel_odom(0.1, 0, 0, 0, 0, 0)
