@@ -21,7 +21,11 @@ On scans the twin's exact ray caster makes along the maze's route (1080 beams, 0
   quarter of it): the navigator's whole step (costmaps, the 1 Hz and blocked-path replans, DWB)
   driving an ideal differential drive 25 m through a 20 m x 20 m floor of 4 x 4 rooms with 1 m
   doors, scans at 7.43 Hz, and a cylinder dropped 1 m ahead on its path once it has moved 3 m;
-  the mean step is its reference.
+  the mean step is its reference. The daemon searches its plans in the planner server's worker
+  process (:mod:`jackson.host.nav.planner_server`), so that is the figure judged; the same drive
+  searching each plan inside the step is reported beside it (information), and the 20 m plan
+  above becomes information too (the issue's "or": the plan within a quarter period, or off the
+  control thread with the worst step within it).
 The three cycles are timed in interleaved rounds (mapping, particle filter, DWB, ...), best of
 3, on the process's CPU clock (as the host's CPU per frame): a shared machine's other work
 preempts a cycle without being its cost (the DWB mean on the wall clock rose from 2.2 to 3.2 ms
@@ -51,10 +55,12 @@ import numpy.typing as npt
 from jackson.common.bench import BenchResult, reference_loop_us
 from jackson.host.actuation.limiter import LimiterConfig, VelocityLimiter
 from jackson.host.control.navigator import Navigator, NavigatorConfig
+from jackson.host.control.navigator_config import PLAN_DELAY_TICKS
 from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.astar import AStarConfig, NoPathError, astar, cell_costs, smooth_path
 from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.nav.planner_server import WorkerPlanner
 from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.protocol.rplidar import A1M8_SCAN_PERIOD_S
@@ -328,15 +334,30 @@ def _rooms_world() -> list[tuple[float, float, float, float]]:
     return walls
 
 
-def _replanning_steps_ms() -> tuple[float, float]:
-    """Worst and mean navigator step [ms of CPU] of a replanning drive (module docstring)."""
+def _replanning_steps_ms(planner_server: bool = True) -> tuple[float, float]:
+    """Worst and mean navigator step [ms of CPU] of a replanning drive (module docstring):
+    as the daemon navigates (``planner_server``: each plan searched by the planner server's
+    worker process and taken two ticks later), or searching each plan in the step."""
     walls = _rooms_world()
     obstacles = Obstacles(segments=walls)
     world = dataclasses.replace(WorldSpec("rooms_20m"), walls=tuple(walls))
     occupied, ox, oy = raster(world, PLAN_RESOLUTION_M)
     grid = OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), PLAN_RESOLUTION_M, ox, oy)
     limits = LimiterConfig()
-    nav = Navigator(NavigatorConfig(), grid, limits)
+    worker = WorkerPlanner() if planner_server else None
+    delay = PLAN_DELAY_TICKS if planner_server else 0
+    nav = Navigator(NavigatorConfig(plan_delay_ticks=delay), grid, limits, worker)
+    try:
+        return _drive_rooms(nav, obstacles, limits)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _drive_rooms(
+    nav: Navigator, obstacles: Obstacles, limits: LimiterConfig
+) -> tuple[float, float]:
+    """The replanning drive's worst and mean step [ms of CPU]."""
     start = Pose2D(2.5, 2.5, 0.0)
     nav.set_goal(Pose2D(17.5, 17.5))
     limiter = VelocityLimiter(limits)
@@ -355,6 +376,9 @@ def _replanning_steps_ms() -> tuple[float, float]:
         if t_s + 1e-9 >= next_scan_s:
             next_scan_s += SCAN_PERIOD_S
             points = _scan_points(pose, obstacles, rng, t_s)
+        planner = nav.planning.planner
+        if isinstance(planner, WorkerPlanner):  # the time the robot's clock gives the worker
+            planner.wait(10.0)
         t0 = time.process_time()
         cmd = nav.step(t_s, pose, vel, points)
         steps.append(time.process_time() - t0)
@@ -458,7 +482,9 @@ def planning_figures(quick: bool) -> list[BenchResult]:
     period, and the plan against the former pure-Python A* (best of 3 each; quick: 1)."""
     plan_ms, python_ms, plan_loop_us = _global_plan_ms(1 if quick else 3)
     control_ms = 1e3 * CONTROL_PERIOD_S
-    worst_ms, mean_ms = min(_replanning_steps_ms() for _ in range(1 if quick else 3))
+    rounds = 1 if quick else 3
+    worst_ms, mean_ms = min(_replanning_steps_ms() for _ in range(rounds))
+    inline_ms, inline_mean_ms = min(_replanning_steps_ms(False) for _ in range(rounds))
     return [
         BenchResult(
             "stage3.replanning_step_worst_share_of_control_period",
@@ -467,21 +493,38 @@ def planning_figures(quick: bool) -> list[BenchResult]:
             GLOBAL_PLAN_SHARE,
             "lower",
             "the control period; the navigator's worst step over a 25 m drive through 20 m x "
-            "20 m of rooms that replans at 1 Hz and around a dropped cylinder (reference: its "
-            "mean step)",
+            "20 m of rooms that replans at 1 Hz and around a dropped cylinder, its plans "
+            "searched by the planner server's worker as the daemon's are (reference: its mean "
+            "step)",
             worst_ms,
             "ms",
             mean_ms,
             plan_loop_us,
         ),
         BenchResult(
+            "stage3.replanning_step_worst_searching_in_the_step_share_of_control_period",
+            inline_ms / control_ms,
+            "of 50 ms",
+            None,
+            "lower",
+            "the control period; the same drive with every plan searched inside the step (as "
+            "before the planner server; trials and replays search so, off the robot's clock) "
+            "(reference: its mean step)",
+            inline_ms,
+            "ms",
+            inline_mean_ms,
+            plan_loop_us,
+        ),
+        BenchResult(
             "stage3.global_plan_20m_share_of_control_period",
             plan_ms / control_ms,
             "of 50 ms",
-            GLOBAL_PLAN_SHARE,
+            None,
             "lower",
             "the control period; worst of 3 plans on 20 m x 20 m maps at 0.05 m: rooms and a maze "
-            "corner to corner, an unreachable goal (reference: the former pure-Python A*'s worst)",
+            "corner to corner, an unreachable goal; the daemon searches them off the control "
+            "thread (the planner server), so the worst step above is judged "
+            "(reference: the former pure-Python A*'s worst)",
             plan_ms,
             "ms",
             python_ms,

@@ -67,6 +67,7 @@ from jackson.host.control.navigate import (
     navigate_meta,
 )
 from jackson.host.control.navigator import NavigatorConfig, check_route
+from jackson.host.control.navigator_config import PLAN_DELAY_TICKS
 from jackson.host.daemon import Daemon
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
@@ -254,6 +255,8 @@ def _run_nav_trial_once(spec: NavTrialSpec) -> dict[str, Any]:
         localisation=localisation,
         extent=world_extent(world),
         seed=spec.seed,
+        # as the daemon takes its plans (searched here, in lockstep: the same plans)
+        navigator=NavigatorConfig(plan_delay_ticks=PLAN_DELAY_TICKS),
     )
     mission = NavigateMission(nav, cfg.navigation_limits(), grid)
     if grid is not None:

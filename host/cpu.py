@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -44,6 +45,9 @@ class CpuMeter:
         self.max_us = 0.0
         self._first: tuple[float, float] | None = None  # (MCU time [s], process CPU [s])
         self._last: tuple[float, float] | None = None
+        # the CPU time of the daemon's helper processes so far [s] (the planner server's
+        # worker): counted with the process's own
+        self.helpers: list[Callable[[], float]] = []
 
     def frame(self, cpu_us: float) -> None:
         """One frame's handling took ``cpu_us`` of the daemon thread's CPU."""
@@ -56,7 +60,8 @@ class CpuMeter:
         """The MCU time [s] of the frame just handled, with the process's CPU time now."""
         if t_s is None:
             return
-        now = (t_s, time.process_time() - contention.spun_s)
+        helpers = sum(helper() for helper in self.helpers) if self.helpers else 0.0
+        now = (t_s, time.process_time() - contention.spun_s + helpers)
         if self._first is None:
             self._first = now
         self._last = now
@@ -78,8 +83,8 @@ class CpuMeter:
 
     @property
     def process_s(self) -> float:
-        """The process's CPU over that span, every thread, less what it spent polling a
-        lockstep twin's links [s]."""
+        """The process's CPU over that span, every thread and its helper processes (the
+        planner server's worker), less what it spent polling a lockstep twin's links [s]."""
         if self._first is None or self._last is None:
             return 0.0
         return self._last[1] - self._first[1]

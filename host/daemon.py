@@ -172,6 +172,12 @@ class Daemon:
         # what the operator was told, in order (the newest EVENTS_KEPT: a service runs for days)
         self.events: deque[str] = deque(maxlen=EVENTS_KEPT)
         self.cpu = CpuMeter()  # the daemon's own CPU per robot-second and per frame
+        from jackson.host.ros.output import navigation_of
+
+        nav = navigation_of(mission)
+        if nav is not None:  # the planner server's worker process counts as the daemon's
+            planner = nav.navigator.planning.planner
+            self.cpu.helpers.append(lambda: planner.cpu_s)
         self.latency = LatencyMeter()  # telemetry read to its HEARTBEAT written, per frame
         self.link = LinkWatch(transport, self.output, self.core, self.commands, self.tell)
         # the navigation service: goal after goal, the control socket (jackson goal/status)

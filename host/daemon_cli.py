@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # the daemon, its devices and the navigation load when the co
     from jackson.host.control.navigate import NavigateMission
     from jackson.host.daemon import Daemon
     from jackson.host.lidar.rplidar import RplidarDriver
+    from jackson.host.nav.planner_server import Planner
     from jackson.host.service.navigation import NavigationService
     from jackson.host.service.settings import LiveViewSettings
     from jackson.host.transport import SerialTransport
@@ -257,6 +258,7 @@ def _navigate(args: argparse.Namespace, cfg: HostConfig) -> Navigation | None:
     if not args.lidar:
         raise DaemonCliError("--goal needs --lidar PORT (the RPLIDAR's port)")
     from jackson.host.control.navigate import NavigateConfig, NavigateMission, parse_pose, poses
+    from jackson.host.control.navigator_config import PLAN_DELAY_TICKS, NavigatorConfig
     from jackson.host.nav.grid import MapFileError, OccupancyGrid
 
     try:
@@ -283,14 +285,25 @@ def _navigate(args: argparse.Namespace, cfg: HostConfig) -> Navigation | None:
         goals=goals,
         localisation="amcl" if grid is not None else "slam",
         extent=extent,
+        navigator=NavigatorConfig(plan_delay_ticks=PLAN_DELAY_TICKS),
     )
     from jackson.host.control.navigator import RouteError
 
     try:
         # a daemon runs for hours: its navigation keeps only its recent control ticks
-        return NavigateMission(config, cfg.navigation_limits(), grid, keep_samples=False)
+        return NavigateMission(
+            config, cfg.navigation_limits(), grid, keep_samples=False, planner=_planner()
+        )
     except RouteError as exc:
         raise DaemonCliError(f"{exc} (--map {args.map})") from exc
+
+
+def _planner() -> Planner:
+    """The daemon's global planner: a worker process (:mod:`jackson.host.nav.planner_server`),
+    so that no control tick runs a search."""
+    from jackson.host.nav.planner_server import WorkerPlanner
+
+    return WorkerPlanner(say=lambda line: print(f"daemon: {line}", flush=True))
 
 
 def _check_mapped_extent(extent: tuple[float, float, float, float]) -> None:
@@ -339,6 +352,7 @@ def _service(args: argparse.Namespace, cfg: HostConfig) -> NavigationService:
     in ``args.lidar`` afterwards), checked before anything opens."""
     from jackson.host.control.navigate import NavigateConfig, parse_pose
     from jackson.host.control.navigator import RouteError, check_route
+    from jackson.host.control.navigator_config import PLAN_DELAY_TICKS, NavigatorConfig
     from jackson.host.nav.grid import MapFileError, OccupancyGrid
     from jackson.host.nav.types import Pose2D
     from jackson.host.service.navigation import NavigationService
@@ -356,10 +370,15 @@ def _service(args: argparse.Namespace, cfg: HostConfig) -> NavigationService:
         grid = OccupancyGrid.load(map_path)
     except MapFileError as exc:
         raise DaemonCliError(f"{where}: {exc}") from exc
-    config = NavigateConfig(start=start, goals=(), localisation="amcl")
+    config = NavigateConfig(
+        start=start,
+        goals=(),
+        localisation="amcl",
+        navigator=NavigatorConfig(plan_delay_ticks=PLAN_DELAY_TICKS),
+    )
     try:
         check_route(grid, start, (), config.navigator)
-        return NavigationService(config, cfg.navigation_limits(), grid, sv)
+        return NavigationService(config, cfg.navigation_limits(), grid, sv, _planner())
     except RouteError as exc:
         raise DaemonCliError(f"{exc} ({where} {map_path}; give --start X,Y,YAW)") from exc
 

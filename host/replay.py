@@ -340,6 +340,7 @@ def _navigation_from_meta(
         The ``navigate`` entry or the map is missing or damaged.
     """
     from jackson.host.control.navigate import NavigateConfig
+    from jackson.host.control.navigator_config import NavigatorConfig
     from jackson.host.nav.grid import MapFileError, OccupancyGrid
     from jackson.host.nav.types import Pose2D
 
@@ -359,6 +360,8 @@ def _navigation_from_meta(
             # runs from before the planner took the mapper's map: never
             map_update_s=float(nav.get("map_update_s", 0.0)),
             seed=int(nav["seed"]),
+            # runs from before the planner server took each plan on the tick that asked
+            navigator=NavigatorConfig(plan_delay_ticks=int(nav.get("plan_delay_ticks", 0))),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise RecordingError(f"{where}: navigate: {exc}") from exc

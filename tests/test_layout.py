@@ -189,7 +189,8 @@ def test_angle_wrapping_and_world_to_cell_are_written_once() -> None:
 # the modules that may run a distance transform (scipy.ndimage.distance_transform_*), and why
 DISTANCE_TRANSFORMS = {
     "host/nav/likelihood.py": "the likelihood field, and the mapper's nearest obstacle points",
-    "host/nav/costmap.py": "the costmaps' inflation, in cells",
+    "host/nav/native.py": "the costmaps' inflation and clear reach, in cells (scipy's where the "
+    "compiled transform is not built)",
 }
 
 

@@ -94,6 +94,13 @@ class SerialSettings:
     telemetry_rate_hz: int = TELEMETRY_RATE_HZ_DEFAULT  # the device's own (protocol/schema.yaml)
 
 
+BAG_TOPIC_KEYS = (
+    "wheel_odom", "imu", "filtered", "joint_states", "diagnostics", "tf", "tf_static", "scan",
+    "map", "plan", "local_plan", "cmd_vel", "goal_pose", "initialpose", "telemetry",
+)  # fmt: skip
+"""The topic keys ``recording.bag_topic_hz`` may name: those of
+:data:`jackson.host.ros.settings.TOPIC_TYPES` (the ROS package imports the config, so the
+config keeps its own list; a test keeps the two the same)."""
 BAG_TOPIC_HZ: dict[str, float] = {"local_plan": 5.0}
 """``recording.bag_topic_hz`` by default: /local_plan (the chosen roll-out, a visualisation,
 about 16 Hz as the local planner publishes it) at 5 Hz in the bag."""
@@ -510,16 +517,14 @@ def _recording(s: Fields) -> dict[str, Any]:
 def _bag_topic_hz(s: Fields) -> dict[str, float]:
     """``recording.bag_topic_hz``: topic key -> at most this many messages per second
     (absent: :data:`BAG_TOPIC_HZ`; ``{}`` or null: every message of every topic)."""
-    from jackson.host.ros.settings import TOPIC_TYPES
-
     if not s.has("bag_topic_hz"):
         s.used.add("bag_topic_hz")
         return dict(BAG_TOPIC_HZ)
     rates = s.section("bag_topic_hz")
     out = {}
     for key in list(rates.data):
-        if key not in TOPIC_TYPES:
-            raise rates.fail(str(key), f"not a topic key (one of {', '.join(TOPIC_TYPES)})")
+        if key not in BAG_TOPIC_KEYS:
+            raise rates.fail(str(key), f"not a topic key (one of {', '.join(BAG_TOPIC_KEYS)})")
         out[str(key)] = rates.number(str(key), 1.0, 0.0, lo_open=True)
     rates.finish()
     return out

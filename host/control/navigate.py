@@ -54,6 +54,7 @@ from jackson.host.nav.amcl import AmclConfig, ParticleFilter
 from jackson.host.nav.deskew import deskew
 from jackson.host.nav.ekf_lag import base_pose
 from jackson.host.nav.grid import UNKNOWN, OccupancyGrid
+from jackson.host.nav.planner_server import Planner
 from jackson.host.nav.slam.mapper import Mapper, MappingConfig
 from jackson.host.nav.types import Pose2D, Scan
 
@@ -163,6 +164,10 @@ class NavigateMission:
         Keep every control tick in :attr:`samples` (a trial's metrics and ``nav.csv``); the
         long-running daemon keeps only the last :data:`RECENT_SAMPLES`, so its memory stays
         flat (a tick kept is about 0.3 kB: 20 MB per robot-hour at 20 Hz).
+    planner : Planner or None
+        Where the navigator's global plans are searched when
+        ``config.navigator.plan_delay_ticks`` > 0 (the daemon: a
+        :class:`~jackson.host.nav.planner_server.WorkerPlanner`; default: on the frame loop).
 
     Raises
     ------
@@ -193,6 +198,7 @@ class NavigateMission:
         static_map: OccupancyGrid | None = None,
         *,
         keep_samples: bool = True,
+        planner: Planner | None = None,
     ) -> None:
         self.config = config
         # the guard's limit (TimedMission): a survey of a whole floor gets the time it needs
@@ -238,7 +244,7 @@ class NavigateMission:
             nav_config = dataclasses.replace(nav_config, global_track_unknown_space=False)
         self.map_to_odom = Pose2D()  # the localiser's correction (identity until it has one)
         self._requested: Pose2D | None = None  # a goal from another thread (ROS /goal_pose)
-        self.navigator = Navigator(nav_config, nav_map, limits)
+        self.navigator = Navigator(nav_config, nav_map, limits, planner)
         if static_map is not None:  # a start or goal the map rules out: before anything moves
             check_route(
                 static_map, config.start, config.goals, nav_config, self.navigator.static_costmap
@@ -493,6 +499,7 @@ def navigate_meta(config: NavigateConfig) -> dict[str, object]:
         "deskew": config.deskew,
         "amcl": dataclasses.asdict(config.amcl),
         "map_update_s": config.map_update_s,
+        "plan_delay_ticks": config.navigator.plan_delay_ticks,
         "seed": config.seed,
         "map": f"{MAP_NAME}.yaml" if config.localisation == "amcl" else None,
     }

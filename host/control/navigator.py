@@ -66,6 +66,7 @@ from jackson.host.nav.astar import prepare
 from jackson.host.nav.costmap import Costmap
 from jackson.host.nav.dwb import Command, DwbPlanner, own_granularity
 from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.nav.planner_server import Planner
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]
@@ -119,6 +120,9 @@ class Navigator:
         The map (map frame) of the global costmap's static layer.
     limits : LimiterConfig
         Speed and acceleration bounds (the local planner samples inside them).
+    planner : Planner or None
+        Where global plans are searched when ``config.plan_delay_ticks`` > 0
+        (:mod:`jackson.host.nav.planner_server`; default: on the caller's thread).
 
     Attributes
     ----------
@@ -139,7 +143,11 @@ class Navigator:
     """
 
     def __init__(
-        self, config: NavigatorConfig, static_map: OccupancyGrid, limits: LimiterConfig
+        self,
+        config: NavigatorConfig,
+        static_map: OccupancyGrid,
+        limits: LimiterConfig,
+        planner: Planner | None = None,
     ) -> None:
         self.config = config
         self.limits = limits
@@ -156,7 +164,9 @@ class Navigator:
         self.local_costmap = Costmap.rolling_window(
             local_cfg, cx, cy, config.local_size_m, config.local_resolution_m
         )
-        self.planning = GlobalPlanning(config, global_costmap, static_costmap, self.local_costmap)
+        self.planning = GlobalPlanning(
+            config, global_costmap, static_costmap, self.local_costmap, planner
+        )
         self.behaviours = RecoveryBehaviours(config, self.local_costmap, global_costmap)
         self.dwb = DwbPlanner(
             dataclasses.replace(config.dwb, xy_goal_tolerance_m=self.goal_window_m), limits
@@ -431,7 +441,7 @@ class Navigator:
     def _end_recovery(self) -> None:
         """Back to planning with a fresh path, progress window and oscillation memory."""
         self._state = NavigatorState.PLANNING
-        self.planning.path = None
+        self.planning.forget_path()
         self._progress_anchor = None
         self._local_cleared = False
         self.dwb.critic("Oscillation").reset()

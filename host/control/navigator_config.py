@@ -10,6 +10,13 @@ from jackson.host.nav.astar import AStarConfig
 from jackson.host.nav.costmap import CostmapConfig
 from jackson.host.nav.dwb import DwbConfig
 
+PLAN_DELAY_TICKS = 2
+"""Control ticks from asking for a global plan to taking it, in the daemon and the twin's trials
+(100 ms at 20 Hz): time for the planner server's worker to search a 20 m map on a Jetson-class
+core (45-75 ms) while the frame loop goes on, and nothing beside Nav2's planner server, which
+answers the controller asynchronously at 1 Hz."""
+MAX_PLAN_DELAY_TICKS = 20
+
 
 @dataclass(frozen=True)
 class NavigatorConfig:
@@ -64,6 +71,12 @@ class NavigatorConfig:
         again.
     simulate_ahead_time_s : float
         How far ahead spin and back-up check for collisions [s] (Nav2: 2.0).
+    plan_delay_ticks : int
+        A global plan asked for at one control tick is taken this many ticks later (searched
+        meanwhile by the planner server, :mod:`jackson.host.nav.planner_server`, off the
+        control thread where the daemon runs one); 0 searches and takes it on the tick that
+        asks for it, as runs recorded before the planner server did. :data:`PLAN_DELAY_TICKS`
+        is what the daemon and the twin's trials use.
     """
 
     costmap: CostmapConfig = field(default_factory=CostmapConfig)
@@ -93,6 +106,7 @@ class NavigatorConfig:
     simulate_ahead_time_s: float = 2.0
     unreachable_confirm_s: float = 2.0
     max_reverifications: int = 3
+    plan_delay_ticks: int = 0
 
     def __post_init__(self) -> None:
         for name in (
@@ -126,6 +140,11 @@ class NavigatorConfig:
             raise ValueError(
                 "NavigatorConfig.goal_margin_m must be below xy_goal_tolerance_m, "
                 f"got {self.goal_margin_m} >= {self.xy_goal_tolerance_m}"
+            )
+        if not 0 <= self.plan_delay_ticks <= MAX_PLAN_DELAY_TICKS:
+            raise ValueError(
+                f"NavigatorConfig.plan_delay_ticks must be in 0-{MAX_PLAN_DELAY_TICKS}, "
+                f"got {self.plan_delay_ticks}"
             )
         if self.max_reverifications < 0:
             raise ValueError(

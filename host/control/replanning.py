@@ -33,9 +33,10 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.control.navigator_config import NavigatorConfig
-from jackson.host.nav.astar import NoPathError, astar, path_cost
+from jackson.host.nav.astar import CostGrid, NoPathError, astar, path_cost
 from jackson.host.nav.costmap import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, Costmap
 from jackson.host.nav.dwb import prune_path
+from jackson.host.nav.planner_server import InlinePlanner, Planner, PlanRequest
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]
@@ -95,8 +96,14 @@ class GlobalPlanning:
         global_costmap: Costmap,
         static_costmap: Costmap,
         local_costmap: Costmap,
+        planner: Planner | None = None,
     ) -> None:
         self.config = config
+        self.planner: Planner = planner if planner is not None else InlinePlanner()
+        self._pending: PlanRequest | None = None  # the plan asked for, not yet taken
+        self._pending_ticks = 0  # ticks since it was asked for
+        self._pending_t_s = 0.0  # when
+        self._requests = 0
         self.global_costmap = global_costmap
         self.static_costmap = static_costmap
         self.local_costmap = local_costmap
@@ -113,6 +120,7 @@ class GlobalPlanning:
 
     def reset(self) -> None:
         """A new goal: no path, nothing counted, nothing pending."""
+        self._pending = None
         self.path = None
         self._t_plan_s = -math.inf
         self._t_blocked_plan_s = -math.inf
@@ -144,6 +152,8 @@ class GlobalPlanning:
             Whether there is a path to follow, and what the search found.
         """
         self._scan_since_plan = self._scan_since_plan or scanned
+        if self.config.plan_delay_ticks > 0:
+            return self._update_ahead(t_s, pose, goal)
         if self._no_path_since_s is not None and not self._scan_since_plan:
             return PlanOutcome(False)  # cut off: only a new scan can change that
         due = self._needs_plan(t_s, pose) or self._plan_deferred
@@ -154,6 +164,48 @@ class GlobalPlanning:
             self._plan_deferred = False
             self._scan_since_plan = False
             return self._make_plan(t_s, pose, goal)
+        return PlanOutcome(self.path is not None)
+
+    def forget_path(self) -> None:
+        """Drop the path and any plan asked for (a recovery ended: plan afresh from here)."""
+        self.path = None
+        self._pending = None
+
+    def _update_ahead(self, t_s: float, pose: Pose2D, goal: Pose2D) -> PlanOutcome:
+        """``plan_delay_ticks`` > 0: a plan is asked for when due and taken that many ticks
+        later (the path followed meanwhile is the current one); the searches run in the
+        planner (:mod:`jackson.host.nav.planner_server`). No tick waits for a scan's: the
+        search runs elsewhere, on the costs as the tick that asks for it left them."""
+        if self._pending is not None:
+            self._pending_ticks += 1
+            if self._pending_ticks < self.config.plan_delay_ticks:
+                return PlanOutcome(self.path is not None)
+            request, self._pending = self._pending, None
+            answer = self.planner.answer(request)
+            if answer.path is None:  # why there is none is found here, as without the delay
+                return self._no_path_found(t_s, pose, goal)
+            costs = None
+            if answer.cost is not None and answer.kept_cost is not None:
+                costs = (answer.kept_cost, answer.cost)
+            return self._accept(self._pending_t_s, pose, answer.path, None, costs)
+        if self._no_path_since_s is not None and not self._scan_since_plan:
+            return PlanOutcome(False)  # cut off: only a new scan can change that
+        if self._needs_plan(t_s, pose):
+            self._scan_since_plan = False
+            self._requests += 1
+            kept = None  # priced with the new path by the planner, on the same costs
+            if self.path is not None and self.config.replan_hysteresis > 0.0:
+                kept = np.vstack(((pose.x, pose.y), prune_path(self.path, pose.x, pose.y)))
+            request = PlanRequest(
+                self._requests,
+                CostGrid.of(self.global_costmap),
+                (pose.x, pose.y),
+                (goal.x, goal.y),
+                self.config.planner,
+                kept,
+            )
+            self.planner.submit(request)
+            self._pending, self._pending_ticks, self._pending_t_s = request, 0, t_s
         return PlanOutcome(self.path is not None)
 
     def _needs_plan(self, t_s: float, pose: Pose2D) -> bool:
@@ -203,25 +255,46 @@ class GlobalPlanning:
         try:
             path = astar(self.global_costmap, start, target, self.config.planner)
         except NoPathError:
-            self.path = None
-            again, blocked, failure = self._no_path(t_s, pose, goal)
-            if not again:
-                return PlanOutcome(False, True, blocked, failure)
-            try:  # what blocked it was forgotten: plan again at once
-                path = astar(self.global_costmap, start, target, self.config.planner)
-            except NoPathError:
-                _, blocked_again, failure = self._no_path(t_s, pose, goal)
-                return PlanOutcome(False, True, blocked_again or blocked, failure)
-        else:
-            blocked = None
+            return self._no_path_found(t_s, pose, goal)
+        return self._accept(t_s, pose, path, None)
+
+    def _no_path_found(self, t_s: float, pose: Pose2D, goal: Pose2D) -> PlanOutcome:
+        """The search found no path: wait, look again or fail (:meth:`_no_path`); a block
+        forgotten is searched again at once, on this tick."""
+        start, target = (pose.x, pose.y), (goal.x, goal.y)
+        self.path = None
+        again, blocked, failure = self._no_path(t_s, pose, goal)
+        if not again:
+            return PlanOutcome(False, True, blocked, failure)
+        try:  # what blocked it was forgotten: plan again at once
+            path = astar(self.global_costmap, start, target, self.config.planner)
+        except NoPathError:
+            _, blocked_again, failure = self._no_path(t_s, pose, goal)
+            return PlanOutcome(False, True, blocked_again or blocked, failure)
+        return self._accept(t_s, pose, path, blocked)
+
+    def _accept(
+        self,
+        t_s: float,
+        pose: Pose2D,
+        path: FloatArray,
+        blocked: str | None,
+        costs: tuple[float, float] | None = None,
+    ) -> PlanOutcome:
+        """A path found (asked for at ``t_s``): follow it, unless the current one is kept.
+        ``costs``: the current path's and the new one's, priced by the planner where it
+        searched (else priced here, on the global costmap)."""
         self._no_path_since_s = None
         self.blocked_at = None
         self.replans += 1
         self._t_plan_s = t_s
         if self.path is not None and self.config.replan_hysteresis > 0.0:
-            ahead = np.vstack(((pose.x, pose.y), prune_path(self.path, pose.x, pose.y)))
-            old_cost = path_cost(ahead, self.global_costmap, self.config.planner)
-            new_cost = path_cost(path, self.global_costmap, self.config.planner)
+            if costs is not None:
+                old_cost, new_cost = costs
+            else:
+                ahead = np.vstack(((pose.x, pose.y), prune_path(self.path, pose.x, pose.y)))
+                old_cost = path_cost(ahead, self.global_costmap, self.config.planner)
+                new_cost = path_cost(path, self.global_costmap, self.config.planner)
             if old_cost <= (1.0 + self.config.replan_hysteresis) * new_cost:
                 self.kept_plans += 1
                 return PlanOutcome(True, True, blocked)

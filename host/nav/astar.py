@@ -94,6 +94,7 @@ from scipy.linalg import solve_banded
 from skimage.graph import MCP_Geometric
 
 from jackson.common.errors import JacksonError
+from jackson.common.geometry import cell_to_world, world_to_cell
 from jackson.host.nav.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     MAX_NON_OBSTACLE,
@@ -114,6 +115,58 @@ empties its values on each search's reset but keeps its item count, so the entri
 stopping search leaves behind add up: one object kept for a whole run grew its heap by
 doubling to megabytes (and every reset and every exhausted search walked all of it). A new
 object every 16 searches bounds it; building one costs about a third of a search."""
+
+
+@dataclass(eq=False)
+class CostGrid:
+    """A costmap's cost values and where they lie, all the planner reads of a
+    :class:`~jackson.host.nav.costmap.Costmap`: a copy to plan on elsewhere (the planner
+    server's worker process, :mod:`jackson.host.nav.planner_server`).
+
+    Attributes
+    ----------
+    costs : ndarray of uint8, shape (rows, cols)
+        The master costs (row 0 at the lowest y).
+    resolution_m, origin_x_m, origin_y_m : float
+        Cell edge and the grid's lower-left corner [m].
+    """
+
+    costs: npt.NDArray[np.uint8]
+    resolution_m: float
+    origin_x_m: float
+    origin_y_m: float
+
+    @classmethod
+    def of(cls, costmap: Costmap) -> CostGrid:
+        """A copy of ``costmap``'s costs and geometry as they are now."""
+        return cls(
+            costmap.costs.copy(), costmap.resolution_m, costmap.origin_x_m, costmap.origin_y_m
+        )
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        return (int(self.costs.shape[0]), int(self.costs.shape[1]))
+
+    def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
+        """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
+        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
+
+    def cell_to_world(
+        self, row: npt.ArrayLike, col: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """Map-frame centres of cells [m]."""
+        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
+
+    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> BoolArray:
+        """Which (row, col) lie on the grid."""
+        r, c = np.asarray(row), np.asarray(col)
+        rows, cols = self.shape
+        return (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+
+
+PlanGrid = Costmap | CostGrid
+"""What the planner plans on: a costmap, or a copy of its costs (:class:`CostGrid`)."""
 
 
 class NoPathError(JacksonError, RuntimeError):
@@ -165,7 +218,7 @@ class AStarConfig:
             )
 
 
-def cell_costs(costmap: Costmap, config: AStarConfig) -> tuple[FloatArray, BoolArray]:
+def cell_costs(costmap: PlanGrid, config: AStarConfig) -> tuple[FloatArray, BoolArray]:
     """Per-cell traversal cost c_neutral + f c and passability of a costmap.
 
     Parameters
@@ -191,7 +244,7 @@ def cell_costs(costmap: Costmap, config: AStarConfig) -> tuple[FloatArray, BoolA
 
 
 def astar(
-    costmap: Costmap,
+    costmap: PlanGrid,
     start_xy: tuple[float, float],
     goal_xy: tuple[float, float],
     config: AStarConfig | None = None,
@@ -288,7 +341,7 @@ def prepare(costmap: Costmap) -> None:
             _searcher(np.full(shape, np.inf))
 
 
-def path_cost(path: npt.ArrayLike, costmap: Costmap, config: AStarConfig | None = None) -> float:
+def path_cost(path: npt.ArrayLike, costmap: PlanGrid, config: AStarConfig | None = None) -> float:
     """A path's cost in the planner's terms: sum of |segment| (C(from) + C(to)) / 2.
 
     C is a point's cell cost c_neutral + f c. Segment lengths are in cells, so for a path
@@ -333,7 +386,7 @@ def path_cost(path: npt.ArrayLike, costmap: Costmap, config: AStarConfig | None 
 
 
 def _nearest_passable(
-    costmap: Costmap, passable: BoolArray, gr: int, gc: int, tolerance_m: float
+    costmap: PlanGrid, passable: BoolArray, gr: int, gc: int, tolerance_m: float
 ) -> tuple[int, int]:
     """The passable cell nearest a blocked goal cell, within the tolerance."""
     res = costmap.resolution_m
@@ -377,7 +430,7 @@ class _Derived:
 
 
 _LOCK = threading.RLock()
-_DERIVED: weakref.WeakKeyDictionary[Costmap, _Derived] = weakref.WeakKeyDictionary()
+_DERIVED: weakref.WeakKeyDictionary[PlanGrid, _Derived] = weakref.WeakKeyDictionary()
 _SEARCHERS: OrderedDict[tuple[int, int], _Kept] = OrderedDict()
 
 
@@ -390,7 +443,7 @@ class _Kept:
     searches: int = 0
 
 
-def _derived(costmap: Costmap, config: AStarConfig) -> _Derived:
+def _derived(costmap: PlanGrid, config: AStarConfig) -> _Derived:
     """The costmap's cell costs, passability and components, kept while its costs stay."""
     rule = (config.neutral_cost, config.cost_factor, config.allow_unknown)
     values = costmap.costs
@@ -511,7 +564,7 @@ def _search_grid(
 
 def smooth_path(
     path: FloatArray,
-    costmap: Costmap,
+    costmap: PlanGrid,
     config: AStarConfig,
     passable: npt.NDArray[np.bool_] | None = None,
 ) -> FloatArray:

@@ -47,6 +47,7 @@ from jackson.host.control.base import NavState
 from jackson.host.control.navigate import NavigateConfig, NavigateMission
 from jackson.host.control.route import RouteChecker, RouteError
 from jackson.host.nav.grid import OccupancyGrid
+from jackson.host.nav.planner_server import Planner
 from jackson.host.nav.types import Pose2D, Scan
 from jackson.host.service.goals import GoalBook, GoalRecord, GoalStatus
 from jackson.host.service.settings import ServiceSettings
@@ -182,6 +183,8 @@ class NavigationService:
         The map it localises and plans on.
     settings : ServiceSettings
         Timeouts, the lost-localisation test, the history kept.
+    planner : Planner or None
+        Where its global plans are searched (:class:`NavigateMission`).
     """
 
     name = "service"
@@ -192,10 +195,11 @@ class NavigationService:
         limits: LimiterConfig,
         static_map: OccupancyGrid,
         settings: ServiceSettings,
+        planner: Planner | None = None,
     ) -> None:
         self.settings = settings
         self.nav = NavigateMission(
-            replace(config, goals=()), limits, static_map, keep_samples=False
+            replace(config, goals=()), limits, static_map, keep_samples=False, planner=planner
         )
         self.routes = RouteChecker(
             static_map, self.nav.navigator.config, self.nav.navigator.static_costmap

@@ -301,6 +301,13 @@ def test_the_bag_thins_local_plan_by_default_and_a_config_may_keep_every_message
     assert cfg.bag_topic_hz == {"scan": 2.0, "local_plan": 1.0}
 
 
+def test_the_bag_rates_name_every_topic_key_the_bag_has() -> None:
+    from jackson.host.config import BAG_TOPIC_KEYS
+    from jackson.host.ros.settings import TOPIC_TYPES
+
+    assert BAG_TOPIC_KEYS == tuple(TOPIC_TYPES)
+
+
 def test_per_side_values(tmp_path: Path) -> None:
     cfg = load_with(
         tmp_path,

@@ -1,0 +1,372 @@
+"""The global planner off the control thread: a plan searched in a worker process while the
+frame loop goes on, answered a fixed number of control ticks later.
+
+A global plan on a 20 m map takes 15-25 ms of search (scikit-image's ``MCP_Geometric``, which
+holds the interpreter's lock throughout, so a thread cannot take it off the control thread);
+on a Jetson-class core three times that, most of a 50 ms control period. Nav2 runs its planner
+as a server beside the controller for the same reason. Here the navigator's global planning
+(:mod:`jackson.host.control.replanning`, ``plan_delay_ticks`` > 0) hands each search to a
+planner as a :class:`PlanRequest` (a copy of the global costmap's costs, the start, the goal)
+and takes the answer ``plan_delay_ticks`` control ticks later, whoever computed it:
+
+- :class:`InlinePlanner` searches at once, on the caller's thread, and keeps the answer until
+  it is asked for: trials on the twin, replays and tests;
+- :class:`WorkerPlanner` sends the request to one worker process (``python -m
+  jackson.host.nav.planner_server``, over a socket pair; a fresh interpreter, so it shares
+  nothing with the daemon's threads) and reads the answer when it is due, waiting
+  at most :data:`WAIT_S` (a quarter of the control period) if the worker has not answered by
+  then, and searching it on the caller's thread if it still has not (counted in
+  :attr:`WorkerPlanner.late`: a worker still starting, or a machine too busy). A worker that
+  dies, or misses :data:`MISSES_TO_GIVE_UP` answers in a row (stopped, stuck), is replaced by
+  the search on the caller's thread for the rest of the run (one line said).
+
+Both give the same answer for the same request: the search is the same function of the same
+copied costs (:func:`solve`), so which one ran changes when the CPU is spent, never a plan, and
+a run replays bit for bit on either. The worker's CPU time comes back with each answer
+(:attr:`WorkerPlanner.cpu_s`), so the daemon's CPU figures count it.
+
+A planner pickles (a run folder's snapshot) as an :class:`InlinePlanner` holding the answer of
+the request in flight, if any.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from jackson.host.nav.astar import AStarConfig, CostGrid, NoPathError, astar, path_cost
+
+FloatArray = npt.NDArray[np.float64]
+
+WAIT_S = 0.0125  # [s] the most a control step waits for an answer due (a quarter period)
+MISSES_TO_GIVE_UP = 3  # answers in a row not in by then, once the worker is ready: given up
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """One search: the costs to plan on, from where, to where.
+
+    Attributes
+    ----------
+    id : int
+        The request's number (each planner's own sequence).
+    grid : CostGrid
+        A copy of the global costmap's costs when the plan was asked for.
+    start_xy, goal_xy : tuple of float
+        Map-frame positions [m].
+    config : AStarConfig
+        The planner's parameters.
+    kept : ndarray, shape (K, 2), or None
+        The path followed now, from the start (the robot) on: priced beside the new one, for
+        the replanning hysteresis (:mod:`jackson.host.control.replanning`); None without one.
+    """
+
+    id: int
+    grid: CostGrid
+    start_xy: tuple[float, float]
+    goal_xy: tuple[float, float]
+    config: AStarConfig
+    kept: FloatArray | None = None
+
+
+@dataclass(frozen=True)
+class PlanAnswer:
+    """A request's answer: the path, or why there is none.
+
+    Attributes
+    ----------
+    id : int
+        The request's number.
+    path : ndarray, shape (N, 2), or None
+        The path [m], map frame (:func:`~jackson.host.nav.astar.astar`); None without one.
+    error : str or None
+        The :class:`~jackson.host.nav.astar.NoPathError`'s message when there is no path.
+    cost, kept_cost : float or None
+        The new path's and the request's ``kept`` path's cost on the request's costs
+        (:func:`~jackson.host.nav.astar.path_cost`); None without them.
+    """
+
+    id: int
+    path: FloatArray | None
+    error: str | None = None
+    cost: float | None = None
+    kept_cost: float | None = None
+
+
+def solve(request: PlanRequest) -> PlanAnswer:
+    """The answer to ``request``: :func:`~jackson.host.nav.astar.astar` on its copied costs,
+    and both paths priced when it carries the one followed now."""
+    try:
+        path = astar(request.grid, request.start_xy, request.goal_xy, request.config)
+    except NoPathError as exc:
+        return PlanAnswer(request.id, None, str(exc))
+    if request.kept is None:
+        return PlanAnswer(request.id, path)
+    cost = path_cost(path, request.grid, request.config)
+    kept_cost = path_cost(request.kept, request.grid, request.config)
+    return PlanAnswer(request.id, path, None, cost, kept_cost)
+
+
+class Planner(Protocol):
+    """Where the global planning's searches run (module docstring)."""
+
+    def submit(self, request: PlanRequest) -> None:
+        """Start the search of ``request`` (the one before it, unanswered, is dropped)."""
+        ...
+
+    def answer(self, request: PlanRequest) -> PlanAnswer:
+        """The answer to ``request``, the last one submitted."""
+        ...
+
+    def close(self) -> None:
+        """Stop any worker (the planner keeps answering, on the caller's thread)."""
+        ...
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU time spent off the caller's process [s] (0 for a planner without a worker)."""
+        ...
+
+
+class InlinePlanner:
+    """Searches each request at once on the caller's thread; the answer waits until asked."""
+
+    def __init__(self) -> None:
+        self._answer: PlanAnswer | None = None
+
+    def submit(self, request: PlanRequest) -> None:
+        """Search ``request`` now."""
+        self._answer = solve(request)
+
+    def answer(self, request: PlanRequest) -> PlanAnswer:
+        """The answer to ``request`` (searched now if it is not the one held)."""
+        held = self._answer
+        self._answer = None
+        return held if held is not None and held.id == request.id else solve(request)
+
+    def close(self) -> None:
+        """Nothing to stop."""
+
+    @property
+    def cpu_s(self) -> float:
+        """0: every search ran on the caller's thread."""
+        return 0.0
+
+
+class WorkerPlanner:
+    """Searches in one worker process (module docstring).
+
+    Parameters
+    ----------
+    say : callable
+        Tells the operator when the worker is given up (one line).
+
+    Attributes
+    ----------
+    late : int
+        Answers that were not in when they fell due (the caller waited for them).
+    """
+
+    def __init__(self, say: Callable[[str], None] = print) -> None:
+        self.say = say
+        self.late = 0
+        self._cpu_ready_s: float | None = None
+        self._cpu_s = 0.0
+        self._lock = threading.Lock()  # sends and receives; a snapshot may read from its thread
+        parent, child = socket.socketpair()
+        # a request the worker does not take in (stopped, stuck) fails after this long
+        # rather than blocking the control thread once the socket's buffer is full
+        sec, usec = divmod(round(WAIT_S * 1e6), 1_000_000)
+        parent.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", sec, usec))
+        self._conn: Connection | None = Connection(parent.detach())
+        self._process: subprocess.Popen[bytes] | None = None
+        try:
+            # its own session: a Ctrl-C on the daemon's terminal is the daemon's to handle;
+            # the worker ends with its socket (the daemon's exit, even a kill)
+            self._process = subprocess.Popen(
+                [sys.executable, "-m", __name__, str(child.fileno())],
+                pass_fds=(child.fileno(),),
+                stdin=subprocess.DEVNULL,
+                start_new_session=True,
+            )
+        except OSError as exc:
+            self._give_up(f"cannot start ({exc})")
+        finally:
+            child.close()
+        self._sent: PlanRequest | None = None
+        self._early: PlanAnswer | None = None  # an answer a snapshot read before it fell due
+        self._misses = 0  # late answers in a row since the worker was ready
+
+    @property
+    def alive(self) -> bool:
+        """The worker is in use."""
+        return self._conn is not None
+
+    @property
+    def cpu_s(self) -> float:
+        """The worker's CPU time since it was ready, as of its last answer [s]."""
+        return self._cpu_s
+
+    def submit(self, request: PlanRequest) -> None:
+        """Send ``request`` to the worker (searched at once here without one)."""
+        with self._lock:
+            self._sent = request
+            if self._conn is None:
+                return
+            try:
+                self._conn.send(request)
+            except (OSError, ValueError) as exc:
+                self._give_up(f"is gone (a request could not be sent: {exc})")
+
+    def answer(self, request: PlanRequest) -> PlanAnswer:
+        """The worker's answer to ``request``: read when in, waited for at most
+        :data:`WAIT_S` when not, else searched here (late; after :data:`MISSES_TO_GIVE_UP`
+        late answers in a row the worker is given up)."""
+        with self._lock:
+            early, self._early = self._early, None
+            if early is not None and early.id == request.id:
+                got: PlanAnswer | None = early
+            elif self._conn is not None:
+                got = self._receive(request, WAIT_S)
+                if got is None and self._conn is not None:
+                    self.late += 1
+                    if self._cpu_ready_s is not None:  # not merely still starting
+                        self._misses += 1
+                        if self._misses >= MISSES_TO_GIVE_UP:
+                            self._give_up(f"missed {self._misses} answers in a row")
+                elif got is not None:
+                    self._misses = 0
+            else:
+                got = None
+            self._sent = None
+        return got if got is not None else solve(request)
+
+    def wait(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for the answer in flight (a run faster than the robot's
+        clock: what the control periods before it falls due would give the worker); True once
+        it is in (or nothing is in flight)."""
+        with self._lock:
+            sent = self._sent
+            if sent is None or self._conn is None:
+                return True
+            if self._early is not None and self._early.id == sent.id:
+                return True
+            got = self._receive(sent, timeout_s)
+            if got is not None:
+                self._early = got
+            return got is not None
+
+    def close(self) -> None:
+        """Stop the worker (it exits when its end of the socket closes)."""
+        with self._lock:
+            conn, self._conn = self._conn, None
+        if conn is not None:
+            with contextlib.suppress(OSError, ValueError):
+                conn.send(None)
+            conn.close()
+        if self._process is not None:
+            try:
+                self._process.wait(timeout=2.0)
+            except subprocess.TimeoutExpired:
+                self._process.kill()
+                self._process.wait()
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled as an :class:`InlinePlanner` holding the answer of the request in flight
+        (read from the worker now, and kept for the frame loop to take when it falls due)."""
+        with self._lock:
+            sent = self._sent
+            if sent is not None and (self._early is None or self._early.id != sent.id):
+                got = self._receive(sent, WAIT_S) if self._conn is not None else None
+                self._early = got if got is not None else solve(sent)
+            held = self._early if sent is not None else None
+        return (_inline_holding, (held,))
+
+    # ------------------------------------------------------------------ internals
+
+    def _receive(self, request: PlanRequest, wait_s: float) -> PlanAnswer | None:
+        """The answer to ``request`` from the socket (others dropped), waiting at most
+        ``wait_s``; None when it is not in by then or the worker is gone (given up)."""
+        conn = self._conn
+        assert conn is not None
+        deadline = time.monotonic() + wait_s
+        while True:
+            try:
+                if not conn.poll(max(0.0, deadline - time.monotonic())):
+                    return None
+                message = conn.recv()
+            except (EOFError, OSError) as exc:
+                self._give_up(f"ended ({exc or 'its socket closed'})")
+                return None
+            except Exception as exc:  # an answer that does not unpickle: not ours to trust
+                self._give_up(f"sent what cannot be read ({exc})")
+                return None
+            if isinstance(message, tuple) and len(message) == 2 and message[0] == "ready":
+                self._cpu_ready_s = float(message[1])
+                continue
+            answer, cpu_s = message
+            if self._cpu_ready_s is not None:
+                self._cpu_s = float(cpu_s) - self._cpu_ready_s
+            if answer.id == request.id:
+                return answer  # type: ignore[no-any-return]
+
+    def _give_up(self, why: str) -> None:
+        """Plan on the caller's thread from now on."""
+        self.say(f"planner: the worker process {why}; planning on the control thread instead")
+        conn, self._conn = self._conn, None
+        if conn is not None:
+            conn.close()
+        if self._process is not None and self._process.poll() is None:
+            self._process.kill()
+            self._process.wait()
+
+
+def _inline_holding(answer: PlanAnswer | None) -> InlinePlanner:
+    """An :class:`InlinePlanner` holding ``answer`` (a pickled planner's state)."""
+    planner = InlinePlanner()
+    planner._answer = answer
+    return planner
+
+
+def serve(conn: Connection) -> None:
+    """The worker: answer each request until its socket closes or a None arrives."""
+    conn.send(("ready", time.process_time()))
+    while True:
+        try:
+            request = conn.recv()
+        except (EOFError, OSError):
+            return
+        if request is None:
+            return
+        answer = solve(request)
+        try:
+            conn.send((answer, time.process_time()))
+        except (OSError, ValueError):
+            return
+
+
+def main() -> None:
+    """``python -m jackson.host.nav.planner_server FD``: the worker on socket ``FD``.
+
+    It serves from the module imported by its name, not from ``__main__``, so that its answers
+    unpickle in the daemon as :class:`PlanAnswer`.
+    """
+    from jackson.host.nav import planner_server
+
+    planner_server.serve(Connection(int(sys.argv[1])))
+
+
+if __name__ == "__main__":
+    main()
