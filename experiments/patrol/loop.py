@@ -376,9 +376,9 @@ class Patrol:
         sample = Sample(
             now,
             float(st.get("t_s") or 0.0),
-            rss_mb(self.daemon.pid),
+            rss_mb(self.daemon.pid, with_children=True),  # its planner worker with it
             rss_mb(self.sim.pid),
-            cpu_s(self.daemon.pid),
+            cpu_s(self.daemon.pid, with_children=True),
             cpu_s(self.sim.pid),
             float((st.get("disk") or {}).get("used_mb") or 0.0),
             len(self.result.outcomes),

@@ -52,8 +52,31 @@ class TruthTail:
         return math.hypot(self.rows[-1][1] - then[0], self.rows[-1][2] - then[1])
 
 
-def rss_mb(pid: int) -> float:
-    """The resident set of process ``pid`` [MB] (``VmRSS``; NaN once it has ended)."""
+def children(pid: int) -> list[int]:
+    """The processes ``pid`` started and that still run (the daemon's planner worker)."""
+    out: list[int] = []
+    try:
+        tasks = list(Path(f"/proc/{pid}/task").iterdir())
+    except OSError:
+        return out
+    for task in tasks:
+        try:
+            out += [int(c) for c in (task / "children").read_text().split()]
+        except (OSError, ValueError):
+            continue
+    return out
+
+
+def rss_mb(pid: int, with_children: bool = False) -> float:
+    """The resident set of process ``pid`` [MB] (``VmRSS``; NaN once it has ended), with its
+    children's (:func:`children`) when asked."""
+    total = _rss_mb(pid)
+    if with_children and not math.isnan(total):
+        total += sum(x for x in map(_rss_mb, children(pid)) if not math.isnan(x))
+    return total
+
+
+def _rss_mb(pid: int) -> float:
     try:
         for line in Path(f"/proc/{pid}/status").read_text().splitlines():
             if line.startswith("VmRSS:"):
@@ -63,8 +86,16 @@ def rss_mb(pid: int) -> float:
     return math.nan
 
 
-def cpu_s(pid: int) -> float:
-    """The CPU time process ``pid`` has used, user and system [s] (NaN once it has ended)."""
+def cpu_s(pid: int, with_children: bool = False) -> float:
+    """The CPU time process ``pid`` has used, user and system [s] (NaN once it has ended),
+    with that of its running children (:func:`children`) when asked."""
+    total = _cpu_s(pid)
+    if with_children and not math.isnan(total):
+        total += sum(x for x in map(_cpu_s, children(pid)) if not math.isnan(x))
+    return total
+
+
+def _cpu_s(pid: int) -> float:
     try:
         fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
         return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")

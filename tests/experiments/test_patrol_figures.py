@@ -208,3 +208,29 @@ def test_the_mapping_floors_drop_in_open_floor_and_list_shut_off_points(name: st
     for x, y in spec.patrol.unreachable:
         r, c = world_to_cell(x, y, x0, y0, 0.05)
         assert not occupied[r, c] and not reach[r, c], (x, y)
+
+
+def test_a_processs_figures_may_count_the_children_it_started() -> None:
+    # the daemon's memory and CPU with its planner worker's: a child that burns CPU and holds
+    # memory shows in the parent's figures with its children, and not without
+    import os
+    import subprocess
+    import sys
+
+    from jackson.experiments.patrol.processes import children, cpu_s, rss_mb
+
+    burn = "b = b\"x\" * (64 << 20); import time; t = time.process_time() + 0.3\n"
+    burn += "while time.process_time() < t: pass\nprint(flush=True); input()"
+    child = subprocess.Popen(
+        [sys.executable, "-c", burn], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert child.stdout is not None
+        child.stdout.readline()  # it has burnt its CPU and holds its memory
+        me = os.getpid()
+        assert child.pid in children(me)
+        assert cpu_s(me, with_children=True) >= cpu_s(me) + 0.29
+        assert rss_mb(me, with_children=True) >= rss_mb(me) + 60.0
+    finally:
+        child.kill()
+        child.wait()
