@@ -337,7 +337,7 @@ def _rooms_world() -> list[tuple[float, float, float, float]]:
 def _replanning_steps_ms(planner_server: bool = True) -> tuple[float, float]:
     """Worst and mean navigator step [ms of CPU] of a replanning drive (module docstring):
     as the daemon navigates (``planner_server``: each plan searched by the planner server's
-    worker process and taken two ticks later), or searching each plan in the step."""
+    worker process and taken PLAN_DELAY_TICKS later), or searching each plan in the step."""
     walls = _rooms_world()
     obstacles = Obstacles(segments=walls)
     world = dataclasses.replace(WorldSpec("rooms_20m"), walls=tuple(walls))

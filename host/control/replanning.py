@@ -104,6 +104,8 @@ class GlobalPlanning:
         self._pending_ticks = 0  # ticks since it was asked for
         self._pending_t_s = 0.0  # when
         self._requests = 0
+        self._blocked = False  # the path was found blocked (plan_delay_ticks > 0)
+        self._drop_path = False  # ... and the plan asked for replaces it
         self.global_costmap = global_costmap
         self.static_costmap = static_costmap
         self.local_costmap = local_costmap
@@ -121,6 +123,7 @@ class GlobalPlanning:
     def reset(self) -> None:
         """A new goal: no path, nothing counted, nothing pending."""
         self._pending = None
+        self._blocked = self._drop_path = False
         self.path = None
         self._t_plan_s = -math.inf
         self._t_blocked_plan_s = -math.inf
@@ -170,6 +173,7 @@ class GlobalPlanning:
         """Drop the path and any plan asked for (a recovery ended: plan afresh from here)."""
         self.path = None
         self._pending = None
+        self._blocked = self._drop_path = False
 
     def _update_ahead(self, t_s: float, pose: Pose2D, goal: Pose2D) -> PlanOutcome:
         """``plan_delay_ticks`` > 0: a plan is asked for when due and taken that many ticks
@@ -182,6 +186,8 @@ class GlobalPlanning:
                 return PlanOutcome(self.path is not None)
             request, self._pending = self._pending, None
             answer = self.planner.answer(request)
+            if self._drop_path:  # it was blocked: the new path replaces it, or none does
+                self.path, self._drop_path = None, False
             if answer.path is None:  # why there is none is found here, as without the delay
                 return self._no_path_found(t_s, pose, goal)
             costs = None
@@ -194,7 +200,9 @@ class GlobalPlanning:
             self._scan_since_plan = False
             self._requests += 1
             kept = None  # priced with the new path by the planner, on the same costs
-            if self.path is not None and self.config.replan_hysteresis > 0.0:
+            if self._blocked:
+                self._blocked, self._drop_path = False, True
+            elif self.path is not None and self.config.replan_hysteresis > 0.0:
                 kept = np.vstack(((pose.x, pose.y), prune_path(self.path, pose.x, pose.y)))
             request = PlanRequest(
                 self._requests,
@@ -216,7 +224,10 @@ class GlobalPlanning:
             return False
         if self.path_blocked(pose):
             self._t_blocked_plan_s = t_s
-            self.path = None  # the old path may not be kept
+            if self.config.plan_delay_ticks > 0:
+                self._blocked = True  # followed until the new one comes, never kept over it
+            else:
+                self.path = None  # the old path may not be kept
             return True
         return False
 

@@ -219,7 +219,7 @@ def test_a_processs_figures_may_count_the_children_it_started() -> None:
 
     from jackson.experiments.patrol.processes import children, cpu_s, rss_mb
 
-    burn = "b = b\"x\" * (64 << 20); import time; t = time.process_time() + 0.3\n"
+    burn = 'b = b"x" * (64 << 20); import time; t = time.process_time() + 0.3\n'
     burn += "while time.process_time() < t: pass\nprint(flush=True); input()"
     child = subprocess.Popen(
         [sys.executable, "-c", burn], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True

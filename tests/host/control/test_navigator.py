@@ -177,6 +177,29 @@ def test_the_path_is_replanned_as_soon_as_an_obstacle_blocks_it() -> None:
     assert np.min(np.hypot(detour[:, 0] - CYLINDER.x_m, detour[:, 1] - CYLINDER.y_m)) > 0.125 + 0.16
 
 
+def test_with_the_planner_server_a_blocked_path_is_followed_until_its_detour_comes() -> None:
+    # plan_delay_ticks 2: the blocked path stays the one followed (no stop) for the two ticks
+    # the detour takes, and the detour replaces it however it is priced
+    nav = Navigator(NavigatorConfig(plan_delay_ticks=2), corridor_map(), LimiterConfig())
+    nav.set_goal(GOAL)
+    world = Obstacles(segments=WALLS)
+    rng = np.random.default_rng(0)
+    states = [nav.step(0.0, START, (0.0, 0.0), scan_points(START, world, rng, 0.0)).state]
+    states += [nav.step(t, START, (0.0, 0.0), None).state for t in (0.05, 0.10)]
+    assert states == [NavigatorState.PLANNING, NavigatorState.PLANNING, NavigatorState.FOLLOWING]
+    straight = nav.plan
+    assert nav.replans == 1 and np.max(np.abs(straight[:, 1] - START.y)) < 0.02
+    world.add_circle(*CYLINDER)
+    for k, t in enumerate((0.15, 0.20)):  # asked for at 0.15 s, taken at 0.25 s
+        scan = scan_points(START, world, rng, 0.0) if k == 0 else None
+        cmd = nav.step(t, START, (0.0, 0.0), scan)
+        assert cmd.state == NavigatorState.FOLLOWING and np.array_equal(nav.plan, straight)
+    nav.step(0.25, START, (0.0, 0.0), None)
+    detour = nav.plan
+    assert nav.replans == 2 and not np.array_equal(detour, straight)
+    assert np.min(np.hypot(detour[:, 0] - CYLINDER.x_m, detour[:, 1] - CYLINDER.y_m)) > 0.125 + 0.16
+
+
 def test_a_stuck_robot_recovers_in_turn_and_fails_after_six_rounds() -> None:
     cfg = NavigatorConfig(
         progress_time_s=2.0, wait_s=1.0, spin_time_allowance_s=1.0, backup_time_allowance_s=1.0
