@@ -11,9 +11,9 @@ and takes the answer ``plan_delay_ticks`` control ticks later, whoever computed 
 
 - :class:`InlinePlanner` searches at once, on the caller's thread, and keeps the answer until
   it is asked for: trials on the twin, replays and tests;
-- :class:`WorkerPlanner` sends the request to one worker process (``python -m
-  jackson.host.nav.planner_server``, over a socket pair; a fresh interpreter, so it shares
-  nothing with the daemon's threads) and reads the answer when it is due, waiting
+- :class:`WorkerPlanner` sends the request to one worker process (a fresh interpreter running
+  :func:`serve` over a socket pair, :data:`BOOT`; it shares nothing with the daemon's threads)
+  and reads the answer when it is due, waiting
   at most :data:`WAIT_S` (a quarter of the control period) if the worker has not answered by
   then, and searching it on the caller's thread if it still has not (counted in
   :attr:`WorkerPlanner.late`: a worker still starting, or a machine too busy). A worker that
@@ -31,7 +31,9 @@ the request in flight, if any.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import os
 import socket
 import struct
 import subprocess
@@ -195,12 +197,17 @@ class WorkerPlanner:
         try:
             # its own session: a Ctrl-C on the daemon's terminal is the daemon's to handle;
             # the worker ends with its socket (the daemon's exit, even a kill)
+            # nor does it hold the daemon's output open (a stopped worker would keep a reader of
+            # the daemon's output waiting after the daemon ended)
             self._process = subprocess.Popen(
-                [sys.executable, "-m", __name__, str(child.fileno())],
+                [sys.executable, "-c", BOOT, str(child.fileno()), str(os.getpid())],
                 pass_fds=(child.fileno(),),
                 stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
                 start_new_session=True,
             )
+            atexit.register(self.close)  # the daemon's end, however the worker is
         except OSError as exc:
             self._give_up(f"cannot start ({exc})")
         finally:
@@ -357,16 +364,23 @@ def serve(conn: Connection) -> None:
             return
 
 
-def main() -> None:
-    """``python -m jackson.host.nav.planner_server FD``: the worker on socket ``FD``.
+BOOT = """\
+import ctypes, os, signal, sys
+if sys.platform.startswith("linux"):  # killed by the kernel when the daemon ends, however
+    try:
+        ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+if os.getppid() == int(sys.argv[2]):  # else the daemon ended before the kernel was told
+    from jackson.host.nav.planner_server import serve_socket
+    serve_socket(int(sys.argv[1]))
+"""
+"""The worker's interpreter's first lines (``python -c BOOT FD PID``), before any import of the
+planner: on Linux the kernel kills the worker when the daemon ``PID`` ends, however it ends
+(``PR_SET_PDEATHSIG``; a worker stopped with SIGSTOP never reads the end of its socket, and one
+stopped while still importing would not have asked yet)."""
 
-    It serves from the module imported by its name, not from ``__main__``, so that its answers
-    unpickle in the daemon as :class:`PlanAnswer`.
-    """
-    from jackson.host.nav import planner_server
 
-    planner_server.serve(Connection(int(sys.argv[1])))
-
-
-if __name__ == "__main__":
-    main()
+def serve_socket(fd: int) -> None:
+    """:func:`serve` on the socket ``fd`` the daemon passed down."""
+    serve(Connection(fd))

@@ -9,7 +9,10 @@ import math
 import os
 import pickle
 import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -167,3 +170,33 @@ def test_the_navigator_takes_each_plan_two_ticks_after_asking_whoever_searched_i
     nav = Navigator(NavigatorConfig(), grid, LimiterConfig())  # 0: the asking tick takes it
     nav.set_goal(Pose2D(3.5, 2.5))
     assert drive(nav, 0.05)[0][2] == "following"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+def test_a_stopped_worker_ends_with_a_killed_daemon() -> None:
+    # a worker stopped with SIGSTOP cannot read the end of its socket: the kernel kills it
+    # when the process that started it is killed
+    script = (
+        "import sys\n"
+        "from jackson.host.nav.planner_server import WorkerPlanner\n"
+        "w = WorkerPlanner()\n"
+        "assert w._conn.poll(60)\n"  # it has said it is ready: past its first lines
+        "print(w._process.pid, flush=True)\n"
+        "sys.stdin.read()\n"
+    )
+    daemon = subprocess.Popen(
+        [sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    assert daemon.stdout is not None
+    worker = int(daemon.stdout.readline())
+    try:
+        os.kill(worker, signal.SIGSTOP)
+        daemon.kill()
+        daemon.wait()
+        deadline = time.monotonic() + 30.0
+        while Path(f"/proc/{worker}").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)  # the kernel's kill, then init reaps it
+        assert not Path(f"/proc/{worker}").exists()
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(worker, signal.SIGKILL)
