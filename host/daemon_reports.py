@@ -125,4 +125,9 @@ def health_doc(
     }
     if latency is not None:
         doc["latency"] = latency.report(period_s)
+    from jackson.host.ros.output import navigation_of
+
+    nav = navigation_of(core.mission)
+    if nav is not None:  # where its global plans were searched (the planner server)
+        doc["planner"] = nav.navigator.planning.planner.report()
     return doc

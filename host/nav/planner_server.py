@@ -141,6 +141,10 @@ class Planner(Protocol):
         """CPU time spent off the caller's process [s] (0 for a planner without a worker)."""
         ...
 
+    def report(self) -> dict[str, Any]:
+        """``health.json``'s ``planner`` entry: ``worker`` (in use), ``late``, ``cpu_s``."""
+        ...
+
 
 class InlinePlanner:
     """Searches each request at once on the caller's thread; the answer waits until asked."""
@@ -165,6 +169,10 @@ class InlinePlanner:
     def cpu_s(self) -> float:
         """0: every search ran on the caller's thread."""
         return 0.0
+
+    def report(self) -> dict[str, Any]:
+        """No worker: every search on the caller's thread."""
+        return {"worker": False, "late": 0, "cpu_s": 0.0}
 
 
 class WorkerPlanner:
@@ -225,6 +233,10 @@ class WorkerPlanner:
     def cpu_s(self) -> float:
         """The worker's CPU time since it was ready, as of its last answer [s]."""
         return self._cpu_s
+
+    def report(self) -> dict[str, Any]:
+        """Whether the worker is in use, the answers it was late with, its CPU [s]."""
+        return {"worker": self.alive, "late": self.late, "cpu_s": self._cpu_s}
 
     def submit(self, request: PlanRequest) -> None:
         """Send ``request`` to the worker (searched at once here without one)."""

@@ -114,6 +114,7 @@ def test_a_stopped_worker_costs_a_quarter_period_per_plan_then_is_given_up(
         # given up after 3 late answers, or sooner once its socket's buffer is full (a send
         # that would block fails after the same quarter period)
         assert not worker.alive and worker.late >= 2
+        assert worker.report()["worker"] is False
         said = worker.said  # type: ignore[attr-defined]
         assert len(said) == 1 and "planning on the control thread" in said[0]
     finally:
@@ -166,6 +167,7 @@ def test_the_navigator_takes_each_plan_two_ticks_after_asking_whoever_searched_i
     (inline, inline_replans), (worked, worked_replans) = runs
     assert worked == inline and worked_replans == inline_replans >= 8  # 1 Hz, same plans
     assert worker.late == 0 and worker.cpu_s > 0.0  # every one searched by the worker
+    assert worker.report() == {"worker": True, "late": 0, "cpu_s": worker.cpu_s}
     assert [s for _, _, s in inline[:3]] == ["planning", "planning", "following"]
     nav = Navigator(NavigatorConfig(), grid, LimiterConfig())  # 0: the asking tick takes it
     nav.set_goal(Pose2D(3.5, 2.5))
