@@ -251,7 +251,7 @@ def _draw_ratios(ax: Axes, r: PatrolResult, summary: dict[str, Any]) -> None:
 def _draw_soak(ax1: Axes, ax2: Axes, r: PatrolResult) -> None:
     """Both processes' memory, and their CPU per robot-second and the recordings' size."""
     h = [x.robot_s / 3600.0 for x in r.samples]
-    ax1.plot(h, [x.daemon_rss_mb for x in r.samples], label="daemon")
+    ax1.plot(h, [x.daemon_rss_mb for x in r.samples], label="daemon (with its planner worker)")
     ax1.plot(h, [x.twin_rss_mb for x in r.samples], label="twin")
     ax1.set_xlabel("robot time [h]")
     ax1.set_ylabel("resident memory [MB]")
@@ -264,7 +264,7 @@ def _draw_soak(ax1: Axes, ax2: Axes, r: PatrolResult) -> None:
             hh.append(b.robot_s / 3600.0)
             dc.append((b.daemon_cpu_s - a.daemon_cpu_s) / d)
             tc.append((b.twin_cpu_s - a.twin_cpu_s) / d)
-    ax2.plot(hh, dc, label="daemon")
+    ax2.plot(hh, dc, label="daemon (with its planner worker)")
     ax2.plot(hh, tc, label="twin")
     ax2.set_xlabel("robot time [h]")
     ax2.set_ylabel("CPU-s per robot-second")
