@@ -76,3 +76,35 @@ def cell_to_world(
     x = origin_x_m + (np.asarray(col, np.float64) + 0.5) * resolution_m
     y = origin_y_m + (np.asarray(row, np.float64) + 0.5) * resolution_m
     return x, y
+
+
+class GridCells:
+    """World <-> cell arithmetic of a grid in the map frame, shared by the occupancy grid, the
+    costmaps and the planner's copy of their costs: the grid gives its lower-left corner
+    (``origin_x_m``, ``origin_y_m``), its cell edge (``resolution_m``) and its ``shape`` (rows,
+    cols); rows run along y, columns along x."""
+
+    origin_x_m: float
+    origin_y_m: float
+    resolution_m: float
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        raise NotImplementedError
+
+    def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
+        """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
+        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
+
+    def cell_to_world(
+        self, row: npt.ArrayLike, col: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """Map-frame centres of cells [m]."""
+        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
+
+    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+        """Which (row, col) lie on the grid."""
+        r, c = np.asarray(row), np.asarray(col)
+        rows, cols = self.shape
+        return (r >= 0) & (r < rows) & (c >= 0) & (c < cols)

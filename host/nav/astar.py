@@ -94,7 +94,7 @@ from scipy.linalg import solve_banded
 from skimage.graph import MCP_Geometric
 
 from jackson.common.errors import JacksonError
-from jackson.common.geometry import cell_to_world, world_to_cell
+from jackson.common.geometry import GridCells
 from jackson.host.nav.costmap import (
     INSCRIBED_INFLATED_OBSTACLE,
     MAX_NON_OBSTACLE,
@@ -118,7 +118,7 @@ object every 16 searches bounds it; building one costs about a third of a search
 
 
 @dataclass(eq=False)
-class CostGrid:
+class CostGrid(GridCells):
     """A costmap's cost values and where they lie, all the planner reads of a
     :class:`~jackson.host.nav.costmap.Costmap`: a copy to plan on elsewhere (the planner
     server's worker process, :mod:`jackson.host.nav.planner_server`).
@@ -147,22 +147,6 @@ class CostGrid:
     def shape(self) -> tuple[int, int]:
         """(rows, cols)."""
         return (int(self.costs.shape[0]), int(self.costs.shape[1]))
-
-    def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
-        """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
-        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
-
-    def cell_to_world(
-        self, row: npt.ArrayLike, col: npt.ArrayLike
-    ) -> tuple[FloatArray, FloatArray]:
-        """Map-frame centres of cells [m]."""
-        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
-
-    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> BoolArray:
-        """Which (row, col) lie on the grid."""
-        r, c = np.asarray(row), np.asarray(col)
-        rows, cols = self.shape
-        return (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
 
 
 PlanGrid = Costmap | CostGrid

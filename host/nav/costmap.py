@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from jackson.common.geometry import cell_to_world, world_to_cell
+from jackson.common.geometry import GridCells
 from jackson.common.robot import ENVELOPE_X_M as ENVELOPE_X_M  # re-exported
 from jackson.common.robot import ENVELOPE_Y_M as ENVELOPE_Y_M
 from jackson.host.nav import native
@@ -217,7 +217,7 @@ def occupancy_from_costs(costs: npt.NDArray[np.uint8]) -> npt.NDArray[np.int8]:
     return out.astype(np.int8)
 
 
-class Costmap:
+class Costmap(GridCells):
     """A static + obstacle + inflation costmap on a fixed or rolling grid (map frame).
 
     Build one with :meth:`from_map` (the global costmap over a whole map) or
@@ -394,22 +394,6 @@ class Costmap:
     def shape(self) -> tuple[int, int]:
         """(rows, cols)."""
         return (int(self.costs.shape[0]), int(self.costs.shape[1]))
-
-    def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
-        """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
-        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
-
-    def cell_to_world(
-        self, row: npt.ArrayLike, col: npt.ArrayLike
-    ) -> tuple[FloatArray, FloatArray]:
-        """Map-frame centres of cells [m]."""
-        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
-
-    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> BoolArray:
-        """Which (row, col) lie on the grid."""
-        r, c = np.asarray(row), np.asarray(col)
-        rows, cols = self.shape
-        return (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
 
     def cost_at(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> CostArray:
         """Master cost at map-frame points; NO_INFORMATION off the grid.

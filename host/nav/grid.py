@@ -46,7 +46,7 @@ from PIL import Image
 
 from jackson.common.errors import JacksonError
 from jackson.common.fields import ConfigError, read_yaml, show
-from jackson.common.geometry import cell_to_world, world_to_cell
+from jackson.common.geometry import GridCells
 
 UNKNOWN = -1
 FREE = 0
@@ -87,7 +87,7 @@ class MapFileError(JacksonError, ValueError):
 
 
 @dataclass
-class OccupancyGrid:
+class OccupancyGrid(GridCells):
     """An occupancy grid in the map frame.
 
     Attributes
@@ -138,20 +138,10 @@ class OccupancyGrid:
         """Columns."""
         return int(self.data.shape[1])
 
-    def world_to_cell(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> tuple[IntArray, IntArray]:
-        """(row, col) of the cells holding map-frame points (may lie outside the grid)."""
-        return world_to_cell(x_m, y_m, self.origin_x_m, self.origin_y_m, self.resolution_m)
-
-    def cell_to_world(
-        self, row: npt.ArrayLike, col: npt.ArrayLike
-    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Map-frame centres of cells [m]."""
-        return cell_to_world(row, col, self.origin_x_m, self.origin_y_m, self.resolution_m)
-
-    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> npt.NDArray[np.bool_]:
-        """Which (row, col) lie on the grid."""
-        r, c = np.asarray(row), np.asarray(col)
-        return (r >= 0) & (r < self.height) & (c >= 0) & (c < self.width)
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols) (world <-> cell: :class:`~jackson.common.geometry.GridCells`)."""
+        return (self.height, self.width)
 
     def occupied(self, threshold: int = 50) -> npt.NDArray[np.bool_]:
         """Cells at or above ``threshold`` percent."""
