@@ -54,6 +54,7 @@ def test_health_json_carries_the_latency_beside_the_cpu() -> None:
     class Core:
         abort_reason = None
         health = None
+        mission = None  # no navigation: no planner entry
 
     meter = LatencyMeter()
     meter.add(2500.0)
@@ -61,6 +62,7 @@ def test_health_json_carries_the_latency_beside_the_cpu() -> None:
     doc = health_doc(Core(), LinkHealth(), [], CpuMeter(), counters, 0.05, meter)  # type: ignore[arg-type]
     assert doc["latency"]["frames"] == 1
     assert doc["latency"]["share_of_period"]["max"] == pytest.approx(0.05)
+    assert "planner" not in doc
 
 
 def _in_thread(fn: object) -> object:
