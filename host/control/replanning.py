@@ -104,8 +104,7 @@ class GlobalPlanning:
         self._pending_ticks = 0  # ticks since it was asked for
         self._pending_t_s = 0.0  # when
         self._requests = 0
-        self._blocked = False  # the path was found blocked (plan_delay_ticks > 0)
-        self._drop_path = False  # ... and the plan asked for replaces it
+        self._drop_path = False  # the path was found blocked: the plan asked for replaces it
         self.global_costmap = global_costmap
         self.static_costmap = static_costmap
         self.local_costmap = local_costmap
@@ -123,7 +122,7 @@ class GlobalPlanning:
     def reset(self) -> None:
         """A new goal: no path, nothing counted, nothing pending."""
         self._pending = None
-        self._blocked = self._drop_path = False
+        self._drop_path = False
         self.path = None
         self._t_plan_s = -math.inf
         self._t_blocked_plan_s = -math.inf
@@ -173,7 +172,7 @@ class GlobalPlanning:
         """Drop the path and any plan asked for (a recovery ended: plan afresh from here)."""
         self.path = None
         self._pending = None
-        self._blocked = self._drop_path = False
+        self._drop_path = False
 
     def _update_ahead(self, t_s: float, pose: Pose2D, goal: Pose2D) -> PlanOutcome:
         """``plan_delay_ticks`` > 0: a plan is asked for when due and taken that many ticks
@@ -200,9 +199,7 @@ class GlobalPlanning:
             self._scan_since_plan = False
             self._requests += 1
             kept = None  # priced with the new path by the planner, on the same costs
-            if self._blocked:
-                self._blocked, self._drop_path = False, True
-            elif self.path is not None and self.config.replan_hysteresis > 0.0:
+            if not self._drop_path and self.path is not None and self.config.replan_hysteresis > 0:
                 kept = np.vstack(((pose.x, pose.y), prune_path(self.path, pose.x, pose.y)))
             request = PlanRequest(
                 self._requests,
@@ -225,7 +222,7 @@ class GlobalPlanning:
         if self.path_blocked(pose):
             self._t_blocked_plan_s = t_s
             if self.config.plan_delay_ticks > 0:
-                self._blocked = True  # followed until the new one comes, never kept over it
+                self._drop_path = True  # followed until the new one comes, never kept over it
             else:
                 self.path = None  # the old path may not be kept
             return True

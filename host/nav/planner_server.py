@@ -202,11 +202,13 @@ class WorkerPlanner:
         parent.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", sec, usec))
         self._conn: Connection | None = Connection(parent.detach())
         self._process: subprocess.Popen[bytes] | None = None
+        self._sent: PlanRequest | None = None
+        self._early: PlanAnswer | None = None  # an answer a snapshot read before it fell due
+        self._misses = 0  # late answers in a row since the worker was ready
         try:
-            # its own session: a Ctrl-C on the daemon's terminal is the daemon's to handle;
-            # the worker ends with its socket (the daemon's exit, even a kill)
-            # nor does it hold the daemon's output open (a stopped worker would keep a reader of
-            # the daemon's output waiting after the daemon ended)
+            # its own session (a Ctrl-C on the daemon's terminal is the daemon's to handle) and
+            # none of the daemon's output (a stopped worker would keep a reader of it waiting
+            # after the daemon ended); it ends with its socket, at the latest with the daemon
             self._process = subprocess.Popen(
                 [sys.executable, "-c", BOOT, str(child.fileno()), str(os.getpid())],
                 pass_fds=(child.fileno(),),
@@ -220,9 +222,6 @@ class WorkerPlanner:
             self._give_up(f"cannot start ({exc})")
         finally:
             child.close()
-        self._sent: PlanRequest | None = None
-        self._early: PlanAnswer | None = None  # an answer a snapshot read before it fell due
-        self._misses = 0  # late answers in a row since the worker was ready
 
     @property
     def alive(self) -> bool:
