@@ -774,14 +774,25 @@ class Costmap(GridCells):
         ndarray
             The distance [m] (negative where the point itself needs a check).
         """
+        return np.take(self.clear_reach_table(), self._padded_index(x_m, y_m))
+
+    def clear_reach_table(self) -> FloatArray:
+        """:meth:`clear_reach_m` of every cell of the grid padded by one cell (the ring off the
+        grid), flat, row-major over (rows + 2, cols + 2) [m]; read-only, made once per change.
+
+        Returns
+        -------
+        ndarray, shape ((rows + 2) (cols + 2),)
+            The clear reach of a point in each cell [m].
+        """
         if self._clear_reach_padded is None:
             rows, cols = self.shape
             clear = self._class_padded.reshape(rows + 2, cols + 2) == _CLEAR
             d = native.distance_to(~clear)
-            self._clear_reach_padded = (
-                d * self.resolution_m - math.sqrt(2.0) * self.resolution_m
-            ).ravel()
-        return np.take(self._clear_reach_padded, self._padded_index(x_m, y_m))
+            table = (d * self.resolution_m - math.sqrt(2.0) * self.resolution_m).ravel()
+            table.flags.writeable = False
+            self._clear_reach_padded = table
+        return self._clear_reach_padded
 
     def footprint_collides(
         self, x_m: npt.ArrayLike, y_m: npt.ArrayLike, yaw_rad: npt.ArrayLike

@@ -43,6 +43,7 @@ DIGEST_HEX = 16
 # settled collector reaches only rarely, so its memory grew with the calls.
 _P = ctypes.c_void_p  # an array's address
 _N = ctypes.c_int64
+_D = ctypes.c_double
 _F, _L = np.float64, np.int64  # the element types the C++ reads
 FloatArray = npt.NDArray[np.float64]
 
@@ -90,6 +91,9 @@ def load_library(path: Path) -> ctypes.CDLL:
         lib.jackson_clear_rays  # noqa: B018  (present)
         bfs = lib.jackson_grid_distance
         edt = lib.jackson_edt
+        tables = lib.jackson_dwb_tables
+        coarse = lib.jackson_dwb_coarse
+        plan = lib.jackson_dwb_collision_plan
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -117,6 +121,14 @@ def load_library(path: Path) -> ctypes.CDLL:
     bfs.argtypes = [_N, _N, _P, _P, _P, _P]
     edt.restype = None
     edt.argtypes = [_N, _N, _P, _P, _P, _P, _P, _P]
+    tables.restype = None
+    tables.argtypes = [_N, _P, _D, _D, _D, _N, _P, _D, _D, _D, _N, _P, _D, _D, _P, _P, _P]
+    coarse.restype = None
+    coarse.argtypes = [_N, _N, _N, _P, _P, _P, _P, _N, _D, _D, _P, _P, _P]
+    plan.restype = None
+    plan.argtypes = [
+        _N, _P, _P, _D, _D, _D, _D, _D, _N, _N, _P, _P, _P, _P, _P, _N, _N, _P, _P, _P,
+    ]  # fmt: skip
     return lib
 
 
@@ -202,6 +214,146 @@ def clear_rays(
         len(stops), _ptr(ux, _F), _ptr(uy, _F), _ptr(stops, _F), base[0], base[1], step, rows,
         cols, _ptr(obstacle, np.uint8), free,
     )  # fmt: skip
+
+
+def dwb_tables(
+    linear: tuple[FloatArray, float, float, float],
+    angular: tuple[FloatArray, float, float, float],
+    t_s: FloatArray,
+    dt_s: float,
+    yaw0_rad: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`jackson.host.nav.dwb.core.rollouts.build_rollouts`' tables, compiled: the same
+    velocity profiles (:func:`~jackson.host.nav.dwb.core.window.velocity_profile`) and sums.
+
+    Parameters
+    ----------
+    linear, angular : tuple
+        (distinct targets (V,) or (W,), current velocity, acceleration, deceleration).
+    t_s : ndarray, shape (K + 1,)
+        The pose times [s].
+    dt_s : float
+        The step [s].
+    yaw0_rad : float
+        The start heading [rad].
+
+    Returns
+    -------
+    tuple of ndarray
+        (ds (V, K) [m], yaw (W, K + 1) [rad], yaw at the middle of each step (W, K) [rad]).
+    """
+    assert LIB is not None
+    uv, v0, accel_v, decel_v = linear
+    uw, w0, accel_w, decel_w = angular
+    uvs = np.ascontiguousarray(uv, np.float64)
+    uws = np.ascontiguousarray(uw, np.float64)
+    t = np.ascontiguousarray(t_s, np.float64)
+    k = t.size - 1
+    ds = np.empty((uvs.size, k))
+    yaw = np.empty((uws.size, k + 1))
+    mid = np.empty((uws.size, k))
+    LIB.jackson_dwb_tables(
+        uvs.size, _ptr(uvs, _F), v0, accel_v, decel_v, uws.size, _ptr(uws, _F), w0, accel_w,
+        decel_w, k, _ptr(t, _F), dt_s, yaw0_rad, _ptr(ds, _F), _ptr(yaw, _F), _ptr(mid, _F),
+    )  # fmt: skip
+    return ds, yaw, mid
+
+
+def dwb_coarse(
+    ds_m: FloatArray,
+    cos_sin: FloatArray,
+    iv: npt.NDArray[np.intp],
+    iw: npt.NDArray[np.intp],
+    stride: int,
+    start: tuple[float, float],
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:meth:`jackson.host.nav.dwb.core.rollouts.Rollouts.coarse`, compiled: the same running
+    sums.
+
+    Returns
+    -------
+    tuple of ndarray
+        (x (B + 1, M) [m], y (B + 1, M) [m], path length of each block (B, M) [m]).
+    """
+    assert LIB is not None
+    ds = np.ascontiguousarray(ds_m, np.float64)
+    cs = np.ascontiguousarray(cos_sin, np.float64)
+    ivs = np.ascontiguousarray(iv, np.int64)
+    iws = np.ascontiguousarray(iw, np.int64)
+    v, k = ds.shape
+    w = cs.shape[0] // 2
+    m = ivs.size
+    if cs.shape != (2 * w, k) or (m and not (
+        0 <= ivs.min() and ivs.max() < v and 0 <= iws.min() and iws.max() < w
+    )) or stride < 1:  # fmt: skip
+        raise ValueError(f"roll-out tables: ds {ds.shape}, cos_sin {cs.shape}, stride {stride}")
+    blocks = -(-k // stride)
+    x = np.empty((blocks + 1, m))
+    y = np.empty((blocks + 1, m))
+    length = np.empty((blocks, m))
+    LIB.jackson_dwb_coarse(
+        m, k, stride, _ptr(ivs, _L), _ptr(iws, _L), _ptr(ds, _F), _ptr(cs, _F), w, start[0],
+        start[1], _ptr(x, _F), _ptr(y, _F), _ptr(length, _F),
+    )  # fmt: skip
+    return x, y, length
+
+
+def dwb_collision_plan(
+    targets: tuple[FloatArray, FloatArray],
+    velocity: tuple[float, float],
+    sweep: tuple[float, float, float, int],
+    coarse: tuple[FloatArray, FloatArray, FloatArray],
+    reach_padded: FloatArray,
+    grid: tuple[float, float, float, int, int],
+) -> tuple[npt.NDArray[np.int64], FloatArray, npt.NDArray[np.bool_]]:
+    """:func:`jackson.host.nav.dwb.critics.base_obstacle.collisions`' plan, compiled: each
+    roll-out's stride group and margin, and whether it comes within reach of an obstacle.
+
+    Parameters
+    ----------
+    targets : tuple of ndarray, shape (M,)
+        (v [m/s], w [rad/s]).
+    velocity : tuple of float
+        Current (v [m/s], w [rad/s]).
+    sweep : tuple
+        (circumscribed radius [m], step [s], half a cell [m], steps K).
+    coarse : tuple of ndarray
+        (x, y) (B + 1, M) [m] and block lengths (B, M) [m] (:meth:`Rollouts.coarse`).
+    reach_padded : ndarray
+        The costmap's clear reach per cell of the grid padded by one cell, flat [m].
+    grid : tuple
+        (origin x [m], origin y [m], resolution [m], rows, cols).
+
+    Returns
+    -------
+    tuple of ndarray, shape (M,)
+        (stride group, margin [m], near).
+    """
+    assert LIB is not None
+    v = np.ascontiguousarray(targets[0], np.float64)
+    w = np.ascontiguousarray(targets[1], np.float64)
+    x = np.ascontiguousarray(coarse[0], np.float64)
+    y = np.ascontiguousarray(coarse[1], np.float64)
+    length = np.ascontiguousarray(coarse[2], np.float64)
+    reach = np.ascontiguousarray(reach_padded, np.float64)
+    geometry = np.array(grid[:3], np.float64)
+    rows, cols = grid[3], grid[4]
+    m = v.size
+    blocks = length.shape[0]
+    if w.size != m or x.shape != (blocks + 1, m) or y.shape != x.shape or length.shape[1:] != (
+        m,
+    ) or reach.size != (rows + 2) * (cols + 2):  # fmt: skip
+        raise ValueError("collision plan: inconsistent roll-outs, coarse poses or grid")
+    group = np.empty(m, np.int64)
+    margin = np.empty(m)
+    near = np.empty(m, np.uint8)
+    r_m, dt_s, half_cell, k = sweep
+    LIB.jackson_dwb_collision_plan(
+        m, _ptr(v, _F), _ptr(w, _F), velocity[0], velocity[1], r_m, dt_s, half_cell, k, blocks,
+        _ptr(x, _F), _ptr(y, _F), _ptr(length, _F), _ptr(reach, _F), _ptr(geometry, _F), rows,
+        cols, _ptr(group, _L), _ptr(margin, _F), _ptr(near, np.uint8),
+    )  # fmt: skip
+    return group, margin, near.view(np.bool_)
 
 
 def _select() -> tuple[ctypes.CDLL | None, str]:

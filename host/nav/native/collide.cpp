@@ -38,6 +38,33 @@ struct Robot {
 
 inline double clip(double v, double lo, double hi) { return v < lo ? lo : (v > hi ? hi : v); }
 
+// numpy's minimum, maximum and sign, signed zeros included (of two equal values minimum and
+// maximum return the second; the sign of a zero is +0)
+inline double np_min(double a, double b) { return a < b ? a : b; }
+inline double np_max(double a, double b) { return a > b ? a : b; }
+inline double np_sign(double a) { return a > 0.0 ? 1.0 : (a < 0.0 ? -1.0 : (a == a ? 0.0 : a)); }
+
+// window.velocity_profile for one target r at the n times t: u(t) ramping from u0 towards r
+inline void velocity_profile(double u0, double r, const double* t, std::int64_t n, double accel,
+                             double decel, double* u) {
+  const bool same_side = u0 == 0.0 || (r != 0.0 && ((r > 0.0) == (u0 > 0.0)));
+  if (same_side) {
+    const double rate = std::fabs(r) >= std::fabs(u0) ? accel : decel;
+    const double gap = r - u0;
+    const double sign = np_sign(gap), size = std::fabs(gap);
+    for (std::int64_t j = 0; j < n; ++j) u[j] = u0 + sign * np_min(size, rate * t[j]);
+    return;
+  }
+  // through zero (or to zero): brake at decel until t0, then speed up towards r
+  const double t0 = std::fabs(u0) / decel;
+  const double brake = std::copysign(decel, u0);
+  const double sign = np_sign(r), size = std::fabs(r);
+  for (std::int64_t j = 0; j < n; ++j) {
+    const double braking = u0 != 0.0 ? u0 - brake * t[j] : 0.0;
+    u[j] = t[j] < t0 ? braking : sign * np_min(size, accel * np_max(t[j] - t0, 0.0));
+  }
+}
+
 // Overlapping discs and the centre's clearance at one pose (clearance only when wanted).
 // The obstacles within reach of each padded cell, gathered from the neighbour offsets the
 // first time a pose lands in the cell, in offset order (the order of the numpy code's sums).
@@ -252,6 +279,7 @@ void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int
     pyaw[0] = h[0];
     n = 1;
     double ax = 0.0, ay = 0.0;
+    std::int64_t left = every;  // steps to the next pose read
     for (std::int64_t i = 0; i < steps; ++i) {
       const double sx = d[i] * c[i];
       const double sy = d[i] * s[i];
@@ -263,7 +291,8 @@ void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int
         ay += sy;
       }
       const std::int64_t j = i + 1;  // the pose after this step
-      if (j % every == 0 || j == steps) {
+      if (--left == 0 || j == steps) {
+        left = every;
         px[n] = ax + x0;
         py[n] = ay + y0;
         pyaw[n] = h[j];
@@ -395,6 +424,130 @@ void jackson_edt(std::int64_t rows, std::int64_t cols, const std::uint8_t* featu
       const std::int64_t p = v[j];
       const std::int64_t d2 = (q - p) * (q - p) + row[p] * row[p];
       distance[r * cols + q] = std::sqrt(static_cast<double>(d2));
+    }
+  }
+}
+
+// DWB's roll-out tables (jackson.host.nav.dwb.core.rollouts.build_rollouts, after the
+// granularity rule): each distinct linear target's velocity profile at the k + 1 pose times t
+// as the path length of each step, ds (nv, k); each distinct angular target's as the heading
+// at each pose, yaw (nw, k + 1), the trapezoidal rule's running sum from yaw0, and at the
+// middle of each step, mid (nw, k). numpy's operations, in numpy's order.
+void jackson_dwb_tables(std::int64_t nv, const double* uv, double v0, double accel_v,
+                        double decel_v, std::int64_t nw, const double* uw, double w0,
+                        double accel_w, double decel_w, std::int64_t k, const double* t,
+                        double dt, double yaw0, double* ds, double* yaw, double* mid) {
+  std::vector<double> u(static_cast<std::size_t>(k + 1));
+  for (std::int64_t i = 0; i < nv; ++i) {
+    velocity_profile(v0, uv[i], t, k + 1, accel_v, decel_v, u.data());
+    double* d = ds + i * k;
+    for (std::int64_t j = 0; j < k; ++j) d[j] = 0.5 * (u[j + 1] + u[j]) * dt;
+  }
+  for (std::int64_t i = 0; i < nw; ++i) {
+    velocity_profile(w0, uw[i], t, k + 1, accel_w, decel_w, u.data());
+    double* h = yaw + i * (k + 1);
+    double* md = mid + i * k;
+    h[0] = 0.0 + yaw0;
+    double turned = 0.0;
+    for (std::int64_t j = 0; j < k; ++j) {
+      const double step = 0.5 * (u[j + 1] + u[j]) * dt;
+      turned = j == 0 ? step : turned + step;
+      h[j + 1] = turned + yaw0;
+      md[j] = h[j] + 0.5 * step;
+    }
+  }
+}
+
+// Rollouts.coarse: roll-out t (ramps iv[t], iw[t]; ds (V, k), cs the W cosine rows then the W
+// sine rows (2 W, k)) at poses 0, stride, 2 stride, ... and k: its position there, the running
+// sum of its steps plus the start, x (B + 1, m) and y, and its path length between two of them,
+// the difference of the running sums of |ds|, length (B, m).
+void jackson_dwb_coarse(std::int64_t m, std::int64_t k, std::int64_t stride,
+                        const std::int64_t* iv, const std::int64_t* iw, const double* ds,
+                        const double* cs, std::int64_t w, double x0, double y0, double* x,
+                        double* y, double* length) {
+  for (std::int64_t t = 0; t < m; ++t) {
+    const double* d = ds + iv[t] * k;
+    const double* c = cs + iw[t] * k;
+    const double* s = cs + (w + iw[t]) * k;
+    x[t] = 0.0 + x0;
+    y[t] = 0.0 + y0;
+    double ax = 0.0, ay = 0.0, run = 0.0, before = 0.0;
+    std::int64_t b = 0, left = stride;  // steps left in this block
+    for (std::int64_t i = 0; i < k; ++i) {
+      const double sx = d[i] * c[i];
+      const double sy = d[i] * s[i];
+      const double step = std::fabs(d[i]);
+      if (i == 0) {
+        ax = sx;
+        ay = sy;
+        run = step;
+      } else {
+        ax += sx;
+        ay += sy;
+        run += step;
+      }
+      if (--left == 0 || i + 1 == k) {  // the pose after this step ends a block
+        left = stride;
+        ++b;
+        x[b * m + t] = ax + x0;
+        y[b * m + t] = ay + y0;
+        length[(b - 1) * m + t] = run - before;
+        before = run;
+      }
+    }
+  }
+}
+
+// base_obstacle.collisions' plan for m roll-outs of k steps of dt (targets v, w; current
+// velocity v0, w0): each one's stride, the largest power of two that keeps every point of the
+// robot (circumscribed radius r) within half a cell between two poses tested, capped at k,
+// and its margin, half the farthest sweep between two tested poses of its stride group; and
+// whether it comes within reach of an obstacle: at one of its B coarse poses (x, y: (B + 1,
+// m), the last one unread) the clear reach (Costmap.clear_reach_m, over the grid of rows x
+// cols padded by one cell, origin and resolution in grid) is at most the path length of the
+// block that follows.
+void jackson_dwb_collision_plan(std::int64_t m, const double* v, const double* w, double v0,
+                                double w0, double r, double dt, double half_cell, std::int64_t k,
+                                std::int64_t blocks, const double* x, const double* y,
+                                const double* length, const double* reach, const double* grid,
+                                std::int64_t rows, std::int64_t cols, std::int64_t* group,
+                                double* margin, std::uint8_t* near) {
+  std::vector<double> per_step(static_cast<std::size_t>(m));
+  std::vector<double> widest(64, -1.0);  // the farthest step per group (log2 of the group)
+  const double av0 = std::fabs(v0), aw0 = std::fabs(w0);
+  for (std::int64_t t = 0; t < m; ++t) {
+    const double speed = np_max(std::fabs(v[t]), av0) + np_max(std::fabs(w[t]), aw0) * r;
+    per_step[t] = speed * dt;
+    const double stride =
+        np_min(static_cast<double>(k), std::floor(half_cell / np_max(per_step[t], 1e-12)));
+    const auto whole = static_cast<std::int64_t>(np_max(stride, 1.0));
+    std::int64_t g = 1, bits = 0;
+    while (g <= whole / 2) {
+      g *= 2;
+      ++bits;
+    }
+    group[t] = g;
+    if (!(per_step[t] <= widest[bits])) widest[bits] = per_step[t];
+  }
+  for (std::int64_t t = 0; t < m; ++t) {
+    std::int64_t bits = 0;
+    while ((std::int64_t{1} << bits) < group[t]) ++bits;
+    const double sweep = static_cast<double>(group[t]) * widest[bits];
+    margin[t] = 0.5 * (half_cell < sweep ? half_cell : sweep);
+  }
+  const double top_col = static_cast<double>(cols) + 1.0;
+  const double top_row = static_cast<double>(rows) + 1.0;
+  for (std::int64_t t = 0; t < m; ++t) {
+    near[t] = 0;
+    for (std::int64_t b = 0; b < blocks; ++b) {
+      const double px = x[b * m + t], py = y[b * m + t];
+      const auto col = static_cast<std::int64_t>(clip((px - grid[0]) / grid[2] + 1.0, 0.0, top_col));
+      const auto row = static_cast<std::int64_t>(clip((py - grid[1]) / grid[2] + 1.0, 0.0, top_row));
+      if (reach[row * (cols + 2) + col] <= length[b * m + t] + 1e-9) {
+        near[t] = 1;
+        break;
+      }
     }
   }
 }

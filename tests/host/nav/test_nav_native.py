@@ -143,6 +143,43 @@ def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) ->
     assert np.array_equal(got, want)
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_dwb_tables_and_coarse_poses_are_numpys_bit_for_bit(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """DWB's roll-out tables (velocity profiles through zero, from rest, braking, turning
+    either way) and their coarse poses at several strides, compiled and with numpy: the same
+    bytes (signed zeros included); the coarse end pose is the last pose of the whole
+    roll-out."""
+    from jackson.host.actuation.limiter import LimiterConfig
+    from jackson.host.nav.dwb import DwbConfig, DwbPlanner
+    from jackson.host.nav.types import Pose2D
+
+    rng = np.random.default_rng(700 + seed)
+    planner = DwbPlanner(DwbConfig(), LimiterConfig())
+    for case in range(12):
+        pose = Pose2D(*rng.uniform(-3.0, 3.0, 2), float(rng.uniform(-math.pi, math.pi)))
+        velocity = (
+            (0.0, 0.0) if case == 0 else
+            (0.0, float(rng.uniform(-1.5, 1.5))) if case == 1 else
+            (float(rng.uniform(-0.1, 0.35)), float(rng.uniform(-2.0, 2.0)))
+        )  # fmt: skip
+        v, w, _ = planner.samples(*velocity)
+        got = []
+        for lib in (native.LIB, None):
+            monkeypatch.setattr(native, "LIB", lib)
+            ro = planner.rollouts(pose, velocity, v, w)
+            tables = [ro.ds_m, ro.yaw_rad, ro.cos_sin]
+            for stride in (1, 5, 16, ro.steps):
+                tables += list(ro.coarse(stride))
+            got.append(tables)
+            x, y, _ = ro.full()
+            x_c, y_c, _ = ro.coarse(16)
+            assert np.array_equal(x_c[-1], x[:, -1]) and np.array_equal(y_c[-1], y[:, -1])
+        for a, b in zip(*got, strict=True):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
 def test_rollouts_collide_refuses_indices_off_the_tables() -> None:
     cm = _scene(np.random.default_rng(1))
     ds, cs, yaw = np.zeros((2, 4)), np.zeros((6, 4)), np.zeros((3, 5))

@@ -9,10 +9,14 @@ granularity rule), shared by all roll-outs.
 
 The roll-outs are kept factored and evaluated only where they are read: the velocity and heading
 profiles are computed once per distinct linear and angular target (a 20 x 21 window has about
-20 of each), every 16th and the end pose of all roll-outs by small matrix products of path
-lengths and headings (:meth:`Rollouts.coarse`), the poses of the collision test only for the
-roll-outs that come near an obstacle (:meth:`Rollouts.at_strides`), and the whole trajectory
-only for the one chosen (:meth:`Rollouts.trajectory`).
+20 of each), every 16th and the end pose of all roll-outs (:meth:`Rollouts.coarse`), the poses
+of the collision test only for the roll-outs that come near an obstacle
+(:meth:`Rollouts.at_strides`), and the whole trajectory only for the one chosen
+(:meth:`Rollouts.trajectory`). Every position is the running sum of its steps plus the start,
+wherever it is made.
+
+With the compiled library (:mod:`jackson.host.nav.native`) the tables and the coarse poses are
+made by its loops, with numpy's operations in numpy's order: the same numbers bit for bit.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.actuation.limiter import LimiterConfig
+from jackson.host.nav import native
 from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.core.window import velocity_profile
 from jackson.host.nav.types import Pose2D
@@ -43,8 +48,8 @@ class Rollouts:
 
     and its pose j is yaw_j = yaw[iw, j], (x_j, y_j) = (x_0, y_0) + sum_{i < j} (dx_i, dy_i).
     A cycle reads only part of the M x (K + 1) poses: every 16th pose and the end pose of every
-    roll-out, per pair of ramps by small matrix products (:meth:`coarse`: the end poses for
-    the critics, the others to sort out the roll-outs far from obstacles), the poses at a
+    roll-out (:meth:`coarse`: the end poses for the critics, the others to sort out the
+    roll-outs far from obstacles), the poses at a
     stride of the others for the collision test (:meth:`at_strides`) and the whole of the
     chosen one (:meth:`trajectory`); nothing else is evaluated.
 
@@ -111,9 +116,10 @@ class Rollouts:
     def coarse(self, stride: int) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Every roll-out at poses 0, stride, 2 stride, ... and K, and its path length between.
 
-        Computed per pair of ramps (V x W) rather than per roll-out, then gathered: the steps
-        of each block of ``stride`` summed by one small matrix product of path lengths and
-        headings, ``ds[:, block] @ [cos; sin][:, block].T``, the blocks accumulated.
+        The positions are the running sums of the steps plus the start, as :meth:`full` and
+        :meth:`at_strides` make them; the path length of a block is the difference of the
+        running sums of |ds| at its ends. Compiled when :mod:`jackson.host.nav.native` is
+        (the same sums), else by numpy over all the steps of every roll-out.
 
         Parameters
         ----------
@@ -127,22 +133,26 @@ class Rollouts:
             (the last one may be shorter, it ends at pose K), and the path length of each
             block, shape (B, M) [m].
         """
-        v, k = self.ds_m.shape
+        if native.LIB is not None:
+            return native.dwb_coarse(
+                self.ds_m, self.cos_sin, self.iv, self.iw, stride, (self.pose.x, self.pose.y)
+            )
+        k = self.steps
         w = self.cos_sin.shape[0] // 2
-        starts = np.arange(0, k, stride)
-        table = np.empty((len(starts) + 1, v, 2 * w))
-        table[0] = 0.0
-        for b, s0 in enumerate(starts):
-            s1 = s0 + stride
-            np.dot(self.ds_m[:, s0:s1], self.cos_sin[:, s0:s1].T, out=table[b + 1])
-        np.cumsum(table, axis=0, out=table)
-        flat = table.reshape(len(starts) + 1, v * 2 * w)
-        pair = self.iv * (2 * w) + self.iw
-        length = np.add.reduceat(np.abs(self.ds_m), starts, axis=1).T
+        poses = np.append(np.arange(0, k, stride), k)
+        ds = self.ds_m[self.iv]
+        at = np.empty((2, ds.shape[0], k + 1))
+        at[:, :, 0] = 0.0
+        np.cumsum(ds * self.cos_sin[self.iw], axis=1, out=at[0, :, 1:])
+        np.cumsum(ds * self.cos_sin[w + self.iw], axis=1, out=at[1, :, 1:])
+        run = np.empty((self.ds_m.shape[0], k + 1))
+        run[:, 0] = 0.0
+        np.cumsum(np.abs(self.ds_m), axis=1, out=run[:, 1:])
+        length = (run[:, poses[1:]] - run[:, poses[:-1]]).take(self.iv, axis=0)
         return (
-            flat.take(pair, axis=1) + self.pose.x,
-            flat.take(pair + w, axis=1) + self.pose.y,
-            length.take(self.iv, axis=1),
+            at[0][:, poses].T + self.pose.x,
+            at[1][:, poses].T + self.pose.y,
+            np.ascontiguousarray(length.T),
         )
 
     def at_strides(
@@ -272,6 +282,13 @@ def build_rollouts(
     # the profiles depend on one axis each: computed per distinct target
     uv, iv = _distinct(v)
     uw, iw = _distinct(w)
+    if native.LIB is not None:
+        ds, yaw, mid = native.dwb_tables(
+            (uv, velocity[0], lim.max_accel_m_s2, lim.max_decel_m_s2),
+            (uw, velocity[1], lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2),
+            t, dt, pose.yaw,
+        )  # fmt: skip
+        return Rollouts(pose, t, ds, yaw, mid, iv, iw)
     vel_v = velocity_profile(velocity[0], uv, t, lim.max_accel_m_s2, lim.max_decel_m_s2)
     vel_w = velocity_profile(velocity[1], uw, t, lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2)
     dyaw = 0.5 * (vel_w[:, 1:] + vel_w[:, :-1]) * dt

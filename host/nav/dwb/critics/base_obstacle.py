@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from jackson.host.nav import native
 from jackson.host.nav.costmap import Costmap
 from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.core.rollouts import Rollouts
@@ -105,6 +106,8 @@ def collisions(
     k = ro.steps
     dt_s = sim_time_s / k
     r_m = costmap.config.circumscribed_radius_m
+    if costmap.compiled:  # the same plan, then each pose made where it is tested
+        return _collisions_compiled(ro, coarse, v, w, velocity, costmap, dt_s)
     speed = np.maximum(np.abs(v), abs(velocity[0])) + np.maximum(np.abs(w), abs(velocity[1])) * r_m
     per_step_m = speed * dt_s
     half_cell = 0.5 * costmap.resolution_m
@@ -123,14 +126,37 @@ def collisions(
     near = np.flatnonzero(np.any(reach_m <= length_m + 1e-9, axis=0))
     if near.size == 0:
         return hit
-    if costmap.compiled:  # the poses made where they are tested, the same bit for bit
-        start = (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
-        hit[near] = costmap.rollouts_collide(
-            start, ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[near], ro.iw[near], group[near],
-            margin_m[near],
-        )  # fmt: skip
-        return hit
     x, y, yaw, owner = ro.at_strides(near, group[near])
     hit_rows = costmap.trajectories_collide(x, y, yaw, margin_m=margin_m[owner])
     hit[owner[hit_rows]] = True
+    return hit
+
+
+def _collisions_compiled(
+    ro: Rollouts,
+    coarse: tuple[FloatArray, FloatArray, FloatArray],
+    v: FloatArray,
+    w: FloatArray,
+    velocity: tuple[float, float],
+    costmap: Costmap,
+    dt_s: float,
+) -> BoolArray:
+    """:func:`collisions` by the compiled loops (:mod:`jackson.host.nav.native`): the strides,
+    margins and the roll-outs near an obstacle in one call, then the near ones tested at the
+    poses made where they are read; the same answer bit for bit."""
+    half_cell = 0.5 * costmap.resolution_m
+    group, margin_m, near_mask = native.dwb_collision_plan(
+        (v, w), velocity, (costmap.config.circumscribed_radius_m, dt_s, half_cell, ro.steps),
+        (coarse[0], coarse[1], coarse[2]), costmap.clear_reach_table(),
+        (costmap.origin_x_m, costmap.origin_y_m, costmap.resolution_m, *costmap.shape),
+    )  # fmt: skip
+    hit = np.zeros(v.shape[0], bool)
+    near = np.flatnonzero(near_mask)
+    if near.size == 0:
+        return hit
+    start = (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
+    hit[near] = costmap.rollouts_collide(
+        start, ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[near], ro.iw[near], group[near],
+        margin_m[near],
+    )  # fmt: skip
     return hit
