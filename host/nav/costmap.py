@@ -600,6 +600,10 @@ class Costmap(GridCells):
         tuple of ndarray
             (costs, lethal mask, distance to the nearest lethal cell centre [m]).
         """
+        if native.LIB is not None:
+            return native.combine_inflate(
+                static, obstacle, self.resolution_m, far_m, self._inflation_by_d2()
+            )
         master = static.copy()
         known = obstacle != NO_INFORMATION
         take = known & ((master == NO_INFORMATION) | (obstacle > master))
@@ -618,6 +622,21 @@ class Costmap(GridCells):
         raise_unknown = unknown & (inflated >= INSCRIBED_INFLATED_OBSTACLE)
         master[raise_known | raise_unknown] = inflated[raise_known | raise_unknown]
         return master, lethal, dist
+
+    def _inflation_by_d2(self) -> CostArray:
+        """:func:`inflation_cost` at each distance the transform gives, sqrt(d2) cells, by the
+        whole number d2 of squared cells, up to the first beyond the inflation radius (the
+        compiled :meth:`_combined` reads it: the same costs from the same distances)."""
+        table: CostArray | None = getattr(self, "_inflation_table", None)
+        if table is None:
+            cfg, res = self.config, self.resolution_m
+            n = (math.ceil(cfg.inflation_radius_m / res) + 1) ** 2  # sqrt(n) res > the radius
+            dist = np.sqrt(np.arange(n, dtype=np.float64)) * res
+            table = inflation_cost(
+                dist, cfg.robot_radius_m, cfg.inflation_radius_m, cfg.cost_scaling_factor
+            )
+            self._inflation_table = table
+        return table
 
     def _update_window(self, r0: int, r1: int, c0: int, c1: int) -> None:
         """Re-inflate after a change of the obstacle layer within rows r0:r1, cols c0:c1.

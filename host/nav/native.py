@@ -94,6 +94,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         tables = lib.jackson_dwb_tables
         coarse = lib.jackson_dwb_coarse
         plan = lib.jackson_dwb_collision_plan
+        combine = lib.jackson_combine_inflate
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -129,7 +130,59 @@ def load_library(path: Path) -> ctypes.CDLL:
     plan.argtypes = [
         _N, _P, _P, _D, _D, _D, _D, _D, _N, _N, _P, _P, _P, _P, _P, _N, _N, _P, _P, _P,
     ]  # fmt: skip
+    combine.restype = None
+    combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib
+
+
+def combine_inflate(
+    static: npt.NDArray[np.uint8],
+    obstacle: npt.NDArray[np.uint8],
+    resolution_m: float,
+    far_m: float,
+    cost_by_d2: npt.NDArray[np.uint8],
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_], FloatArray]:
+    """:meth:`jackson.host.nav.costmap.Costmap._combined`, compiled: the layers combined, the
+    distance to the nearest lethal cell and the inflation raised into the costs.
+
+    Parameters
+    ----------
+    static, obstacle : ndarray of uint8, shape (rows, cols)
+        The layers.
+    resolution_m : float
+        Cell edge [m].
+    far_m : float
+        Distances beyond it read ``inf`` [m].
+    cost_by_d2 : ndarray of uint8
+        The inflation cost at each whole number of squared cells to the nearest lethal cell
+        (0 beyond its end).
+
+    Returns
+    -------
+    tuple of ndarray, shape (rows, cols)
+        (costs, lethal mask, distance to the nearest lethal cell centre [m]).
+    """
+    assert LIB is not None
+    rows, cols = static.shape
+    stat = np.ascontiguousarray(static, np.uint8)
+    obst = np.ascontiguousarray(obstacle, np.uint8)
+    table = np.ascontiguousarray(cost_by_d2, np.uint8)
+    if obst.shape != stat.shape:
+        raise ValueError(f"layers of shapes {stat.shape} and {obst.shape}")
+    master = np.empty((rows, cols), np.uint8)
+    lethal = np.empty((rows, cols), np.bool_)
+    dist = np.empty((rows, cols), np.float64)
+    g = np.empty(rows * cols, np.int64)
+    v = np.empty(cols + 1, np.int64)
+    zn = np.empty(cols + 1, np.int64)
+    zd = np.empty(cols + 1, np.int64)
+    LIB.jackson_combine_inflate(
+        rows, cols, _ptr(stat, np.uint8), _ptr(obst, np.uint8), resolution_m, far_m,
+        _ptr(table, np.uint8), table.size, _ptr(master, np.uint8),
+        _ptr(lethal.view(np.uint8), np.uint8), _ptr(dist, _F), _ptr(g, _L), _ptr(v, _L),
+        _ptr(zn, _L), _ptr(zd, _L),
+    )  # fmt: skip
+    return master, lethal, dist
 
 
 def distance_to(feature: npt.NDArray[np.bool_]) -> FloatArray:

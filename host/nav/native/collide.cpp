@@ -15,6 +15,7 @@
 namespace {
 
 constexpr std::uint8_t kClear = 0, kNear = 1, kDeep = 2, kBlocked = 3;
+constexpr std::uint8_t kInscribed = 253, kLethal = 254, kNoInformation = 255;  // costs
 
 // The obstacle discs the footprint test reads (Costmap._index_obstacles).
 struct Obstacles {
@@ -193,6 +194,75 @@ class Trajectory {
   std::vector<std::uint8_t> cls_;
 };
 
+// The squared distance transform (scipy.ndimage.distance_transform_edt(~feature) squared):
+// g[i] the squared distance [cells^2] from cell i's centre to the nearest feature cell's centre;
+// false (g unset) without a feature. Felzenszwalb and Huttenlocher's two passes: along each
+// column the distance to the nearest feature of that column, then along each row the lower
+// envelope of the parabolas (c - c')^2 + g(c')^2, the envelope's breakpoints compared as exact
+// fractions of whole numbers. g: rows x cols (int64); v: cols (int64); zn, zd: cols + 1 (int64);
+// row: cols (int64) scratch.
+inline bool squared_distances(std::int64_t rows, std::int64_t cols, const std::uint8_t* feature,
+                              std::int64_t* g, std::int64_t* v, std::int64_t* zn,
+                              std::int64_t* zd) {
+  const std::int64_t far = rows + cols + 1;  // farther than any feature of the grid
+  bool any = false;
+  for (std::int64_t r = 0; r < rows; ++r) {  // down the columns, a row at a time
+    for (std::int64_t c = 0; c < cols; ++c) {
+      const std::int64_t i = r * cols + c;
+      if (feature[i]) {
+        g[i] = 0;
+        any = true;
+      } else {
+        g[i] = (r > 0 && g[i - cols] < far) ? g[i - cols] + 1 : far;
+      }
+    }
+  }
+  if (!any) return false;
+  for (std::int64_t r = rows - 2; r >= 0; --r) {  // and up them
+    for (std::int64_t c = 0; c < cols; ++c) {
+      const std::int64_t i = r * cols + c;
+      if (g[i + cols] + 1 < g[i]) g[i] = g[i + cols] + 1;
+    }
+  }
+  std::vector<std::int64_t> row(static_cast<std::size_t>(cols));
+  for (std::int64_t r = 0; r < rows; ++r) {
+    std::int64_t* out = g + r * cols;
+    for (std::int64_t q = 0; q < cols; ++q) row[q] = out[q];  // the column pass, kept
+    std::int64_t k = -1;  // the envelope's last parabola; breakpoint j is zn[j] / zd[j]
+    for (std::int64_t q = 0; q < cols; ++q) {
+      if (row[q] >= far) continue;  // no feature in this column
+      const std::int64_t fq = row[q] * row[q] + q * q;
+      while (k >= 0) {
+        const std::int64_t p = v[k];
+        const std::int64_t num = fq - (row[p] * row[p] + p * p);
+        const std::int64_t den = 2 * (q - p);
+        if (k > 0 && num * zd[k] <= zn[k] * den) {
+          --k;  // parabola p lies above the envelope from where it would start
+          continue;
+        }
+        ++k;
+        v[k] = q;
+        zn[k] = num;
+        zd[k] = den;
+        break;
+      }
+      if (k < 0) {
+        k = 0;
+        v[0] = q;
+        zn[0] = 0;
+        zd[0] = 0;  // from -infinity
+      }
+    }
+    std::int64_t j = 0;
+    for (std::int64_t q = 0; q < cols; ++q) {
+      while (j < k && zn[j + 1] <= q * zd[j + 1]) ++j;  // breakpoint j + 1 at or before q
+      const std::int64_t p = v[j];
+      out[q] = (q - p) * (q - p) + row[p] * row[p];
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 extern "C" {
@@ -361,70 +431,50 @@ void jackson_grid_distance(std::int64_t rows, std::int64_t cols, const std::uint
 // The Euclidean distance transform (scipy.ndimage.distance_transform_edt(~feature)): each cell's
 // distance [cells] to the nearest feature cell's centre, the square root of a whole number of
 // squared cells, so exactly the double scipy returns; +inf everywhere when there is no feature.
-// Felzenszwalb and Huttenlocher's two passes: along each column the distance to the nearest
-// feature of that column, then along each row the lower envelope of the parabolas
-// (c - c')^2 + g(c')^2, the envelope's breakpoints compared as exact fractions of whole numbers.
 // g: rows x cols scratch (int64); v: cols (int64); zn, zd: cols + 1 (int64).
 void jackson_edt(std::int64_t rows, std::int64_t cols, const std::uint8_t* feature,
                  double* distance, std::int64_t* g, std::int64_t* v, std::int64_t* zn,
                  std::int64_t* zd) {
-  const std::int64_t far = rows + cols + 1;  // farther than any feature of the grid
-  bool any = false;
-  for (std::int64_t r = 0; r < rows; ++r) {  // down the columns, a row at a time
-    for (std::int64_t c = 0; c < cols; ++c) {
-      const std::int64_t i = r * cols + c;
-      if (feature[i]) {
-        g[i] = 0;
-        any = true;
-      } else {
-        g[i] = (r > 0 && g[i - cols] < far) ? g[i - cols] + 1 : far;
-      }
-    }
-  }
-  for (std::int64_t r = rows - 2; r >= 0; --r) {  // and up them
-    for (std::int64_t c = 0; c < cols; ++c) {
-      const std::int64_t i = r * cols + c;
-      if (g[i + cols] + 1 < g[i]) g[i] = g[i + cols] + 1;
-    }
-  }
-  if (!any) {
+  if (!squared_distances(rows, cols, feature, g, v, zn, zd)) {
     for (std::int64_t i = 0; i < rows * cols; ++i) distance[i] = HUGE_VAL;
     return;
   }
-  for (std::int64_t r = 0; r < rows; ++r) {
-    const std::int64_t* row = g + r * cols;
-    std::int64_t k = -1;  // the envelope's last parabola; breakpoint j is zn[j] / zd[j]
-    for (std::int64_t q = 0; q < cols; ++q) {
-      if (row[q] >= far) continue;  // no feature in this column
-      const std::int64_t fq = row[q] * row[q] + q * q;
-      while (k >= 0) {
-        const std::int64_t p = v[k];
-        const std::int64_t num = fq - (row[p] * row[p] + p * p);
-        const std::int64_t den = 2 * (q - p);
-        if (k > 0 && num * zd[k] <= zn[k] * den) {
-          --k;  // parabola p lies above the envelope from where it would start
-          continue;
-        }
-        ++k;
-        v[k] = q;
-        zn[k] = num;
-        zd[k] = den;
-        break;
-      }
-      if (k < 0) {
-        k = 0;
-        v[0] = q;
-        zn[0] = 0;
-        zd[0] = 0;  // from -infinity
-      }
+  for (std::int64_t i = 0; i < rows * cols; ++i) distance[i] = std::sqrt(static_cast<double>(g[i]));
+}
+
+// Costmap._combined over rows x cols cells: the static and obstacle layers combined into master
+// (the obstacle's cost where it is known and the static one is unknown or lower), lethal the
+// master's lethal cells, dist the distance of every cell to the nearest lethal cell's centre [m]
+// (the transform's, times res; +inf beyond far or without a lethal cell), and the inflation's
+// cost raised into master: into a known cell below it, into an unknown cell where it is at least
+// inscribed. The inflation cost at d2 squared cells is cost[d2] (numpy's inflation_cost of that
+// very distance) for d2 < n_cost, 0 beyond. Scratch as jackson_edt's, g holding d2 after.
+void jackson_combine_inflate(std::int64_t rows, std::int64_t cols, const std::uint8_t* stat,
+                             const std::uint8_t* obstacle, double res, double far,
+                             const std::uint8_t* cost, std::int64_t n_cost,
+                             std::uint8_t* master, std::uint8_t* lethal, double* dist,
+                             std::int64_t* g, std::int64_t* v, std::int64_t* zn,
+                             std::int64_t* zd) {
+  const std::int64_t n = rows * cols;
+  for (std::int64_t i = 0; i < n; ++i) {
+    std::uint8_t m = stat[i];
+    const std::uint8_t o = obstacle[i];
+    if (o != kNoInformation && (m == kNoInformation || o > m)) m = o;
+    master[i] = m;
+    lethal[i] = m == kLethal;
+  }
+  const bool any = squared_distances(rows, cols, lethal, g, v, zn, zd);
+  for (std::int64_t i = 0; i < n; ++i) {
+    double d = HUGE_VAL;
+    std::uint8_t inflated = 0;
+    if (any) {
+      d = std::sqrt(static_cast<double>(g[i])) * res;
+      if (d > far) d = HUGE_VAL;
+      else if (g[i] < n_cost) inflated = cost[g[i]];
     }
-    std::int64_t j = 0;
-    for (std::int64_t q = 0; q < cols; ++q) {
-      while (j < k && zn[j + 1] <= q * zd[j + 1]) ++j;  // breakpoint j + 1 at or before q
-      const std::int64_t p = v[j];
-      const std::int64_t d2 = (q - p) * (q - p) + row[p] * row[p];
-      distance[r * cols + q] = std::sqrt(static_cast<double>(d2));
-    }
+    dist[i] = d;
+    const std::uint8_t m = master[i];
+    if (m == kNoInformation ? inflated >= kInscribed : inflated > m) master[i] = inflated;
   }
 }
 
