@@ -45,8 +45,10 @@ marked cell the capsule of its own and its neighbours' returns with the range no
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -56,6 +58,8 @@ from jackson.common.robot import ENVELOPE_X_M as ENVELOPE_X_M  # re-exported
 from jackson.common.robot import ENVELOPE_Y_M as ENVELOPE_Y_M
 from jackson.host.nav import native
 from jackson.host.nav.grid import OccupancyGrid
+
+T = TypeVar("T", bound=np.generic)
 
 FREE_SPACE = 0
 INSCRIBED_INFLATED_OBSTACLE = 253
@@ -688,17 +692,17 @@ class Costmap(GridCells):
         self.lethal_distance_m = dist
         # the costs live inside a grid padded by one unknown ring (off-grid lookups land on
         # it); ``costs`` is a view of its inside, updated in place
-        self._costs_2d = np.pad(master, 1, constant_values=NO_INFORMATION)
+        self._costs_2d = _ringed(master, NO_INFORMATION)
         self._costs_padded = self._costs_2d.ravel()
         self.costs = self._costs_2d[1:-1, 1:-1]
         if not self._collision_checks:
             return
-        self._lethal_padded = np.pad(self.lethal_distance_m, 1, constant_values=-1.0).ravel()
+        self._lethal_padded = _ringed(self.lethal_distance_m, -1.0).ravel()
         self._index_obstacles(lethal)
         cls = np.where(dist <= self._near_m, _NEAR, _CLEAR).astype(np.uint8)
         cls[dist < self._deep_m] = _DEEP
         cls[master >= LETHAL_OBSTACLE] = _BLOCKED  # lethal or unknown under the centre
-        self._class_padded = np.pad(cls, 1, constant_values=_BLOCKED).ravel()
+        self._class_padded = _ringed(cls, _BLOCKED).ravel()
         self._clear_reach_padded: FloatArray | None = None
 
     def _index_obstacles(self, lethal: BoolArray) -> None:
@@ -744,9 +748,7 @@ class Costmap(GridCells):
         ids = np.full((rows + 2 * k, cols + 2 * k), -1, np.int32)
         ids[k + rr, k + cc] = np.arange(len(rr), dtype=np.int32)
         self._ids_padded = ids.ravel()
-        dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
-        disc = np.hypot(dr, dc) * res <= self._near_m
-        self._neighbour_offsets = (dr[disc] * (cols + 2 * k) + dc[disc]).astype(np.intp)
+        self._neighbour_offsets = _disc_offsets(k, cols + 2 * k, res, self._near_m)
         self._native = (
             native.Obstacles(
                 ids, ids.shape, k, self._neighbour_offsets, pts, radius,
@@ -1196,6 +1198,27 @@ class Costmap(GridCells):
             (x0, x1), (y0, y1) = cfg.footprint_x_m, cfg.footprint_y_m
             hit[maybe] = (lx >= x0 - g) & (lx <= x1 + g) & (ly >= y0 - g) & (ly <= y1 + g)
         return np.bincount(pose_i[hit], minlength=n).astype(np.int_), clearance
+
+
+def _ringed(inner: npt.NDArray[T], value: float) -> npt.NDArray[T]:
+    """``np.pad(inner, 1, constant_values=value)`` without its generality's cost (a costmap
+    update pads three grids)."""
+    out = np.empty((inner.shape[0] + 2, inner.shape[1] + 2), inner.dtype)
+    out[0] = out[-1] = value
+    out[1:-1, 0] = out[1:-1, -1] = value
+    out[1:-1, 1:-1] = inner
+    return out
+
+
+@functools.lru_cache(maxsize=32)
+def _disc_offsets(k: int, row_stride: int, resolution_m: float, reach_m: float) -> IntArray:
+    """Flat offsets (rows of ``row_stride`` cells) of the cells within ``reach_m`` of a cell,
+    centre to centre, in a square of 2 k + 1 cells; read-only, shared."""
+    dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
+    disc = np.hypot(dr, dc) * resolution_m <= reach_m
+    offsets = (dr[disc] * row_stride + dc[disc]).astype(np.intp)
+    offsets.flags.writeable = False
+    return offsets
 
 
 def _capsules(
