@@ -1216,7 +1216,7 @@ def _disc_offsets(k: int, row_stride: int, resolution_m: float, reach_m: float) 
     centre to centre, in a square of 2 k + 1 cells; read-only, shared."""
     dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
     disc = np.hypot(dr, dc) * resolution_m <= reach_m
-    offsets = (dr[disc] * row_stride + dc[disc]).astype(np.intp)
+    offsets: IntArray = (dr[disc] * row_stride + dc[disc]).astype(np.intp)
     offsets.flags.writeable = False
     return offsets
 
