@@ -12,6 +12,8 @@ LiDAR's intake, through :attr:`HealthMonitor.lidar`; the link's frames by
 
 from __future__ import annotations
 
+import math
+
 from jackson.host.estimation.odometry import RobotGeometry
 from jackson.host.health.config import HealthConfig
 from jackson.host.health.encoder_stuck import EncoderStuck
@@ -57,6 +59,11 @@ class HealthMonitor:
     lidar : LidarHealth
         The LiDAR's checks, run by the LiDAR's intake.
     """
+
+    # the last frame's interval and its yaw variance (class defaults: a core pickled before
+    # they were kept restores without them)
+    _yaw_variance_dt_s = math.nan
+    _yaw_variance_value = 0.0
 
     def __init__(self, cfg: HealthConfig, robot: RobotGeometry) -> None:
         self.cfg = cfg
@@ -152,7 +159,7 @@ class HealthMonitor:
             trusted_wz=h.wz_rad_s if gyro_live and states["imu"].usable else None,
             wheel_yaw_rad_s=wheel_yaw_rate(robot, om_l, om_r),
             speed_m_s=forward_speed(robot, om_l, om_r),
-            yaw_variance=self.cfg.gyro_variance + quantisation_variance(robot, h.dt_s),
+            yaw_variance=self._yaw_variance(h.dt_s),
         )
         states.apply(self.encoders.observe(f), out)
         bias = self.still_bias.observe(f)
@@ -173,6 +180,15 @@ class HealthMonitor:
             lidar_needed=self.lidar.needed,
             remeasure=self.still_bias.remeasure,
         )
+
+    def _yaw_variance(self, dt_s: float) -> float:
+        """R_wz + sigma_q^2 of a frame of ``dt_s``, kept for the next frame of the same dt."""
+        if dt_s != self._yaw_variance_dt_s:
+            self._yaw_variance_dt_s = dt_s
+            self._yaw_variance_value = self.cfg.gyro_variance + quantisation_variance(
+                self.robot, dt_s
+            )
+        return self._yaw_variance_value
 
     def _passes(self, f: FrameFacts, bias: bool, out: list[Transition]) -> None:
         """The sensors whose tests ran and passed this frame: the gyro where a test could check

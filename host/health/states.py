@@ -146,5 +146,7 @@ class SensorStates:
 
     def commit(self, out: list[Transition]) -> None:
         """Record ``out``'s transitions (and count its exclusions)."""
+        if not out:  # most frames: nothing to record
+            return
         self.transitions += out
         self.excluded += sum(1 for x in out if x.new is Health.EXCLUDED)

@@ -71,6 +71,15 @@ def yaw_quaternion(yaw_rad: float) -> Quaternion:
     return Quaternion(x=0.0, y=0.0, z=math.sin(yaw_rad / 2.0), w=math.cos(yaw_rad / 2.0))
 
 
+def read_only(
+    values: np.ndarray[Any, np.dtype[np.float64]],
+) -> np.ndarray[Any, np.dtype[np.float64]]:
+    """``values``, made read-only: an array that every message of a kind shares (its fixed
+    covariance) cannot be changed through one of them."""
+    values.flags.writeable = False
+    return values
+
+
 def planar_covariance(*diagonal: float) -> np.ndarray[Any, np.dtype[np.float64]]:
     """A row-major 6x6 covariance with (x, y, z, roll, pitch, yaw) ``diagonal``."""
     cov = np.zeros(36, dtype=np.float64)
@@ -104,17 +113,29 @@ class MessageBuilder:
         self.settings = settings
         self.clock = clock
         self.hardware_id = hardware_id
-        self.odom_pose_cov = planar_covariance(
-            odometry.pose_xy, odometry.pose_xy, 0.0, 0.0, 0.0, odometry.pose_yaw
+        # the fixed covariances, built once and shared by every message (read-only)
+        self.odom_pose_cov = read_only(
+            planar_covariance(odometry.pose_xy, odometry.pose_xy, 0.0, 0.0, 0.0, odometry.pose_yaw)
         )
-        self.odom_twist_cov = planar_covariance(
-            odometry.twist_vx, odometry.twist_vy, 0.0, 0.0, 0.0, odometry.twist_wz
+        self.odom_twist_cov = read_only(
+            planar_covariance(
+                odometry.twist_vx, odometry.twist_vy, 0.0, 0.0, 0.0, odometry.twist_wz
+            )
+        )
+        orientation_cov = np.zeros(9, dtype=np.float64)
+        orientation_cov[0] = -1.0  # REP 145: no orientation estimate
+        self.imu_orientation_cov = read_only(orientation_cov)
+        self.imu_angular_velocity_cov = read_only(
+            np.eye(3).ravel() * settings.imu_angular_velocity_covariance
+        )
+        self.imu_linear_acceleration_cov = read_only(
+            np.eye(3).ravel() * settings.imu_linear_acceleration_covariance
         )
 
     def header(self, t_s: float, frame_id: str) -> Header:
         """A header stamped with the ROS time of MCU time ``t_s``."""
-        ns = self.clock.ns(t_s)
-        return Header(stamp=Time(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S), frame_id=frame_id)
+        sec, nanosec = divmod(self.clock.ns(t_s), NS_PER_S)
+        return Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id=frame_id)
 
     def odometry(
         self,
@@ -126,7 +147,8 @@ class MessageBuilder:
         pose_cov: np.ndarray[Any, np.dtype[np.float64]],
         twist_cov: np.ndarray[Any, np.dtype[np.float64]],
     ) -> Any:
-        """An Odometry odom -> base_footprint with (vx, vy, w) and the two covariances."""
+        """An Odometry odom -> base_footprint with (vx, vy, w) and the two covariances (the
+        message holds them as given: the builder's fixed ones, read-only, or new ones)."""
         s = self.settings
         return Odometry(
             header=self.header(t_s, s.odom_frame),
@@ -136,14 +158,14 @@ class MessageBuilder:
                     position=Point(x=float(x), y=float(y), z=0.0),
                     orientation=yaw_quaternion(float(yaw)),
                 ),
-                covariance=pose_cov.copy(),
+                covariance=pose_cov,
             ),
             twist=TwistWithCovariance(
                 twist=Twist(
                     linear=Vector3(x=float(twist[0]), y=float(twist[1]), z=0.0),
                     angular=Vector3(x=0.0, y=0.0, z=float(twist[2])),
                 ),
-                covariance=twist_cov.copy(),
+                covariance=twist_cov,
             ),
         )
 
@@ -180,17 +202,14 @@ class MessageBuilder:
         self, t_s: float, gyro: tuple[float, float, float], accel: tuple[float, float, float]
     ) -> Any:
         """/imu/data from SI values [rad/s, m/s^2], without orientation (REP 145)."""
-        s = self.settings
-        orientation_cov = np.zeros(9, dtype=np.float64)
-        orientation_cov[0] = -1.0  # REP 145: no orientation estimate
         return Imu(
-            header=self.header(t_s, s.imu_frame),
+            header=self.header(t_s, self.settings.imu_frame),
             orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
-            orientation_covariance=orientation_cov,
+            orientation_covariance=self.imu_orientation_cov,
             angular_velocity=Vector3(x=float(gyro[0]), y=float(gyro[1]), z=float(gyro[2])),
-            angular_velocity_covariance=np.eye(3).ravel() * s.imu_angular_velocity_covariance,
+            angular_velocity_covariance=self.imu_angular_velocity_cov,
             linear_acceleration=Vector3(x=float(accel[0]), y=float(accel[1]), z=float(accel[2])),
-            linear_acceleration_covariance=np.eye(3).ravel() * s.imu_linear_acceleration_covariance,
+            linear_acceleration_covariance=self.imu_linear_acceleration_cov,
         )
 
     def joint_states(self, t_s: float, odo: OdometryState) -> Any:
@@ -233,8 +252,10 @@ class MessageBuilder:
         )
 
     def wheel_tf(self, t_s: float, odo: OdometryState) -> Any:
-        """/tf: base_link -> each wheel's link, turned about +y by the wheel's angle."""
+        """/tf: base_link -> each wheel's link, turned about +y by the wheel's angle (one header
+        object shared, as :meth:`path`'s)."""
         s = self.settings
+        header = self.header(t_s, s.base_link_frame)
         out = []
         for child, y, angle in (
             (s.left_wheel_frame, 0.5 * s.wheel_separation_m, odo.wheel_angle_left_rad),
@@ -243,7 +264,7 @@ class MessageBuilder:
             half = 0.5 * float(angle)
             out.append(
                 TransformStamped(
-                    header=self.header(t_s, s.base_link_frame),
+                    header=header,
                     child_frame_id=child,
                     transform=Transform(
                         translation=Vector3(x=0.0, y=y, z=0.0),

@@ -15,6 +15,7 @@ makes, byte for byte.
 
 from __future__ import annotations
 
+import functools
 import struct
 from collections.abc import Callable
 from typing import Any
@@ -27,6 +28,7 @@ _U32 = struct.Struct("<I")
 _I32_U32 = struct.Struct("<iI")
 _F64x3 = struct.Struct("<3d")
 _F64x4 = struct.Struct("<4d")
+_F64x6 = struct.Struct("<6d")
 _F64x7 = struct.Struct("<7d")
 _F32x7 = struct.Struct("<7f")
 
@@ -49,25 +51,17 @@ class _Writer:
         self.buf += _U32.pack(value)
 
     def string(self, text: str) -> None:
-        data = text.encode()
         self.align(4)
-        self.buf += _U32.pack(len(data) + 1)
-        self.buf += data
-        self.buf += b"\x00"
+        self.buf += _string(text)
 
     def header(self, h: Any) -> None:
         self.align(4)
         self.buf += _I32_U32.pack(h.stamp.sec, h.stamp.nanosec)
-        self.string(h.frame_id)
+        self.buf += _string(h.frame_id)
 
     def f64s(self, packer: struct.Struct, *values: float) -> None:
         self.align(8)
         self.buf += packer.pack(*values)
-
-    def f64_array(self, values: Any) -> None:
-        """A fixed-size float64 array (no count)."""
-        self.align(8)
-        self.buf += np.ascontiguousarray(values, dtype="<f8").tobytes()
 
     def f64_sequence(self, values: Any) -> None:
         data = np.ascontiguousarray(values, dtype="<f8")
@@ -81,32 +75,64 @@ class _Writer:
         self.f64s(_F64x7, p.position.x, p.position.y, p.position.z, q.x, q.y, q.z, q.w)
 
 
+@functools.lru_cache(maxsize=256)
+def _string(text: str) -> bytes:
+    """A CDR string: u32 length (the NUL counted), the UTF-8 bytes, the NUL (a run has few
+    frame and joint names: each is encoded once)."""
+    data = text.encode()
+    return _U32.pack(len(data) + 1) + data + b"\x00"
+
+
+@functools.lru_cache(maxsize=256)
+def _names(texts: tuple[str, ...], at: int) -> bytes:
+    """Strings that start at an offset ``at`` (mod 8, a multiple of 4) and are followed by
+    float64s: each aligned to 4, the last padded to 8 (this depends on the names alone)."""
+    buf = b""
+    for text in texts:
+        buf += bytes(-len(buf) % 4) + _string(text)
+    return buf + bytes(-(at + len(buf)) % 8)
+
+
+def _stamped(header: Any, *texts: str) -> bytes:
+    """The start of a message whose header comes first, then ``texts``, then float64s: the
+    encapsulation header, the stamp, the names, aligned for the float64s."""
+    stamp = header.stamp
+    return HEADER + _I32_U32.pack(stamp.sec, stamp.nanosec) + _names((header.frame_id, *texts), 0)
+
+
+def _f64_bytes(values: Any) -> bytes:
+    """A fixed-size float64 array at an offset aligned to 8 (no count)."""
+    return np.ascontiguousarray(values, dtype="<f8").tobytes()
+
+
 def _odometry(m: Any) -> bytes:
-    w = _Writer()
-    w.header(m.header)
-    w.string(m.child_frame_id)
-    w.pose(m.pose.pose)
-    w.f64_array(m.pose.covariance)
-    t = m.twist.twist
-    w.f64s(_F64x3, t.linear.x, t.linear.y, t.linear.z)
-    w.f64s(_F64x3, t.angular.x, t.angular.y, t.angular.z)
-    w.f64_array(m.twist.covariance)
-    return bytes(w.buf)
+    pose, twist = m.pose, m.twist
+    p, q = pose.pose.position, pose.pose.orientation
+    v, w = twist.twist.linear, twist.twist.angular
+    return b"".join(
+        (
+            _stamped(m.header, m.child_frame_id),
+            _F64x7.pack(p.x, p.y, p.z, q.x, q.y, q.z, q.w),
+            _f64_bytes(pose.covariance),
+            _F64x6.pack(v.x, v.y, v.z, w.x, w.y, w.z),
+            _f64_bytes(twist.covariance),
+        )
+    )
 
 
 def _imu(m: Any) -> bytes:
-    w = _Writer()
-    w.header(m.header)
-    q = m.orientation
-    w.f64s(_F64x4, q.x, q.y, q.z, q.w)
-    w.f64_array(m.orientation_covariance)
-    a = m.angular_velocity
-    w.f64s(_F64x3, a.x, a.y, a.z)
-    w.f64_array(m.angular_velocity_covariance)
-    f = m.linear_acceleration
-    w.f64s(_F64x3, f.x, f.y, f.z)
-    w.f64_array(m.linear_acceleration_covariance)
-    return bytes(w.buf)
+    q, a, f = m.orientation, m.angular_velocity, m.linear_acceleration
+    return b"".join(
+        (
+            _stamped(m.header),
+            _F64x4.pack(q.x, q.y, q.z, q.w),
+            _f64_bytes(m.orientation_covariance),
+            _F64x3.pack(a.x, a.y, a.z),
+            _f64_bytes(m.angular_velocity_covariance),
+            _F64x3.pack(f.x, f.y, f.z),
+            _f64_bytes(m.linear_acceleration_covariance),
+        )
+    )
 
 
 def _joint_state(m: Any) -> bytes:
@@ -122,14 +148,17 @@ def _joint_state(m: Any) -> bytes:
 
 
 def _tf_message(m: Any) -> bytes:
-    w = _Writer()
-    w.u32(len(m.transforms))
+    parts = [HEADER, _U32.pack(len(m.transforms))]
+    at = 4  # each transform's offset mod 8: after the count, then after float64s
     for t in m.transforms:
-        w.header(t.header)
-        w.string(t.child_frame_id)
-        v, q = t.transform.translation, t.transform.rotation
-        w.f64s(_F64x7, v.x, v.y, v.z, q.x, q.y, q.z, q.w)
-    return bytes(w.buf)
+        h, v, q = t.header, t.transform.translation, t.transform.rotation
+        parts += (
+            _I32_U32.pack(h.stamp.sec, h.stamp.nanosec),
+            _names((h.frame_id, t.child_frame_id), at),
+            _F64x7.pack(v.x, v.y, v.z, q.x, q.y, q.z, q.w),
+        )
+        at = 0
+    return b"".join(parts)
 
 
 def _uint8_multi_array(m: Any) -> bytes:
@@ -147,20 +176,25 @@ def _uint8_multi_array(m: Any) -> bytes:
 
 
 def _twist(m: Any) -> bytes:
-    w = _Writer()
-    w.f64s(_F64x3, m.linear.x, m.linear.y, m.linear.z)
-    w.f64s(_F64x3, m.angular.x, m.angular.y, m.angular.z)
-    return bytes(w.buf)
+    v, w = m.linear, m.angular
+    return HEADER + _F64x6.pack(v.x, v.y, v.z, w.x, w.y, w.z)
 
 
 def _path(m: Any) -> bytes:
-    w = _Writer()
-    w.header(m.header)
-    w.u32(len(m.poses))
-    for p in m.poses:
-        w.header(p.header)
-        w.pose(p.pose)
-    return bytes(w.buf)
+    h = m.header
+    head = _I32_U32.pack(h.stamp.sec, h.stamp.nanosec) + _string(h.frame_id)
+    head += bytes(-len(head) % 4) + _U32.pack(len(m.poses))
+    parts = [HEADER, head]
+    at = len(head) % 8  # each pose's offset mod 8: after the count, then after float64s
+    for stamped in m.poses:
+        h, p, q = stamped.header, stamped.pose.position, stamped.pose.orientation
+        parts += (
+            _I32_U32.pack(h.stamp.sec, h.stamp.nanosec),
+            _names((h.frame_id,), at),
+            _F64x7.pack(p.x, p.y, p.z, q.x, q.y, q.z, q.w),
+        )
+        at = 0
+    return b"".join(parts)
 
 
 def _laser_scan(m: Any) -> bytes:

@@ -4,6 +4,7 @@ and, with ``--ros``, the live node (:class:`RosOutput`)."""
 from __future__ import annotations
 
 import math
+import struct
 import time
 from collections import deque
 from collections.abc import Sequence
@@ -26,14 +27,14 @@ if TYPE_CHECKING:
 
 MAP_PERIOD_S = 5.0  # [s] of MCU time between /map messages while mapping
 DIAGNOSTICS_PERIOD_S = 1.0  # [s] of MCU time between /diagnostics messages
+_CRC = struct.Struct("<I")  # a frame's CRC-32C, after its body
+_IMU_OK = int(TelemetryFlags.IMU_OK)  # as a plain int: an IntFlag's ``&`` builds a member
 
 
 def wire_bytes(frame: Frame) -> bytes:
     """The frame as it was on the wire (a delivered frame has this version and a valid CRC)."""
-    import struct
-
     body = bytes((PROTOCOL_VERSION, frame.type, frame.seq, len(frame.payload))) + frame.payload
-    return b"\xa5\x5a" + body + struct.pack("<I", crc32c(body))
+    return b"\xa5\x5a" + body + _CRC.pack(crc32c(body))
 
 
 def navigation_of(mission: Mission | None) -> NavigateMission | None:
@@ -146,7 +147,7 @@ class RosOutput(CoreListener):
         self._pending.clear()
         if odo is not None:
             self.send("wheel_odom", t_s, b.wheel_odom(t_s, odo))
-        if t.flags & TelemetryFlags.IMU_OK:
+        if t.flags & _IMU_OK:
             self.send("imu", t_s, b.imu(t_s, t))
         if odo is not None:
             self.send("joint_states", t_s, b.joint_states(t_s, odo))

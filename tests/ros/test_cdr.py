@@ -76,3 +76,26 @@ def test_each_encoder_reads_back_with_rosbags(msgtype: str) -> None:
         if msg.__msgtype__ == msgtype:
             back = STORE.deserialize_cdr(cdr.serialize(STORE, msg), msgtype)
             assert type(back) is type(msg)
+
+
+@pytest.mark.parametrize("length", range(1, 10))
+def test_encoders_pad_after_names_of_every_length(length: int) -> None:
+    """The encoders that pack a message in a few pieces pad after its names from their
+    lengths: every length of frame name, mod 8, gives rosbags' bytes."""
+    name = "f" * length
+    settings = RosSettings(
+        odom_frame=name,
+        base_frame=name[:-1] or "b",
+        imu_frame=name + "i",
+        base_link_frame=name + "bl",
+        left_wheel_frame=name + "l",
+    )
+    b = MessageBuilder(settings, HostConfig().odometry, StampClock(sim_time=True))
+    rng = np.random.default_rng(length)
+    odo = OdometryState(1.5, *rng.normal(0.0, 1.0, 11))
+    msgs = [
+        b.wheel_odom(1.5, odo), b.wheel_tf(1.5, odo), b.odom_tf(1.5, 0.1, 0.2, 0.3),
+        b.imu_si(1.5, (0.1, 0.2, 0.3), (1.0, 2.0, 3.0)), b.path(1.5, rng.normal(size=(3, 3)), name),
+    ]  # fmt: skip
+    for msg in msgs:
+        assert cdr.serialize(STORE, msg) == bytes(STORE.serialize_cdr(msg, msg.__msgtype__))
