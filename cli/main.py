@@ -9,6 +9,7 @@ stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
@@ -59,6 +60,25 @@ def _brake_parser() -> argparse.ArgumentParser:
     return parser
 
 
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")
+"""What limits the BLAS libraries' thread pools (numpy's and scipy's OpenBLAS: pthreads, or
+OpenMP in a distribution's build)."""
+
+
+def one_blas_thread() -> None:
+    """One BLAS thread for every process of the stack, unless the environment says otherwise.
+
+    Every matrix here is small (the EKF's 7 x 7, DWB's tables), so a second BLAS thread never
+    pays; but OpenBLAS's idle workers spin on a core after each call that woke them, and a
+    navigating daemon spent about 5 % of its CPU so (numpy's and scipy's pools both), taken
+    from the twin, the planner's worker and whatever else runs on a Jetson. Read by the
+    libraries when they load, so set before numpy's first import; inherited by the processes
+    the command starts.
+    """
+    for name in BLAS_THREADS:
+        os.environ.setdefault(name, "1")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse the command line, run the subcommand, and turn a user's error into one line.
 
@@ -73,6 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         The exit status: the subcommand's own, 2 for an error a user can cause, 130 when
         interrupted.
     """
+    one_blas_thread()
     given = list(sys.argv[1:] if argv is None else argv)
     brake = given[:1] == ["brake"] and not {"-h", "--help"} & set(given)
     args = (_brake_parser() if brake else build_parser()).parse_args(given)
