@@ -64,7 +64,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from jackson.experiments.report_plots import plot_trajectories
+    from jackson.common.figure_worker import FigureWorker
     from jackson.experiments.trial import TrialSpec, run_trial
     from jackson.sim.faults import summary
 
@@ -91,9 +91,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = out_folder(args.out or Path("runs") / f"{stamp}-{args.mission}")
     faults = tuple(args.fault)
-    r = run_trial(TrialSpec(args.mission, 0, args.seed, args.robot, world, out, config, faults))
-    png = out / "trajectory.png"
-    plot_trajectories(png, args.mission, [out], vector=args.pdf)
+    with FigureWorker("jackson.experiments.report_plots", "plot_trajectories") as figure:
+        spec = TrialSpec(args.mission, 0, args.seed, args.robot, world, out, config, faults)
+        r = run_trial(spec)
+        png = out / "trajectory.png"
+        figure.draw(png, args.mission, [out], vector=args.pdf)
     table = Table(title=f"{args.mission} on the twin ({args.robot}, {world}, seed {args.seed})")
     table.add_column("figure")
     table.add_column("value", justify="right")
@@ -117,17 +119,8 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     """Map the maze (unless ``--map``), then navigate it to the goals; the table and plot."""
     import datetime as dt
 
-    from jackson.experiments.stage3 import (
-        NavTrialSpec,
-        check_world_route,
-        mapping_spec,
-        plot_stage3,
-        run_nav_trial,
-        world_goals,
-    )
-    from jackson.host.control.navigator import NavigatorConfig, check_route
-    from jackson.host.nav.grid import OccupancyGrid
-    from jackson.host.nav.types import Pose2D
+    from jackson.common.figure_worker import FigureWorker
+    from jackson.experiments.stage3 import check_world_route, world_goals
     from jackson.sim.config import load_world
 
     map_yaml = map_file(args.map)  # the map and the goals first: nothing is built before
@@ -147,6 +140,27 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     refuse_bad_route(lambda: check_world_route(world_spec, goals), f"--world {world}")
     stamp = dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     out = out_folder(args.out or Path("runs") / f"{stamp}-maze")
+    with FigureWorker("jackson.experiments.stage3", "plot_stage3") as figure:
+        return _maze_runs(args, out, map_yaml, world, world_spec, goals, config, figure)
+
+
+def _maze_runs(
+    args: argparse.Namespace,
+    out: Path,
+    map_yaml: Path | None,
+    world: str,
+    world_spec: Any,
+    goals: Any,
+    config: Any,
+    figure: Any,
+) -> int:
+    """The maze's mapping run (without ``map_yaml``) and its navigation, then its figure
+    (drawn by ``figure``, a :class:`~jackson.common.figure_worker.FigureWorker`)."""
+    from jackson.experiments.stage3 import NavTrialSpec, mapping_spec, run_nav_trial
+    from jackson.host.control.navigator import NavigatorConfig, check_route
+    from jackson.host.nav.grid import OccupancyGrid
+    from jackson.host.nav.types import Pose2D
+
     if map_yaml is None:
         survey = mapping_spec(args.robot, world, args.seed, out / "map", config)
         m = run_nav_trial(dataclasses.replace(survey, lidar_mode=lidar_mode(args)))
@@ -164,7 +178,7 @@ def _cmd_run_maze(args: argparse.Namespace) -> int:
     spec = dataclasses.replace(spec, goals=goals, lidar_mode=lidar_mode(args))
     r = run_nav_trial(spec)
     r["run"] = "nav"
-    plot_stage3(out / "maze.png", out, [r], vector=args.pdf)
+    figure.draw(out / "maze.png", out, [r], vector=args.pdf)
     _print_maze_table(f"maze on the twin ({args.robot}, {world}, seed {args.seed})", r)
     print(f"plot: {out / 'maze.png'}\nrun folder: {out / 'nav'}")
     return exit_status(r)
