@@ -1068,7 +1068,8 @@ class Costmap(GridCells):
         iw: IntArray,
         stride: IntArray,
         margin_m: FloatArray,
-    ) -> BoolArray:
+        stop_at_clear: bool = False,
+    ) -> tuple[BoolArray, int]:
         """:meth:`trajectories_collide` of factored roll-outs, each evaluated only at the poses
         read, compiled only (:attr:`compiled`; DWB's numpy path evaluates the poses itself).
 
@@ -1093,11 +1094,14 @@ class Costmap(GridCells):
             The ramps and the stride of each roll-out.
         margin_m : ndarray, shape (R,)
             As :meth:`trajectories_collide`'s, per roll-out [m].
+        stop_at_clear : bool
+            Test the roll-outs in their order only up to the first that does not collide.
 
         Returns
         -------
-        ndarray of bool, shape (R,)
-            True for a roll-out that collides.
+        tuple
+            (True for a roll-out that collides (False after the first clear one when stopping
+            there), shape (R,); the index of the first that does not collide, R if none).
 
         Raises
         ------
@@ -1116,7 +1120,7 @@ class Costmap(GridCells):
         allowed, floor_m = self._escape(start, margins, True)
         rule = native.Rule(margins, allowed, floor_m, self._class_padded, self.shape)
         return self._native.rollouts_collide(
-            (start[0], start[1]), ds_m, cos_sin, yaw_rad, iv, iw, stride, rule
+            (start[0], start[1]), ds_m, cos_sin, yaw_rad, iv, iw, stride, rule, stop_at_clear
         )
 
     def _footprint_hits(

@@ -107,10 +107,10 @@ def load_library(path: Path) -> ctypes.CDLL:
         _N, _N, _P, _P, _P, _P, _P, _P, _P, _N, _N,
         _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
     ]  # fmt: skip
-    rolls.restype = None
+    rolls.restype = _N
     rolls.argtypes = [
         _N, _N, _P, _P, _P, _P, _P, _N, _P, ctypes.c_double, ctypes.c_double, _P, _P, _P,
-        _P, _N, _N, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P,
+        _P, _N, _N, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _N, _P,
     ]  # fmt: skip
     rays = lib.jackson_clear_rays
     rays.restype = None
@@ -563,8 +563,11 @@ class Obstacles:
         iw: npt.NDArray[np.int_],
         stride: npt.NDArray[np.int_],
         rule: Rule,
-    ) -> npt.NDArray[np.bool_]:
-        """:meth:`Costmap.rollouts_collide`, compiled."""
+        stop_at_clear: bool = False,
+    ) -> tuple[npt.NDArray[np.bool_], int]:
+        """:meth:`Costmap.rollouts_collide`, compiled: which roll-outs collide, and the first
+        that does not (R: none). With ``stop_at_clear`` they are tested in order up to that one
+        only (the answers after it are not tested: False)."""
         assert LIB is not None
         steps = int(ds_m.shape[1])
         ds = np.ascontiguousarray(ds_m, np.float64)
@@ -583,13 +586,17 @@ class Obstacles:
             raise ValueError("roll-outs: ramp index off its table, or a stride below 1")
         hit = np.zeros(m, np.uint8)
         kept, args = rule.arguments()
-        LIB.jackson_rollouts_collide(
+        first_clear = LIB.jackson_rollouts_collide(
             m, steps, _ptr(ivs, _L), _ptr(iws, _L), _ptr(strides, _L), _ptr(ds, _F),
             _ptr(cs, _F), yaw.shape[0], _ptr(yaw, _F), start[0], start[1], *args,
-            *self._index(), _ptr(hit, np.uint8),
+            *self._index(), int(stop_at_clear), _ptr(hit, np.uint8),
         )  # fmt: skip
         del kept
-        return hit.astype(bool)
+        collides = hit.astype(bool)
+        if not stop_at_clear:
+            clear = np.flatnonzero(~collides)
+            first_clear = int(clear[0]) if clear.size else m
+        return collides, int(first_clear)
 
 
 def main() -> None:

@@ -590,6 +590,7 @@ def test_dwb_speeds_accelerations_and_critics_are_the_daemons() -> None:
     assert f["trans_stopped_velocity"] == dwb.trans_stopped_velocity_m_s
     assert f["prune_distance"] == dwb.prune_distance_m
     assert f["forward_prune_distance"] == dwb.forward_prune_distance_m
+    assert f["short_circuit_trajectory_evaluation"] == dwb.short_circuit_trajectory_evaluation
     assert tuple(f["critics"]) == CRITICS
     assert f["RotateToGoal.scale"] == dwb.rotate_to_goal_scale
     assert f["RotateToGoal.slowing_factor"] == dwb.rotate_to_goal_slowing_factor

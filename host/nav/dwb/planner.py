@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -15,6 +15,7 @@ from jackson.host.nav.dwb.core.path import PlanCells, plan_cells, plan_span
 from jackson.host.nav.dwb.core.rollouts import Rollouts, build_rollouts
 from jackson.host.nav.dwb.core.window import dynamic_window, sample_targets
 from jackson.host.nav.dwb.critics import Batch, Context, Critic, bringup_critics
+from jackson.host.nav.dwb.critics.base import DeferredLegality
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]
@@ -60,9 +61,16 @@ class DwbPlanner:
         names = [critic.name for critic in self.critics]
         if len(set(names)) != len(names):
             raise ValueError(f"DwbPlanner: critic names must be distinct, got {names}")
+        self._deferred = _deferred(self.critics)
         self._maps = DistanceMaps()
         self._plan_key: tuple[object, ...] | None = None
         self._plan: PlanCells | None = None
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """A planner pickled before the deferred critics were kept (a run folder's snapshot)
+        finds them again."""
+        self.__dict__.update(state)
+        self._deferred = _deferred(self.critics)
 
     def critic(self, name: str) -> Critic:
         """The critic called ``name``.
@@ -210,37 +218,82 @@ class DwbPlanner:
             reason = NO_PATH if context.plan is None else "not prepared: " + ", ".join(unprepared)
             return Command(0.0, 0.0, np.empty((0, 3)), valid=False, samples=m, reason=reason)
         batch = Batch.of(v, w, v_brake, ro, costmap)
-        scored = [critic.score(batch) for critic in self.critics]
+        deferred = self._deferred if self.config.short_circuit_trajectory_evaluation else {}
+        scored: list[tuple[FloatArray, BoolArray | None]] = [
+            (deferred[i].raw_scores(batch), None) if i in deferred else critic.score(batch)
+            for i, critic in enumerate(self.critics)
+        ]
         scales = [critic.scale for critic in self.critics]
         all_ok = np.ones(m, bool)
         for _, legal in scored:
-            all_ok &= legal
+            if legal is not None:
+                all_ok &= legal
         total = np.zeros(m)
         for scale, (raw, _) in zip(scales, scored, strict=True):
             if scale != 0.0:
                 total += scale * raw
-        if not all_ok.any():
+        best, rejected = self._choose(batch, total, all_ok, deferred)
+        if best < 0:  # none legal: every critic's legality of every roll-out, for the reason
+            scored = [
+                (raw, self.critics[i].score(batch)[1] if legal is None else legal)
+                for i, (raw, legal) in enumerate(scored)
+            ]
             shares = ", ".join(
                 f"{critic.name} {100.0 * np.mean(~legal):.0f}%"
                 for critic, (_, legal) in zip(self.critics, scored, strict=True)
-                if np.any(~legal)
+                if legal is not None and np.any(~legal)
             )
             return Command(
                 0.0, 0.0, np.empty((0, 3)), valid=False, samples=m,
                 reason=f"no legal trajectory of {m} ({shares})",
             )  # fmt: skip
-        best = int(np.where(all_ok, total, np.inf).argmin())
         scores = {
             critic.name: float(scale * raw[best])
             for critic, scale, (raw, _) in zip(self.critics, scales, scored, strict=True)
         }
         command = Command(
             float(v[best]), float(w[best]), ro.trajectory(best), scores,
-            float(total[best]), True, "", m, int(np.count_nonzero(all_ok)),
+            float(total[best]), True, "", m, int(np.count_nonzero(all_ok)) - rejected,
         )  # fmt: skip
         for critic in self.critics:
             critic.debrief(command)
         return command
+
+    def _choose(
+        self,
+        batch: Batch,
+        total: FloatArray,
+        all_ok: BoolArray,
+        deferred: Mapping[int, DeferredLegality],
+    ) -> tuple[int, int]:
+        """The roll-out of least total that every critic finds legal, the lowest index of
+        equals (``all_ok``: the legality of the critics not deferred), and how many roll-outs
+        the deferred critics were found to reject on the way; (-1, 0) when none is legal.
+
+        Without deferred critics, the arg-min of the legal totals. With them, the roll-outs
+        legal so far in order of (total, index), each deferred critic asked where the first
+        one it allows is, from the position all agree on so far, until they all allow the
+        same one: the same roll-out as testing them all, asking only as far as needed.
+        """
+        if not all_ok.any():
+            return -1, 0
+        if not deferred:
+            return int(np.where(all_ok, total, np.inf).argmin()), 0
+        candidates = np.flatnonzero(all_ok)
+        order = candidates[np.argsort(total[candidates], kind="stable")]
+        allowed: dict[int, int] = {}  # critic -> the position it allows
+        at = 0
+        while at < len(order):
+            for key, critic in deferred.items():
+                if allowed.get(key) != at:
+                    found = critic.first_legal(batch, order[at:])
+                    if found < 0:
+                        return -1, 0
+                    at += found
+                    allowed[key] = at
+            if all(allowed[key] == at for key in deferred):
+                return int(order[at]), at
+        return -1, 0
 
     def _plan_cells(self, pose: Pose2D, path: npt.ArrayLike, costmap: Costmap) -> PlanCells | None:
         """The global path's cells in the window
@@ -256,3 +309,9 @@ class DwbPlanner:
             self._plan_key = key
             self._plan = plan_cells(full, span, costmap)
         return self._plan
+
+
+def _deferred(critics: Sequence[Critic]) -> dict[int, DeferredLegality]:
+    """The critics whose legality may be asked about only as far as the choice needs, by their
+    position in the list."""
+    return {i: c for i, c in enumerate(critics) if isinstance(c, DeferredLegality)}

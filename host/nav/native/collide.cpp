@@ -318,8 +318,10 @@ void jackson_trajectories_collide(std::int64_t m, std::int64_t len, const double
 // (cos, sin)[iw[t], i] from (x0, y0), its heading yaw[iw[t], j] at pose j, and is read at poses
 // 0, s, 2 s, ... and K (s = stride[t]). Its positions are numpy's: the steps' running sums
 // (first step, then one addition per step) plus the start. ds is (V, K), cs the W cosine rows
-// then the W sine rows (2 W, K), yaw (W, K + 1).
-void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int64_t* iv,
+// then the W sine rows (2 W, K), yaw (W, K + 1). With stop_at_clear the roll-outs are tested
+// in their order up to the first that does not collide, whose index is returned (hit is then
+// set up to it); m when every one collides, or without stop_at_clear.
+std::int64_t jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int64_t* iv,
                               const std::int64_t* iw, const std::int64_t* stride,
                               const double* ds, const double* cs, std::int64_t w,
                               const double* yaw, double x0, double y0, const double* margin,
@@ -329,7 +331,8 @@ void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int
                               std::int64_t padded_rows, std::int64_t padded_cols, std::int64_t k,
                               const std::int64_t* offsets, std::int64_t n_offsets,
                               const double* obstacle_xy, const double* obstacle_r,
-                              const double* grid, const double* robot, std::uint8_t* hit) {
+                              const double* grid, const double* robot,
+                              std::int64_t stop_at_clear, std::uint8_t* hit) {
   const Obstacles o{ids,     padded_rows * padded_cols, padded_rows, padded_cols, k,
                     offsets, n_offsets,                 obstacle_xy, obstacle_r};
   const Grid g{grid[0], grid[1], grid[2], grid_rows, grid_cols};
@@ -371,7 +374,9 @@ void jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const std::int
     }
     hit[t] = test.collides(px.data(), py.data(), pyaw.data(), n, margin[t], allowed[t],
                            floor_m[t]);
+    if (stop_at_clear && !hit[t]) return t;
   }
+  return m;
 }
 
 // Costmap._clear_rays after its set-up: ray i's samples k = 0, 1, ... while k step <= stop[i]

@@ -132,7 +132,7 @@ def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) ->
     rows = np.arange(len(v))
     stride = rng.integers(1, ro.steps + 1, len(v))
     margin = rng.uniform(0.0, cm.max_margin_m, len(v))
-    got = cm.rollouts_collide(
+    got, _ = cm.rollouts_collide(
         (0.0 + pose.x, 0.0 + pose.y, float(ro.yaw_rad[0, 0])), ro.ds_m, ro.cos_sin, ro.yaw_rad,
         ro.iv, ro.iw, stride, margin,
     )  # fmt: skip

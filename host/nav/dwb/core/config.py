@@ -55,6 +55,12 @@ class DwbConfig:
     prune_distance_m, forward_prune_distance_m : float
         How much of the global path behind and ahead of the robot the critics use [m]
         (2.0, 2.0; both capped at half the local window).
+    short_circuit_trajectory_evaluation : bool
+        Ask a critic whose legality is costly (BaseObstacle's collision test,
+        :class:`~jackson.host.nav.dwb.critics.base.DeferredLegality`) only about the roll-outs
+        in order of total up to the first legal one, as Nav2's DWB stops scoring a trajectory
+        once it cannot win (true, as in bringup). The command is the same;
+        :attr:`Command.legal` then counts the roll-outs not found illegal.
     """
 
     controller_frequency_hz: float = float(TELEMETRY_RATE_HZ_DEFAULT)
@@ -83,6 +89,7 @@ class DwbConfig:
     goal_dist_scale: float = 24.0
     prune_distance_m: float = 2.0
     forward_prune_distance_m: float = 2.0
+    short_circuit_trajectory_evaluation: bool = True
 
     def __post_init__(self) -> None:
         for name in (
@@ -133,7 +140,8 @@ class Command:
     reason : str
         Why no trajectory was legal (share of samples each critic rejected), else "".
     samples, legal : int
-        Trajectories evaluated and accepted.
+        Trajectories evaluated and accepted (with the short circuit, those not found illegal:
+        the roll-outs after the chosen one in the order of total are not asked about).
     """
 
     v_m_s: float

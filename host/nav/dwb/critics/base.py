@@ -18,7 +18,7 @@ list order (Eq. 11 of the paper); a roll-out any critic finds illegal is never c
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
@@ -248,3 +248,42 @@ class Critic(Protocol):
             The chosen command.
         """
         return None
+
+
+@runtime_checkable
+class DeferredLegality(Protocol):
+    """A critic whose legality is costly to test (BaseObstacle's collision test): the planner
+    may take its raw scores alone and ask its legality only of the roll-outs it would choose,
+    in its order, until one is legal (``DwbConfig.short_circuit_trajectory_evaluation``). The
+    answers must be :meth:`Critic.score`'s, so the choice is the same either way."""
+
+    def raw_scores(self, batch: Batch) -> FloatArray:
+        """:meth:`Critic.score`'s raw scores alone.
+
+        Parameters
+        ----------
+        batch : Batch
+            The cycle's roll-outs.
+
+        Returns
+        -------
+        ndarray, shape (M,)
+        """
+        ...
+
+    def first_legal(self, batch: Batch, order: IntArray) -> int:
+        """Where in ``order`` the first roll-out :meth:`Critic.score` finds legal is.
+
+        Parameters
+        ----------
+        batch : Batch
+            The cycle's roll-outs.
+        order : ndarray of int
+            Roll-outs, in the order asked about.
+
+        Returns
+        -------
+        int
+            The position in ``order``; -1 when none is legal.
+        """
+        ...

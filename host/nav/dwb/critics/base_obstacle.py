@@ -10,6 +10,11 @@ The poses tested are those where the centre or a footprint corner may have moved
 since the last pose tested (:func:`collisions`), except on the roll-outs that never come
 within reach of an obstacle (:meth:`Costmap.clear_reach_m` at every 16th pose), which cannot
 collide.
+
+The collision test is the costly part of a cycle, so the critic also answers it only as far as
+the planner's choice needs (:meth:`BaseObstacleCritic.first_legal`, DWB's
+``short_circuit_trajectory_evaluation``): the roll-outs in the planner's order of total, up to
+the first that does not collide.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from jackson.host.nav.dwb.critics.base import Batch, Context, Critic
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
 
 
 class BaseObstacleCritic(Critic):
@@ -54,13 +60,42 @@ class BaseObstacleCritic(Critic):
 
     def score(self, batch: Batch) -> tuple[FloatArray, BoolArray]:
         """Raw scores (cost at the end) and legality (no collision) of every roll-out."""
-        costmap = batch.costmap
+        return self.raw_scores(batch), ~self._collisions(batch)
+
+    def raw_scores(self, batch: Batch) -> FloatArray:
+        """The raw scores alone: the cost of each end pose's cell."""
+        return batch.costmap.cost_at(batch.x_end_m, batch.y_end_m).astype(np.float64)
+
+    def first_legal(self, batch: Batch, order: IntArray) -> int:
+        """Where in ``order`` the first roll-out that does not collide is (-1: none), each
+        tested only until that one is found: the first index of ``order`` that
+        :meth:`score`'s legality holds at.
+
+        Parameters
+        ----------
+        batch : Batch
+            The cycle's roll-outs.
+        order : ndarray of int
+            Roll-outs, in the order they are asked about.
+
+        Returns
+        -------
+        int
+            The position in ``order``, or -1.
+        """
+        c = self.config
         coarse = (batch.coarse_x_m, batch.coarse_y_m, batch.coarse_length_m)
-        hit = collisions(
-            batch.rollouts, coarse, batch.v_m_s, batch.w_rad_s, self._velocity, costmap,
+        return first_clear(
+            batch.rollouts, coarse, batch.v_m_s, batch.w_rad_s, self._velocity, batch.costmap,
+            c.sim_time_s, order,
+        )  # fmt: skip
+
+    def _collisions(self, batch: Batch) -> BoolArray:
+        coarse = (batch.coarse_x_m, batch.coarse_y_m, batch.coarse_length_m)
+        return collisions(
+            batch.rollouts, coarse, batch.v_m_s, batch.w_rad_s, self._velocity, batch.costmap,
             self.config.sim_time_s,
         )  # fmt: skip
-        return costmap.cost_at(batch.x_end_m, batch.y_end_m).astype(np.float64), ~hit
 
 
 def collisions(
@@ -144,19 +179,84 @@ def _collisions_compiled(
     """:func:`collisions` by the compiled loops (:mod:`jackson.host.nav.native`): the strides,
     margins and the roll-outs near an obstacle in one call, then the near ones tested at the
     poses made where they are read; the same answer bit for bit."""
-    half_cell = 0.5 * costmap.resolution_m
-    group, margin_m, near_mask = native.dwb_collision_plan(
-        (v, w), velocity, (costmap.config.circumscribed_radius_m, dt_s, half_cell, ro.steps),
-        (coarse[0], coarse[1], coarse[2]), costmap.clear_reach_table(),
-        (costmap.origin_x_m, costmap.origin_y_m, costmap.resolution_m, *costmap.shape),
-    )  # fmt: skip
+    group, margin_m, near_mask = _plan(ro, coarse, v, w, velocity, costmap, dt_s)
     hit = np.zeros(v.shape[0], bool)
     near = np.flatnonzero(near_mask)
     if near.size == 0:
         return hit
-    start = (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
-    hit[near] = costmap.rollouts_collide(
-        start, ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[near], ro.iw[near], group[near],
+    hit[near], _ = costmap.rollouts_collide(
+        _start(ro), ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[near], ro.iw[near], group[near],
         margin_m[near],
     )  # fmt: skip
     return hit
+
+
+def _plan(
+    ro: Rollouts,
+    coarse: tuple[FloatArray, FloatArray, FloatArray],
+    v: FloatArray,
+    w: FloatArray,
+    velocity: tuple[float, float],
+    costmap: Costmap,
+    dt_s: float,
+) -> tuple[npt.NDArray[np.int64], FloatArray, BoolArray]:
+    """The compiled plan of the test (:func:`jackson.host.nav.native.dwb_collision_plan`):
+    each roll-out's stride group, margin, and whether it comes near an obstacle."""
+    half_cell = 0.5 * costmap.resolution_m
+    return native.dwb_collision_plan(
+        (v, w), velocity, (costmap.config.circumscribed_radius_m, dt_s, half_cell, ro.steps),
+        (coarse[0], coarse[1], coarse[2]), costmap.clear_reach_table(),
+        (costmap.origin_x_m, costmap.origin_y_m, costmap.resolution_m, *costmap.shape),
+    )  # fmt: skip
+
+
+def _start(ro: Rollouts) -> tuple[float, float, float]:
+    """The roll-outs' start pose as the collision test takes it (numpy's 0 + x)."""
+    return (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
+
+
+def first_clear(
+    ro: Rollouts,
+    coarse: tuple[FloatArray, FloatArray, FloatArray],
+    v: FloatArray,
+    w: FloatArray,
+    velocity: tuple[float, float],
+    costmap: Costmap,
+    sim_time_s: float,
+    order: IntArray,
+) -> int:
+    """Where in ``order`` the first roll-out that does not collide is, -1 if none: the first
+    index of ``order`` where :func:`collisions` says False, testing only as far as that.
+
+    Compiled: a roll-out that never comes near an obstacle is clear without a test, so only
+    the near ones before the first such roll-out of ``order`` are tested, in order, until one
+    is clear. With numpy, :func:`collisions` of every roll-out.
+
+    Parameters
+    ----------
+    ro, coarse, v, w, velocity, costmap, sim_time_s
+        As :func:`collisions`.
+    order : ndarray of int
+        Roll-outs, in the order asked about.
+
+    Returns
+    -------
+    int
+        The position in ``order``, or -1.
+    """
+    if not costmap.compiled:
+        clear = np.flatnonzero(~collisions(ro, coarse, v, w, velocity, costmap, sim_time_s)[order])
+        return int(clear[0]) if clear.size else -1
+    group, margin_m, near = _plan(ro, coarse, v, w, velocity, costmap, sim_time_s / ro.steps)
+    far = np.flatnonzero(~near[order])
+    stop = int(far[0]) if far.size else len(order)  # order[:stop] all come near an obstacle
+    if stop == 0:
+        return 0
+    tested = order[:stop]
+    _, first = costmap.rollouts_collide(
+        _start(ro), ro.ds_m, ro.cos_sin, ro.yaw_rad, ro.iv[tested], ro.iw[tested],
+        group[tested], margin_m[tested], stop_at_clear=True,
+    )  # fmt: skip
+    if first < stop:
+        return first
+    return stop if stop < len(order) else -1
