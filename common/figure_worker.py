@@ -29,15 +29,21 @@ TIMEOUT_S = 300.0
 """Longest wait for the worker's figure [s]; then it is killed and the figure drawn here."""
 
 BOOT = """\
-import importlib, pickle, sys
+import importlib, os, pickle, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot
 function = getattr(importlib.import_module(sys.argv[1]), sys.argv[2])
 data = sys.stdin.buffer.read()
 if data:
     args, kwargs = pickle.loads(data)
     function(*args, **kwargs)
+    os._exit(0)
 """
-"""The worker: import the function's module, then draw once with what arrives on stdin (the
-parent's pickle, trusted), nothing when stdin ends empty."""
+"""The worker: import matplotlib (files only: Agg) and the function's module, then draw once
+with what arrives on stdin (the parent's pickle, trusted), nothing when stdin ends empty. Once
+the figure is written (matplotlib closes its files) it ends at once, without the interpreter's
+teardown of its modules, which the command would wait for."""
 
 
 class FigureWorker:
