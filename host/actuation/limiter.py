@@ -14,13 +14,18 @@ So a reversal is a braking ramp followed by an acceleration ramp, never a jump, 
 (r = 0) always uses the deceleration bound. The speed limiter of ros2_controllers'
 diff_drive_controller does the same job with one bound for both directions.
 
-Time comes in as an argument (MCU seconds): the limiter never reads a clock.
+The ramp of one axis is :func:`jackson.common.ramp.ramp`, which DWB's dynamic window uses too
+(:mod:`jackson.host.nav.dwb.core.kinematics`). Time comes in as an argument (MCU seconds): the
+limiter never reads a clock.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+
+from jackson.common.ramp import clamp
+from jackson.common.ramp import ramp as ramp  # the ramp of one axis (re-exported)
 
 
 @dataclass(frozen=True)
@@ -57,43 +62,6 @@ class LimiterConfig:
             value = getattr(self, f.name)
             if not value > 0.0:  # also rejects NaN
                 raise ValueError(f"LimiterConfig.{f.name} must be > 0, got {value}")
-
-
-def _clamp(x: float, low: float, high: float) -> float:
-    return max(low, min(high, x))
-
-
-def ramp(u: float, r: float, dt_s: float, accel: float, decel: float) -> float:
-    """One rate-limited step of one axis from output ``u`` towards target ``r``.
-
-    Parameters
-    ----------
-    u : float
-        Previous output (m/s or rad/s).
-    r : float
-        Target, already clamped to the speed limit (same unit as ``u``).
-    dt_s : float
-        Step length [s]; ``dt_s <= 0`` returns ``u`` unchanged.
-    accel : float
-        Bound on the growth of |u| per second (unit/s).
-    decel : float
-        Bound on the fall of |u| per second (unit/s).
-
-    Returns
-    -------
-    float
-        The new output, by the three cases in the module docstring.
-    """
-    if dt_s <= 0.0 or u == r:
-        return u
-    if u == 0.0 or (r != 0.0 and (u > 0.0) == (r > 0.0)):
-        bound = (accel if abs(r) >= abs(u) else decel) * dt_s
-        return u + _clamp(r - u, -bound, bound)
-    t_zero_s = abs(u) / decel
-    if dt_s < t_zero_s:
-        return u - math.copysign(decel * dt_s, u)
-    magnitude = min(abs(r), accel * (dt_s - t_zero_s))
-    return math.copysign(magnitude, r) if magnitude > 0.0 else 0.0
 
 
 class VelocityLimiter:
@@ -151,8 +119,8 @@ class VelocityLimiter:
         c = self.config
         dt_s = 0.0 if self._t_prev_s is None else max(0.0, t_s - self._t_prev_s)
         self._t_prev_s = t_s
-        v_target = _clamp(v_cmd, -c.max_v_m_s, c.max_v_m_s)
-        w_target = _clamp(w_cmd, -c.max_w_rad_s, c.max_w_rad_s)
+        v_target = clamp(v_cmd, -c.max_v_m_s, c.max_v_m_s)
+        w_target = clamp(w_cmd, -c.max_w_rad_s, c.max_w_rad_s)
         self._v_m_s = ramp(self._v_m_s, v_target, dt_s, c.max_accel_m_s2, c.max_decel_m_s2)
         self._w_rad_s = ramp(
             self._w_rad_s, w_target, dt_s, c.max_alpha_rad_s2, c.max_alpha_decel_rad_s2

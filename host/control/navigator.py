@@ -220,7 +220,7 @@ class Navigator:
             The navigation's bounds.
         """
         self.limits = limits
-        self.dwb.limits = limits
+        self.dwb.set_limits(limits)
 
     @property
     def goal_window_m(self) -> float:

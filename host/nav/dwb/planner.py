@@ -7,10 +7,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.nav.costmap import Costmap
 from jackson.host.nav.dwb.core.config import Command, DwbConfig
 from jackson.host.nav.dwb.core.distance import DistanceMaps
+from jackson.host.nav.dwb.core.kinematics import Kinematics, SpeedLimits
 from jackson.host.nav.dwb.core.path import PlanCells, plan_cells, plan_span
 from jackson.host.nav.dwb.core.rollouts import Rollouts, build_rollouts
 from jackson.host.nav.dwb.core.window import dynamic_window, sample_targets
@@ -31,8 +31,9 @@ class DwbPlanner:
     ----------
     config : DwbConfig
         Sampling, simulation and critics.
-    limits : LimiterConfig
-        Speed and acceleration bounds; the window never leaves them.
+    limits : SpeedLimits or Kinematics
+        Speed and acceleration bounds (the navigation's, e.g. the velocity limiter's
+        configuration); the window never leaves them.
     critics : sequence of Critic, optional
         The critics, in scoring order, names distinct; Nav2 bringup's
         (:func:`~jackson.host.nav.dwb.critics.bringup_critics`) by default.
@@ -41,8 +42,8 @@ class DwbPlanner:
     ----------
     config : DwbConfig
         As given.
-    limits : LimiterConfig
-        As given.
+    kinematics : Kinematics
+        The planner's own copy of the bounds (:meth:`set_limits` replaces it).
     critics : tuple of Critic
         The critics, in scoring order.
 
@@ -53,10 +54,13 @@ class DwbPlanner:
     """
 
     def __init__(
-        self, config: DwbConfig, limits: LimiterConfig, critics: Sequence[Critic] | None = None
+        self,
+        config: DwbConfig,
+        limits: SpeedLimits | Kinematics,
+        critics: Sequence[Critic] | None = None,
     ) -> None:
         self.config = config
-        self.limits = limits
+        self.kinematics = Kinematics.of(limits)
         self.critics = tuple(bringup_critics(config) if critics is None else critics)
         names = [critic.name for critic in self.critics]
         if len(set(names)) != len(names):
@@ -67,10 +71,23 @@ class DwbPlanner:
         self._plan: PlanCells | None = None
 
     def __setstate__(self, state: dict[str, object]) -> None:
-        """A planner pickled before the deferred critics were kept (a run folder's snapshot)
-        finds them again."""
+        """A planner pickled before it kept its own kinematics and its deferred critics (a
+        run folder's snapshot) takes them from what it held."""
+        limits = state.pop("limits", None)
         self.__dict__.update(state)
+        if limits is not None:
+            self.kinematics = Kinematics.of(limits)  # type: ignore[arg-type]  # a LimiterConfig
         self._deferred = _deferred(self.critics)
+
+    def set_limits(self, limits: SpeedLimits | Kinematics) -> None:
+        """New speed and acceleration bounds from the next cycle on (a live setting).
+
+        Parameters
+        ----------
+        limits : SpeedLimits or Kinematics
+            The bounds.
+        """
+        self.kinematics = Kinematics.of(limits)
 
     def critic(self, name: str) -> Critic:
         """The critic called ``name``.
@@ -115,7 +132,7 @@ class DwbPlanner:
         tuple of float
             (v_lo, v_hi, w_lo, w_hi) [m/s], [m/s], [rad/s], [rad/s].
         """
-        return dynamic_window(self.config, self.limits, v_m_s, w_rad_s)
+        return dynamic_window(self.config, self.kinematics, v_m_s, w_rad_s)
 
     def samples(self, v_m_s: float, w_rad_s: float) -> tuple[FloatArray, FloatArray, float]:
         """The window's targets (:func:`~jackson.host.nav.dwb.core.window.sample_targets`).
@@ -130,7 +147,7 @@ class DwbPlanner:
         tuple
             (v (M,), w (M,), slowest v of the window).
         """
-        return sample_targets(self.config, self.limits, v_m_s, w_rad_s)
+        return sample_targets(self.config, self.kinematics, v_m_s, w_rad_s)
 
     def rollout(
         self, pose: Pose2D, velocity: tuple[float, float], v: FloatArray, w: FloatArray
@@ -174,7 +191,7 @@ class DwbPlanner:
         Rollouts
             Evaluated on demand.
         """
-        return build_rollouts(self.config, self.limits, pose, velocity, v, w)
+        return build_rollouts(self.config, self.kinematics, pose, velocity, v, w)
 
     # ------------------------------------------------------------------ scoring
 

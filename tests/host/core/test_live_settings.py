@@ -18,6 +18,7 @@ from jackson.host.control.navigate import NavigateConfig, NavigateMission
 from jackson.host.control.navigator import Navigator, NavigatorConfig
 from jackson.host.core import HostCore, RunFolderListener
 from jackson.host.core.settings import LiveSettings, SettingsInbox
+from jackson.host.nav.dwb.core.kinematics import Kinematics
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.types import Pose2D
 from jackson.host.recording import KIND_RX, KIND_SETTINGS, RecordingError, RunRecorder, read_log
@@ -128,10 +129,12 @@ def test_a_live_limit_change_reaches_the_limiter_and_dwb_at_the_next_frame() -> 
     # requested: what the next change starts from, but nothing is applied between frames
     assert core.settings == wanted
     assert core.limiter.config == cfg.limits and core.watchdog.timeout_s == cfg.cmd_vel_timeout_s
-    assert nav.limits == nav.dwb.limits == cfg.navigation_limits()
+    assert nav.limits == cfg.navigation_limits()
+    assert nav.dwb.kinematics == Kinematics.of(nav.limits)
     core.on_frame(telemetry(1))
     assert core.limiter.config == SLOW and core.watchdog.timeout_s == 0.9
-    assert nav.limits == nav.dwb.limits == SLOW  # DWB's window and the recoveries' speeds
+    assert nav.limits == SLOW  # DWB's window and the recoveries' speeds
+    assert nav.dwb.kinematics == Kinematics.of(SLOW)
     assert nav.dwb.window(0.0, 0.0)[1] <= SLOW.max_v_m_s
     assert core.live.take() is None  # taken once
 
@@ -156,7 +159,9 @@ def test_the_navigation_top_speed_of_the_configuration_still_caps_a_live_limit()
     core.request_settings(LiveSettings(faster, cfg.cmd_vel_timeout_s))
     core.on_frame(telemetry(0))
     assert core.limiter.config == faster
-    assert mission.navigator.dwb.limits == dataclasses.replace(faster, max_v_m_s=0.2)
+    assert mission.navigator.dwb.kinematics == Kinematics.of(
+        dataclasses.replace(faster, max_v_m_s=0.2)
+    )
 
 
 def test_the_service_takes_a_live_limit_change_to_its_navigator() -> None:
@@ -166,7 +171,7 @@ def test_the_service_takes_a_live_limit_change_to_its_navigator() -> None:
     core = HostCore(cfg, NullOutput(), lambda m: None, mission=svc)
     core.request_settings(LiveSettings(SLOW, cfg.cmd_vel_timeout_s))
     core.on_frame(telemetry(0))
-    assert svc.nav.navigator.dwb.limits == SLOW
+    assert svc.nav.navigator.dwb.kinematics == Kinematics.of(SLOW)
 
 
 def test_the_newest_request_before_a_frame_wins_and_the_others_are_not_logged(
@@ -230,7 +235,7 @@ def test_a_change_not_yet_taken_at_a_split_is_logged_in_the_next_folder(tmp_path
     for k in range(60, 140):
         core.on_frame(telemetry(k))
     second.close()
-    assert svc.nav.navigator.dwb.limits == SLOW
+    assert svc.nav.navigator.dwb.kinematics == Kinematics.of(SLOW)
     assert [r for r in read_log(second.folder) if r.kind == KIND_SETTINGS]
     result = replay(second.folder, tmp_path / "out")
     assert result.complete and result.differ == []

@@ -27,9 +27,9 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.actuation.limiter import LimiterConfig
 from jackson.host.nav import native
 from jackson.host.nav.dwb.core.config import DwbConfig
+from jackson.host.nav.dwb.core.kinematics import Kinematics
 from jackson.host.nav.dwb.core.window import velocity_profile
 from jackson.host.nav.types import Pose2D
 
@@ -244,7 +244,7 @@ class Rollouts:
 
 def build_rollouts(
     config: DwbConfig,
-    limits: LimiterConfig,
+    kinematics: Kinematics,
     pose: Pose2D,
     velocity: tuple[float, float],
     v: FloatArray,
@@ -256,7 +256,7 @@ def build_rollouts(
     ----------
     config : DwbConfig
         ``sim_time_s`` and the granularities.
-    limits : LimiterConfig
+    kinematics : Kinematics
         Acceleration and deceleration bounds.
     pose : Pose2D
         Start pose (map frame).
@@ -270,7 +270,7 @@ def build_rollouts(
     Rollouts
         K steps of sim_time / K, K = ceil(max(|v| T / 0.05 m, |w| T / 0.025 rad)).
     """
-    c, lim = config, limits
+    c, kin = config, kinematics
     t_end = c.sim_time_s
     steps = max(
         float(np.abs(v).max()) * t_end / c.linear_granularity_m,
@@ -284,13 +284,15 @@ def build_rollouts(
     uw, iw = _distinct(w)
     if native.LIB is not None:
         ds, yaw, mid = native.dwb_tables(
-            (uv, velocity[0], lim.max_accel_m_s2, lim.max_decel_m_s2),
-            (uw, velocity[1], lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2),
+            (uv, velocity[0], kin.acc_lim_x_m_s2, kin.decel_lim_x_m_s2),
+            (uw, velocity[1], kin.acc_lim_theta_rad_s2, kin.decel_lim_theta_rad_s2),
             t, dt, pose.yaw,
         )  # fmt: skip
         return Rollouts(pose, t, ds, yaw, mid, iv, iw)
-    vel_v = velocity_profile(velocity[0], uv, t, lim.max_accel_m_s2, lim.max_decel_m_s2)
-    vel_w = velocity_profile(velocity[1], uw, t, lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2)
+    vel_v = velocity_profile(velocity[0], uv, t, kin.acc_lim_x_m_s2, kin.decel_lim_x_m_s2)
+    vel_w = velocity_profile(
+        velocity[1], uw, t, kin.acc_lim_theta_rad_s2, kin.decel_lim_theta_rad_s2
+    )
     dyaw = 0.5 * (vel_w[:, 1:] + vel_w[:, :-1]) * dt
     yaw = np.empty_like(vel_w)
     yaw[:, 0] = 0.0

@@ -1,8 +1,9 @@
 """The dynamic window and its velocity samples (steps 1-2 of the cycle).
 
 Each cycle samples the velocities reachable from the current one within ``sim_time`` under the
-limiter's acceleration and deceleration bounds (``LimiterConfig``, the ramp of
-:func:`jackson.host.actuation.limiter.ramp`), inside v in [min_vel_x, max_v] (min_vel_x = 0: no
+planner's acceleration and deceleration bounds (:class:`~.kinematics.Kinematics`, ramped as the
+velocity limiter ramps, :func:`jackson.common.ramp.ramp`), inside v in [min_vel_x, max_v]
+(min_vel_x = 0: no
 reversing outside the back-up recovery) and |w| <= max_w, with ``vx_samples`` x
 ``vtheta_samples`` targets (plus w = 0 when it lies inside). A target with v = 0 and
 0 < |w| < min_speed_theta (DWB's minimum in-place rotation speed; REFERENCE: 0.30 rad/s)
@@ -20,14 +21,15 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.actuation.limiter import LimiterConfig, ramp
+from jackson.common.ramp import ramp
 from jackson.host.nav.dwb.core.config import DwbConfig
+from jackson.host.nav.dwb.core.kinematics import Kinematics
 
 FloatArray = npt.NDArray[np.float64]
 
 
 def dynamic_window(
-    config: DwbConfig, limits: LimiterConfig, v_m_s: float, w_rad_s: float
+    config: DwbConfig, kinematics: Kinematics, v_m_s: float, w_rad_s: float
 ) -> tuple[float, float, float, float]:
     """The dynamic window: (v_lo, v_hi, w_lo, w_hi) reachable within ``sim_time``.
 
@@ -35,7 +37,7 @@ def dynamic_window(
     ----------
     config : DwbConfig
         ``sim_time_s`` and ``min_vel_x_m_s``.
-    limits : LimiterConfig
+    kinematics : Kinematics
         Speed and acceleration bounds; the window never leaves them.
     v_m_s, w_rad_s : float
         Current velocity [m/s], [rad/s].
@@ -45,21 +47,21 @@ def dynamic_window(
     tuple of float
         Bounds [m/s], [m/s], [rad/s], [rad/s], inside the speed limits.
     """
-    c, lim = config, limits
+    c, k = config, kinematics
     t_s = c.sim_time_s
-    v0 = min(max(v_m_s, -lim.max_v_m_s), lim.max_v_m_s)
-    w0 = min(max(w_rad_s, -lim.max_w_rad_s), lim.max_w_rad_s)
-    v_min = min(c.min_vel_x_m_s, lim.max_v_m_s)
-    v_lo = ramp(v0, v_min, t_s, lim.max_accel_m_s2, lim.max_decel_m_s2)
-    v_hi = ramp(v0, lim.max_v_m_s, t_s, lim.max_accel_m_s2, lim.max_decel_m_s2)
+    v0 = min(max(v_m_s, -k.max_vel_x_m_s), k.max_vel_x_m_s)
+    w0 = min(max(w_rad_s, -k.max_vel_theta_rad_s), k.max_vel_theta_rad_s)
+    v_min = min(c.min_vel_x_m_s, k.max_vel_x_m_s)
+    v_lo = ramp(v0, v_min, t_s, k.acc_lim_x_m_s2, k.decel_lim_x_m_s2)
+    v_hi = ramp(v0, k.max_vel_x_m_s, t_s, k.acc_lim_x_m_s2, k.decel_lim_x_m_s2)
     v_lo, v_hi = max(v_lo, v_min), max(v_hi, v_min)
-    w_lo = ramp(w0, -lim.max_w_rad_s, t_s, lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2)
-    w_hi = ramp(w0, lim.max_w_rad_s, t_s, lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2)
+    w_lo = ramp(w0, -k.max_vel_theta_rad_s, t_s, k.acc_lim_theta_rad_s2, k.decel_lim_theta_rad_s2)
+    w_hi = ramp(w0, k.max_vel_theta_rad_s, t_s, k.acc_lim_theta_rad_s2, k.decel_lim_theta_rad_s2)
     return v_lo, v_hi, w_lo, w_hi
 
 
 def sample_targets(
-    config: DwbConfig, limits: LimiterConfig, v_m_s: float, w_rad_s: float
+    config: DwbConfig, kinematics: Kinematics, v_m_s: float, w_rad_s: float
 ) -> tuple[FloatArray, FloatArray, float]:
     """The (v, w) targets of the window, with the minimum rotation speed applied.
 
@@ -67,7 +69,7 @@ def sample_targets(
     ----------
     config : DwbConfig
         Samples per axis, ``min_speed_theta_rad_s`` and the window's parameters.
-    limits : LimiterConfig
+    kinematics : Kinematics
         Speed and acceleration bounds.
     v_m_s, w_rad_s : float
         Current velocity [m/s], [rad/s].
@@ -79,12 +81,12 @@ def sample_targets(
         lexicographic (v, w) order.
     """
     c = config
-    v_lo, v_hi, w_lo, w_hi = dynamic_window(config, limits, v_m_s, w_rad_s)
+    v_lo, v_hi, w_lo, w_hi = dynamic_window(config, kinematics, v_m_s, w_rad_s)
     vs = _sorted_distinct(np.linspace(v_lo, v_hi, c.vx_samples, dtype=np.float64))
     ws = _sorted_distinct(np.linspace(w_lo, w_hi, c.vtheta_samples, dtype=np.float64))
     if w_lo <= 0.0 <= w_hi:
         ws = _with_zero(ws)
-    w_min = min(c.min_speed_theta_rad_s, limits.max_w_rad_s)
+    w_min = min(c.min_speed_theta_rad_s, kinematics.max_vel_theta_rad_s)
     slow_turn = (ws != 0.0) & (np.abs(ws) < w_min)
     # still sorted (the slow turns move to +-w_min, beyond their neighbours towards 0)
     ws_in_place = _sorted_distinct(np.where(slow_turn, np.copysign(w_min, ws), ws))
@@ -99,7 +101,7 @@ def velocity_profile(
 ) -> FloatArray:
     """The velocity over time when ramping from ``u0`` towards each target.
 
-    The continuous form of :func:`jackson.host.actuation.limiter.ramp` with a fixed target
+    The continuous form of :func:`jackson.common.ramp.ramp` with a fixed target
     r: speeding up on one side of zero, u(t) = u0 + sign(r - u0) min(|r - u0|, a t); slowing
     down on one side, the same with d; through zero (r = 0 or of the other sign), brake at d
     until t0 = |u0| / d, then u(t) = sign(r) min(|r|, a (t - t0)).

@@ -41,8 +41,9 @@ def straight_path(x0: float, x1: float, y: float = 0.0) -> np.ndarray:
 def drive(
     planner: DwbPlanner, pose: Pose2D, path: np.ndarray, goal: Pose2D, cm: Costmap, steps: int
 ):
-    """Run the planner in closed loop for ``steps`` periods; the poses and commands."""
-    limiter = VelocityLimiter(planner.limits)
+    """Run the planner in closed loop for ``steps`` periods; the poses and commands (the
+    velocity limited as the default limits the planner was given)."""
+    limiter = VelocityLimiter(LimiterConfig())
     vel = (0.0, 0.0)
     poses, cmds = [pose], []
     for k in range(steps):
@@ -146,7 +147,7 @@ def reference_targets(planner: DwbPlanner, v0: float, w0: float) -> list[tuple[f
     c = planner.config
     v_lo, v_hi, w_lo, w_hi = planner.window(v0, w0)
     ws = list(np.linspace(w_lo, w_hi, c.vtheta_samples)) + ([0.0] if w_lo <= 0.0 <= w_hi else [])
-    w_min = min(c.min_speed_theta_rad_s, planner.limits.max_w_rad_s)
+    w_min = min(c.min_speed_theta_rad_s, planner.kinematics.max_vel_theta_rad_s)
     targets = set()
     for v in np.linspace(v_lo, v_hi, c.vx_samples):
         for w in ws:
@@ -160,12 +161,12 @@ def reference_rollout(
     planner: DwbPlanner, pose: Pose2D, velocity: tuple[float, float], v: float, w: float, k: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Step 3 for one target: ramp, trapezoidal yaw, positions at the mid-step heading."""
-    lim = planner.limits
+    kin = planner.kinematics
     t = np.linspace(0.0, planner.config.sim_time_s, k + 1)
     dt = planner.config.sim_time_s / k
-    vel = velocity_profile(velocity[0], np.array([v]), t, lim.max_accel_m_s2, lim.max_decel_m_s2)
+    vel = velocity_profile(velocity[0], np.array([v]), t, kin.acc_lim_x_m_s2, kin.decel_lim_x_m_s2)
     rot = velocity_profile(
-        velocity[1], np.array([w]), t, lim.max_alpha_rad_s2, lim.max_alpha_decel_rad_s2
+        velocity[1], np.array([w]), t, kin.acc_lim_theta_rad_s2, kin.decel_lim_theta_rad_s2
     )
     dyaw = 0.5 * (rot[0, 1:] + rot[0, :-1]) * dt
     yaw = np.concatenate(([0.0], np.cumsum(dyaw))) + pose.yaw
