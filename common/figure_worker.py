@@ -25,8 +25,9 @@ from collections.abc import Callable
 from types import TracebackType
 from typing import Any
 
-TIMEOUT_S = 300.0
-"""Longest wait for the worker's figure [s]; then it is killed and the figure drawn here."""
+TIMEOUT_S = 30.0
+"""Longest wait for the worker's figure [s] (it takes about half a second; a stopped or stuck
+worker must not hold the command): then it is killed and the figure drawn here."""
 
 BOOT = """\
 import importlib, os, pickle, sys
@@ -55,6 +56,8 @@ class FigureWorker:
         The plotting function's module, e.g. ``jackson.experiments.report_plots``.
     function : str
         Its name in the module.
+    timeout_s : float
+        Longest wait for the worker's figure [s].
 
     Attributes
     ----------
@@ -62,9 +65,10 @@ class FigureWorker:
         After :meth:`draw`: whether the worker drew the figure (None before).
     """
 
-    def __init__(self, module: str, function: str) -> None:
+    def __init__(self, module: str, function: str, timeout_s: float = TIMEOUT_S) -> None:
         self.module = module
         self.function = function
+        self.timeout_s = timeout_s
         self.drawn_by_worker: bool | None = None
         self._proc: subprocess.Popen[bytes] | None
         try:
@@ -104,7 +108,7 @@ class FigureWorker:
         proc, self._proc = self._proc, None
         if proc is not None:
             try:
-                proc.communicate(pickle.dumps((args, kwargs)), timeout=TIMEOUT_S)
+                proc.communicate(pickle.dumps((args, kwargs)), timeout=self.timeout_s)
             except (OSError, subprocess.TimeoutExpired):
                 proc.kill()
                 proc.wait()
@@ -120,7 +124,7 @@ class FigureWorker:
         if proc is None:
             return
         try:
-            proc.communicate(b"", timeout=TIMEOUT_S)
+            proc.communicate(b"", timeout=self.timeout_s)
         except (OSError, subprocess.TimeoutExpired):
             proc.kill()
             proc.wait()

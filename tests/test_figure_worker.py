@@ -3,6 +3,8 @@ same function and arguments, or by this one when the worker cannot."""
 
 from __future__ import annotations
 
+import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -47,3 +49,16 @@ def test_a_worker_given_no_figure_ends_without_one(tmp_path: Path) -> None:
     assert proc.returncode == 0
     assert worker.drawn_by_worker is None
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_stopped_worker_is_given_up_and_the_figure_drawn_here(tmp_path: Path) -> None:
+    source = tmp_path / "drawn.bin"
+    source.write_bytes(b"a figure")
+    with FigureWorker("shutil", "copyfile", timeout_s=1.0) as worker:
+        proc = worker._proc
+        assert proc is not None
+        os.kill(proc.pid, signal.SIGSTOP)
+        worker.draw(source, tmp_path / "figure.bin")
+    assert worker.drawn_by_worker is False
+    assert (tmp_path / "figure.bin").read_bytes() == b"a figure"
+    assert proc.returncode == -signal.SIGKILL  # killed, stopped as it was
