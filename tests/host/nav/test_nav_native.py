@@ -99,7 +99,7 @@ def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) ->
     and at every stride."""
     from jackson.host.actuation.limiter import LimiterConfig
     from jackson.host.nav.dwb import _CULL_STEPS, DwbConfig, DwbPlanner
-    from jackson.host.nav.dwb.critics.base_obstacle import collisions
+    from jackson.host.nav.dwb.critics.base_obstacle import Sweep, collisions
     from jackson.host.nav.types import Pose2D
 
     rng = np.random.default_rng(300 + seed)
@@ -117,10 +117,10 @@ def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) ->
         ro = planner.rollouts(pose, velocity, v, w)
         coarse = ro.coarse(_CULL_STEPS)
         sim_time_s = planner.config.sim_time_s
-        got = collisions(ro, coarse, v, w, velocity, cm, sim_time_s)
+        got = collisions(Sweep(ro, coarse, v, w, velocity, cm, sim_time_s))
         saved, cm._native = cm._native, None
         try:
-            want = collisions(ro, coarse, v, w, velocity, cm, sim_time_s)
+            want = collisions(Sweep(ro, coarse, v, w, velocity, cm, sim_time_s))
         finally:
             cm._native = saved
         assert np.array_equal(got, want)

@@ -19,6 +19,8 @@ the first that does not collide.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import numpy.typing as npt
 
@@ -83,30 +85,49 @@ class BaseObstacleCritic(Critic):
         int
             The position in ``order``, or -1.
         """
-        c = self.config
-        coarse = (batch.coarse_x_m, batch.coarse_y_m, batch.coarse_length_m)
-        return first_clear(
-            batch.rollouts, coarse, batch.v_m_s, batch.w_rad_s, self._velocity, batch.costmap,
-            c.sim_time_s, order,
-        )  # fmt: skip
+        return first_clear(self._sweep(batch), order)
 
     def _collisions(self, batch: Batch) -> BoolArray:
+        return collisions(self._sweep(batch))
+
+    def _sweep(self, batch: Batch) -> Sweep:
         coarse = (batch.coarse_x_m, batch.coarse_y_m, batch.coarse_length_m)
-        return collisions(
+        return Sweep(
             batch.rollouts, coarse, batch.v_m_s, batch.w_rad_s, self._velocity, batch.costmap,
             self.config.sim_time_s,
         )  # fmt: skip
 
 
-def collisions(
-    ro: Rollouts,
-    coarse: tuple[FloatArray, FloatArray, FloatArray],
-    v: FloatArray,
-    w: FloatArray,
-    velocity: tuple[float, float],
-    costmap: Costmap,
-    sim_time_s: float,
-) -> BoolArray:
+class Sweep(NamedTuple):
+    """A cycle's roll-outs as the collision test reads them.
+
+    Attributes
+    ----------
+    rollouts : Rollouts
+        The roll-outs.
+    coarse : tuple of ndarray
+        ``rollouts.coarse(_CULL_STEPS)``: (x, y) at every ``_CULL_STEPS``-th pose, (B + 1, M)
+        [m], and the path length between, (B, M) [m].
+    v_m_s, w_rad_s : ndarray, shape (M,)
+        The targets [m/s], [rad/s].
+    velocity : tuple of float
+        Current (v [m/s], w [rad/s]).
+    costmap : Costmap
+        The local costmap.
+    sim_time_s : float
+        The roll-outs' length [s].
+    """
+
+    rollouts: Rollouts
+    coarse: tuple[FloatArray, FloatArray, FloatArray]
+    v_m_s: FloatArray
+    w_rad_s: FloatArray
+    velocity: tuple[float, float]
+    costmap: Costmap
+    sim_time_s: float
+
+
+def collisions(sweep: Sweep) -> BoolArray:
     """Which roll-outs collide, each checked at the poses it needs.
 
     A roll-out is checked at its first and last pose and every ``stride``-th between,
@@ -119,30 +140,20 @@ def collisions(
 
     Parameters
     ----------
-    ro : Rollouts
-        The roll-outs.
-    coarse : tuple of ndarray
-        ``ro.coarse(_CULL_STEPS)``: (x, y) at every ``_CULL_STEPS``-th pose, (B + 1, M) [m],
-        and the path length between, (B, M) [m].
-    v, w : ndarray, shape (M,)
-        The targets [m/s], [rad/s].
-    velocity : tuple of float
-        Current (v [m/s], w [rad/s]).
-    costmap : Costmap
-        The local costmap.
-    sim_time_s : float
-        The roll-outs' length [s].
+    sweep : Sweep
+        The roll-outs, their coarse poses, targets and costmap.
 
     Returns
     -------
     ndarray of bool, shape (M,)
         True for a roll-out that collides.
     """
+    ro, coarse, v, w, velocity, costmap, sim_time_s = sweep
     k = ro.steps
     dt_s = sim_time_s / k
     r_m = costmap.config.circumscribed_radius_m
     if costmap.compiled:  # the same plan, then each pose made where it is tested
-        return _collisions_compiled(ro, coarse, v, w, velocity, costmap, dt_s)
+        return _collisions_compiled(sweep)
     speed = np.maximum(np.abs(v), abs(velocity[0])) + np.maximum(np.abs(w), abs(velocity[1])) * r_m
     per_step_m = speed * dt_s
     half_cell = 0.5 * costmap.resolution_m
@@ -167,20 +178,13 @@ def collisions(
     return hit
 
 
-def _collisions_compiled(
-    ro: Rollouts,
-    coarse: tuple[FloatArray, FloatArray, FloatArray],
-    v: FloatArray,
-    w: FloatArray,
-    velocity: tuple[float, float],
-    costmap: Costmap,
-    dt_s: float,
-) -> BoolArray:
+def _collisions_compiled(sweep: Sweep) -> BoolArray:
     """:func:`collisions` by the compiled loops (:mod:`jackson.host.nav.native`): the strides,
     margins and the roll-outs near an obstacle in one call, then the near ones tested at the
     poses made where they are read; the same answer bit for bit."""
-    group, margin_m, near_mask = _plan(ro, coarse, v, w, velocity, costmap, dt_s)
-    hit = np.zeros(v.shape[0], bool)
+    ro, costmap = sweep.rollouts, sweep.costmap
+    group, margin_m, near_mask = _plan(sweep)
+    hit = np.zeros(sweep.v_m_s.shape[0], bool)
     near = np.flatnonzero(near_mask)
     if near.size == 0:
         return hit
@@ -191,18 +195,12 @@ def _collisions_compiled(
     return hit
 
 
-def _plan(
-    ro: Rollouts,
-    coarse: tuple[FloatArray, FloatArray, FloatArray],
-    v: FloatArray,
-    w: FloatArray,
-    velocity: tuple[float, float],
-    costmap: Costmap,
-    dt_s: float,
-) -> tuple[npt.NDArray[np.int64], FloatArray, BoolArray]:
+def _plan(sweep: Sweep) -> tuple[npt.NDArray[np.int64], FloatArray, BoolArray]:
     """The compiled plan of the test (:func:`jackson.host.nav.native.dwb_collision_plan`):
     each roll-out's stride group, margin, and whether it comes near an obstacle."""
+    ro, coarse, v, w, velocity, costmap, sim_time_s = sweep
     half_cell = 0.5 * costmap.resolution_m
+    dt_s = sim_time_s / ro.steps
     return native.dwb_collision_plan(
         (v, w), velocity, (costmap.config.circumscribed_radius_m, dt_s, half_cell, ro.steps),
         (coarse[0], coarse[1], coarse[2]), costmap.clear_reach_table(),
@@ -215,16 +213,7 @@ def _start(ro: Rollouts) -> tuple[float, float, float]:
     return (0.0 + ro.pose.x, 0.0 + ro.pose.y, float(ro.yaw_rad[0, 0]))
 
 
-def first_clear(
-    ro: Rollouts,
-    coarse: tuple[FloatArray, FloatArray, FloatArray],
-    v: FloatArray,
-    w: FloatArray,
-    velocity: tuple[float, float],
-    costmap: Costmap,
-    sim_time_s: float,
-    order: IntArray,
-) -> int:
+def first_clear(sweep: Sweep, order: IntArray) -> int:
     """Where in ``order`` the first roll-out that does not collide is, -1 if none: the first
     index of ``order`` where :func:`collisions` says False, testing only as far as that.
 
@@ -234,7 +223,7 @@ def first_clear(
 
     Parameters
     ----------
-    ro, coarse, v, w, velocity, costmap, sim_time_s
+    sweep : Sweep
         As :func:`collisions`.
     order : ndarray of int
         Roll-outs, in the order asked about.
@@ -244,10 +233,11 @@ def first_clear(
     int
         The position in ``order``, or -1.
     """
+    ro, costmap = sweep.rollouts, sweep.costmap
     if not costmap.compiled:
-        clear = np.flatnonzero(~collisions(ro, coarse, v, w, velocity, costmap, sim_time_s)[order])
+        clear = np.flatnonzero(~collisions(sweep)[order])
         return int(clear[0]) if clear.size else -1
-    group, margin_m, near = _plan(ro, coarse, v, w, velocity, costmap, sim_time_s / ro.steps)
+    group, margin_m, near = _plan(sweep)
     far = np.flatnonzero(~near[order])
     stop = int(far[0]) if far.size else len(order)  # order[:stop] all come near an obstacle
     if stop == 0:
