@@ -1214,15 +1214,25 @@ def _ringed(inner: npt.NDArray[T], value: float) -> npt.NDArray[T]:
     return out
 
 
-@functools.lru_cache(maxsize=32)
 def _disc_offsets(k: int, row_stride: int, resolution_m: float, reach_m: float) -> IntArray:
     """Flat offsets (rows of ``row_stride`` cells) of the cells within ``reach_m`` of a cell,
-    centre to centre, in a square of 2 k + 1 cells; read-only, shared."""
-    dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
-    disc = np.hypot(dr, dc) * resolution_m <= reach_m
+    centre to centre, in a square of 2 k + 1 cells."""
+    dr, dc, distance_m = _square(k, resolution_m)
+    disc = distance_m <= reach_m
     offsets: IntArray = (dr[disc] * row_stride + dc[disc]).astype(np.intp)
-    offsets.flags.writeable = False
     return offsets
+
+
+@functools.lru_cache(maxsize=32)
+def _square(k: int, resolution_m: float) -> tuple[IntArray, IntArray, FloatArray]:
+    """The cells of a square of 2 k + 1 cells around one, as row and column offsets, and their
+    centres' distance to its centre [m] (read-only, shared: the reach changes with every scan,
+    the square does not)."""
+    dr, dc = np.mgrid[-k : k + 1, -k : k + 1]
+    distance_m = np.hypot(dr, dc) * resolution_m
+    for a in (dr, dc, distance_m):
+        a.flags.writeable = False
+    return dr, dc, distance_m
 
 
 def _capsules(
