@@ -92,10 +92,6 @@ class FigureWorker:
     ) -> None:
         self.close()
 
-    def _local(self) -> Callable[..., Any]:
-        function: Callable[..., Any] = getattr(importlib.import_module(self.module), self.function)
-        return function
-
     def draw(self, *args: Any, **kwargs: Any) -> None:
         """Draw the figure: ``module.function(*args, **kwargs)``, by the worker, or here if it
         cannot (the arguments must pickle).
@@ -116,7 +112,8 @@ class FigureWorker:
                 self.drawn_by_worker = True
                 return
         self.drawn_by_worker = False
-        self._local()(*args, **kwargs)
+        function: Callable[..., Any] = getattr(importlib.import_module(self.module), self.function)
+        function(*args, **kwargs)
 
     def close(self) -> None:
         """End a worker that drew nothing (its stdin closed: it exits without a figure)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from jackson.commands.checks import (
     DEFAULT_ROBOT,
@@ -21,6 +21,11 @@ from jackson.commands.checks import (
 from jackson.commands.options import add_mission, add_twin_options
 from jackson.common.args import pose_text
 from jackson.experiments.stall_retry import exit_status
+
+if TYPE_CHECKING:  # the run's modules load when it runs
+    from jackson.common.figure_worker import FigureWorker
+    from jackson.host.nav.types import Pose2D
+    from jackson.sim.config import WorldSpec
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -149,10 +154,10 @@ def _maze_runs(
     out: Path,
     map_yaml: Path | None,
     world: str,
-    world_spec: Any,
-    goals: Any,
-    config: Any,
-    figure: Any,
+    world_spec: WorldSpec,
+    goals: tuple[Pose2D, ...],
+    config: Path | None,
+    figure: FigureWorker,
 ) -> int:
     """The maze's mapping run (without ``map_yaml``) and its navigation, then its figure
     (drawn by ``figure``, a :class:`~jackson.common.figure_worker.FigureWorker`)."""

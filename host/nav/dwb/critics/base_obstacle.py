@@ -62,7 +62,7 @@ class BaseObstacleCritic(Critic):
 
     def score(self, batch: Batch) -> tuple[FloatArray, BoolArray]:
         """Raw scores (cost at the end) and legality (no collision) of every roll-out."""
-        return self.raw_scores(batch), ~self._collisions(batch)
+        return self.raw_scores(batch), ~collisions(self._sweep(batch))
 
     def raw_scores(self, batch: Batch) -> FloatArray:
         """The raw scores alone: the cost of each end pose's cell."""
@@ -86,9 +86,6 @@ class BaseObstacleCritic(Critic):
             The position in ``order``, or -1.
         """
         return first_clear(self._sweep(batch), order)
-
-    def _collisions(self, batch: Batch) -> BoolArray:
-        return collisions(self._sweep(batch))
 
     def _sweep(self, batch: Batch) -> Sweep:
         coarse = (batch.coarse_x_m, batch.coarse_y_m, batch.coarse_length_m)
@@ -148,12 +145,12 @@ def collisions(sweep: Sweep) -> BoolArray:
     ndarray of bool, shape (M,)
         True for a roll-out that collides.
     """
+    if sweep.costmap.compiled:  # the same plan, then each pose made where it is tested
+        return _collisions_compiled(sweep)
     ro, coarse, v, w, velocity, costmap, sim_time_s = sweep
     k = ro.steps
     dt_s = sim_time_s / k
     r_m = costmap.config.circumscribed_radius_m
-    if costmap.compiled:  # the same plan, then each pose made where it is tested
-        return _collisions_compiled(sweep)
     speed = np.maximum(np.abs(v), abs(velocity[0])) + np.maximum(np.abs(w), abs(velocity[1])) * r_m
     per_step_m = speed * dt_s
     half_cell = 0.5 * costmap.resolution_m
