@@ -11,6 +11,7 @@ code that uses it was recorded with (``jackson replay``): :func:`wrap_angle` and
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -80,9 +81,10 @@ def cell_to_world(
 
 class GridCells:
     """World <-> cell arithmetic of a grid in the map frame, shared by the occupancy grid, the
-    costmaps and the planner's copy of their costs: the grid gives its lower-left corner
-    (``origin_x_m``, ``origin_y_m``), its cell edge (``resolution_m``) and its ``shape`` (rows,
-    cols); rows run along y, columns along x."""
+    likelihood field, the costmaps, their layers and the planner's copy of their costs: the
+    grid gives its lower-left corner (``origin_x_m``, ``origin_y_m``), its cell edge
+    (``resolution_m``) and its ``shape`` (rows, cols); rows run along y, columns along x.
+    :attr:`geometry` is the same as one :class:`GridGeometry` value."""
 
     origin_x_m: float
     origin_y_m: float
@@ -108,3 +110,92 @@ class GridCells:
         r, c = np.asarray(row), np.asarray(col)
         rows, cols = self.shape
         return (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+
+    @property
+    def geometry(self) -> GridGeometry:
+        """The grid's place and size as one value."""
+        return GridGeometry(self.origin_x_m, self.origin_y_m, self.resolution_m, *self.shape)
+
+    def centres(self) -> tuple[FloatArray, FloatArray]:
+        """Map-frame centres of every cell [m]: x of shape (1, cols), y of shape (rows, 1)."""
+        rows, cols = self.shape
+        return self.cell_to_world(np.arange(rows)[:, None], np.arange(cols)[None, :])
+
+    def padded_index(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> IntArray:
+        """Flat indices into the grid padded by one ring of cells, row-major over (rows + 2,
+        cols + 2): a point on the grid lands on its cell, a point off it on the ring.
+
+        Parameters
+        ----------
+        x_m, y_m : array_like
+            Map-frame points [m], broadcast against each other.
+
+        Returns
+        -------
+        ndarray of int
+            The indices, the broadcast shape of the inputs.
+        """
+        rows, cols = self.shape
+        fx = (np.asarray(x_m, np.float64) - self.origin_x_m) / self.resolution_m + 1.0
+        fy = (np.asarray(y_m, np.float64) - self.origin_y_m) / self.resolution_m + 1.0
+        # clipped into [0, size + 1] first, so truncation is the floor
+        col = np.clip(fx, 0.0, cols + 1.0).astype(np.intp)
+        row = np.clip(fy, 0.0, rows + 1.0).astype(np.intp)
+        row *= cols + 2
+        row += col
+        return row
+
+
+@dataclass(frozen=True)
+class GridGeometry(GridCells):
+    """A grid's place in the map frame as one value: the lower-left corner of cell (0, 0)
+    [m], the cell edge [m] and the size [cells] (Nav2's costmap_2d keeps the same four).
+
+    The costmap's layers share their master's, a rolling window moves it by whole cells
+    (:meth:`moved`), and the compiled tests take it as one argument (:meth:`as_tuple`).
+    """
+
+    origin_x_m: float
+    origin_y_m: float
+    resolution_m: float
+    rows: int
+    cols: int
+
+    def __post_init__(self) -> None:
+        if self.rows < 1 or self.cols < 1:
+            raise ValueError(f"a grid must be at least 1 x 1 cells, got {self.rows} x {self.cols}")
+        if not 0.0 < self.resolution_m < math.inf:
+            raise ValueError(f"a grid's resolution_m must be > 0, got {self.resolution_m}")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        return (self.rows, self.cols)
+
+    @property
+    def geometry(self) -> GridGeometry:
+        """Itself."""
+        return self
+
+    @classmethod
+    def centred(cls, x_m: float, y_m: float, n: int, resolution_m: float) -> GridGeometry:
+        """An n x n grid centred near (x, y), its origin snapped to whole cells of the map
+        frame (a rolling window's)."""
+        half = 0.5 * n * resolution_m
+        return cls(
+            math.floor((x_m - half) / resolution_m) * resolution_m,
+            math.floor((y_m - half) / resolution_m) * resolution_m,
+            resolution_m, n, n,
+        )  # fmt: skip
+
+    def moved(self, rows: int, cols: int) -> GridGeometry:
+        """The same grid moved by whole cells (rows along y, cols along x)."""
+        return GridGeometry(
+            self.origin_x_m + cols * self.resolution_m,
+            self.origin_y_m + rows * self.resolution_m,
+            self.resolution_m, self.rows, self.cols,
+        )  # fmt: skip
+
+    def as_tuple(self) -> tuple[float, float, float, int, int]:
+        """(origin x, origin y, resolution, rows, cols)."""
+        return (self.origin_x_m, self.origin_y_m, self.resolution_m, self.rows, self.cols)

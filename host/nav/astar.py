@@ -86,6 +86,7 @@ import threading
 import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -95,11 +96,10 @@ from skimage.graph import MCP_Geometric
 
 from jackson.common.errors import JacksonError
 from jackson.common.geometry import GridCells
-from jackson.host.nav.costmap import (
+from jackson.host.nav.cost_values import (
     INSCRIBED_INFLATED_OBSTACLE,
     MAX_NON_OBSTACLE,
     NO_INFORMATION,
-    Costmap,
 )
 
 FloatArray = npt.NDArray[np.float64]
@@ -137,7 +137,7 @@ class CostGrid(GridCells):
     origin_y_m: float
 
     @classmethod
-    def of(cls, costmap: Costmap) -> CostGrid:
+    def of(cls, costmap: PlanGrid) -> CostGrid:
         """A copy of ``costmap``'s costs and geometry as they are now."""
         return cls(
             costmap.costs.copy(), costmap.resolution_m, costmap.origin_x_m, costmap.origin_y_m
@@ -149,8 +149,30 @@ class CostGrid(GridCells):
         return (int(self.costs.shape[0]), int(self.costs.shape[1]))
 
 
-PlanGrid = Costmap | CostGrid
-"""What the planner plans on: a costmap, or a copy of its costs (:class:`CostGrid`)."""
+class PlanGrid(Protocol):
+    """What the planner plans on: a :class:`~jackson.host.nav.costmap.Costmap`, or a copy of
+    its costs (:class:`CostGrid`): the costs and the grid's
+    :class:`~jackson.common.geometry.GridCells` arithmetic."""
+
+    @property
+    def costs(self) -> npt.NDArray[np.uint8]: ...
+
+    origin_x_m: float
+    origin_y_m: float
+    resolution_m: float
+
+    @property
+    def shape(self) -> tuple[int, int]: ...
+
+    def world_to_cell(
+        self, x_m: npt.ArrayLike, y_m: npt.ArrayLike
+    ) -> tuple[IntArray, IntArray]: ...
+
+    def cell_to_world(
+        self, row: npt.ArrayLike, col: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]: ...
+
+    def inside(self, row: npt.ArrayLike, col: npt.ArrayLike) -> BoolArray: ...
 
 
 class NoPathError(JacksonError, RuntimeError):
@@ -306,7 +328,7 @@ def astar(
     return path
 
 
-def prepare(costmap: Costmap) -> None:
+def prepare(costmap: PlanGrid) -> None:
     """Build the search objects for this costmap's shape now (17 ms at 400 x 400 cells), so
     that the first plan, inside a control step, does not (call it where the costmap is made).
 

@@ -28,7 +28,9 @@ arithmetic is fixed, because recorded runs replay the filter bit for bit: the di
 transform in cells times the resolution, ``edt * resolution`` (``sampling=resolution`` differs
 from it in the last bit in about one cell in ten), and a point's cell is
 ``floor((x - origin) * (1 / resolution))`` (adding the padding offset before the ``floor``
-rounds some points within an ulp of a cell edge into the next cell).
+rounds some points within an ulp of a cell edge into the next cell). Its grid's place is the
+shared :class:`~jackson.common.geometry.GridCells` arithmetic (``geometry``, ``world_to_cell``),
+the map's own; only the lookups keep the arithmetic above.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import distance_transform_edt
 
+from jackson.common.geometry import GridCells
 from jackson.host.nav.grid import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
@@ -50,7 +53,7 @@ _FAR_M = 1e9  # [m] where a cell with no obstacle point in reach points to
 
 
 @dataclass(frozen=True)
-class LikelihoodField:
+class LikelihoodField(GridCells):
     """Distance [m] from every cell of a grid to its nearest occupied cell.
 
     Build it with :meth:`from_grid`.
@@ -136,6 +139,11 @@ class LikelihoodField:
     def width(self) -> int:
         """Columns."""
         return int(self.distance_m.shape[1])
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        return (self.height, self.width)
 
     def distance_at(self, points_xy: npt.ArrayLike, bilinear: bool = False) -> FloatArray:
         """Distance [m] from map-frame points to the nearest obstacle, read off the field.

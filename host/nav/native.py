@@ -1,7 +1,7 @@
 """The costmap's collision tests compiled (``host/nav/native/collide.cpp``), used when current.
 
-The exact footprint test of :class:`jackson.host.nav.costmap.Costmap` loops over poses and the
-obstacle discs near each; numpy runs it as passes over whole arrays, which is where a
+The exact footprint test of :class:`jackson.host.nav.costmap.FootprintChecker` loops over poses
+and the obstacle discs near each; numpy runs it as passes over whole arrays, which is where a
 navigating daemon spent half its time. ``make setup`` compiles the C++ loops with the system's
 C++ compiler (``tools/build_compiled.py``, ``-ffp-contract=off``) into
 ``build/compiled-nav/<digest>/libjackson_nav.so``, named by the digest of the source, and this
@@ -149,8 +149,9 @@ def combine_inflate(
     far_m: float,
     cost_by_d2: npt.NDArray[np.uint8],
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_], FloatArray]:
-    """:meth:`jackson.host.nav.costmap.Costmap._combined`, compiled: the layers combined, the
-    distance to the nearest lethal cell and the inflation raised into the costs.
+    """:meth:`jackson.host.nav.costmap.Costmap._combined`, compiled: the static and obstacle
+    layers combined, the distance to the nearest lethal cell and the inflation raised into the
+    costs (the three layers' ``update_costs`` in one call).
 
     Parameters
     ----------
@@ -263,7 +264,7 @@ def clear_rays(
     obstacle: npt.NDArray[np.uint8],
     free: int,
 ) -> None:
-    """:meth:`Costmap._clear_rays`' sampling, compiled: ray i's samples k (k ``step`` up to
+    """:meth:`ObstacleLayer._clear_rays`' sampling, compiled: ray i's samples k (k ``step`` up to
     ``stop[i]``) at ``base + k unit[i]`` cells set to ``free`` in ``obstacle`` (rows, cols)."""
     assert LIB is not None
     rows, cols = obstacle.shape
@@ -531,7 +532,7 @@ class Obstacles:
         with_clearance: bool,
         margin_m: float | npt.NDArray[np.float64],
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
-        """:meth:`Costmap._footprint_hits`, compiled (:data:`LIB` must be loaded)."""
+        """:meth:`FootprintChecker.footprint_hits`, compiled (:data:`LIB` must be loaded)."""
         assert LIB is not None
         x = np.ascontiguousarray(x, np.float64).ravel()
         y = np.ascontiguousarray(y, np.float64).ravel()
@@ -556,7 +557,7 @@ class Obstacles:
         yaw: npt.NDArray[np.float64],
         rule: Rule,
     ) -> npt.NDArray[np.bool_]:
-        """The per-trajectory loop of :meth:`Costmap.trajectories_collide`, compiled."""
+        """The per-trajectory loop of :meth:`FootprintChecker.trajectories_collide`, compiled."""
         assert LIB is not None
         m, length = x.shape
         x = np.ascontiguousarray(x, np.float64)
@@ -583,9 +584,9 @@ class Obstacles:
         rule: Rule,
         stop_at_clear: bool = False,
     ) -> tuple[npt.NDArray[np.bool_], int]:
-        """:meth:`Costmap.rollouts_collide`, compiled: which roll-outs collide, and the first
-        that does not (R: none). With ``stop_at_clear`` they are tested in order up to that one
-        only (the answers after it are not tested: False)."""
+        """:meth:`FootprintChecker.rollouts_collide`, compiled: which roll-outs collide, and the
+        first that does not (R: none). With ``stop_at_clear`` they are tested in order up to that
+        one only (the answers after it are not tested: False)."""
         assert LIB is not None
         steps = int(ds_m.shape[1])
         ds = np.ascontiguousarray(ds_m, np.float64)

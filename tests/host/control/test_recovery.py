@@ -131,7 +131,7 @@ def test_the_body_test_reads_a_noisy_wall_where_its_returns_mean_lies() -> None:
     assert 0.178 < clearance[0] <= 0.193  # the wall within 1.5 cm of where it is
     # the footprint test's discs, as wide across the wall as the returns spread along it
     # and by noise, put it 3 cm nearer
-    _, disc_clearance = local._footprint_hits(
+    _, disc_clearance = local.checker.footprint_hits(
         np.array([pose.x]), np.array([pose.y]), np.array([pose.yaw]), True
     )
     assert disc_clearance[0] < 0.170

@@ -296,7 +296,7 @@ def test_a_robot_whose_disc_overlaps_a_wall_cannot_turn_a_corner_into_it() -> No
     rng = np.random.default_rng(0)
     for _ in range(5):
         cm.update(scan_points(Pose2D(*pose), world, rng, 0.01), pose[:2])
-    assert cm._footprint_hits(*(np.array([v]) for v in pose), True)[0][0] > 0  # escaping
+    assert cm.checker.footprint_hits(*(np.array([v]) for v in pose), True)[0][0] > 0  # escaping
     turn = np.linspace(0.0, math.radians(30.0), 13)
     x, y = np.full((1, 13), pose[0]), np.full((1, 13), pose[1])
     assert cm.trajectories_collide(x, y, (pose[2] - turn)[None])[0]

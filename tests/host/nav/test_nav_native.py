@@ -31,12 +31,13 @@ def _scene(rng: np.random.Generator) -> Costmap:
 
 
 def _both(cm: Costmap, method: str, *args: object, **kw: object) -> tuple[object, object]:
-    got = getattr(cm, method)(*args, **kw)
-    saved, cm._native = cm._native, None
+    checker = cm.checker
+    got = getattr(checker, method)(*args, **kw)
+    saved, checker._native = checker._native, None
     try:
-        want = getattr(cm, method)(*args, **kw)
+        want = getattr(checker, method)(*args, **kw)
     finally:
-        cm._native = saved
+        checker._native = saved
     return got, want
 
 
@@ -50,7 +51,7 @@ def test_footprint_hits_and_clearances_are_numpys_bit_for_bit(seed: int) -> None
     yaw = rng.uniform(-math.pi, math.pi, n)
     margin = rng.uniform(0.0, cm.max_margin_m, n)
     for m in (0.0, margin):
-        (count, clear), (count0, clear0) = _both(cm, "_footprint_hits", x, y, yaw, True, m)
+        (count, clear), (count0, clear0) = _both(cm, "footprint_hits", x, y, yaw, True, m)
         assert np.array_equal(count, count0)
         assert clear.tobytes() == clear0.tobytes()
     assert np.count_nonzero(count) > 50  # the scene has obstacles the poses meet
@@ -65,12 +66,14 @@ def test_trajectories_collide_as_numpy_does_with_and_without_escape(seed: int) -
     m, k = 300, 40
     # arcs from one start pose off the obstacles' cells, often within the robot's reach of
     # one (the escape rule), sometimes anywhere
-    obstacles = cm._obstacle_xy
+    obstacles = cm.checker._obstacle_xy
     while True:
         start = obstacles[rng.integers(len(obstacles))] + rng.normal(0.0, 0.15, 2)
         if seed % 3 == 0:
             start = rng.uniform(0.5, 2.5, 2) + np.array([cm.origin_x_m, cm.origin_y_m])
-        near = cm._class_padded[cm._padded_index(*start)] == 1  # within reach: tested exactly
+        near = (
+            cm.checker._class_padded[cm.padded_index(*start)] == 1
+        )  # within reach: tested exactly
         if cm.cost_at(*start) < LETHAL_OBSTACLE and (near or seed % 3 == 0):
             break
     v = rng.uniform(-0.3, 0.3, m)[:, None]
@@ -104,7 +107,7 @@ def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) ->
 
     rng = np.random.default_rng(300 + seed)
     cm = _scene(rng)
-    obstacles = cm._obstacle_xy
+    obstacles = cm.checker._obstacle_xy
     planner = DwbPlanner(DwbConfig(), LimiterConfig())
     mixed = False
     for _ in range(200):
@@ -118,11 +121,11 @@ def test_dwb_rollouts_collide_where_they_are_as_numpys_folded_rows(seed: int) ->
         coarse = ro.coarse(_CULL_STEPS)
         sim_time_s = planner.config.sim_time_s
         got = collisions(Sweep(ro, coarse, v, w, velocity, cm, sim_time_s))
-        saved, cm._native = cm._native, None
+        saved, cm.checker._native = cm.checker._native, None
         try:
             want = collisions(Sweep(ro, coarse, v, w, velocity, cm, sim_time_s))
         finally:
-            cm._native = saved
+            cm.checker._native = saved
         assert np.array_equal(got, want)
         mixed = 0 < np.count_nonzero(got) < len(v)
         if mixed:
@@ -331,10 +334,12 @@ def test_layers_combine_and_inflate_as_numpy_does(
     cm = Costmap.from_map(
         OccupancyGrid.empty(cols * res, rows * res, res, 0.0, 0.0), config, seed % 2 == 0
     )
+    cm.static.costs, cm.obstacles.costs = static, obstacle
+    everything = (slice(None), slice(None))
     for far in (math.inf, config.inflation_radius_m):
-        got = cm._combined(static, obstacle, far)
-        monkeypatch.setattr(native, "LIB", None)
-        want = cm._combined(static, obstacle, far)
+        got = cm._combined(everything, far)
+        monkeypatch.setattr(native, "LIB", None)  # each layer's update_costs in turn
+        want = cm._combined(everything, far)
         monkeypatch.undo()
         for a, b in zip(got, want, strict=True):
             assert a.dtype == b.dtype and a.tobytes() == b.tobytes()

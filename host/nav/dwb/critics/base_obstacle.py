@@ -201,7 +201,7 @@ def _plan(sweep: Sweep) -> tuple[npt.NDArray[np.int64], FloatArray, BoolArray]:
     return native.dwb_collision_plan(
         (v, w), velocity, (costmap.config.circumscribed_radius_m, dt_s, half_cell, ro.steps),
         (coarse[0], coarse[1], coarse[2]), costmap.clear_reach_table(),
-        (costmap.origin_x_m, costmap.origin_y_m, costmap.resolution_m, *costmap.shape),
+        costmap.geometry.as_tuple(),
     )  # fmt: skip
 
 

@@ -418,7 +418,7 @@ def test_the_short_circuit_chooses_what_testing_every_roll_out_chooses(seed: int
         cm = Costmap.rolling_window(CostmapConfig(), pose.x, pose.y)
         cm.update(scan_points(pose, world, rng, 0.01), (pose.x, pose.y))
         if case % 3 == 2:
-            cm._native = None  # numpy's collision test
+            cm.checker._native = None  # numpy's collision test
         path = straight_path(pose.x, GOAL.x, pose.y)
         a = DwbPlanner(DwbConfig(), LimiterConfig()).compute(pose, velocity, path, GOAL, cm)
         b = DwbPlanner(full, LimiterConfig()).compute(pose, velocity, path, GOAL, cm)
