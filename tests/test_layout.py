@@ -52,6 +52,24 @@ def test_package_maps_onto_its_folder(package: str, folder: str) -> None:
     assert Path(module.__file__).resolve().parent == ROOT / folder
 
 
+def test_every_package_folder_is_a_distributed_package() -> None:
+    """A subpackage missing from pyproject.toml's list imports here (the folder is on the
+    path) but not from an install: a fresh checkout's ``make setup`` would leave it out."""
+    import tomllib
+
+    listed = set(
+        tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
+    )
+    folders = set()
+    for package, folder in MAPPING.items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / folder).parts
+            if "vectors" in rel or "__pycache__" in rel:
+                continue
+            folders.add(".".join([package, *rel]))
+    assert folders - listed == set()
+
+
 @pytest.mark.parametrize("folder", FORBIDDEN)
 def test_layering(folder: str) -> None:
     for path in (ROOT / folder).rglob("*.py"):
