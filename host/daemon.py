@@ -21,9 +21,10 @@ from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from jackson.common.errors import JacksonError
+from jackson.common.lazy import instance_of
 from jackson.common.liveness import STALL_EXIT
 from jackson.common.spin import contention
 from jackson.common.threads import Watch
@@ -47,6 +48,7 @@ if TYPE_CHECKING:  # the seams' types only: the serial port and the LiDAR load w
     from jackson.host.ros.messages import RosOutput
     from jackson.host.sdnotify import Notifier
     from jackson.host.service.control import ControlServer
+    from jackson.host.service.navigation import NavigationService
     from jackson.host.service.settings import LiveViewSettings
     from jackson.host.transport import Link, LinkEvent
 
@@ -138,8 +140,6 @@ class Daemon:
         control_socket: Path | None = None,
         live_view: LiveViewSettings | None = None,
     ) -> None:
-        from jackson.host.service.navigation import NavigationService
-
         self.cfg = cfg
         self.transport = transport
         _set_stall(transport, stall_s)
@@ -181,7 +181,11 @@ class Daemon:
         self.latency = LatencyMeter()  # telemetry read to its HEARTBEAT written, per frame
         self.link = LinkWatch(transport, self.output, self.core, self.commands, self.tell)
         # the navigation service: goal after goal, the control socket (jackson goal/status)
-        self.service = mission if isinstance(mission, NavigationService) else None
+        self.service = (
+            cast("NavigationService", mission)
+            if instance_of(mission, "jackson.host.service.navigation", "NavigationService")
+            else None
+        )
         bridge, ros = ros_outlets(cfg, self.core, self.folders, ros_args, self.service, self._say)
         self.core.listeners.append(OperatorListener(self._say))
         self.stop = threading.Event()

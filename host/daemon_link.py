@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from jackson.common.lazy import instance_of
 from jackson.protocol import PROTOCOL_VERSION, FrameVersionError, HostState, TelemetryFlags
 
 if TYPE_CHECKING:
@@ -274,6 +275,4 @@ class LinkWatch:
 
 
 def _is_service(mission: object) -> bool:
-    from jackson.host.service.navigation import NavigationService
-
-    return isinstance(mission, NavigationService)
+    return instance_of(mission, "jackson.host.service.navigation", "NavigationService")

@@ -52,8 +52,9 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, cast
 
+from jackson.common.lazy import instance_of
 from jackson.common.ros_env import missing_ros
 from jackson.common.threads import guard
 from jackson.host.ros import messages
@@ -191,12 +192,14 @@ def diagnostic_values(
     core: HostCore, telemetry: Telemetry | None, *, link: LinkFacts
 ) -> DiagnosticValues:
     """The diagnostics of a running core; ``link`` is the daemon's ``LinkHealth``."""
-    from jackson.host.service.navigation import NavigationService
-
     t_s = core.t_s or 0.0
     flags = telemetry.flags if telemetry is not None else 0
     hm = core.health
-    service = core.mission if isinstance(core.mission, NavigationService) else None
+    service = (
+        cast("NavigationService", core.mission)
+        if instance_of(core.mission, "jackson.host.service.navigation", "NavigationService")
+        else None
+    )
     return DiagnosticValues(
         t_s=t_s,
         link_up=link.link_up,

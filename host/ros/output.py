@@ -8,11 +8,12 @@ import struct
 import time
 from collections import deque
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common.lazy import instance_of
 from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.lidar.scan_timer import ScanTimer
 from jackson.host.ros.builder import MessageBuilder, TFMessage
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
     from jackson.host.control.navigate import NavigateMission
     from jackson.host.estimation.ekf import EkfState
     from jackson.host.nav.types import Pose2D, Scan
+    from jackson.host.service.navigation import NavigationService
 
 MAP_PERIOD_S = 5.0  # [s] of MCU time between /map messages while mapping
 DIAGNOSTICS_PERIOD_S = 1.0  # [s] of MCU time between /diagnostics messages
@@ -41,13 +43,10 @@ def navigation_of(mission: Mission | None) -> NavigateMission | None:
     """The navigation a mission drives with, whose plans, map -> odom and map the navigation
     topics show: a one-shot navigation (``--goal``) is its own; the navigation service keeps
     one for its whole run (``NavigationService.nav``); other missions have none."""
-    from jackson.host.control.navigate import NavigateMission
-    from jackson.host.service.navigation import NavigationService
-
-    if isinstance(mission, NavigationService):
-        return mission.nav
-    if isinstance(mission, NavigateMission):
-        return mission
+    if instance_of(mission, "jackson.host.service.navigation", "NavigationService"):
+        return cast("NavigationService", mission).nav
+    if instance_of(mission, "jackson.host.control.navigate", "NavigateMission"):
+        return cast("NavigateMission", mission)
     return None
 
 
