@@ -306,7 +306,8 @@ class RosBridge:
         from rclpy.node import Node
         from rclpy.parameter import Parameter
         from rclpy.signals import SignalHandlerOptions
-        from rosbags.typesys import Stores, get_typestore
+
+        from jackson.host.ros.msgtypes import typestore
 
         self.core = core
         self.service = service
@@ -315,7 +316,7 @@ class RosBridge:
         # messages received on the executor's threads, recorded on the core's (the bag's)
         self.received: deque[tuple[str, Any]] = deque()
         self.action: NavigateToPoseServer | None = None
-        self._store = get_typestore(Stores.ROS2_JAZZY)
+        self._store = typestore()
         self.context = Context()
         rclpy.init(
             args=list(args) if args is not None else None,

@@ -1,5 +1,6 @@
 """Builds each ROS 2 message of a run from what the daemon's core computed: the typed
-dataclasses of ``rosbags`` (ROS 2 Jazzy's, which need no ROS installation), stamped by a
+dataclasses of ``rosbags`` (ROS 2 Jazzy's types, which need no ROS installation; made from
+:mod:`jackson.host.ros.msgtypes`), stamped by a
 :class:`~jackson.host.ros.stamp_clock.StampClock` and named by
 :class:`~jackson.host.ros.settings.RosSettings`."""
 
@@ -10,10 +11,10 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from rosbags.typesys.stores import ros2_jazzy as jazzy
 
 from jackson.host.lidar.scan_timer import SCAN_PERIOD_S
 from jackson.host.nav.types import Pose2D
+from jackson.host.ros import msgtypes
 from jackson.host.ros.diagnostics import DiagnosticValues, diagnostic_statuses
 from jackson.host.ros.scan_bins import binned_ranges
 from jackson.host.ros.settings import RosSettings
@@ -22,9 +23,13 @@ from jackson.protocol import Telemetry
 from jackson.protocol.units import accel_m_s2, gyro_rad_s
 
 if TYPE_CHECKING:
+    from rosbags.typesys.stores import ros2_jazzy as jazzy  # the same classes, for mypy
+
     from jackson.host.estimation.ekf import EkfState
     from jackson.host.estimation.odometry import OdometryCovariance, OdometryState
     from jackson.host.nav.types import Scan
+else:
+    jazzy = msgtypes  # Jazzy's names, made from jackson's definitions (0.1 s less to import)
 
 Header = jazzy.std_msgs__msg__Header
 Time = jazzy.builtin_interfaces__msg__Time

@@ -11,19 +11,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rosbags.typesys.stores import ros2_jazzy as jazzy
-
 from jackson.host.estimation.odometry import OdometryCovariance
 from jackson.host.ros import cdr
 from jackson.host.ros.bag.errors import BagError
 from jackson.host.ros.bag.files import McapFiles
 from jackson.host.ros.bag.metadata import write_metadata
 from jackson.host.ros.bag.topics import bag_topics, jazzy_store, topic_specs
-from jackson.host.ros.builder import MessageBuilder, planar_covariance
+from jackson.host.ros.builder import DiagnosticArray, MessageBuilder, planar_covariance
 from jackson.host.ros.settings import RosSettings
 from jackson.host.ros.stamp_clock import NS_PER_S, StampClock
-
-DiagnosticArray = jazzy.diagnostic_msgs__msg__DiagnosticArray
 
 DEFAULT_FLUSH_INTERVAL_S = 1.0  # [s] of message time between chunk flushes
 

@@ -16,9 +16,9 @@ from rosbags.interfaces import (
     QosTime,
 )
 from rosbags.rosbag2.metadata import dump_qos_v9
-from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
+from jackson.host.ros.msgtypes import typestore
 from jackson.host.ros.settings import TOPIC_TYPES, RosSettings
 
 
@@ -115,13 +115,13 @@ _JAZZY: list[Typestore] = []  # the process's one type store
 
 
 def jazzy_store() -> Typestore:
-    """Jazzy's types, one store per process: rosbags builds a type's serializer once per
-    store (7 ms for /map's), and a long-running daemon opens a bag at each split of its run
-    folders (docs/recording.md)."""
+    """Jazzy's types the daemon writes (:mod:`jackson.host.ros.msgtypes`), one store per
+    process: rosbags builds a type's serializer once per store (7 ms for /map's), and a
+    long-running daemon opens a bag at each split of its run folders (docs/recording.md)."""
     if not _JAZZY:
         from jackson.host.ros.cdr import ENCODERS
 
-        store = get_typestore(Stores.ROS2_JAZZY)
+        store = typestore()
         # the serializers of the types rosbags packs (/map, /diagnostics, /plan's poses...)
         # built now, before the frame loop, not at their first message (a 10-40 ms frame)
         for msgtype, _, _ in TOPIC_TYPES.values():
