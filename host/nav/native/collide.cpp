@@ -1,5 +1,6 @@
 // The costmap's loops, compiled: Costmap._footprint_hits and Costmap.trajectories_collide
-// (host/nav/costmap.py) over poses and the obstacle discs near them, and Costmap._clear_rays
+// (host/nav/costmap/footprint.py) over poses and the obstacle discs near them, and
+// ObstacleLayer._clear_rays (host/nav/costmap/layers.py)
 // along a scan's rays, which numpy can only run as whole-array passes over every sample.
 //
 // Same arithmetic as the numpy code, operation for operation (built with -ffp-contract=off, the
@@ -7,6 +8,7 @@
 // one shortcut numpy does not take, skipping a disc that is certainly out of reach before its
 // hypot, cannot change an answer (hits_at). Loaded with ctypes by jackson.host.nav.native;
 // built by `make setup` (tools/build_compiled.py).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -379,8 +381,32 @@ std::int64_t jackson_rollouts_collide(std::int64_t m, std::int64_t steps, const 
   return m;
 }
 
-// Costmap._clear_rays after its set-up: ray i's samples k = 0, 1, ... while k step <= stop[i]
+// ObstacleLayer._clear_rays after its set-up: ray i's samples k = 0, 1, ... while k step <= stop[i]
 // lie at (base + k u_i) cells from the grid's origin; each one on the grid is cleared.
+// Only the samples a ray can have on the grid are visited: the span of k over which its line
+// crosses the grid's slabs, widened by two samples at each end (every sample is still tested),
+// so a 3 m ray leaving a 3 m window halfway costs half. floor() of a cell coordinate is taken
+// by truncation (exact for |v| < 2^63; the coordinates are a few thousand cells at most), not
+// by the C library's call.
+inline double floor_of(double v) {
+  const double t = static_cast<double>(static_cast<std::int64_t>(v));
+  return t > v ? t - 1.0 : t;
+}
+
+// The k (>= 0) from which, and up to which, base + k u can lie in [0, top): the whole range
+// [0, inf) when u is 0 and base lies in it, none (lo > hi) when it does not.
+inline void slab(double base, double u, double top, double* lo, double* hi) {
+  if (u > 0.0) {
+    *lo = std::max(*lo, std::floor(-base / u) - 2.0);
+    *hi = std::min(*hi, std::ceil((top - base) / u) + 2.0);
+  } else if (u < 0.0) {
+    *lo = std::max(*lo, std::floor((top - base) / u) - 2.0);
+    *hi = std::min(*hi, std::ceil(-base / u) + 2.0);
+  } else if (!(base >= 0.0 && base < top)) {
+    *hi = -1.0;
+  }
+}
+
 void jackson_clear_rays(std::int64_t n_rays, const double* ux, const double* uy,
                         const double* stop, double base_x, double base_y, double step,
                         std::int64_t rows, std::int64_t cols, std::uint8_t* obstacle,
@@ -388,11 +414,22 @@ void jackson_clear_rays(std::int64_t n_rays, const double* ux, const double* uy,
   const double top_r = static_cast<double>(rows);
   const double top_c = static_cast<double>(cols);
   for (std::int64_t i = 0; i < n_rays; ++i) {
-    for (std::int64_t k = 0;; ++k) {
+    // no further than the ray's own end (nor a negative or NaN end: no sample)
+    double lo = 0.0, hi = std::floor(stop[i] / step) + 2.0;
+    if (!(hi >= 0.0)) continue;
+    slab(base_x, ux[i], top_c, &lo, &hi);
+    slab(base_y, uy[i], top_r, &lo, &hi);
+    if (!(lo <= hi)) continue;  // the line misses the grid
+    // the last sample: the largest k with k step <= stop (the loop's own test, so the same k)
+    std::int64_t last = static_cast<std::int64_t>(std::floor(stop[i] / step));
+    while (last >= 0 && !(static_cast<double>(last) * step <= stop[i])) --last;
+    while (static_cast<double>(last + 1) * step <= stop[i]) ++last;
+    last = std::min(last, static_cast<std::int64_t>(hi));
+    const double bx = base_x, by = base_y, dx = ux[i], dy = uy[i];
+    for (std::int64_t k = static_cast<std::int64_t>(lo); k <= last; ++k) {
       const double kd = static_cast<double>(k);
-      if (!(kd * step <= stop[i])) break;
-      const double c = std::floor(base_x + ux[i] * kd);
-      const double r = std::floor(base_y + uy[i] * kd);
+      const double c = floor_of(bx + dx * kd);
+      const double r = floor_of(by + dy * kd);
       if (r >= 0.0 && r < top_r && c >= 0.0 && c < top_c)
         obstacle[static_cast<std::int64_t>(r * top_c + c)] = free_value;
     }

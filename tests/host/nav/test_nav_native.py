@@ -221,6 +221,45 @@ def test_rays_clear_the_cells_numpy_clears(seed: int, monkeypatch: pytest.Monkey
     assert np.array_equal(maps[0][1], maps[1][1])
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_rays_from_anywhere_clear_what_numpy_clears(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The compiled rays visit only the samples that can lie on the grid: from sensors inside,
+    on the edge of and outside the grid (rays entering it, crossing it, missing it), along the
+    axes and the grid lines too, every cell numpy's samples clear and no other."""
+    from jackson.common.geometry import GridGeometry
+    from jackson.host.nav.costmap import ObstacleLayer
+
+    rng = np.random.default_rng(700 + seed)
+    res = float(rng.choice([0.025, 0.05, 0.1]))
+    g = GridGeometry(float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2)), res, 37, 52)
+    config = CostmapConfig(raytrace_max_range_m=float(rng.uniform(1.0, 6.0)))
+    centre = (g.origin_x_m + 26 * res, g.origin_y_m + 18.5 * res)
+    sensors = [
+        centre, (g.origin_x_m, g.origin_y_m), (g.origin_x_m - 1.3, centre[1]),
+        (centre[0] + 3.0, g.origin_y_m - 0.7), (g.origin_x_m + 5 * res, centre[1]),
+    ]  # fmt: skip
+    angles = np.concatenate(
+        (rng.uniform(-math.pi, math.pi, 40), np.arange(8) * (math.pi / 4))  # axes, diagonals
+    )
+    ranges = [rng.uniform(0.0, 7.0, angles.size) for _ in sensors]
+    cleared = {}
+    for lib in (native.LIB, None):
+        monkeypatch.setattr(native, "LIB", lib)
+        for i, (sensor, r) in enumerate(zip(sensors, ranges, strict=True)):
+            layer = ObstacleLayer(config, g, discs=False)
+            layer.costs[...] = LETHAL_OBSTACLE
+            p = np.column_stack((sensor[0] + r * np.cos(angles), sensor[1] + r * np.sin(angles)))
+            d = p - np.asarray(sensor)
+            layer._clear_rays(p, d, np.hypot(d[:, 0], d[:, 1]), sensor, g)
+            cleared.setdefault(i, []).append(layer.costs == 0)
+    for i, (compiled, interpreted) in cleared.items():
+        assert np.array_equal(compiled, interpreted), sensors[i]
+    counts = [int(np.count_nonzero(c[0])) for c in cleared.values()]
+    assert counts[0] > 0 and all(n < g.rows * g.cols for n in counts), counts
+
+
 def test_calls_leave_no_garbage_for_the_collector() -> None:
     """A call builds no reference cycles (numpy's ctypes adapters did, on every call: garbage
     that the daemon's settled collector reaches rarely, so its memory grew while navigating)."""
