@@ -118,6 +118,7 @@ from jackson.protocol.rplidar.express import (
     encode_ultra_cabins,
     encode_ultra_capsule,
     ultra_angle_offset_q16,
+    ultra_capsule_of_cabins,
     varbitscale_decode,
     varbitscale_encode,
 )
@@ -263,6 +264,7 @@ __all__ = [
     "response",
     "scan_mode_conf",
     "ultra_angle_offset_q16",
+    "ultra_capsule_of_cabins",
     "varbitscale_decode",
     "varbitscale_encode",
 ]

@@ -257,32 +257,34 @@ def encode_ultra_cabins(distance_mm: npt.ArrayLike) -> tuple[npt.NDArray[np.uint
 
     Parameters
     ----------
-    distance_mm : array_like of int
-        97 distances [mm]: this capsule's 96 samples, then the next capsule's first.
+    distance_mm : array_like of int, shape (..., 97)
+        97 distances [mm]: this capsule's 96 samples, then the next capsule's first; any
+        number of capsules at once along the leading axes (each encoded alone).
 
     Returns
     -------
-    words : ndarray of uint32
+    words : ndarray of uint32, shape (..., 32)
         The 32 cabins.
-    decoded_mm : ndarray of int64
+    decoded_mm : ndarray of int64, shape (..., 96)
         The 96 distances [mm] they decode to (quantised; 0 for no return).
     """
     n = ULTRA_CAPSULED.samples
     d = np.asarray(distance_mm, dtype=np.int64)
-    if d.shape != (n + 1,):
+    if d.ndim < 1 or d.shape[-1] != n + 1:
         raise ValueError(f"an ultra capsule needs {n + 1} distances, got shape {d.shape}")
-    if d.min() < 0:
+    if d.size and d.min() < 0:
         raise EncodeError("RPLIDAR capsule distance_mm must be >= 0")
-    codes = varbitscale_encode(d[0::3])  # 33 majors: this capsule's 32 and the next one's
+    codes = varbitscale_encode(d[..., 0::3])  # 33 majors: this capsule's 32 and the next one's
     major_mm, level = varbitscale_decode(codes)
-    this_mm, this_lvl, next_mm, next_lvl = major_mm[:-1], level[:-1], major_mm[1:], level[1:]
+    this_mm, this_lvl = major_mm[..., :-1], level[..., :-1]
+    next_mm, next_lvl = major_mm[..., 1:], level[..., 1:]
     borrow = (this_mm == 0) & (next_mm != 0)
     p1, got1 = _predict(
-        d[1:n:3], np.where(borrow, next_mm, this_mm), np.where(borrow, next_lvl, this_lvl)
+        d[..., 1:n:3], np.where(borrow, next_mm, this_mm), np.where(borrow, next_lvl, this_lvl)
     )
-    p2, got2 = _predict(d[2:n:3], next_mm, next_lvl)
-    words = codes[:-1] | ((p1 & 0x3FF) << 12) | ((p2 & 0x3FF) << 22)
-    decoded: I64Array = np.stack((this_mm, got1, got2), axis=1).ravel()
+    p2, got2 = _predict(d[..., 2:n:3], next_mm, next_lvl)
+    words = codes[..., :-1] | ((p1 & 0x3FF) << 12) | ((p2 & 0x3FF) << 22)
+    decoded: I64Array = np.stack((this_mm, got1, got2), axis=-1).reshape(*d.shape[:-1], n)
     return words.astype(np.uint32), decoded
 
 
@@ -296,7 +298,23 @@ def encode_ultra_capsule(start_angle_q6: int, start: bool, distance_mm: npt.Arra
         A start angle out of 15 bits or a negative distance.
     """
     words, _ = encode_ultra_cabins(distance_mm)
-    return _pack_capsule(start_angle_q6, start, words.astype("<u4").tobytes())
+    return ultra_capsule_of_cabins(start_angle_q6, start, words)
+
+
+def ultra_capsule_of_cabins(
+    start_angle_q6: int, start: bool, words: npt.NDArray[np.uint32]
+) -> bytes:
+    """An ultra capsule (132 bytes) from its 32 cabins (:func:`encode_ultra_cabins`'s words:
+    a revolution's capsules encoded at once, each packed with its own start angle).
+
+    Raises
+    ------
+    EncodeError
+        A start angle out of 15 bits.
+    """
+    if np.shape(words) != (ULTRA_CAPSULED.samples // 3,):
+        raise ValueError(f"an ultra capsule has 32 cabins, got shape {np.shape(words)}")
+    return _pack_capsule(start_angle_q6, start, np.asarray(words).astype("<u4").tobytes())
 
 
 def encode_dense_capsule(start_angle_q6: int, start: bool, distance_mm: npt.ArrayLike) -> bytes:

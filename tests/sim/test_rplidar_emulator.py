@@ -657,6 +657,27 @@ def test_an_ultra_prediction_out_of_reach_is_sent_as_no_return() -> None:
     assert encode_ultra_cabins(distance)[1][1] == 2020
 
 
+def test_a_revolution_of_ultra_capsules_encodes_at_once_as_one_by_one() -> None:
+    """The emulator encodes a revolution's capsules in one call: the same cabins, decoded
+    distances and capsule bytes as each capsule alone, at every distance scale."""
+    from jackson.protocol.rplidar import ultra_capsule_of_cabins
+
+    rng = np.random.default_rng(11)
+    d = rng.integers(0, 30000, (17, 97))
+    d[rng.random(d.shape) < 0.1] = 0
+    d[3] = rng.integers(990, 1010, 97)  # predictions in reach
+    words, decoded = encode_ultra_cabins(d)
+    assert words.shape == (17, 32) and decoded.shape == (17, 96)
+    for c in range(17):
+        one_words, one_decoded = encode_ultra_cabins(d[c])
+        assert np.array_equal(words[c], one_words) and np.array_equal(decoded[c], one_decoded)
+        assert ultra_capsule_of_cabins(64 * c, c == 0, words[c]) == encode_ultra_capsule(
+            64 * c, c == 0, d[c]
+        )
+    with pytest.raises(ValueError, match="32 cabins"):
+        ultra_capsule_of_cabins(0, True, words[:2])
+
+
 def test_a_dense_capsule_is_forty_millimetre_distances() -> None:
     # 1000 mm = e8 03; 40 equal u16 cancel in the checksum: a0 50, start 0 without S
     capsule = encode_dense_capsule(0, False, 1000)
