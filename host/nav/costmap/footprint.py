@@ -98,7 +98,7 @@ class FootprintChecker:
         cls = np.where(dist <= self._near_m, _NEAR, _CLEAR).astype(np.uint8)
         cls[dist < self._deep_m] = _DEEP
         cls[costs >= LETHAL_OBSTACLE] = _BLOCKED  # lethal or unknown under the centre
-        self._class_padded = _ringed(cls, _BLOCKED).ravel()
+        self._class_padded = ringed(cls, _BLOCKED).ravel()
         self._clear_reach_padded: FloatArray | None = None
 
     def _index_obstacles(self, lethal: BoolArray, static_costs: CostArray) -> None:
@@ -588,7 +588,7 @@ class FootprintChecker:
         return np.bincount(pose_i[hit], minlength=n).astype(np.int_), clearance
 
 
-def _ringed(inner: CostArray, value: int) -> CostArray:
+def ringed(inner: CostArray, value: int) -> CostArray:
     """``np.pad(inner, 1, constant_values=value)`` without its generality's cost."""
     out = np.empty((inner.shape[0] + 2, inner.shape[1] + 2), inner.dtype)
     out[0] = out[-1] = value

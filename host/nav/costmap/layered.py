@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from jackson.common.geometry import GridCells, GridGeometry
 from jackson.host.nav import native
-from jackson.host.nav.costmap.footprint import FootprintChecker, _ringed
+from jackson.host.nav.costmap.footprint import FootprintChecker, ringed
 from jackson.host.nav.costmap.layers import InflationLayer, ObstacleLayer, StaticLayer, Window
 from jackson.host.nav.costmap.values import (
     NO_INFORMATION,
@@ -357,7 +357,7 @@ class Costmap(GridCells):
         self.lethal_distance_m = dist
         # the costs live inside a grid padded by one unknown ring (off-grid lookups land on
         # it); ``costs`` is a view of its inside, updated in place
-        self._costs_2d = _ringed(master, NO_INFORMATION)
+        self._costs_2d = ringed(master, NO_INFORMATION)
         self._costs_padded = self._costs_2d.ravel()
         self.costs = self._costs_2d[1:-1, 1:-1]
         if self._collision_checks:
