@@ -17,8 +17,12 @@ and takes the answer ``plan_delay_ticks`` control ticks later, whoever computed 
   at most :data:`WAIT_S` (a quarter of the control period) if the worker has not answered by
   then, and searching it on the caller's thread if it still has not (counted in
   :attr:`WorkerPlanner.late`: a worker still starting, or a machine too busy). A worker that
-  dies, or misses :data:`MISSES_TO_GIVE_UP` answers in a row (stopped, stuck), is replaced by
-  the search on the caller's thread for the rest of the run (one line said).
+  dies, or misses :data:`MISSES_TO_GIVE_UP` answers in a row (stopped, stuck), is killed and
+  replaced by the search on the caller's thread (one line said), and a new worker is started
+  with the first request :data:`RESTART_AFTER_S` later, then twice as long after each worker
+  given up in a row, at most :data:`RESTART_MAX_S` (a worker that answers in time resets the
+  wait): a robot in service for days does not plan on its control thread for the rest of
+  its run after one bad minute of its machine.
 
 Both give the same answer for the same request: the search is the same function of the same
 copied costs (:func:`solve`), so which one ran changes when the CPU is spent, never a plan, and
@@ -54,6 +58,8 @@ FloatArray = npt.NDArray[np.float64]
 
 WAIT_S = 0.0125  # [s] the most a control step waits for an answer due (a quarter period)
 MISSES_TO_GIVE_UP = 3  # answers in a row not in by then, once the worker is ready: given up
+RESTART_AFTER_S = 10.0  # [s] from a worker given up to the start of the next (wall clock)
+RESTART_MAX_S = 600.0  # [s] the longest wait, doubling with each worker given up in a row
 
 
 @dataclass(frozen=True)
@@ -187,24 +193,43 @@ class WorkerPlanner:
     ----------
     late : int
         Answers that were not in when they fell due (the caller waited for them).
+    restarts : int
+        Workers started after one was given up.
+    restart_after_s : float
+        The wait before the next worker once one is given up [s] (:data:`RESTART_AFTER_S`).
     """
 
     def __init__(self, say: Callable[[str], None] = print) -> None:
         self.say = say
         self.late = 0
+        self.restarts = 0
+        self.restart_after_s = RESTART_AFTER_S
+        self._given_up = 0  # workers given up in a row (none answered in time since)
+        self._closed = False
+        self._restart_at: float | None = None  # monotonic time the next worker may start
         self._cpu_ready_s: float | None = None
         self._cpu_s = 0.0
+        self._cpu_retired_s = 0.0  # the CPU of the workers given up
         self._lock = threading.Lock()  # sends and receives; a snapshot may read from its thread
+        self._conn: Connection | None = None
+        self._process: subprocess.Popen[bytes] | None = None
+        self._sent: PlanRequest | None = None
+        self._early: PlanAnswer | None = None  # an answer a snapshot read before it fell due
+        self._misses = 0  # late answers in a row since the worker was ready
+        self._start()
+        atexit.register(self.close)  # the daemon's end, however the worker is
+
+    def _start(self) -> None:
+        """Start a worker process and connect to it (given up at once if it cannot start)."""
+        self._cpu_ready_s = None
+        self._cpu_s = 0.0
+        self._misses = 0
         parent, child = socket.socketpair()
         # a request the worker does not take in (stopped, stuck) fails after this long
         # rather than blocking the control thread once the socket's buffer is full
         sec, usec = divmod(round(WAIT_S * 1e6), 1_000_000)
         parent.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", sec, usec))
-        self._conn: Connection | None = Connection(parent.detach())
-        self._process: subprocess.Popen[bytes] | None = None
-        self._sent: PlanRequest | None = None
-        self._early: PlanAnswer | None = None  # an answer a snapshot read before it fell due
-        self._misses = 0  # late answers in a row since the worker was ready
+        self._conn = Connection(parent.detach())
         try:
             # its own session (a Ctrl-C on the daemon's terminal is the daemon's to handle) and
             # none of the daemon's output (a stopped worker would keep a reader of it waiting
@@ -217,7 +242,6 @@ class WorkerPlanner:
                 stderr=subprocess.DEVNULL,
                 start_new_session=True,
             )
-            atexit.register(self.close)  # the daemon's end, however the worker is
         except OSError as exc:
             self._give_up(f"cannot start ({exc})")
         finally:
@@ -230,17 +254,31 @@ class WorkerPlanner:
 
     @property
     def cpu_s(self) -> float:
-        """The worker's CPU time since it was ready, as of its last answer [s]."""
-        return self._cpu_s
+        """The workers' CPU time since each was ready, as of their last answers [s]."""
+        return self._cpu_retired_s + self._cpu_s
 
     def report(self) -> dict[str, Any]:
-        """Whether the worker is in use, the answers it was late with, its CPU [s]."""
-        return {"worker": self.alive, "late": self.late, "cpu_s": self._cpu_s}
+        """Whether a worker is in use, the answers they were late with, their CPU [s], the
+        workers started after one was given up."""
+        return {"worker": self.alive, "late": self.late, "cpu_s": self.cpu_s,
+                "restarts": self.restarts}  # fmt: skip
 
     def submit(self, request: PlanRequest) -> None:
-        """Send ``request`` to the worker (searched at once here without one)."""
+        """Send ``request`` to the worker (searched at once here without one; a new worker
+        started first when one was given up long enough ago)."""
         with self._lock:
             self._sent = request
+            if (
+                self._conn is None
+                and not self._closed
+                and self._restart_at is not None
+                and time.monotonic() >= self._restart_at
+            ):
+                self._restart_at = None
+                self.restarts += 1
+                self._start()
+                if self._conn is not None:
+                    self.say(f"planner: a new worker process started (restart {self.restarts})")
             if self._conn is None:
                 return
             try:
@@ -256,6 +294,7 @@ class WorkerPlanner:
             early, self._early = self._early, None
             if early is not None and early.id == request.id:
                 got: PlanAnswer | None = early
+                self._misses = self._given_up = 0
             elif self._conn is not None:
                 got = self._receive(request, WAIT_S)
                 if got is None and self._conn is not None:
@@ -265,7 +304,7 @@ class WorkerPlanner:
                         if self._misses >= MISSES_TO_GIVE_UP:
                             self._give_up(f"missed {self._misses} answers in a row")
                 elif got is not None:
-                    self._misses = 0
+                    self._misses = self._given_up = 0  # in time: a next give-up waits least
             else:
                 got = None
             self._sent = None
@@ -287,9 +326,11 @@ class WorkerPlanner:
             return got is not None
 
     def close(self) -> None:
-        """Stop the worker (it exits when its end of the socket closes)."""
+        """Stop the worker (it exits when its end of the socket closes); none starts again."""
         with self._lock:
             conn, self._conn = self._conn, None
+            self._restart_at = None
+            self._closed = True
         if conn is not None:
             with contextlib.suppress(OSError, ValueError):
                 conn.send(None)
@@ -341,8 +382,17 @@ class WorkerPlanner:
                 return answer  # type: ignore[no-any-return]
 
     def _give_up(self, why: str) -> None:
-        """Plan on the caller's thread from now on."""
-        self.say(f"planner: the worker process {why}; planning on the control thread instead")
+        """Plan on the caller's thread until a new worker starts (:attr:`restart_after_s`,
+        doubled for each worker given up in a row, at most :data:`RESTART_MAX_S`)."""
+        wait_s = min(self.restart_after_s * 2.0**self._given_up, RESTART_MAX_S)
+        self._given_up += 1
+        self._restart_at = time.monotonic() + wait_s
+        self._cpu_retired_s += self._cpu_s
+        self._cpu_s = 0.0
+        self.say(
+            f"planner: the worker process {why}; planning on the control thread instead, "
+            f"a new worker in {wait_s:.0f} s"
+        )
         conn, self._conn = self._conn, None
         if conn is not None:
             conn.close()

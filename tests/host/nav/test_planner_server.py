@@ -95,6 +95,36 @@ def test_a_killed_worker_is_replaced_by_the_callers_search(worker: WorkerPlanner
     assert len(worker.said) == 1 and "planning on the control thread" in worker.said[0]  # type: ignore[attr-defined]
     worker.submit(first)
     assert same(worker.answer(first), solve(first))  # and it goes on answering
+    assert "a new worker in 10 s" in worker.said[0]  # type: ignore[attr-defined]
+
+
+def test_a_worker_given_up_is_replaced_by_a_new_one_later(worker: WorkerPlanner) -> None:
+    """After a give-up the searches run here until the wait is over; the next request then
+    starts a new worker, which answers as the first did. Each worker given up in a row
+    (none answering in time between) doubles the wait; one answering in time resets it."""
+    first, second, third = maze_requests()
+    said = worker.said  # type: ignore[attr-defined]
+    for k in (1, 2):
+        os.kill(worker._process.pid, signal.SIGKILL)  # the first worker, then the new one
+        worker._process.wait(timeout=10)
+        worker.submit(first)
+        assert same(worker.answer(first), solve(first)) and not worker.alive
+        assert said[-1].endswith(f"a new worker in {10 * 2 ** (k - 1)} s")
+        worker.submit(first)  # still waiting: searched here, no worker started
+        assert not worker.alive and same(worker.answer(first), solve(first))
+        worker._restart_at = time.monotonic()  # the wait is over (wall time, by design)
+        worker.submit(second)  # starts the new worker, and sends to it
+        assert worker.alive and worker.restarts == k
+        assert said[-1] == f"planner: a new worker process started (restart {k})"
+    assert worker.wait(60.0)  # answered by the second new worker
+    assert same(worker.answer(second), solve(second))
+    assert worker._given_up == 0  # in time: a next give-up waits 10 s again
+    worker.submit(third)
+    assert worker.wait(60.0)
+    assert same(worker.answer(third), solve(third)) and worker.report()["restarts"] == 2
+    worker.close()
+    worker.submit(first)  # closed: no new worker, however long ago the last was given up
+    assert not worker.alive and same(worker.answer(first), solve(first))
 
 
 def test_a_stopped_worker_costs_a_quarter_period_per_plan_then_is_given_up(
@@ -167,7 +197,7 @@ def test_the_navigator_takes_each_plan_two_ticks_after_asking_whoever_searched_i
     (inline, inline_replans), (worked, worked_replans) = runs
     assert worked == inline and worked_replans == inline_replans >= 8  # 1 Hz, same plans
     assert worker.late == 0 and worker.cpu_s > 0.0  # every one searched by the worker
-    assert worker.report() == {"worker": True, "late": 0, "cpu_s": worker.cpu_s}
+    assert worker.report() == {"worker": True, "late": 0, "cpu_s": worker.cpu_s, "restarts": 0}
     assert [s for _, _, s in inline[:3]] == ["planning", "planning", "following"]
     nav = Navigator(NavigatorConfig(), grid, LimiterConfig())  # 0: the asking tick takes it
     nav.set_goal(Pose2D(3.5, 2.5))
