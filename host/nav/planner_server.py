@@ -216,6 +216,9 @@ class WorkerPlanner:
         self._sent: PlanRequest | None = None
         self._early: PlanAnswer | None = None  # an answer a snapshot read before it fell due
         self._misses = 0  # late answers in a row since the worker was ready
+        self._outstanding: int | None = None  # the id of the request the worker has not answered
+        self._in_worker = False  # the request in flight went to the worker
+        self._busy_skip = False  # ... or did not: the worker still had an earlier one
         self._start()
         atexit.register(self.close)  # the daemon's end, however the worker is
 
@@ -224,6 +227,7 @@ class WorkerPlanner:
         self._cpu_ready_s = None
         self._cpu_s = 0.0
         self._misses = 0
+        self._outstanding = None
         parent, child = socket.socketpair()
         # a request the worker does not take in (stopped, stuck) fails after this long
         # rather than blocking the control thread once the socket's buffer is full
@@ -264,10 +268,13 @@ class WorkerPlanner:
                 "restarts": self.restarts}  # fmt: skip
 
     def submit(self, request: PlanRequest) -> None:
-        """Send ``request`` to the worker (searched at once here without one; a new worker
-        started first when one was given up long enough ago)."""
+        """Send ``request`` to the worker: only to a worker that is ready and has answered the
+        requests before, so that a send never waits on one that does not read (a 20 m map's
+        request is larger than the socket's buffer); otherwise it is searched here when it
+        falls due. A new worker is started first when one was given up long enough ago."""
         with self._lock:
             self._sent = request
+            self._in_worker = self._busy_skip = False
             if (
                 self._conn is None
                 and not self._closed
@@ -279,12 +286,20 @@ class WorkerPlanner:
                 self._start()
                 if self._conn is not None:
                     self.say(f"planner: a new worker process started (restart {self.restarts})")
-            if self._conn is None:
+            if self._conn is not None and (self._cpu_ready_s is None or self._outstanding):
+                self._receive(None, 0.0)  # take in what came since: ready, late answers
+            if self._conn is None or self._cpu_ready_s is None:
+                return  # none, or still starting: searched here
+            if self._outstanding is not None:
+                self._busy_skip = True  # an earlier answer, already overdue, still not in
                 return
             try:
                 self._conn.send(request)
             except (OSError, ValueError) as exc:
                 self._give_up(f"is gone (a request could not be sent: {exc})")
+                return
+            self._outstanding = request.id
+            self._in_worker = True
 
     def answer(self, request: PlanRequest) -> PlanAnswer:
         """The worker's answer to ``request``: read when in, waited for at most
@@ -295,6 +310,13 @@ class WorkerPlanner:
             if early is not None and early.id == request.id:
                 got: PlanAnswer | None = early
                 self._misses = self._given_up = 0
+            elif self._conn is not None and not self._in_worker:
+                got = None  # not sent: the worker was starting, or busy with an overdue one
+                self.late += 1
+                if self._busy_skip:
+                    self._misses += 1
+                    if self._misses >= MISSES_TO_GIVE_UP:
+                        self._give_up(f"missed {self._misses} answers in a row")
             elif self._conn is not None:
                 got = self._receive(request, WAIT_S)
                 if got is None and self._conn is not None:
@@ -308,7 +330,20 @@ class WorkerPlanner:
             else:
                 got = None
             self._sent = None
+            self._in_worker = self._busy_skip = False
         return got if got is not None else solve(request)
+
+    def wait_ready(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for the worker to be ready for requests (started and its
+        imports done: requests before then are searched here); False without a worker."""
+        deadline = time.monotonic() + timeout_s
+        with self._lock:
+            while self._conn is not None and self._cpu_ready_s is None:
+                left = deadline - time.monotonic()
+                if left <= 0.0:
+                    return False
+                self._receive(None, min(left, 0.05))
+            return self._conn is not None
 
     def wait(self, timeout_s: float) -> bool:
         """Wait up to ``timeout_s`` for the answer in flight (a run faster than the robot's
@@ -316,7 +351,7 @@ class WorkerPlanner:
         it is in (or nothing is in flight)."""
         with self._lock:
             sent = self._sent
-            if sent is None or self._conn is None:
+            if sent is None or self._conn is None or not self._in_worker:
                 return True
             if self._early is not None and self._early.id == sent.id:
                 return True
@@ -348,16 +383,17 @@ class WorkerPlanner:
         with self._lock:
             sent = self._sent
             if sent is not None and (self._early is None or self._early.id != sent.id):
-                got = self._receive(sent, WAIT_S) if self._conn is not None else None
+                got = self._receive(sent, WAIT_S) if self._conn and self._in_worker else None
                 self._early = got if got is not None else solve(sent)
             held = self._early if sent is not None else None
         return (_inline_holding, (held,))
 
     # ------------------------------------------------------------------ internals
 
-    def _receive(self, request: PlanRequest, wait_s: float) -> PlanAnswer | None:
+    def _receive(self, request: PlanRequest | None, wait_s: float) -> PlanAnswer | None:
         """The answer to ``request`` from the socket (others dropped), waiting at most
-        ``wait_s``; None when it is not in by then or the worker is gone (given up)."""
+        ``wait_s``; None when it is not in by then or the worker is gone (given up). With no
+        request, what came in is taken (the ready message, late answers) and None returned."""
         conn = self._conn
         assert conn is not None
         deadline = time.monotonic() + wait_s
@@ -378,7 +414,9 @@ class WorkerPlanner:
             answer, cpu_s = message
             if self._cpu_ready_s is not None:
                 self._cpu_s = float(cpu_s) - self._cpu_ready_s
-            if answer.id == request.id:
+            if answer.id == self._outstanding:
+                self._outstanding = None  # the worker is free for the next request
+            if request is not None and answer.id == request.id:
                 return answer  # type: ignore[no-any-return]
 
     def _give_up(self, why: str) -> None:
@@ -387,6 +425,8 @@ class WorkerPlanner:
         wait_s = min(self.restart_after_s * 2.0**self._given_up, RESTART_MAX_S)
         self._given_up += 1
         self._restart_at = time.monotonic() + wait_s
+        self._outstanding = None
+        self._in_worker = False
         self._cpu_retired_s += self._cpu_s
         self._cpu_s = 0.0
         self.say(

@@ -60,6 +60,7 @@ def worker() -> WorkerPlanner:
     said: list[str] = []
     planner = WorkerPlanner(say=said.append)
     planner.said = said  # type: ignore[attr-defined]
+    assert planner.wait_ready(60.0)  # requests before then are searched on the caller's thread
     yield planner
     planner.close()
 
@@ -100,8 +101,9 @@ def test_a_killed_worker_is_replaced_by_the_callers_search(worker: WorkerPlanner
 
 def test_a_worker_given_up_is_replaced_by_a_new_one_later(worker: WorkerPlanner) -> None:
     """After a give-up the searches run here until the wait is over; the next request then
-    starts a new worker, which answers as the first did. Each worker given up in a row
-    (none answering in time between) doubles the wait; one answering in time resets it."""
+    starts a new worker (searched here while it starts), which answers as the first did once
+    ready. Each worker given up in a row (none answering in time between) doubles the wait;
+    one answering in time resets it."""
     first, second, third = maze_requests()
     said = worker.said  # type: ignore[attr-defined]
     for k in (1, 2):
@@ -113,18 +115,48 @@ def test_a_worker_given_up_is_replaced_by_a_new_one_later(worker: WorkerPlanner)
         worker.submit(first)  # still waiting: searched here, no worker started
         assert not worker.alive and same(worker.answer(first), solve(first))
         worker._restart_at = time.monotonic()  # the wait is over (wall time, by design)
-        worker.submit(second)  # starts the new worker, and sends to it
+        worker.submit(second)  # starts the new worker; searched here while it starts
         assert worker.alive and worker.restarts == k
         assert said[-1] == f"planner: a new worker process started (restart {k})"
-    assert worker.wait(60.0)  # answered by the second new worker
-    assert same(worker.answer(second), solve(second))
-    assert worker._given_up == 0  # in time: a next give-up waits 10 s again
+        assert same(worker.answer(second), solve(second))
+        assert worker.wait_ready(60.0)
+    assert worker._given_up == 2  # the new ones have answered nothing yet
     worker.submit(third)
-    assert worker.wait(60.0)
-    assert same(worker.answer(third), solve(third)) and worker.report()["restarts"] == 2
+    assert worker.wait(60.0)  # in from the second new worker
+    assert same(worker.answer(third), solve(third))
+    assert worker._given_up == 0 and worker.report()["restarts"] == 2  # reset: 10 s again
     worker.close()
     worker.submit(first)  # closed: no new worker, however long ago the last was given up
     assert not worker.alive and same(worker.answer(first), solve(first))
+
+
+def test_a_request_goes_only_to_a_ready_worker_with_nothing_outstanding() -> None:
+    """A 20 m map's request is larger than the socket's buffer: sent to a worker still
+    importing, or still searching an earlier one, the send would wait (and fail after a
+    quarter period). Such requests are searched on the caller's thread instead; one that
+    finds the worker still on an answer already overdue counts as missed."""
+    said: list[str] = []
+    planner = WorkerPlanner(say=said.append)
+    try:
+        big = maze_requests()[0]
+        planner.submit(big)  # at once: the worker is still starting
+        assert not planner._in_worker and planner.wait(0.0)  # nothing in flight to wait for
+        assert same(planner.answer(big), solve(big)) and planner._misses == 0
+        assert planner.wait_ready(60.0)
+        planner.submit(big)
+        assert planner._in_worker and planner.wait(60.0)
+        assert same(planner.answer(big), solve(big)) and planner.alive and said == []
+        os.kill(planner._process.pid, signal.SIGSTOP)  # ready, then stuck on a request
+        try:
+            planner.submit(big)  # sent; its answer never comes
+            assert same(planner.answer(big), solve(big)) and planner._misses == 1
+            planner.submit(big)  # not sent: the worker still has the overdue one
+            assert not planner._in_worker
+            assert same(planner.answer(big), solve(big)) and planner._misses == 2
+        finally:
+            os.kill(planner._process.pid, signal.SIGCONT)
+    finally:
+        planner.close()
 
 
 def test_a_stopped_worker_costs_a_quarter_period_per_plan_then_is_given_up(
