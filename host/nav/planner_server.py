@@ -22,7 +22,10 @@ and takes the answer ``plan_delay_ticks`` control ticks later, whoever computed 
   with the first request :data:`RESTART_AFTER_S` later, then twice as long after each worker
   given up in a row, at most :data:`RESTART_MAX_S` (a worker that answers in time resets the
   wait): a robot in service for days does not plan on its control thread for the rest of
-  its run after one bad minute of its machine.
+  its run after one bad minute of its machine. A request goes to a worker only once it is
+  ready and has answered the one before (a large map's request outgrows the socket's buffer,
+  and a send to a worker not reading would wait); meanwhile requests are searched on the
+  caller's thread, and one finding the worker still on an overdue answer counts as missed.
 
 Both give the same answer for the same request: the search is the same function of the same
 copied costs (:func:`solve`), so which one ran changes when the CPU is spent, never a plan, and
