@@ -34,7 +34,7 @@ if TYPE_CHECKING:  # the daemon, its devices and the navigation load when the co
     from jackson.host.actuation.output import MotorOutput
     from jackson.host.actuation.pca9685 import Pca9685
     from jackson.host.config import HostConfig
-    from jackson.host.control.navigate import NavigateMission
+    from jackson.host.control.navigate import NavigateConfig, NavigateMission
     from jackson.host.daemon import Daemon
     from jackson.host.lidar.rplidar import RplidarDriver
     from jackson.host.nav.planner_server import Planner
@@ -292,18 +292,24 @@ def _navigate(args: argparse.Namespace, cfg: HostConfig) -> Navigation | None:
     try:
         # a daemon runs for hours: its navigation keeps only its recent control ticks
         return NavigateMission(
-            config, cfg.navigation_limits(), grid, keep_samples=False, planner=_planner()
+            config,
+            cfg.navigation_limits(),
+            grid,
+            keep_samples=False,
+            planner=_planner(config, cfg),
         )
     except RouteError as exc:
         raise DaemonCliError(f"{exc} (--map {args.map})") from exc
 
 
-def _planner() -> Planner:
+def _planner(config: NavigateConfig, cfg: HostConfig) -> Planner:
     """The daemon's global planner: a worker process (:mod:`jackson.host.nav.planner_server`),
-    so that no control tick runs a search."""
+    so that no control tick runs a search. Its answers have the plan's delay in control
+    periods of wall time before one not in counts against the worker."""
     from jackson.host.nav.planner_server import WorkerPlanner
 
-    return WorkerPlanner(say=lambda line: print(f"daemon: {line}", flush=True))
+    budget_s = config.navigator.plan_delay_ticks / cfg.serial.telemetry_rate_hz
+    return WorkerPlanner(say=lambda line: print(f"daemon: {line}", flush=True), budget_s=budget_s)
 
 
 def _check_mapped_extent(extent: tuple[float, float, float, float]) -> None:
@@ -378,7 +384,7 @@ def _service(args: argparse.Namespace, cfg: HostConfig) -> NavigationService:
     )
     try:
         check_route(grid, start, (), config.navigator)
-        return NavigationService(config, cfg.navigation_limits(), grid, sv, _planner())
+        return NavigationService(config, cfg.navigation_limits(), grid, sv, _planner(config, cfg))
     except RouteError as exc:
         raise DaemonCliError(f"{exc} ({where} {map_path}; give --start X,Y,YAW)") from exc
 

@@ -26,6 +26,8 @@ and takes the answer ``plan_delay_ticks`` control ticks later, whoever computed 
   ready and has answered the one before (a large map's request outgrows the socket's buffer,
   and a send to a worker not reading would wait); meanwhile requests are searched on the
   caller's thread, and one finding the worker still on an overdue answer counts as missed.
+  Lateness counts against a worker only in wall time (``budget_s``: the plan's delay in
+  control periods): a run in lockstep passes its ticks faster than the robot's clock.
 
 Both give the same answer for the same request: the search is the same function of the same
 copied costs (:func:`solve`), so which one ran changes when the CPU is spent, never a plan, and
@@ -191,6 +193,11 @@ class WorkerPlanner:
     ----------
     say : callable
         Tells the operator when the worker is given up (one line).
+    budget_s : float or None
+        The wall time an answer has on a robot that runs in real time: the plan's delay in
+        control periods [s]. An answer not in when it falls due, sooner than this after its
+        request was sent (a run in lockstep, faster than the robot's clock), is searched here
+        but not counted against the worker. None: every answer not in when due counts.
 
     Attributes
     ----------
@@ -202,8 +209,10 @@ class WorkerPlanner:
         The wait before the next worker once one is given up [s] (:data:`RESTART_AFTER_S`).
     """
 
-    def __init__(self, say: Callable[[str], None] = print) -> None:
+    def __init__(self, say: Callable[[str], None] = print, budget_s: float | None = None) -> None:
         self.say = say
+        self.budget_s = budget_s
+        self._sent_at = 0.0  # monotonic time the outstanding request was sent
         self.late = 0
         self.restarts = 0
         self.restart_after_s = RESTART_AFTER_S
@@ -294,7 +303,8 @@ class WorkerPlanner:
             if self._conn is None or self._cpu_ready_s is None:
                 return  # none, or still starting: searched here
             if self._outstanding is not None:
-                self._busy_skip = True  # an earlier answer, already overdue, still not in
+                # an earlier answer, already due, still not in: a miss if it is late in real time
+                self._busy_skip = not self._in_real_time()
                 return
             try:
                 self._conn.send(request)
@@ -302,6 +312,7 @@ class WorkerPlanner:
                 self._give_up(f"is gone (a request could not be sent: {exc})")
                 return
             self._outstanding = request.id
+            self._sent_at = time.monotonic()
             self._in_worker = True
 
     def answer(self, request: PlanRequest) -> PlanAnswer:
@@ -324,7 +335,8 @@ class WorkerPlanner:
                 got = self._receive(request, WAIT_S)
                 if got is None and self._conn is not None:
                     self.late += 1
-                    if self._cpu_ready_s is not None:  # not merely still starting
+                    # not merely still starting, nor due sooner than on a robot in real time
+                    if self._cpu_ready_s is not None and not self._in_real_time():
                         self._misses += 1
                         if self._misses >= MISSES_TO_GIVE_UP:
                             self._give_up(f"missed {self._misses} answers in a row")
@@ -421,6 +433,12 @@ class WorkerPlanner:
                 self._outstanding = None  # the worker is free for the next request
             if request is not None and answer.id == request.id:
                 return answer  # type: ignore[no-any-return]
+
+    def _in_real_time(self) -> bool:
+        """Whether the outstanding request was sent less than :attr:`budget_s` ago (its
+        answer may not be in yet on a robot's clock either)."""
+        budget = self.budget_s
+        return budget is not None and time.monotonic() - self._sent_at < budget
 
     def _give_up(self, why: str) -> None:
         """Plan on the caller's thread until a new worker starts (:attr:`restart_after_s`,

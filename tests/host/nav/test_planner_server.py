@@ -22,6 +22,7 @@ from jackson.host.nav.astar import AStarConfig, CostGrid
 from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.host.nav.planner_server import (
+    MISSES_TO_GIVE_UP,
     WAIT_S,
     InlinePlanner,
     PlanAnswer,
@@ -182,6 +183,33 @@ def test_a_stopped_worker_costs_a_quarter_period_per_plan_then_is_given_up(
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.kill(worker._process.pid, signal.SIGCONT)
+
+
+def test_an_answer_late_only_on_a_fast_clock_does_not_count_against_the_worker() -> None:
+    """In lockstep faster than the robot's clock, 3 control periods pass in less wall time
+    than on the robot: an answer not in by then, within the real-time budget since its
+    request, is searched here without counting against the worker; past it, it counts."""
+    said: list[str] = []
+    planner = WorkerPlanner(say=said.append, budget_s=60.0)
+    try:
+        assert planner.wait_ready(60.0)
+        request = maze_requests()[0]
+        os.kill(planner._process.pid, signal.SIGSTOP)  # answers nothing from now on
+        try:
+            for _ in range(MISSES_TO_GIVE_UP + 1):
+                planner.submit(request)
+                assert same(planner.answer(request), solve(request))
+            assert planner.alive and planner._misses == 0 and planner.late == 4 and said == []
+            planner.budget_s = 0.0  # the outstanding request is now late in real time too
+            for _ in range(MISSES_TO_GIVE_UP):
+                planner.submit(request)
+                assert same(planner.answer(request), solve(request))
+            assert not planner.alive and "missed 3 answers in a row" in said[0]
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(planner._process.pid, signal.SIGCONT)
+    finally:
+        planner.close()
 
 
 def test_a_snapshot_carries_the_answer_in_flight(worker: WorkerPlanner) -> None:
