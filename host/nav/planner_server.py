@@ -298,7 +298,9 @@ class WorkerPlanner:
                 self._start()
                 if self._conn is not None:
                     self.say(f"planner: a new worker process started (restart {self.restarts})")
-            if self._conn is not None and (self._cpu_ready_s is None or self._outstanding):
+            if self._conn is not None and (
+                self._cpu_ready_s is None or self._outstanding is not None
+            ):
                 self._receive(None, 0.0)  # take in what came since: ready, late answers
             if self._conn is None or self._cpu_ready_s is None:
                 return  # none, or still starting: searched here
