@@ -62,6 +62,12 @@ def _ptr(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
     return int(a.__array_interface__["data"][0])
 
 
+def address(a: npt.NDArray[Any]) -> int:
+    """The address of a writable, C-contiguous, non-empty array (the caller keeps it alive and
+    knows its type): :func:`_ptr`'s fast case without its checks, for buffers made to measure."""
+    return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]  # a buffer
+
+
 def source_path() -> Path:
     """``host/nav/native/collide.cpp`` of this checkout (links of an editable install resolved)."""
     return Path(__file__).resolve().parent / "native" / "collide.cpp"
@@ -102,6 +108,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         coarse = lib.jackson_dwb_coarse
         plan = lib.jackson_dwb_collision_plan
         combine = lib.jackson_combine_inflate
+        front = lib.jackson_dwb_front
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -137,6 +144,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     plan.argtypes = [
         _N, _P, _P, _D, _D, _D, _D, _D, _N, _N, _P, _P, _P, _P, _P, _N, _N, _P, _P, _P,
     ]  # fmt: skip
+    front.restype = _N
+    front.argtypes = [_P, _N, _N, _N, _P, _P, _N, _N, _N, _P, _P, _P, _P, _P, _P, _P, _P, _P]
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib

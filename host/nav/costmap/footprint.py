@@ -154,6 +154,14 @@ class FootprintChecker:
             else None
         )  # fmt: skip
 
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """A checker pickled where the library was, loaded where it is not (a snapshot replayed
+        in a checkout without a build, or with ``JACKSON_NAV_INTERPRETED``): tests with numpy,
+        the same answers."""
+        self.__dict__.update(state)
+        if native.LIB is None:
+            self._native = None
+
     @property
     def max_margin_m(self) -> float:
         """The largest ``margin_m`` :meth:`trajectories_collide` accepts: a quarter cell [m]."""

@@ -16,6 +16,7 @@ from jackson.host.nav.dwb.core.rollouts import Rollouts, build_rollouts
 from jackson.host.nav.dwb.core.window import dynamic_window, sample_targets
 from jackson.host.nav.dwb.critics import Batch, Context, Critic, bringup_critics
 from jackson.host.nav.dwb.critics.base import DeferredLegality
+from jackson.host.nav.dwb.front import FrontLayout, front
 from jackson.host.nav.types import Pose2D
 
 FloatArray = npt.NDArray[np.float64]
@@ -69,6 +70,7 @@ class DwbPlanner:
         self._maps = DistanceMaps()
         self._plan_key: tuple[object, ...] | None = None
         self._plan: PlanCells | None = None
+        self._front: FrontLayout | None = None
 
     def __setstate__(self, state: dict[str, object]) -> None:
         """A planner pickled before it kept its own kinematics and its deferred critics (a
@@ -78,6 +80,7 @@ class DwbPlanner:
         if limits is not None:
             self.kinematics = Kinematics.of(limits)  # type: ignore[arg-type]  # a LimiterConfig
         self._deferred = _deferred(self.critics)
+        self._front = None
 
     def set_limits(self, limits: SpeedLimits | Kinematics) -> None:
         """New speed and acceleration bounds from the next cycle on (a live setting).
@@ -224,8 +227,13 @@ class DwbPlanner:
             The best legal command, or an invalid one with the reason.
         """
         v0, w0 = float(velocity[0]), float(velocity[1])
-        v, w, v_brake = self.samples(v0, w0)
-        ro = self.rollouts(pose, (v0, w0), v, w)
+        made = front(self._layout(), pose, (v0, w0), costmap)
+        if made is None:
+            v, w, v_brake = self.samples(v0, w0)
+            ro = self.rollouts(pose, (v0, w0), v, w)
+        else:
+            ro, batch = made
+            v, w = batch.v_m_s, batch.w_rad_s
         m = v.shape[0]
         context = Context(
             pose, (v0, w0), goal, costmap, self._plan_cells(pose, path, costmap), self._maps
@@ -234,7 +242,8 @@ class DwbPlanner:
         if unprepared:
             reason = NO_PATH if context.plan is None else "not prepared: " + ", ".join(unprepared)
             return Command(0.0, 0.0, np.empty((0, 3)), valid=False, samples=m, reason=reason)
-        batch = Batch.of(v, w, v_brake, ro, costmap)
+        if made is None:
+            batch = Batch.of(v, w, v_brake, ro, costmap)
         deferred = self._deferred if self.config.short_circuit_trajectory_evaluation else {}
         scored: list[tuple[FloatArray, BoolArray | None]] = [
             (deferred[i].raw_scores(batch), None) if i in deferred else critic.score(batch)
@@ -311,6 +320,13 @@ class DwbPlanner:
             if all(allowed[key] == at for key in deferred):
                 return int(order[at]), at
         return -1, 0
+
+    def _layout(self) -> FrontLayout:
+        """The compiled front's layout for the present bounds."""
+        layout = self._front
+        if layout is None or layout.kinematics is not self.kinematics:
+            layout = self._front = FrontLayout.of(self.config, self.kinematics)
+        return layout
 
     def _plan_cells(self, pose: Pose2D, path: npt.ArrayLike, costmap: Costmap) -> PlanCells | None:
         """The global path's cells in the window

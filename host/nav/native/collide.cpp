@@ -47,6 +47,71 @@ inline double np_min(double a, double b) { return a < b ? a : b; }
 inline double np_max(double a, double b) { return a > b ? a : b; }
 inline double np_sign(double a) { return a > 0.0 ? 1.0 : (a < 0.0 ? -1.0 : (a == a ? 0.0 : a)); }
 
+// Python's min and max of two floats (the first unless the second is smaller / larger) and
+// common.ramp.clamp
+inline double py_min(double a, double b) { return b < a ? b : a; }
+inline double py_max(double a, double b) { return b > a ? b : a; }
+
+// common.ramp.ramp: one rate-limited step of one axis from u towards r
+inline double ramp(double u, double r, double dt, double accel, double decel) {
+  if (dt <= 0.0 || u == r) return u;
+  if (u == 0.0 || (r != 0.0 && (u > 0.0) == (r > 0.0))) {
+    const double bound = (std::fabs(r) >= std::fabs(u) ? accel : decel) * dt;
+    return u + py_max(-bound, py_min(bound, r - u));
+  }
+  const double t_zero = std::fabs(u) / decel;
+  if (dt < t_zero) return u - std::copysign(decel * dt, u);
+  const double magnitude = py_min(std::fabs(r), accel * (dt - t_zero));
+  return magnitude > 0.0 ? std::copysign(magnitude, r) : 0.0;
+}
+
+// np.linspace(start, stop, n) as numpy 2 computes it: i * step + start (i / div * delta +
+// start when the step underflows to 0), the last one stop
+inline void linspace(double start, double stop, std::int64_t n, double* y) {
+  const std::int64_t div = n - 1;
+  const double delta = stop - start;
+  const double step = div > 0 ? delta / static_cast<double>(div) : 0.0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double fi = static_cast<double>(i);
+    double v;
+    if (div <= 0)
+      v = fi * delta;
+    else if (step == 0.0)
+      v = fi / static_cast<double>(div) * delta;
+    else
+      v = fi * step;
+    y[i] = v + start;
+  }
+  if (n > 1) y[n - 1] = stop;
+}
+
+// window._sorted_distinct (np.unique of a nondecreasing array; np.unique itself otherwise)
+inline std::vector<double> sorted_distinct(std::vector<double> a) {
+  if (!std::is_sorted(a.begin(), a.end())) std::sort(a.begin(), a.end());
+  std::vector<double> out;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (i == 0 || a[i] != a[i - 1]) out.push_back(a[i]);
+  return out;
+}
+
+// numpy's float -> int64 cast on x86: out of range (and NaN) gives the smallest int64
+inline std::int64_t to_int(double d) {
+  return d >= -9.2233720368547758e18 && d < 9.2233720368547758e18
+             ? static_cast<std::int64_t>(d)
+             : std::numeric_limits<std::int64_t>::min();
+}
+
+// dwb.core.distance.cell_index of one point: the flat index of its cell clipped onto the grid,
+// and whether it lies on the grid
+inline std::int64_t cell_index(double x, double y, const Grid& g, std::uint8_t* on_grid) {
+  std::int64_t c = to_int(std::floor((x - g.origin_x) / g.res));
+  std::int64_t r = to_int(std::floor((y - g.origin_y) / g.res));
+  *on_grid = r >= 0 && r < g.rows && c >= 0 && c < g.cols;
+  r = std::min(std::max(r, std::int64_t{0}), g.rows - 1);
+  c = std::min(std::max(c, std::int64_t{0}), g.cols - 1);
+  return r * g.cols + c;
+}
+
 // window.velocity_profile for one target r at the n times t: u(t) ramping from u0 towards r
 inline void velocity_profile(double u0, double r, const double* t, std::int64_t n, double accel,
                              double decel, double* u) {
@@ -642,6 +707,134 @@ void jackson_dwb_collision_plan(std::int64_t m, const double* v, const double* w
       }
     }
   }
+}
+
+// DwbPlanner.compute's cycle before the critics, in one call: window.sample_targets, then
+// rollouts.build_rollouts (the granularity rule, the distinct targets, jackson_dwb_tables, the
+// cosine and sine of the mid-step headings), Rollouts.coarse and critics.base.Batch.of with
+// its forward cells at the nf distances fd. numpy's operations in numpy's order.
+//   p: sim_time, linear and angular granularity, min_vel_x, min_speed_theta, max_vel_x,
+//      max_vel_theta, acc_lim_x, decel_lim_x, acc_lim_theta, decel_lim_theta
+//   state: v0, w0, x0, y0, yaw0;  grid: origin x, origin y, resolution (rows x cols)
+//   cap: the buffers' room for M targets, V and W distinct targets, K steps
+// Writes sizes (M, V, W, K, B) and, compactly from each offset, the float arrays v, w, t, ds,
+// yaw, cos_sin, coarse x, coarse y, coarse length, yaw_end, cos_end, sin_end and v_brake (fo),
+// the int64 arrays iv, iw, end_cell and the nf x M forward cells (io), the bytes end_on_grid
+// and forward on-grid (bo). Returns 0, or -1 when a capacity is too small or a value is NaN
+// (the caller then takes numpy's path).
+std::int64_t jackson_dwb_front(const double* p, std::int64_t vx_samples,
+                               std::int64_t vtheta_samples, std::int64_t stride,
+                               const double* state, const double* grid, std::int64_t rows,
+                               std::int64_t cols, std::int64_t nf, const double* fd,
+                               const std::int64_t* cap, std::int64_t* sizes, double* f,
+                               const std::int64_t* fo, std::int64_t* n, const std::int64_t* io,
+                               std::uint8_t* b, const std::int64_t* bo) {
+  const double sim_time = p[0], lin_gran = p[1], ang_gran = p[2], min_vel_x = p[3],
+               min_speed_theta = p[4], max_v = p[5], max_w = p[6];
+  const double acc_x = p[7], dec_x = p[8], acc_th = p[9], dec_th = p[10];
+  for (int i = 0; i < 5; ++i)
+    if (std::isnan(state[i])) return -1;
+  if (vx_samples < 1 || vtheta_samples < 1 || stride < 1) return -1;
+  // the dynamic window (window.dynamic_window)
+  const double v0 = py_min(py_max(state[0], -max_v), max_v);
+  const double w0 = py_min(py_max(state[1], -max_w), max_w);
+  const double v_min = py_min(min_vel_x, max_v);
+  const double v_lo = py_max(ramp(v0, v_min, sim_time, acc_x, dec_x), v_min);
+  const double v_hi = py_max(ramp(v0, max_v, sim_time, acc_x, dec_x), v_min);
+  const double w_lo = ramp(w0, -max_w, sim_time, acc_th, dec_th);
+  const double w_hi = ramp(w0, max_w, sim_time, acc_th, dec_th);
+  // the targets (window.sample_targets)
+  std::vector<double> lin(static_cast<std::size_t>(vx_samples));
+  std::vector<double> ang(static_cast<std::size_t>(vtheta_samples));
+  linspace(v_lo, v_hi, vx_samples, lin.data());
+  linspace(w_lo, w_hi, vtheta_samples, ang.data());
+  const std::vector<double> vs = sorted_distinct(lin);
+  std::vector<double> ws = sorted_distinct(ang);
+  if (w_lo <= 0.0 && 0.0 <= w_hi && std::find(ws.begin(), ws.end(), 0.0) == ws.end())
+    ws.insert(std::lower_bound(ws.begin(), ws.end(), 0.0), 0.0);
+  const double w_min = py_min(min_speed_theta, max_w);
+  std::vector<double> snapped(ws);
+  for (double& x : snapped)
+    if (x != 0.0 && std::fabs(x) < w_min) x = std::copysign(w_min, x);
+  const std::vector<double> in_place = sorted_distinct(snapped);
+  std::int64_t m = 0;
+  bool any_in_place = false, any_moving = false;
+  for (const double vi : vs) {
+    const bool still = std::fabs(vi) < 1e-9;
+    m += static_cast<std::int64_t>(still ? in_place.size() : ws.size());
+    (still ? any_in_place : any_moving) = true;
+  }
+  // the distinct angular targets: those of the rows taken, sorted (np.unique)
+  std::vector<double> uw;
+  if (any_moving) uw.insert(uw.end(), ws.begin(), ws.end());
+  if (any_in_place) uw.insert(uw.end(), in_place.begin(), in_place.end());
+  const std::vector<double> uws = sorted_distinct(uw);
+  const auto nv = static_cast<std::int64_t>(vs.size()), nw = static_cast<std::int64_t>(uws.size());
+  if (m > cap[0] || nv > cap[1] || nw > cap[2]) return -1;
+  double* v = f + fo[0];
+  double* w = f + fo[1];
+  std::int64_t* iv = n + io[0];
+  std::int64_t* iw = n + io[1];
+  double v_abs = 0.0, w_abs = 0.0;
+  std::int64_t t = 0;
+  for (std::int64_t i = 0; i < nv; ++i) {
+    const std::vector<double>& row = std::fabs(vs[i]) < 1e-9 ? in_place : ws;
+    for (const double wi : row) {
+      v[t] = vs[i];
+      w[t] = wi;
+      iv[t] = i;
+      iw[t] = std::lower_bound(uws.begin(), uws.end(), wi) - uws.begin();
+      v_abs = t == 0 ? std::fabs(vs[i]) : np_max(v_abs, std::fabs(vs[i]));
+      w_abs = t == 0 ? std::fabs(wi) : np_max(w_abs, std::fabs(wi));
+      ++t;
+    }
+  }
+  f[fo[12]] = vs[0];  // v_brake
+  // the granularity rule and the tables (rollouts.build_rollouts)
+  const double steps = py_max(v_abs * sim_time / lin_gran, w_abs * sim_time / ang_gran);
+  if (!(steps - 1e-9 <= static_cast<double>(cap[3]))) return -1;
+  const std::int64_t k = std::max(std::int64_t{1}, static_cast<std::int64_t>(std::ceil(steps - 1e-9)));
+  if (k > cap[3]) return -1;
+  double* times = f + fo[2];
+  linspace(0.0, sim_time, k + 1, times);
+  const double dt = sim_time / static_cast<double>(k);
+  double* ds = f + fo[3];
+  double* yaw = f + fo[4];
+  double* cs = f + fo[5];
+  std::vector<double> mid(static_cast<std::size_t>(nw * k));
+  jackson_dwb_tables(nv, vs.data(), state[0], acc_x, dec_x, nw, uws.data(), state[1], acc_th,
+                     dec_th, k, times, dt, state[4], ds, yaw, mid.data());
+  for (std::int64_t i = 0; i < nw * k; ++i) {
+    cs[i] = std::cos(mid[i]);
+    cs[nw * k + i] = std::sin(mid[i]);
+  }
+  // Rollouts.coarse and Batch.of
+  const std::int64_t blocks = (k + stride - 1) / stride;
+  double* cx = f + fo[6];
+  double* cy = f + fo[7];
+  jackson_dwb_coarse(m, k, stride, iv, iw, ds, cs, nw, state[2], state[3], cx, cy, f + fo[8]);
+  const Grid g{grid[0], grid[1], grid[2], rows, cols};
+  double* yaw_end = f + fo[9];
+  double* cos_end = f + fo[10];
+  double* sin_end = f + fo[11];
+  std::int64_t* end_cell = n + io[2];
+  std::uint8_t* end_ok = b + bo[0];
+  for (std::int64_t i = 0; i < m; ++i) {
+    yaw_end[i] = yaw[iw[i] * (k + 1) + k];
+    cos_end[i] = std::cos(yaw_end[i]);
+    sin_end[i] = std::sin(yaw_end[i]);
+    const double xe = cx[blocks * m + i], ye = cy[blocks * m + i];
+    end_cell[i] = cell_index(xe, ye, g, end_ok + i);
+    for (std::int64_t j = 0; j < nf; ++j)
+      n[io[3] + j * m + i] = cell_index(xe + fd[j] * cos_end[i], ye + fd[j] * sin_end[i], g,
+                                        b + bo[1] + j * m + i);
+  }
+  sizes[0] = m;
+  sizes[1] = nv;
+  sizes[2] = nw;
+  sizes[3] = k;
+  sizes[4] = blocks;
+  return 0;
 }
 
 }  // extern "C"

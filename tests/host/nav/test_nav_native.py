@@ -382,3 +382,23 @@ def test_layers_combine_and_inflate_as_numpy_does(
         monkeypatch.undo()
         for a, b in zip(got, want, strict=True):
             assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def test_a_checker_pickled_with_the_library_tests_with_numpy_where_it_is_not(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A run folder's snapshot written by a daemon with the build, replayed in a checkout
+    without one: its costmap's checker loads with numpy's tests (it failed on an assertion),
+    and answers as it did."""
+    import pickle
+
+    cm = _scene(np.random.default_rng(11))
+    x, y = np.full((6, 8), cm.origin_x_m + 1.5), np.full((6, 8), cm.origin_y_m + 1.5)
+    x += np.linspace(0.0, 2.5, 8)
+    yaw = np.zeros((6, 8))
+    want = cm.trajectories_collide(x, y, yaw)
+    blob = pickle.dumps(cm)
+    monkeypatch.setattr(native, "LIB", None)
+    loaded = pickle.loads(blob)
+    assert not loaded.checker.compiled
+    assert np.array_equal(loaded.trajectories_collide(x, y, yaw), want)

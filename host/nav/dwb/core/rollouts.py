@@ -93,10 +93,42 @@ class Rollouts:
         self.iv = iv
         self.iw = iw
         w = yaw_mid_rad.shape[0]
-        self.cos_sin = np.empty((2 * w, yaw_mid_rad.shape[1]))
+        self.cos_sin: FloatArray = np.empty((2 * w, yaw_mid_rad.shape[1]))
         np.cos(yaw_mid_rad, out=self.cos_sin[:w])
         np.sin(yaw_mid_rad, out=self.cos_sin[w:])
         self._heading: ComplexArray | None = None
+
+    @classmethod
+    def of_tables(
+        cls,
+        pose: Pose2D,
+        t_s: FloatArray,
+        ds_m: FloatArray,
+        yaw_rad: FloatArray,
+        cos_sin: FloatArray,
+        iv: IntArray,
+        iw: IntArray,
+    ) -> Rollouts:
+        """Roll-outs whose mid-step cosines and sines are made already (the compiled front's,
+        :mod:`jackson.host.nav.dwb.front`); the other arguments as the constructor's.
+
+        Parameters
+        ----------
+        pose, t_s, ds_m, yaw_rad, iv, iw
+            As the constructor's.
+        cos_sin : ndarray, shape (2 W, K)
+            cos (first W rows) and sin (last W rows) of the mid-step headings.
+
+        Returns
+        -------
+        Rollouts
+            Holding the arrays given.
+        """
+        ro = cls.__new__(cls)
+        ro.pose, ro.t_s, ro.ds_m, ro.yaw_rad, ro.iv, ro.iw = pose, t_s, ds_m, yaw_rad, iv, iw
+        ro.cos_sin = cos_sin
+        ro._heading = None
+        return ro
 
     @property
     def steps(self) -> int:
