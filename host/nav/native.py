@@ -109,6 +109,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         plan = lib.jackson_dwb_collision_plan
         combine = lib.jackson_combine_inflate
         front = lib.jackson_dwb_front
+        mark = lib.jackson_obstacle_update
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -146,6 +147,10 @@ def load_library(path: Path) -> ctypes.CDLL:
     ]  # fmt: skip
     front.restype = _N
     front.argtypes = [_P, _N, _N, _N, _P, _P, _N, _N, _N, _P, _P, _P, _P, _P, _P, _P, _P, _P]
+    mark.restype = _N
+    mark.argtypes = [
+        _N, _P, _D, _D, _P, _P, _N, _N, _P, ctypes.c_uint8, ctypes.c_uint8, _P, _P, _P,
+    ]  # fmt: skip
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib
@@ -284,6 +289,59 @@ def clear_rays(
         len(stops), _ptr(ux, _F), _ptr(uy, _F), _ptr(stops, _F), base[0], base[1], step, rows,
         cols, _ptr(obstacle, np.uint8), free,
     )  # fmt: skip
+
+
+def obstacle_update(
+    points: FloatArray,
+    sensor: tuple[float, float],
+    ranges: tuple[float, float, float, float],
+    grid: tuple[float, float, float],
+    costs: npt.NDArray[np.uint8],
+    values: tuple[int, int],
+    discs: tuple[FloatArray, FloatArray] | None,
+) -> FloatArray:
+    """:meth:`jackson.host.nav.costmap.layers.ObstacleLayer.update`, compiled: one scan's rays
+    cleared and its returns marked in ``costs`` (rows, cols), with each marked cell's disc.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+        The returns, map frame [m].
+    sensor : tuple of float
+        The sensor's position [m].
+    ranges : tuple of float
+        Ray tracing's least and greatest range, marking's least and greatest [m].
+    grid : tuple of float
+        The grid's origin x, origin y [m] and resolution [m].
+    costs : ndarray of uint8, shape (rows, cols)
+        The layer's costs, written in place.
+    values : tuple of int
+        (free, lethal) costs.
+    discs : tuple of ndarray or None
+        The centroids (rows, cols, 2) [m] and spreads (rows, cols) [m] to write, or None.
+
+    Returns
+    -------
+    ndarray, shape (M, 2)
+        The marked returns, in order [m].
+    """
+    assert LIB is not None
+    p = np.ascontiguousarray(points, np.float64).reshape(-1, 2)
+    rows, cols = costs.shape
+    if costs.dtype != np.uint8 or not costs.flags.c_contiguous or not costs.flags.writeable:
+        raise ValueError("obstacle_update: costs must be a writable C-contiguous uint8 grid")
+    if discs is not None and (discs[0].shape != (rows, cols, 2) or discs[1].shape != (rows, cols)):
+        raise ValueError(f"obstacle_update: discs of {discs[0].shape} for a {rows} x {cols} grid")
+    q = np.empty_like(p)
+    r = np.array(ranges, np.float64)
+    g = np.array(grid, np.float64)
+    hit_xy = None if discs is None else _ptr(discs[0], _F)
+    spread = None if discs is None else _ptr(discs[1], _F)
+    marked = LIB.jackson_obstacle_update(
+        len(p), _ptr(p, _F), sensor[0], sensor[1], _ptr(r, _F), _ptr(g, _F), rows, cols,
+        _ptr(costs, np.uint8), values[0], values[1], hit_xy, spread, _ptr(q, _F),
+    )  # fmt: skip
+    return q[:marked]
 
 
 def dwb_tables(

@@ -191,6 +191,16 @@ class ObstacleLayer(Layer):
         """
         p = np.asarray(points_xy, np.float64).reshape(-1, 2)
         cfg = self.config
+        if native.LIB is not None:  # the same arithmetic, in one call
+            self.last_returns = native.obstacle_update(
+                p, sensor_xy,
+                (cfg.raytrace_min_range_m, cfg.raytrace_max_range_m, cfg.obstacle_min_range_m,
+                 cfg.obstacle_max_range_m),
+                (geometry.origin_x_m, geometry.origin_y_m, geometry.resolution_m), self.costs,
+                (FREE_SPACE, LETHAL_OBSTACLE),
+                (self.hit_xy, self.hit_spread_m) if self.discs else None,
+            )  # fmt: skip
+            return
         d = p - np.asarray(sensor_xy, np.float64)
         length = np.hypot(d[:, 0], d[:, 1])
         self._clear_rays(p, d, length, sensor_xy, geometry)

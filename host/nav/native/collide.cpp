@@ -837,4 +837,82 @@ std::int64_t jackson_dwb_front(const double* p, std::int64_t vx_samples,
   return 0;
 }
 
+// ObstacleLayer.update (host/nav/costmap/layers.py) in one call: the n returns p (n, 2) seen
+// from the sensor (sx, sy), their rays cleared to free_value as _clear_rays samples them
+// (jackson_clear_rays), then the returns within range marked lethal and, with hit_xy and
+// spread (rows x cols x 2, rows x cols; null without discs), each marked cell's centroid of
+// its returns and their largest distance from it (np.unique, np.bincount and np.maximum.at's
+// sums and maxima, in the returns' order). ranges: raytrace min and max, obstacle min and max
+// [m]; grid: origin x, origin y, resolution. The marked returns, in order, go to q (n, 2);
+// returns their count.
+std::int64_t jackson_obstacle_update(std::int64_t n, const double* p, double sx, double sy,
+                                     const double* ranges, const double* grid,
+                                     std::int64_t rows, std::int64_t cols, std::uint8_t* costs,
+                                     std::uint8_t free_value, std::uint8_t lethal,
+                                     double* hit_xy, double* spread, double* q) {
+  const double ox = grid[0], oy = grid[1], res = grid[2];
+  std::vector<double> length(static_cast<std::size_t>(n));
+  for (std::int64_t i = 0; i < n; ++i) length[i] = std::hypot(p[2 * i] - sx, p[2 * i + 1] - sy);
+  // the rays (_clear_rays): nothing beyond the grid's farthest corner from the sensor
+  const double far_x = np_max(std::fabs(ox - sx), std::fabs(ox + static_cast<double>(cols) * res - sx));
+  const double far_y = np_max(std::fabs(oy - sy), std::fabs(oy + static_cast<double>(rows) * res - sy));
+  const double reach = std::hypot(far_x, far_y);
+  const double shortest = py_max(ranges[0], 1e-9), cap = py_min(ranges[1], reach);
+  std::vector<double> ux, uy, stop;
+  double longest = 0.0;
+  const double step = 0.5 * res, inv = 1.0 / res, per = step * inv;
+  for (std::int64_t i = 0; i < n; ++i) {
+    if (!(length[i] >= shortest)) continue;
+    const double end = np_min(length[i], cap);
+    const double s = length[i] <= end ? end - res : end;
+    const double c = per / length[i];
+    ux.push_back((p[2 * i] - sx) * c);
+    uy.push_back((p[2 * i + 1] - sy) * c);
+    longest = stop.empty() ? s : np_max(longest, s);
+    stop.push_back(s);
+  }
+  if (!stop.empty() && longest > 0.0)
+    jackson_clear_rays(static_cast<std::int64_t>(stop.size()), ux.data(), uy.data(), stop.data(),
+                       (sx - ox) * inv, (sy - oy) * inv, step, rows, cols, costs, free_value);
+  // the marks, and the cells' discs
+  const Grid g{ox, oy, res, rows, cols};
+  std::vector<std::pair<std::int64_t, std::int64_t>> cells;  // (cell, mark)
+  std::int64_t marked = 0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    if (!(length[i] >= ranges[2] && length[i] <= ranges[3])) continue;
+    std::uint8_t on_grid = 0;
+    const std::int64_t cell = cell_index(p[2 * i], p[2 * i + 1], g, &on_grid);
+    if (!on_grid) continue;
+    costs[cell] = lethal;
+    q[2 * marked] = p[2 * i];
+    q[2 * marked + 1] = p[2 * i + 1];
+    cells.emplace_back(cell, marked);
+    ++marked;
+  }
+  if (hit_xy == nullptr || spread == nullptr || cells.empty()) return marked;
+  std::stable_sort(cells.begin(), cells.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (std::size_t a = 0; a < cells.size();) {
+    std::size_t b = a;
+    double sum_x = 0.0, sum_y = 0.0;
+    for (; b < cells.size() && cells[b].first == cells[a].first; ++b) {
+      sum_x += q[2 * cells[b].second];
+      sum_y += q[2 * cells[b].second + 1];
+    }
+    const double count = static_cast<double>(b - a);
+    const double cx = sum_x / count, cy = sum_y / count;
+    double far = 0.0;
+    for (std::size_t j = a; j < b; ++j) {
+      const double h = std::hypot(q[2 * cells[j].second] - cx, q[2 * cells[j].second + 1] - cy);
+      far = np_max(far, h);
+    }
+    const std::int64_t cell = cells[a].first;
+    hit_xy[2 * cell] = cx;
+    hit_xy[2 * cell + 1] = cy;
+    spread[cell] = far;
+    a = b;
+  }
+  return marked;
+}
+
 }  // extern "C"

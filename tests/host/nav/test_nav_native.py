@@ -260,6 +260,54 @@ def test_rays_from_anywhere_clear_what_numpy_clears(
     assert counts[0] > 0 and all(n < g.rows * g.cols for n in counts), counts
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_the_obstacle_layer_clears_and_marks_as_numpy_does(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One scan into the obstacle layer in one compiled call (rays, marks, the cells' discs of
+    returns) and by numpy: the same costs, centroids, spreads and marked returns, byte for byte,
+    from sensors inside and outside the grid, with returns off it, stacked in one cell, beyond
+    the marking range or too near to clear, none at all, and without discs."""
+    from jackson.common.geometry import GridGeometry
+    from jackson.host.nav.costmap import ObstacleLayer
+
+    rng = np.random.default_rng(900 + seed)
+    res = float(rng.choice([0.025, 0.05, 0.1]))
+    g = GridGeometry(float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2)), res, 41, 57)
+    config = CostmapConfig(
+        raytrace_min_range_m=float(rng.choice([0.0, 0.3, 0.9])),
+        raytrace_max_range_m=float(rng.uniform(1.0, 6.0)),
+        obstacle_max_range_m=float(rng.uniform(0.5, 5.0)),
+    )
+    centre = (g.origin_x_m + 28 * res, g.origin_y_m + 20.5 * res)
+    sensors = [centre, (g.origin_x_m - 1.1, centre[1]), (g.origin_x_m, g.origin_y_m)]
+    scans = []
+    for sensor in sensors:
+        n = int(rng.integers(0, 400))
+        angles = rng.uniform(-math.pi, math.pi, n)
+        r = rng.uniform(0.0, 6.0, n)
+        p = np.column_stack((sensor[0] + r * np.cos(angles), sensor[1] + r * np.sin(angles)))
+        stacked = np.asarray(centre) + rng.normal(0.0, 0.2 * res, (12, 2))  # one cell, many
+        scans.append((np.concatenate((p, stacked)), sensor))
+    scans.append((np.empty((0, 2)), centre))
+    results = []
+    for lib in (native.LIB, None):
+        monkeypatch.setattr(native, "LIB", lib)
+        for discs in (True, False):
+            layer = ObstacleLayer(config, g, discs=discs)
+            layer.costs[::3] = LETHAL_OBSTACLE
+            out = []
+            for points, sensor in scans:
+                layer.update(points, sensor, g)
+                out += [layer.costs.copy(), layer.last_returns.copy()]
+            results.append([*out, layer.hit_xy, layer.hit_spread_m])
+    for compiled, interpreted in zip(results[:2], results[2:], strict=True):
+        for a, b in zip(compiled, interpreted, strict=True):
+            assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+    assert np.count_nonzero(results[0][0] == LETHAL_OBSTACLE) > 0
+    assert np.count_nonzero(results[0][-1]) > 0 or config.obstacle_max_range_m < 0.6
+
+
 def test_calls_leave_no_garbage_for_the_collector() -> None:
     """A call builds no reference cycles (numpy's ctypes adapters did, on every call: garbage
     that the daemon's settled collector reaches rarely, so its memory grew while navigating)."""
