@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
@@ -136,6 +137,10 @@ class GridCells:
             The indices, the broadcast shape of the inputs.
         """
         rows, cols = self.shape
+        if isinstance(x_m, float) and isinstance(y_m, float):  # one point, in plain floats
+            one = self._padded_one(x_m, y_m)
+            if one is not None:
+                return cast(IntArray, np.intp(one))  # as numpy gives it: a scalar
         fx = (np.asarray(x_m, np.float64) - self.origin_x_m) / self.resolution_m + 1.0
         fy = (np.asarray(y_m, np.float64) - self.origin_y_m) / self.resolution_m + 1.0
         # clipped into [0, size + 1] first, so truncation is the floor
@@ -144,6 +149,16 @@ class GridCells:
         row *= cols + 2
         row += col
         return row
+
+    def _padded_one(self, x_m: float, y_m: float) -> int | None:
+        """:meth:`padded_index` of one point by the same IEEE operations on plain floats (a
+        tenth of numpy's calls' cost); None for NaN, which numpy's path takes."""
+        rows, cols = self.shape
+        fx = (x_m - self.origin_x_m) / self.resolution_m + 1.0
+        fy = (y_m - self.origin_y_m) / self.resolution_m + 1.0
+        if fx != fx or fy != fy:
+            return None
+        return int(min(max(fy, 0.0), rows + 1.0)) * (cols + 2) + int(min(max(fx, 0.0), cols + 1.0))
 
 
 @dataclass(frozen=True)

@@ -110,6 +110,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         combine = lib.jackson_combine_inflate
         front = lib.jackson_dwb_front
         mark = lib.jackson_obstacle_update
+        cells = lib.jackson_dwb_plan_cells
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -151,6 +152,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     mark.argtypes = [
         _N, _P, _D, _D, _P, _P, _N, _N, _P, ctypes.c_uint8, ctypes.c_uint8, _P, _P, _P,
     ]  # fmt: skip
+    cells.restype = _N
+    cells.argtypes = [_N, _P, _D, _D, _D, _D, _P, _N, _N, _P, _N, _P, _P, _P, _P]
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib
@@ -342,6 +345,61 @@ def obstacle_update(
         _ptr(costs, np.uint8), values[0], values[1], hit_xy, spread, _ptr(q, _F),
     )  # fmt: skip
     return q[:marked]
+
+
+def dwb_plan_cells(
+    path: FloatArray,
+    position: tuple[float, float],
+    prune_m: tuple[float, float],
+    grid: tuple[float, float, float, int, int],
+    costs_padded: npt.NDArray[np.uint8],
+) -> tuple[tuple[int, int], npt.NDArray[np.intp], npt.NDArray[np.intp], bool] | None:
+    """:func:`jackson.host.nav.dwb.core.path.plan_span` and
+    :func:`~jackson.host.nav.dwb.core.path.plan_cells`, compiled: the same slice and cells.
+
+    Parameters
+    ----------
+    path : ndarray, shape (N, 2), N >= 1
+        The global path [m].
+    position : tuple of float
+        The robot's (x, y) [m].
+    prune_m : tuple of float
+        How far behind and ahead of the nearest point the slice reaches [m].
+    grid : tuple
+        (origin x [m], origin y [m], resolution [m], rows, cols) of the local costmap.
+    costs_padded : ndarray of uint8
+        Its costs with a ring of unknown cells, flat over (rows + 2) x (cols + 2).
+
+    Returns
+    -------
+    tuple or None
+        (the slice's (begin, end), rows, cols, whether the last cell is the path's end); None
+        when no point of the slice lies on a known cell.
+    """
+    assert LIB is not None
+    p = np.ascontiguousarray(path, np.float64).reshape(-1, 2)
+    rows, cols = grid[3], grid[4]
+    if len(p) == 0 or costs_padded.size != (rows + 2) * (cols + 2):
+        raise ValueError("dwb_plan_cells: an empty path, or costs of another grid")
+    g = np.array(grid[:3], np.float64)
+    c = np.ascontiguousarray(costs_padded, np.uint8)
+    span = np.empty(2, np.int64)
+    end = np.empty(1, np.uint8)
+    room = 256
+    while True:
+        r_out = np.empty(room, np.int64)
+        c_out = np.empty(room, np.int64)
+        count = LIB.jackson_dwb_plan_cells(
+            len(p), _ptr(p, _F), position[0], position[1], prune_m[0], prune_m[1], _ptr(g, _F),
+            rows, cols, _ptr(c, np.uint8), room, _ptr(span, _L), _ptr(r_out, _L),
+            _ptr(c_out, _L), _ptr(end, np.uint8),
+        )  # fmt: skip
+        if count >= 0:
+            break
+        room = -count
+    if count == 0:
+        return None
+    return (int(span[0]), int(span[1])), r_out[:count], c_out[:count], bool(end[0])
 
 
 def dwb_tables(

@@ -191,6 +191,12 @@ class Costmap(GridCells):
         """The grid's place and size now."""
         return self._geometry
 
+    @property
+    def costs_padded(self) -> CostArray:
+        """The master costs with a ring of NO_INFORMATION around them, flat, row-major over
+        (rows + 2, cols + 2) (what :meth:`cost_at` reads; the compiled loops take it)."""
+        return self._costs_padded
+
     def cost_at(self, x_m: npt.ArrayLike, y_m: npt.ArrayLike) -> CostArray:
         """Master cost at map-frame points; NO_INFORMATION off the grid.
 

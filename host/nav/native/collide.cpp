@@ -915,4 +915,94 @@ std::int64_t jackson_obstacle_update(std::int64_t n, const double* p, double sx,
   return marked;
 }
 
+// dwb.core.path.plan_span and plan_cells in one call: the slice [span[0], span[1]) of the n
+// path points (x, y) the planner works with from (px, py) (prune: how far behind and ahead,
+// each capped at half the window), densified to the resolution (densify), and the cells of
+// the densified slice from its first on a known cell (255: unknown; costs padded by a ring,
+// (rows + 2) x (cols + 2)) to the last before it leaves them, written to out_rows and
+// out_cols (room: cap). Writes span and reaches_end; returns the cells' count, 0 when no
+// point of the slice is on a known cell, or minus the room needed when cap is short. numpy's
+// operations in numpy's order.
+std::int64_t jackson_dwb_plan_cells(std::int64_t n, const double* path, double px, double py,
+                                    double prune, double forward_prune, const double* grid,
+                                    std::int64_t rows, std::int64_t cols,
+                                    const std::uint8_t* costs, std::int64_t cap,
+                                    std::int64_t* span, std::int64_t* out_rows,
+                                    std::int64_t* out_cols, std::uint8_t* reaches_end) {
+  const double res = grid[2];
+  const double half = 0.5 * static_cast<double>(std::max(rows, cols)) * res;
+  // the span (plan_span): the point nearest the robot, back and forward from it
+  std::vector<double> d(static_cast<std::size_t>(n));
+  std::int64_t near = 0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    d[i] = std::hypot(path[2 * i] - px, path[2 * i + 1] - py);
+    if (d[i] < d[near]) near = i;
+  }
+  const double back = py_min(half, prune), ahead = py_min(half, forward_prune);
+  std::int64_t begin = 0;
+  for (std::int64_t i = near - 1; i >= 0; --i)
+    if (d[i] >= back) {
+      begin = i + 1;
+      break;
+    }
+  std::int64_t end = n;
+  for (std::int64_t i = near; i < n; ++i)
+    if (d[i] > ahead) {
+      end = i;
+      break;
+    }
+  end = std::max(end, begin + 1);
+  span[0] = begin;
+  span[1] = end;
+  // densify: each segment in ceil(length / res) steps (at least one), then the last point
+  const std::int64_t m = end - begin;
+  const double* q = path + 2 * begin;
+  std::vector<std::int64_t> steps(static_cast<std::size_t>(std::max<std::int64_t>(m - 1, 0)));
+  std::int64_t total = 1;
+  for (std::int64_t i = 0; i + 1 < m; ++i) {
+    const double sx = q[2 * (i + 1)] - q[2 * i], sy = q[2 * (i + 1) + 1] - q[2 * i + 1];
+    steps[i] = std::max<std::int64_t>(1, to_int(std::ceil(std::hypot(sx, sy) / res)));
+    total += steps[i];
+  }
+  if (total > cap) return -total;
+  std::vector<double> dense(static_cast<std::size_t>(2 * total));
+  std::int64_t at = 0;
+  for (std::int64_t i = 0; i + 1 < m; ++i) {
+    const double sx = q[2 * (i + 1)] - q[2 * i], sy = q[2 * (i + 1) + 1] - q[2 * i + 1];
+    const double ni = static_cast<double>(steps[i]);
+    for (std::int64_t j = 0; j < steps[i]; ++j, ++at) {
+      const double frac = static_cast<double>(j) / ni;
+      dense[2 * at] = q[2 * i] + frac * sx;
+      dense[2 * at + 1] = q[2 * i + 1] + frac * sy;
+    }
+  }
+  dense[2 * at] = q[2 * (m - 1)];
+  dense[2 * at + 1] = q[2 * (m - 1) + 1];
+  // the cells, from the first known one to the last before the path leaves them
+  const Grid g{grid[0], grid[1], res, rows, cols};
+  std::int64_t first = -1, count = 0;
+  for (std::int64_t i = 0; i < total; ++i) {
+    const std::int64_t c = to_int(std::floor((dense[2 * i] - g.origin_x) / res));
+    const std::int64_t r = to_int(std::floor((dense[2 * i + 1] - g.origin_y) / res));
+    const bool known = r >= 0 && r < rows && c >= 0 && c < cols && costs[(r + 1) * (cols + 2) + c + 1] != 255;
+    if (first < 0) {
+      if (!known) continue;
+      first = i;
+    } else if (!known) {
+      break;
+    }
+    out_rows[count] = r;
+    out_cols[count] = c;
+    ++count;
+  }
+  const std::int64_t last = first + count - 1;
+  // np.allclose(dense[-1], path[-1]): |a - b| <= 1e-8 + 1e-5 |b| for x and y
+  const double* tail = path + 2 * (n - 1);
+  const double* dl = dense.data() + 2 * (total - 1);
+  const bool close = std::fabs(dl[0] - tail[0]) <= 1e-8 + 1e-5 * std::fabs(tail[0]) &&
+                     std::fabs(dl[1] - tail[1]) <= 1e-8 + 1e-5 * std::fabs(tail[1]);
+  *reaches_end = first >= 0 && last == total - 1 && close;
+  return count;
+}
+
 }  // extern "C"

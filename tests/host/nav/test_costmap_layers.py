@@ -58,6 +58,15 @@ def test_a_grid_geometry_places_cells_as_the_grids_do() -> None:
     assert np.array_equal(index[inside], (r[inside] + 1) * 42 + c[inside] + 1)
     pr, pc = np.divmod(index[~inside], 42)
     assert np.all((pr == 0) | (pr == 41) | (pc == 0) | (pc == 41))
+    # one point at a time (plain floats, numpy's floats, on cell edges, -0, NaN, infinity): the
+    # index of the whole array's
+    edges = (g.origin_x_m + np.arange(-2, 45) * g.resolution_m).tolist()
+    points = [*zip(x.tolist(), y.tolist(), strict=True), *zip(edges, edges[::-1], strict=True)]
+    for xi, yi in points:
+        for px, py in ((xi, yi), (np.float64(xi), np.float64(yi))):
+            assert g.padded_index(px, py) == g.padded_index(np.array([px]), np.array([py]))[0]
+    for px, py in ((-0.0, 0.0), (math.inf, -math.inf), (1e300, -1e300)):
+        assert g.padded_index(px, py) == g.padded_index(np.array([px]), np.array([py]))[0]
     # a rolling window moves by whole cells and stays on the map frame's cells
     w = GridGeometry.centred(0.33, -0.21, 60, 0.05)
     assert (w.origin_x_m, w.origin_y_m) == (

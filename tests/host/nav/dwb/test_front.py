@@ -156,3 +156,45 @@ def test_the_planner_chooses_the_same_with_the_compiled_front(
         )  # fmt: skip
         assert a.scores == b.scores and a.trajectory.tobytes() == b.trajectory.tobytes()
         monkeypatch.undo()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_compiled_plan_cells_are_numpys_slice_and_cells(seed: int) -> None:
+    """The path's slice and its cells in the window, compiled and by numpy (plan_span,
+    densify, plan_cells): the same span, cells and end, for paths through the window and out of
+    it, back over themselves, with repeated points, of one point, and wholly off the grid."""
+    from jackson.host.nav.dwb.core.path import plan_cells, plan_span
+
+    rng = np.random.default_rng(70 + seed)
+    config = DwbConfig()
+    for case in range(12):
+        cm = _costmap(rng)
+        g = cm.geometry
+        pose = Pose2D(float(rng.uniform(-0.5, 1.3)), float(rng.uniform(-0.4, 0.4)), 0.0)
+        n = int(rng.integers(1, 40))
+        steps = rng.normal(0.0, 0.12, (n, 2))
+        steps[rng.random(n) < 0.2] = 0.0  # repeated points
+        path = np.cumsum(steps, axis=0) + np.array([pose.x, pose.y])
+        if case == 0:
+            path = path + 50.0  # nowhere near the window
+        elif case == 1:
+            path = path[:1]
+        elif case == 2:
+            path = np.concatenate((path, path[::-1]))  # out and back
+        found = native.dwb_plan_cells(
+            path, (pose.x, pose.y), (config.prune_distance_m, config.forward_prune_distance_m),
+            g.as_tuple(), cm.costs_padded,
+        )  # fmt: skip
+        span = plan_span(pose, path, cm, config.prune_distance_m, config.forward_prune_distance_m)
+        want = plan_cells(path, span, cm)
+        if want is None:
+            assert found is None
+            continue
+        assert found is not None
+        assert found[0] == span and found[3] == want.reaches_end
+        _same(found[1], want.rows, "rows")
+        _same(found[2], want.cols, "cols")
+    cm = _costmap(rng)
+    with pytest.raises(ValueError, match="an empty path"):
+        native.dwb_plan_cells(np.empty((0, 2)), (0.0, 0.0), (1.0, 1.0), cm.geometry.as_tuple(),
+                              cm.costs_padded)  # fmt: skip
