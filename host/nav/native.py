@@ -111,6 +111,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         front = lib.jackson_dwb_front
         mark = lib.jackson_obstacle_update
         cells = lib.jackson_dwb_plan_cells
+        trajectory = lib.jackson_dwb_trajectory
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -154,6 +155,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     ]  # fmt: skip
     cells.restype = _N
     cells.argtypes = [_N, _P, _D, _D, _D, _D, _P, _N, _N, _P, _N, _P, _P, _P, _P]
+    trajectory.restype = None
+    trajectory.argtypes = [_N, _P, _P, _P, _P, _D, _D, _P]
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib
@@ -400,6 +403,47 @@ def dwb_plan_cells(
     if count == 0:
         return None
     return (int(span[0]), int(span[1])), r_out[:count], c_out[:count], bool(end[0])
+
+
+def dwb_trajectory(
+    ds_m: FloatArray,
+    cos_sin: FloatArray,
+    yaw_rad: FloatArray,
+    ramps: tuple[int, int],
+    start: tuple[float, float],
+) -> FloatArray:
+    """:meth:`jackson.host.nav.dwb.core.rollouts.Rollouts.trajectory`, compiled: the same
+    running sums.
+
+    Parameters
+    ----------
+    ds_m, cos_sin, yaw_rad : ndarray
+        The roll-outs' tables, (V, K), (2 W, K), (W, K + 1).
+    ramps : tuple of int
+        The roll-out's linear and angular ramp.
+    start : tuple of float
+        The start (x, y) [m].
+
+    Returns
+    -------
+    ndarray, shape (K + 1, 3)
+        (x [m], y [m], yaw [rad]) per pose.
+    """
+    assert LIB is not None
+    iv, iw = ramps
+    w, k = yaw_rad.shape[0], ds_m.shape[1]
+    ds = np.ascontiguousarray(ds_m[iv], np.float64)
+    c = np.ascontiguousarray(cos_sin[iw], np.float64)
+    s = np.ascontiguousarray(cos_sin[w + iw], np.float64)
+    yaw = np.ascontiguousarray(yaw_rad[iw], np.float64)
+    if c.size != k or yaw.size != k + 1:
+        raise ValueError("dwb_trajectory: tables of different step counts")
+    out = np.empty((k + 1, 3))
+    LIB.jackson_dwb_trajectory(
+        k, _ptr(ds, _F), _ptr(c, _F), _ptr(s, _F), _ptr(yaw, _F), start[0], start[1],
+        _ptr(out, _F),
+    )  # fmt: skip
+    return out
 
 
 def dwb_tables(

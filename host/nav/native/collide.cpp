@@ -1005,4 +1005,24 @@ std::int64_t jackson_dwb_plan_cells(std::int64_t n, const double* path, double p
   return count;
 }
 
+// Rollouts.trajectory: one roll-out's every pose, (k + 1) x 3 rows of (x, y, yaw), from its
+// ramps' rows (ds, cos, sin: k; yaw: k + 1): the start as given, then the running sums of its
+// steps plus the start, as Rollouts.full sums them.
+void jackson_dwb_trajectory(std::int64_t k, const double* ds, const double* c, const double* s,
+                            const double* yaw, double x0, double y0, double* out) {
+  out[0] = x0;
+  out[1] = y0;
+  out[2] = yaw[0];
+  double ax = 0.0, ay = 0.0;
+  for (std::int64_t j = 0; j < k; ++j) {
+    const double sx = ds[j] * c[j], sy = ds[j] * s[j];
+    ax = j == 0 ? sx : ax + sx;
+    ay = j == 0 ? sy : ay + sy;
+    double* row = out + 3 * (j + 1);
+    row[0] = ax + x0;
+    row[1] = ay + y0;
+    row[2] = yaw[j + 1];
+  }
+}
+
 }  // extern "C"

@@ -105,6 +105,11 @@ def test_the_compiled_front_is_numpys_window_rollouts_and_batch_bit_for_bit(whic
             for got, expected in zip(batch._forward[d], want.forward_cells(d), strict=True):
                 _same(got, expected, f"forward {d}")
         assert not far or not batch.end_on_grid.any()
+        for m in {0, batch.size // 2, batch.size - 1}:  # the chosen one's poses, compiled
+            compiled = ro.trajectory(m)
+            with pytest.MonkeyPatch.context() as patch:
+                patch.setattr(native, "LIB", None)
+                _same(compiled, ro.trajectory(m), f"trajectory {m}")
 
 
 def test_a_window_beyond_the_layouts_room_takes_numpys_path() -> None:
