@@ -45,6 +45,7 @@ _P = ctypes.c_void_p  # an array's address
 _N = ctypes.c_int64
 _D = ctypes.c_double
 _F, _L = np.float64, np.int64  # the element types the C++ reads
+F64, I64 = _F, _L
 _BYTE = ctypes.c_char
 FloatArray = npt.NDArray[np.float64]
 
@@ -66,6 +67,11 @@ def address(a: npt.NDArray[Any]) -> int:
     """The address of a writable, C-contiguous, non-empty array (the caller keeps it alive and
     knows its type): :func:`_ptr`'s fast case without its checks, for buffers made to measure."""
     return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]  # a buffer
+
+
+def pointer(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
+    """:func:`_ptr` for the modules that wrap more of the library's calls."""
+    return _ptr(a, dtype)
 
 
 def source_path() -> Path:
@@ -112,6 +118,8 @@ def load_library(path: Path) -> ctypes.CDLL:
         mark = lib.jackson_obstacle_update
         cells = lib.jackson_dwb_plan_cells
         trajectory = lib.jackson_dwb_trajectory
+        discs = lib.jackson_obstacle_discs
+        classes = lib.jackson_obstacle_classes
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -157,6 +165,10 @@ def load_library(path: Path) -> ctypes.CDLL:
     cells.argtypes = [_N, _P, _D, _D, _D, _D, _P, _N, _N, _P, _N, _P, _P, _P, _P]
     trajectory.restype = None
     trajectory.argtypes = [_N, _P, _P, _P, _P, _D, _D, _P]
+    discs.restype = None
+    discs.argtypes = [_N, _N, _P, _P, _P, _P, _P, _P, ctypes.c_uint8, _P, _P, _P, _P]
+    classes.restype = None
+    classes.argtypes = [_N, _N, _N, _P, _N, _P, _P, _P, ctypes.c_uint8, _D, _D, _P]
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib
@@ -295,155 +307,6 @@ def clear_rays(
         len(stops), _ptr(ux, _F), _ptr(uy, _F), _ptr(stops, _F), base[0], base[1], step, rows,
         cols, _ptr(obstacle, np.uint8), free,
     )  # fmt: skip
-
-
-def obstacle_update(
-    points: FloatArray,
-    sensor: tuple[float, float],
-    ranges: tuple[float, float, float, float],
-    grid: tuple[float, float, float],
-    costs: npt.NDArray[np.uint8],
-    values: tuple[int, int],
-    discs: tuple[FloatArray, FloatArray] | None,
-) -> FloatArray:
-    """:meth:`jackson.host.nav.costmap.layers.ObstacleLayer.update`, compiled: one scan's rays
-    cleared and its returns marked in ``costs`` (rows, cols), with each marked cell's disc.
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 2)
-        The returns, map frame [m].
-    sensor : tuple of float
-        The sensor's position [m].
-    ranges : tuple of float
-        Ray tracing's least and greatest range, marking's least and greatest [m].
-    grid : tuple of float
-        The grid's origin x, origin y [m] and resolution [m].
-    costs : ndarray of uint8, shape (rows, cols)
-        The layer's costs, written in place.
-    values : tuple of int
-        (free, lethal) costs.
-    discs : tuple of ndarray or None
-        The centroids (rows, cols, 2) [m] and spreads (rows, cols) [m] to write, or None.
-
-    Returns
-    -------
-    ndarray, shape (M, 2)
-        The marked returns, in order [m].
-    """
-    assert LIB is not None
-    p = np.ascontiguousarray(points, np.float64).reshape(-1, 2)
-    rows, cols = costs.shape
-    if costs.dtype != np.uint8 or not costs.flags.c_contiguous or not costs.flags.writeable:
-        raise ValueError("obstacle_update: costs must be a writable C-contiguous uint8 grid")
-    if discs is not None and (discs[0].shape != (rows, cols, 2) or discs[1].shape != (rows, cols)):
-        raise ValueError(f"obstacle_update: discs of {discs[0].shape} for a {rows} x {cols} grid")
-    q = np.empty_like(p)
-    r = np.array(ranges, np.float64)
-    g = np.array(grid, np.float64)
-    hit_xy = None if discs is None else _ptr(discs[0], _F)
-    spread = None if discs is None else _ptr(discs[1], _F)
-    marked = LIB.jackson_obstacle_update(
-        len(p), _ptr(p, _F), sensor[0], sensor[1], _ptr(r, _F), _ptr(g, _F), rows, cols,
-        _ptr(costs, np.uint8), values[0], values[1], hit_xy, spread, _ptr(q, _F),
-    )  # fmt: skip
-    return q[:marked]
-
-
-def dwb_plan_cells(
-    path: FloatArray,
-    position: tuple[float, float],
-    prune_m: tuple[float, float],
-    grid: tuple[float, float, float, int, int],
-    costs_padded: npt.NDArray[np.uint8],
-) -> tuple[tuple[int, int], npt.NDArray[np.intp], npt.NDArray[np.intp], bool] | None:
-    """:func:`jackson.host.nav.dwb.core.path.plan_span` and
-    :func:`~jackson.host.nav.dwb.core.path.plan_cells`, compiled: the same slice and cells.
-
-    Parameters
-    ----------
-    path : ndarray, shape (N, 2), N >= 1
-        The global path [m].
-    position : tuple of float
-        The robot's (x, y) [m].
-    prune_m : tuple of float
-        How far behind and ahead of the nearest point the slice reaches [m].
-    grid : tuple
-        (origin x [m], origin y [m], resolution [m], rows, cols) of the local costmap.
-    costs_padded : ndarray of uint8
-        Its costs with a ring of unknown cells, flat over (rows + 2) x (cols + 2).
-
-    Returns
-    -------
-    tuple or None
-        (the slice's (begin, end), rows, cols, whether the last cell is the path's end); None
-        when no point of the slice lies on a known cell.
-    """
-    assert LIB is not None
-    p = np.ascontiguousarray(path, np.float64).reshape(-1, 2)
-    rows, cols = grid[3], grid[4]
-    if len(p) == 0 or costs_padded.size != (rows + 2) * (cols + 2):
-        raise ValueError("dwb_plan_cells: an empty path, or costs of another grid")
-    g = np.array(grid[:3], np.float64)
-    c = np.ascontiguousarray(costs_padded, np.uint8)
-    span = np.empty(2, np.int64)
-    end = np.empty(1, np.uint8)
-    room = 256
-    while True:
-        r_out = np.empty(room, np.int64)
-        c_out = np.empty(room, np.int64)
-        count = LIB.jackson_dwb_plan_cells(
-            len(p), _ptr(p, _F), position[0], position[1], prune_m[0], prune_m[1], _ptr(g, _F),
-            rows, cols, _ptr(c, np.uint8), room, _ptr(span, _L), _ptr(r_out, _L),
-            _ptr(c_out, _L), _ptr(end, np.uint8),
-        )  # fmt: skip
-        if count >= 0:
-            break
-        room = -count
-    if count == 0:
-        return None
-    return (int(span[0]), int(span[1])), r_out[:count], c_out[:count], bool(end[0])
-
-
-def dwb_trajectory(
-    ds_m: FloatArray,
-    cos_sin: FloatArray,
-    yaw_rad: FloatArray,
-    ramps: tuple[int, int],
-    start: tuple[float, float],
-) -> FloatArray:
-    """:meth:`jackson.host.nav.dwb.core.rollouts.Rollouts.trajectory`, compiled: the same
-    running sums.
-
-    Parameters
-    ----------
-    ds_m, cos_sin, yaw_rad : ndarray
-        The roll-outs' tables, (V, K), (2 W, K), (W, K + 1).
-    ramps : tuple of int
-        The roll-out's linear and angular ramp.
-    start : tuple of float
-        The start (x, y) [m].
-
-    Returns
-    -------
-    ndarray, shape (K + 1, 3)
-        (x [m], y [m], yaw [rad]) per pose.
-    """
-    assert LIB is not None
-    iv, iw = ramps
-    w, k = yaw_rad.shape[0], ds_m.shape[1]
-    ds = np.ascontiguousarray(ds_m[iv], np.float64)
-    c = np.ascontiguousarray(cos_sin[iw], np.float64)
-    s = np.ascontiguousarray(cos_sin[w + iw], np.float64)
-    yaw = np.ascontiguousarray(yaw_rad[iw], np.float64)
-    if c.size != k or yaw.size != k + 1:
-        raise ValueError("dwb_trajectory: tables of different step counts")
-    out = np.empty((k + 1, 3))
-    LIB.jackson_dwb_trajectory(
-        k, _ptr(ds, _F), _ptr(c, _F), _ptr(s, _F), _ptr(yaw, _F), start[0], start[1],
-        _ptr(out, _F),
-    )  # fmt: skip
-    return out
 
 
 def dwb_tables(

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.common.geometry import GridGeometry
-from jackson.host.nav import native
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.costmap.layers import ObstacleLayer
 from jackson.host.nav.costmap.values import (
     LETHAL_OBSTACLE,
@@ -93,23 +93,62 @@ class FootprintChecker:
         self.version = version
         self._obstacles = obstacles
         self._body_cache: tuple[int, FloatArray, FloatArray] | None = None
-        self._index_obstacles(lethal, static_costs)
-        dist = distance_m
-        cls = np.where(dist <= self._near_m, _NEAR, _CLEAR).astype(np.uint8)
-        cls[dist < self._deep_m] = _DEEP
-        cls[costs >= LETHAL_OBSTACLE] = _BLOCKED  # lethal or unknown under the centre
-        self._class_padded = ringed(cls, _BLOCKED).ravel()
         self._clear_reach_padded: FloatArray | None = None
+        layer = obstacles
+        compiled = native.LIB is not None and layer.hit_xy.shape[:2] == geometry.shape
+        if compiled:
+            g = geometry
+            pts, radius, cells, (reach, short) = native_grid.obstacle_discs(
+                lethal, layer.costs, static_costs, (layer.hit_xy, layer.hit_spread_m),
+                (g.origin_x_m, g.origin_y_m, g.resolution_m), LETHAL_OBSTACLE,
+            )  # fmt: skip
+        else:
+            pts, radius, cells, reach, short = self._discs(lethal, static_costs)
+        self._obstacle_xy = pts
+        self._obstacle_r_m = radius
+        self._obstacle_cells = cells
+        self._bound(reach, short)
+        rows, cols = geometry.shape
+        k = self._pad_k
+        if compiled:
+            ids, self._class_padded = native_grid.obstacle_classes(
+                cells, k, (rows, cols), distance_m, costs, LETHAL_OBSTACLE,
+                (self._near_m, self._deep_m),
+            )  # fmt: skip
+        else:
+            ids = np.full((rows + 2 * k, cols + 2 * k), -1, np.int32)
+            rr, cc = np.divmod(cells, cols)
+            ids[k + rr, k + cc] = np.arange(len(cells), dtype=np.int32)
+            cls = np.where(distance_m <= self._near_m, _NEAR, _CLEAR).astype(np.uint8)
+            cls[distance_m < self._deep_m] = _DEEP
+            cls[costs >= LETHAL_OBSTACLE] = _BLOCKED  # lethal or unknown under the centre
+            self._class_padded = ringed(cls, _BLOCKED).ravel()
+        self._ids_padded = ids.ravel()
+        res = geometry.resolution_m
+        self._neighbour_offsets = _disc_offsets(k, cols + 2 * k, res, self._near_m)
+        cfg = config
+        self._native = (
+            native.Obstacles(
+                ids, (rows + 2 * k, cols + 2 * k), k, self._neighbour_offsets, pts, radius,
+                (geometry.origin_x_m, geometry.origin_y_m, res),
+                (cfg.robot_radius_m, cfg.circumscribed_radius_m, *cfg.footprint_x_m,
+                 *cfg.footprint_y_m),
+            )
+            if native.LIB is not None
+            else None
+        )  # fmt: skip
 
-    def _index_obstacles(self, lethal: BoolArray, static_costs: CostArray) -> None:
-        """The obstacle discs the footprint test uses, and a padded grid of their ids.
+    def _discs(
+        self, lethal: BoolArray, static_costs: CostArray
+    ) -> tuple[FloatArray, FloatArray, IntArray, float, float]:
+        """The obstacle discs the footprint test uses: (centres, radii, flat cells, the largest
+        reach of a disc beyond its cell centre, the largest shortfall).
 
         A lethal cell marked by returns (and not by the static map) is the disc around the
         returns' centroid of radius their spread; any other lethal cell is the disc around
         its centre that covers the cell (radius res / sqrt 2).
         """
         g = self.geometry
-        rows, cols = g.shape
         res = g.resolution_m
         rr, cc = np.nonzero(lethal)
         cx, cy = g.cell_to_world(rr, cc)
@@ -119,17 +158,20 @@ class FootprintChecker:
         scan = (layer.costs[rr, cc] == LETHAL_OBSTACLE) & (static_costs[rr, cc] != LETHAL_OBSTACLE)
         pts[scan] = layer.hit_xy[rr[scan], cc[scan]]
         radius[scan] = layer.hit_spread_m[rr[scan], cc[scan]]
-        self._obstacle_xy = pts
-        self._obstacle_r_m = radius
-        self._obstacle_cells = rr * cols + cc
         # bounds between cell-centre distances and true clearances: how far beyond its cell
         # centre a disc may reach (sqrt 2 h: the grown rectangle's corner), how far short of
-        # it it may stop, and a pose's offset from its own cell centre
+        # it it may stop
         off = np.hypot(pts[:, 0] - cx, pts[:, 1] - cy)
         reach = float((off + math.sqrt(2.0) * radius).max()) if len(rr) else 0.0
         short = float((off - radius).max()) if len(rr) else 0.0
-        half_cell = res / math.sqrt(2.0)
+        return pts, radius, rr * g.cols + cc, reach, short
+
+    def _bound(self, reach: float, short: float) -> None:
+        """The near and deep distances of the cell classes from the discs' bounds (and a
+        pose's offset from its own cell centre), and the padding k of the obstacle ids."""
         cfg = self.config
+        res = self.geometry.resolution_m
+        half_cell = res / math.sqrt(2.0)
         self._near_m = (
             max(cfg.circumscribed_radius_m, cfg.robot_radius_m)
             + reach
@@ -137,22 +179,7 @@ class FootprintChecker:
             + self.max_margin_m
         )
         self._deep_m = cfg.robot_radius_m - max(short, 0.0) - half_cell
-        k = max(1, math.ceil(self._near_m / res))
-        self._pad_k = k
-        ids = np.full((rows + 2 * k, cols + 2 * k), -1, np.int32)
-        ids[k + rr, k + cc] = np.arange(len(rr), dtype=np.int32)
-        self._ids_padded = ids.ravel()
-        self._neighbour_offsets = _disc_offsets(k, cols + 2 * k, res, self._near_m)
-        self._native = (
-            native.Obstacles(
-                ids, ids.shape, k, self._neighbour_offsets, pts, radius,
-                (g.origin_x_m, g.origin_y_m, res),
-                (cfg.robot_radius_m, cfg.circumscribed_radius_m, *cfg.footprint_x_m,
-                 *cfg.footprint_y_m),
-            )
-            if native.LIB is not None
-            else None
-        )  # fmt: skip
+        self._pad_k = max(1, math.ceil(self._near_m / res))
 
     def __setstate__(self, state: dict[str, object]) -> None:
         """A checker pickled where the library was, loaded where it is not (a snapshot replayed

@@ -34,7 +34,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.common.geometry import GridGeometry
-from jackson.host.nav import native
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.costmap.values import (
     FREE_SPACE,
     INSCRIBED_INFLATED_OBSTACLE,
@@ -192,7 +192,7 @@ class ObstacleLayer(Layer):
         p = np.asarray(points_xy, np.float64).reshape(-1, 2)
         cfg = self.config
         if native.LIB is not None:  # the same arithmetic, in one call
-            self.last_returns = native.obstacle_update(
+            self.last_returns = native_grid.obstacle_update(
                 p, sensor_xy,
                 (cfg.raytrace_min_range_m, cfg.raytrace_max_range_m, cfg.obstacle_min_range_m,
                  cfg.obstacle_max_range_m),

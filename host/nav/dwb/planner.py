@@ -7,7 +7,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.nav import native
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.costmap import Costmap
 from jackson.host.nav.dwb.core.config import Command, DwbConfig
 from jackson.host.nav.dwb.core.distance import DistanceMaps
@@ -338,7 +338,7 @@ class DwbPlanner:
             return None
         c = self.config
         if native.LIB is not None:  # the same slice and cells, in one call
-            found = native.dwb_plan_cells(
+            found = native_grid.dwb_plan_cells(
                 full, (pose.x, pose.y), (c.prune_distance_m, c.forward_prune_distance_m),
                 costmap.geometry.as_tuple(), costmap.costs_padded,
             )  # fmt: skip

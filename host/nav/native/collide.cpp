@@ -1025,4 +1025,66 @@ void jackson_dwb_trajectory(std::int64_t k, const double* ds, const double* c, c
   }
 }
 
+// FootprintChecker._index_obstacles, first half: the n lethal cells of a rows x cols grid
+// (row-major, as np.nonzero finds them) as discs: a cell the obstacle layer marked lethal and
+// the static layer did not is its returns' disc (hit_xy, spread), any other its centre's with
+// radius res / sqrt 2. Writes the centres xy (n, 2), radii r, flat cells, and bounds[0, 1]:
+// the largest reach of a disc beyond its cell centre (off + sqrt 2 r) and the largest
+// shortfall (off - r), 0 without discs. grid: origin x, origin y, resolution.
+void jackson_obstacle_discs(std::int64_t rows, std::int64_t cols, const std::uint8_t* lethal,
+                            const std::uint8_t* obstacle, const std::uint8_t* stat,
+                            const double* hit_xy, const double* spread, const double* grid,
+                            std::uint8_t lethal_cost, double* xy, double* r, std::int64_t* cells,
+                            double* bounds) {
+  const double ox = grid[0], oy = grid[1], res = grid[2];
+  const double cell_r = res / std::sqrt(2.0), sqrt2 = std::sqrt(2.0);
+  double reach = 0.0, shortfall = 0.0;
+  std::int64_t n = 0;
+  for (std::int64_t i = 0; i < rows * cols; ++i) {
+    if (!lethal[i]) continue;
+    const double cx = ox + (static_cast<double>(i % cols) + 0.5) * res;
+    const double cy = oy + (static_cast<double>(i / cols) + 0.5) * res;
+    double px = cx, py = cy, radius = cell_r;
+    if (obstacle[i] == lethal_cost && stat[i] != lethal_cost) {
+      px = hit_xy[2 * i];
+      py = hit_xy[2 * i + 1];
+      radius = spread[i];
+    }
+    xy[2 * n] = px;
+    xy[2 * n + 1] = py;
+    r[n] = radius;
+    cells[n] = i;
+    const double off = std::hypot(px - cx, py - cy);
+    const double far = off + sqrt2 * radius, near = off - radius;
+    reach = n == 0 ? far : np_max(reach, far);
+    shortfall = n == 0 ? near : np_max(shortfall, near);
+    ++n;
+  }
+  bounds[0] = reach;
+  bounds[1] = shortfall;
+}
+
+// FootprintChecker's second half: the obstacle ids over the grid padded by k cells (-1 where
+// none; the n discs' cells), and each cell's class from the distance to the nearest lethal
+// cell centre (near: <= near_m; deep: < deep_m) and the costs (lethal or unknown: blocked),
+// over the grid padded by one blocked ring.
+void jackson_obstacle_classes(std::int64_t rows, std::int64_t cols, std::int64_t n,
+                              const std::int64_t* cells, std::int64_t k, std::int32_t* ids,
+                              const double* dist, const std::uint8_t* costs,
+                              std::uint8_t lethal_cost, double near_m, double deep_m,
+                              std::uint8_t* cls) {
+  const std::int64_t pc = cols + 2 * k;
+  std::fill(ids, ids + (rows + 2 * k) * pc, -1);
+  for (std::int64_t j = 0; j < n; ++j)
+    ids[(cells[j] / cols + k) * pc + cells[j] % cols + k] = static_cast<std::int32_t>(j);
+  const std::int64_t rc = cols + 2;
+  std::fill(cls, cls + (rows + 2) * rc, kBlocked);
+  for (std::int64_t i = 0; i < rows * cols; ++i) {
+    std::uint8_t c = dist[i] <= near_m ? kNear : kClear;
+    if (dist[i] < deep_m) c = kDeep;
+    if (costs[i] >= lethal_cost) c = kBlocked;
+    cls[(i / cols + 1) * rc + i % cols + 1] = c;
+  }
+}
+
 }  // extern "C"

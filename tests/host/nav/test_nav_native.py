@@ -308,6 +308,35 @@ def test_the_obstacle_layer_clears_and_marks_as_numpy_does(
     assert np.count_nonzero(results[0][-1]) > 0 or config.obstacle_max_range_m < 0.6
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_the_checkers_discs_and_classes_are_numpys(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A costmap version's footprint checker made compiled (the discs of the returns and of the
+    static map's cells, the bounds, the padded ids, the cell classes) and by numpy: the same
+    arrays and distances, byte for byte, with obstacles and without any."""
+    from jackson.host.nav.costmap import FootprintChecker
+
+    cm = _scene(np.random.default_rng(30 + seed))
+    if seed == 5:
+        cm.clear_obstacles()
+    master = cm.costs.copy()
+    lethal = master == LETHAL_OBSTACLE
+    dist = cm.lethal_distance_m
+    args = (cm.config, cm.geometry, master, lethal, dist, cm.static.costs, cm.obstacles, 1)
+    made = []
+    for lib in (native.LIB, None):
+        monkeypatch.setattr(native, "LIB", lib)
+        made.append(FootprintChecker(*args))
+    a, b = made
+    for name in ("_obstacle_xy", "_obstacle_r_m", "_obstacle_cells", "_ids_padded",
+                 "_class_padded", "_neighbour_offsets"):  # fmt: skip
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.shape == y.shape and x.dtype == y.dtype and x.tobytes() == y.tobytes(), name
+    assert (a._near_m, a._deep_m, a._pad_k) == (b._near_m, b._deep_m, b._pad_k)
+    assert (len(a._obstacle_cells) > 0) == (seed != 5 or np.any(cm.static.costs == LETHAL_OBSTACLE))
+
+
 def test_calls_leave_no_garbage_for_the_collector() -> None:
     """A call builds no reference cycles (numpy's ctypes adapters did, on every call: garbage
     that the daemon's settled collector reaches rarely, so its memory grew while navigating)."""

@@ -27,7 +27,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from jackson.host.nav import native
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.dwb.core.config import DwbConfig
 from jackson.host.nav.dwb.core.kinematics import Kinematics
 from jackson.host.nav.dwb.core.window import velocity_profile
@@ -244,7 +244,7 @@ class Rollouts:
             (x [m], y [m], yaw [rad]) per pose.
         """
         if native.LIB is not None:  # the same sums, in one call
-            return native.dwb_trajectory(
+            return native_grid.dwb_trajectory(
                 self.ds_m, self.cos_sin, self.yaw_rad, (int(self.iv[m]), int(self.iw[m])),
                 (self.pose.x, self.pose.y),
             )  # fmt: skip

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from jackson.host.actuation.limiter import LimiterConfig
-from jackson.host.nav import native
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.costmap import Costmap, CostmapConfig
 from jackson.host.nav.dwb import Batch, DwbConfig, DwbPlanner
 from jackson.host.nav.dwb import planner as planner_module
@@ -186,7 +186,7 @@ def test_the_compiled_plan_cells_are_numpys_slice_and_cells(seed: int) -> None:
             path = path[:1]
         elif case == 2:
             path = np.concatenate((path, path[::-1]))  # out and back
-        found = native.dwb_plan_cells(
+        found = native_grid.dwb_plan_cells(
             path, (pose.x, pose.y), (config.prune_distance_m, config.forward_prune_distance_m),
             g.as_tuple(), cm.costs_padded,
         )  # fmt: skip
@@ -201,5 +201,5 @@ def test_the_compiled_plan_cells_are_numpys_slice_and_cells(seed: int) -> None:
         _same(found[2], want.cols, "cols")
     cm = _costmap(rng)
     with pytest.raises(ValueError, match="an empty path"):
-        native.dwb_plan_cells(np.empty((0, 2)), (0.0, 0.0), (1.0, 1.0), cm.geometry.as_tuple(),
+        native_grid.dwb_plan_cells(np.empty((0, 2)), (0.0, 0.0), (1.0, 1.0), cm.geometry.as_tuple(),
                               cm.costs_padded)  # fmt: skip
