@@ -57,7 +57,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol, cast
 from jackson.common.lazy import instance_of
 from jackson.common.ros_env import missing_ros
 from jackson.common.threads import guard
-from jackson.host.ros import messages
+from jackson.host.ros import cdr, messages
 from jackson.host.ros.live_parameters import (
     ParameterError,
     changed_settings,
@@ -613,7 +613,7 @@ class RosBridge:
             return
         if key == "tf_static" and not self.settings.publish_static_tf:
             return  # robot_state_publisher publishes the URDF's (the bag still records them)
-        data = bytes(self._store.serialize_cdr(msg, msg.__msgtype__))
+        data = cdr.serialize(self._store, msg)  # rosbags' bytes, packed faster
         with self._lock:
             if self._stop.is_set():
                 return

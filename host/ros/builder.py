@@ -249,12 +249,16 @@ class MessageBuilder:
             ),
         )
 
+    def tf(
+        self, t_s: float, parent: str, child: str, xyz: Sequence[float], yaw: float = 0.0
+    ) -> Any:
+        """/tf with one transform (:meth:`transform`)."""
+        return TFMessage(transforms=[self.transform(t_s, parent, child, xyz, yaw)])
+
     def odom_tf(self, t_s: float, x: float, y: float, yaw: float) -> Any:
         """/tf: odom -> base_footprint."""
         s = self.settings
-        return TFMessage(
-            transforms=[self.transform(t_s, s.odom_frame, s.base_frame, (x, y, 0.0), yaw)]
-        )
+        return self.tf(t_s, s.odom_frame, s.base_frame, (x, y, 0.0), yaw)
 
     def wheel_tf(self, t_s: float, odo: OdometryState) -> Any:
         """/tf: base_link -> each wheel's link, turned about +y by the wheel's angle (one header

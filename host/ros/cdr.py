@@ -31,6 +31,7 @@ _F64x4 = struct.Struct("<4d")
 _F64x6 = struct.Struct("<6d")
 _F64x7 = struct.Struct("<7d")
 _F32x7 = struct.Struct("<7f")
+_U32x3 = struct.Struct("<3I")
 
 
 class _Writer:
@@ -97,7 +98,12 @@ def _stamped(header: Any, *texts: str) -> bytes:
     """The start of a message whose header comes first, then ``texts``, then float64s: the
     encapsulation header, the stamp, the names, aligned for the float64s."""
     stamp = header.stamp
-    return HEADER + _I32_U32.pack(stamp.sec, stamp.nanosec) + _names((header.frame_id, *texts), 0)
+    return stamped_head(stamp.sec, stamp.nanosec, header.frame_id, *texts)
+
+
+def stamped_head(sec: int, nanosec: int, frame_id: str, *texts: str) -> bytes:
+    """:func:`_stamped` from the stamp and the names themselves."""
+    return HEADER + _I32_U32.pack(sec, nanosec) + _names((frame_id, *texts), 0)
 
 
 def _f64_bytes(values: Any) -> bytes:
@@ -105,58 +111,106 @@ def _f64_bytes(values: Any) -> bytes:
     return np.ascontiguousarray(values, dtype="<f8").tobytes()
 
 
+f64_bytes = _f64_bytes
+
+
 def _odometry(m: Any) -> bytes:
-    pose, twist = m.pose, m.twist
+    pose, tw = m.pose, m.twist
     p, q = pose.pose.position, pose.pose.orientation
-    v, w = twist.twist.linear, twist.twist.angular
+    v, w = tw.twist.linear, tw.twist.angular
+    return odometry(
+        _stamped(m.header, m.child_frame_id), (p.x, p.y, p.z, q.x, q.y, q.z, q.w),
+        _f64_bytes(pose.covariance), (v.x, v.y, v.z, w.x, w.y, w.z), _f64_bytes(tw.covariance),
+    )  # fmt: skip
+
+
+def odometry(
+    head: bytes, pose: Any, pose_covariance: bytes, velocity: Any, twist_covariance: bytes
+) -> bytes:
+    """A nav_msgs/Odometry from its head (:func:`stamped_head` with the child frame), pose
+    (x, y, z, qx, qy, qz, qw), velocity (vx, vy, vz, wx, wy, wz) and covariances' bytes
+    (:func:`f64_bytes`)."""
     return b"".join(
-        (
-            _stamped(m.header, m.child_frame_id),
-            _F64x7.pack(p.x, p.y, p.z, q.x, q.y, q.z, q.w),
-            _f64_bytes(pose.covariance),
-            _F64x6.pack(v.x, v.y, v.z, w.x, w.y, w.z),
-            _f64_bytes(twist.covariance),
-        )
+        (head, _F64x7.pack(*pose), pose_covariance, _F64x6.pack(*velocity), twist_covariance)
     )
 
 
 def _imu(m: Any) -> bytes:
     q, a, f = m.orientation, m.angular_velocity, m.linear_acceleration
+    return imu(
+        _stamped(m.header), (q.x, q.y, q.z, q.w), _f64_bytes(m.orientation_covariance),
+        (a.x, a.y, a.z), _f64_bytes(m.angular_velocity_covariance), (f.x, f.y, f.z),
+        _f64_bytes(m.linear_acceleration_covariance),
+    )  # fmt: skip
+
+
+def imu(
+    head: bytes,
+    orientation: Any,
+    orientation_covariance: bytes,
+    angular_velocity: Any,
+    angular_velocity_covariance: bytes,
+    linear_acceleration: Any,
+    linear_acceleration_covariance: bytes,
+) -> bytes:
+    """A sensor_msgs/Imu from its head (:func:`stamped_head`), vectors and covariances' bytes."""
     return b"".join(
         (
-            _stamped(m.header),
-            _F64x4.pack(q.x, q.y, q.z, q.w),
-            _f64_bytes(m.orientation_covariance),
-            _F64x3.pack(a.x, a.y, a.z),
-            _f64_bytes(m.angular_velocity_covariance),
-            _F64x3.pack(f.x, f.y, f.z),
-            _f64_bytes(m.linear_acceleration_covariance),
+            head, _F64x4.pack(*orientation), orientation_covariance,
+            _F64x3.pack(*angular_velocity), angular_velocity_covariance,
+            _F64x3.pack(*linear_acceleration), linear_acceleration_covariance,
         )
-    )
+    )  # fmt: skip
 
 
 def _joint_state(m: Any) -> bytes:
+    h = m.header
+    return joint_state(
+        (h.stamp.sec, h.stamp.nanosec), h.frame_id, m.name, m.position, m.velocity, m.effort
+    )
+
+
+def joint_state(
+    stamp: tuple[int, int], frame_id: str, names: Any, position: Any, velocity: Any, effort: Any
+) -> bytes:
+    """A sensor_msgs/JointState from its stamp (sec, nanosec), frame, names and sequences."""
     w = _Writer()
-    w.header(m.header)
-    w.u32(len(m.name))
-    for name in m.name:
+    w.align(4)
+    w.buf += _I32_U32.pack(*stamp)
+    w.buf += _string(frame_id)
+    w.u32(len(names))
+    for name in names:
         w.string(name)
-    w.f64_sequence(m.position)
-    w.f64_sequence(m.velocity)
-    w.f64_sequence(m.effort)
+    w.f64_sequence(position)
+    w.f64_sequence(velocity)
+    w.f64_sequence(effort)
     return bytes(w.buf)
 
 
 def _tf_message(m: Any) -> bytes:
-    parts = [HEADER, _U32.pack(len(m.transforms))]
+    return tf_message(
+        [
+            (
+                (t.header.stamp.sec, t.header.stamp.nanosec), t.header.frame_id,
+                t.child_frame_id, (t.transform.translation.x, t.transform.translation.y,
+                                   t.transform.translation.z, t.transform.rotation.x,
+                                   t.transform.rotation.y, t.transform.rotation.z,
+                                   t.transform.rotation.w),
+            )
+            for t in m.transforms
+        ]
+    )  # fmt: skip
+
+
+def tf_message(
+    transforms: Any,
+) -> bytes:
+    """A tf2_msgs/TFMessage from its transforms, each ((sec, nanosec), parent, child, (x, y, z,
+    qx, qy, qz, qw))."""
+    parts = [HEADER, _U32.pack(len(transforms))]
     at = 4  # each transform's offset mod 8: after the count, then after float64s
-    for t in m.transforms:
-        h, v, q = t.header, t.transform.translation, t.transform.rotation
-        parts += (
-            _I32_U32.pack(h.stamp.sec, h.stamp.nanosec),
-            _names((h.frame_id, t.child_frame_id), at),
-            _F64x7.pack(v.x, v.y, v.z, q.x, q.y, q.z, q.w),
-        )
+    for stamp, parent, child, pose in transforms:
+        parts += (_I32_U32.pack(*stamp), _names((parent, child), at), _F64x7.pack(*pose))
         at = 0
     return b"".join(parts)
 
@@ -175,9 +229,20 @@ def _uint8_multi_array(m: Any) -> bytes:
     return bytes(w.buf)
 
 
+def uint8_array(data: bytes) -> bytes:
+    """A std_msgs/UInt8MultiArray of ``data`` with an empty layout (what
+    :func:`_uint8_multi_array` writes for one)."""
+    return HEADER + _U32x3.pack(0, 0, len(data)) + data
+
+
 def _twist(m: Any) -> bytes:
     v, w = m.linear, m.angular
-    return HEADER + _F64x6.pack(v.x, v.y, v.z, w.x, w.y, w.z)
+    return twist(v.x, v.y, v.z, w.x, w.y, w.z)
+
+
+def twist(*values: float) -> bytes:
+    """A geometry_msgs/Twist from (vx, vy, vz, wx, wy, wz)."""
+    return HEADER + _F64x6.pack(*values)
 
 
 def _path(m: Any) -> bytes:
@@ -240,6 +305,9 @@ def serialize(store: Any, msg: Any) -> bytes:
     bytes
         The serialized message, encapsulation header first.
     """
+    data = getattr(msg, "cdr", None)  # a message packed already (jackson.host.ros.packed)
+    if type(data) is bytes:
+        return data
     encode = ENCODERS.get(msg.__msgtype__)
     if encode is not None:
         return encode(msg)

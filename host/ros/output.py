@@ -16,8 +16,9 @@ import numpy.typing as npt
 from jackson.common.lazy import instance_of
 from jackson.host.core.results import CoreListener, FrameResult
 from jackson.host.lidar.scan_timer import ScanTimer
-from jackson.host.ros.builder import MessageBuilder, TFMessage
+from jackson.host.ros.builder import MessageBuilder
 from jackson.host.ros.diagnostics import DiagnosticValues
+from jackson.host.ros.packed import FramePacker
 from jackson.protocol import PROTOCOL_VERSION, Frame, TelemetryFlags, crc32c
 
 if TYPE_CHECKING:
@@ -106,6 +107,13 @@ class RosOutput(CoreListener):
         self._next_diagnostics_s: float | None = None
         self._mission: Mission | None = None  # the last frame's mission
         self._nav: NavigateMission | None = None  # its navigation (navigation_of)
+        self._pack: FramePacker | None = None
+
+    def _packer(self) -> FramePacker:
+        """The frame messages' packer, of the present builder."""
+        if self._pack is None or self._pack.builder is not self.builder:
+            self._pack = FramePacker(self.builder)
+        return self._pack
 
     def send(self, key: str, t_s: float, msg: Any) -> None:
         """Hand one message to every sink."""
@@ -123,7 +131,7 @@ class RosOutput(CoreListener):
 
     def on_command(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
         # taken at the frame that applies it: stamped with the last frame's time
-        self.send("cmd_vel", self._t_s, self.builder.twist(self._t_s, v_m_s, w_rad_s))
+        self.send("cmd_vel", self._t_s, self._packer().twist(self._t_s, v_m_s, w_rad_s))
 
     def on_result(self, result: FrameResult) -> None:
         b, t_s, odo, t = self.builder, result.t_s, result.odometry, result.telemetry
@@ -141,19 +149,20 @@ class RosOutput(CoreListener):
             elif key == "initialpose":
                 x, y, yaw, frame, cov = value
                 self.send(key, t_s, b.initial_pose(t_s, x, y, yaw, cov, frame or "map"))
+        pack = self._packer()
         for raw in self._pending:
-            self.send("telemetry", t_s, b.raw_frame(raw))
+            self.send("telemetry", t_s, pack.raw_frame(raw))
         self._pending.clear()
         if odo is not None:
-            self.send("wheel_odom", t_s, b.wheel_odom(t_s, odo))
+            self.send("wheel_odom", t_s, pack.wheel_odom(t_s, odo))
         if t.flags & _IMU_OK:
-            self.send("imu", t_s, b.imu(t_s, t))
+            self.send("imu", t_s, pack.imu(t_s, t))
         if odo is not None:
-            self.send("joint_states", t_s, b.joint_states(t_s, odo))
+            self.send("joint_states", t_s, pack.joint_states(t_s, odo))
             if b.settings.publish_tf and b.settings.tf_source == "wheel":
-                self.send("tf", t_s, b.odom_tf(t_s, odo.x_m, odo.y_m, odo.yaw_rad))
+                self.send("tf", t_s, pack.odom_tf(t_s, odo.x_m, odo.y_m, odo.yaw_rad))
             if b.settings.publish_tf and b.settings.publish_wheel_tf:
-                self.send("tf", t_s, b.wheel_tf(t_s, odo))
+                self.send("tf", t_s, pack.wheel_tf(t_s, odo))
         self._navigation(result, t_s)
 
     def on_filtered(self, t_s: float, state: EkfState) -> None:
@@ -161,9 +170,10 @@ class RosOutput(CoreListener):
             return
         b = self.builder
         self._static(t_s)
-        self.send("filtered", t_s, b.filtered(t_s, state))
+        pack = self._packer()
+        self.send("filtered", t_s, pack.filtered(t_s, state))
         if b.settings.publish_tf and b.settings.tf_source == "filtered":
-            self.send("tf", t_s, b.odom_tf(t_s, state.x_m, state.y_m, state.yaw_rad))
+            self.send("tf", t_s, pack.odom_tf(t_s, state.x_m, state.y_m, state.yaw_rad))
 
     def on_scan(self, scan: Scan) -> None:
         if len(scan.angles_rad) >= 2:
@@ -239,12 +249,8 @@ class RosOutput(CoreListener):
         if any(sink.wants("local_plan", t_s) for sink in self.sinks):
             self._local_plan(t_s, nav.navigator.published_local_plan, corr)
         if b.settings.publish_tf:
-            msg = TFMessage(
-                transforms=[
-                    b.transform(t_s, "map", b.settings.odom_frame, (corr.x, corr.y, 0.0), corr.yaw)
-                ]
-            )
-            self.send("tf", t_s, msg)
+            odom, xyz = b.settings.odom_frame, (corr.x, corr.y, 0.0)
+            self.send("tf", t_s, self._packer().transform(t_s, "map", odom, xyz, corr.yaw))
         mapping = nav.mapper is not None
         due = self._map_sent_s is None or (mapping and t_s - self._map_sent_s >= MAP_PERIOD_S)
         grid = nav.built_map() if mapping else nav.static_map
