@@ -22,7 +22,9 @@ On scans the twin's exact ray caster makes along the maze's route (1080 beams, 0
   driving an ideal differential drive 25 m through a 20 m x 20 m floor of 4 x 4 rooms with 1 m
   doors, scans at 7.43 Hz, and a cylinder dropped 1 m ahead on its path once it has moved 3 m;
   the mean step is its reference. The daemon searches its plans in the planner server's worker
-  process (:mod:`jackson.host.nav.planner_server`), so that is the figure judged; the same drive
+  process (:mod:`jackson.host.nav.planner_server`), so that is the figure judged, from a worker
+  that is ready (started and its imports done, as in a daemon up for a second: the plans a
+  worker still starting is sent are searched in the step and counted late); the same drive
   searching each plan inside the step is reported beside it (information), and the 20 m plan
   above becomes information too (the issue's "or": the plan within a quarter period, or off the
   control thread with the worst step within it).
@@ -345,6 +347,8 @@ def _replanning_steps_ms(planner_server: bool = True) -> tuple[float, float]:
     grid = OccupancyGrid(np.where(occupied, 100, 0).astype(np.int8), PLAN_RESOLUTION_M, ox, oy)
     limits = LimiterConfig()
     worker = WorkerPlanner() if planner_server else None
+    if worker is not None and not worker.wait_ready(60.0):
+        raise RuntimeError("the planner server's worker did not start within 60 s")
     delay = PLAN_DELAY_TICKS if planner_server else 0
     nav = Navigator(NavigatorConfig(plan_delay_ticks=delay), grid, limits, worker)
     try:

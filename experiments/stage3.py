@@ -725,8 +725,10 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]], vector: boo
             i = int(np.argmin(dist))
             if closest is None or dist[i] < closest[0]:
                 closest = (float(dist[i]), poses[t_ok][i], cyl)
-    for k, v in enumerate(variants):
-        ax.plot([], [], color=colours(k % 10), label=v)
+    for k, v in enumerate(variants):  # the paper's condition labels (C00: the baseline)
+        runs = sum(str(r["variant"]) == v for r in results)
+        label = f"true path{'s' if runs > 1 else ''}, condition {v}"
+        ax.plot([], [], color=colours(k % 10), label=label)
     drawn = set()
     for r in results:
         cyl = r.get("cylinder")

@@ -120,6 +120,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         trajectory = lib.jackson_dwb_trajectory
         discs = lib.jackson_obstacle_discs
         classes = lib.jackson_obstacle_classes
+        escape = lib.jackson_escape
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -169,6 +170,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     discs.argtypes = [_N, _N, _P, _P, _P, _P, _P, _P, ctypes.c_uint8, _P, _P, _P, _P]
     classes.restype = None
     classes.argtypes = [_N, _N, _N, _P, _N, _P, _P, _P, ctypes.c_uint8, _D, _D, _P]
+    escape.restype = None
+    escape.argtypes = [_N, _P, _D, _D, _D, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P, _P]
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib
@@ -581,6 +584,21 @@ class Obstacles:
             *self._index(), _ptr(counts, _L), _ptr(clearance, _F),
         )  # fmt: skip
         return counts, clearance
+
+    def escape(
+        self, start: tuple[float, float, float], margin_m: npt.NDArray[np.float64]
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+        """:meth:`FootprintChecker._escape`'s allowance and floor for a start on a near or deep
+        cell, compiled: each margin's overlaps at the start and its clearance less 1e-9."""
+        assert LIB is not None
+        margin = np.ascontiguousarray(margin_m, np.float64)
+        allowed = np.empty(margin.size, np.int64)
+        floor = np.empty(margin.size, np.float64)
+        LIB.jackson_escape(
+            margin.size, _ptr(margin, _F), start[0], start[1], start[2], *self._index(),
+            _ptr(allowed, _L), _ptr(floor, _F),
+        )  # fmt: skip
+        return allowed, floor
 
     def trajectories_collide(
         self,

@@ -465,6 +465,8 @@ class FootprintChecker:
         if not escape or start is None or m == 0:
             return allowed, floor_m
         start_cls = int(self._class_padded[self.geometry.padded_index(start[0], start[1])])
+        if _NEAR <= start_cls <= _DEEP and self._native is not None:
+            return self._native.escape(start, margins)  # the same, in one call
         if _NEAR <= start_cls <= _DEEP:
             # per distinct margin, the start pose's overlaps and clearance
             values, which = np.unique(margins, return_inverse=True)

@@ -1087,4 +1087,36 @@ void jackson_obstacle_classes(std::int64_t rows, std::int64_t cols, std::int64_t
   }
 }
 
+// FootprintChecker._escape for a start pose (x, y, yaw) whose cell is near or deep: for each of
+// m margins, the obstacles the start overlaps grown by it (allowed) and, when it overlaps any,
+// its clearance less 1e-9 (floor_m; -inf when none): jackson_footprint_hits with the clearance,
+// each distinct margin once.
+void jackson_escape(std::int64_t m, const double* margin, double x, double y, double yaw,
+                    const std::int32_t* ids, std::int64_t padded_rows, std::int64_t padded_cols,
+                    std::int64_t k, const std::int64_t* offsets, std::int64_t n_offsets,
+                    const double* obstacle_xy, const double* obstacle_r, const double* grid,
+                    const double* robot, std::int64_t* allowed, double* floor_m) {
+  const Obstacles o{ids,     padded_rows * padded_cols, padded_rows, padded_cols, k,
+                    offsets, n_offsets,                 obstacle_xy, obstacle_r};
+  const Grid g{grid[0], grid[1], grid[2], 0, 0};
+  const Robot rb{robot[0], robot[1], robot[2], robot[3], robot[4], robot[5]};
+  Candidates near(o);
+  std::vector<double> seen_margin;
+  std::vector<std::int64_t> seen_count;
+  std::vector<double> seen_clear;
+  for (std::int64_t t = 0; t < m; ++t) {
+    std::size_t j = 0;
+    while (j < seen_margin.size() && !(seen_margin[j] == margin[t])) ++j;
+    if (j == seen_margin.size()) {
+      double clear = 0.0;
+      seen_count.push_back(hits_at(o, near, g, rb, x, y, yaw, margin[t], true, false, &clear));
+      seen_clear.push_back(clear);
+      seen_margin.push_back(margin[t]);
+    }
+    allowed[t] = seen_count[j];
+    floor_m[t] = seen_count[j] > 0 ? seen_clear[j] - 1e-9
+                                   : -std::numeric_limits<double>::infinity();
+  }
+}
+
 }  // extern "C"

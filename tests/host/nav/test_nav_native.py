@@ -337,6 +337,30 @@ def test_the_checkers_discs_and_classes_are_numpys(
     assert (len(a._obstacle_cells) > 0) == (seed != 5 or np.any(cm.static.costs == LETHAL_OBSTACLE))
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_the_escape_rule_is_numpys_at_starts_near_and_among_obstacles(seed: int) -> None:
+    """The escape rule's allowance and floor for a start pose (how many obstacles it already
+    overlaps with each margin, its clearance), compiled and by numpy: the same numbers at starts
+    in the clear, near, deep among and on obstacles, with repeated and distinct margins."""
+    rng = np.random.default_rng(60 + seed)
+    cm = _scene(rng)
+    checker = cm.checker
+    g = cm.geometry
+    classes = set()
+    for _ in range(60):
+        start = (
+            float(rng.uniform(g.origin_x_m, g.origin_x_m + g.cols * g.resolution_m)),
+            float(rng.uniform(g.origin_y_m, g.origin_y_m + g.rows * g.resolution_m)),
+            float(rng.uniform(-math.pi, math.pi)),
+        )
+        margins = rng.choice([0.0, 0.004, 0.0125], int(rng.integers(1, 30)))
+        got, want = _both(cm, "_escape", start, margins, True)
+        for a, b in zip(got, want, strict=True):  # type: ignore[call-overload]
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), start
+        classes.add(int(checker._class_padded[g.padded_index(start[0], start[1])]))
+    assert {1, 2} <= classes  # starts near and deep were among them
+
+
 def test_calls_leave_no_garbage_for_the_collector() -> None:
     """A call builds no reference cycles (numpy's ctypes adapters did, on every call: garbage
     that the daemon's settled collector reaches rarely, so its memory grew while navigating)."""
