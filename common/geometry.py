@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
+_EXACT = 2.0**62  # cell coordinates a float64's floor takes to an int64 exactly
 IntArray = npt.NDArray[np.int_]
 
 
@@ -61,6 +62,14 @@ def world_to_cell(
     row, col : ndarray of int
         ``floor((p - origin) / resolution)``.
     """
+    if isinstance(x_m, float) and isinstance(y_m, float):  # one point, in plain floats
+        fx = (x_m - origin_x_m) / resolution_m
+        fy = (y_m - origin_y_m) / resolution_m
+        if abs(fx) < _EXACT and abs(fy) < _EXACT:  # (NaN, infinity and beyond: numpy's path)
+            return (
+                cast(IntArray, np.int_(math.floor(fy))),
+                cast(IntArray, np.int_(math.floor(fx))),
+            )  # as numpy gives them: scalars
     col = np.floor((np.asarray(x_m, np.float64) - origin_x_m) / resolution_m)
     row = np.floor((np.asarray(y_m, np.float64) - origin_y_m) / resolution_m)
     return row.astype(np.int_), col.astype(np.int_)
@@ -75,6 +84,11 @@ def cell_to_world(
 ) -> tuple[FloatArray, FloatArray]:
     """World centres (x, y) [m] of grid cells (the inverse of :func:`world_to_cell` up to the
     cell)."""
+    if isinstance(row, int | np.integer) and isinstance(col, int | np.integer):  # one cell
+        return (
+            cast(FloatArray, np.float64(origin_x_m + (float(col) + 0.5) * resolution_m)),
+            cast(FloatArray, np.float64(origin_y_m + (float(row) + 0.5) * resolution_m)),
+        )  # as numpy gives them: scalars
     x = origin_x_m + (np.asarray(col, np.float64) + 0.5) * resolution_m
     y = origin_y_m + (np.asarray(row, np.float64) + 0.5) * resolution_m
     return x, y

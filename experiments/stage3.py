@@ -39,6 +39,7 @@ import csv
 import dataclasses
 import json
 import math
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -725,9 +726,10 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]], vector: boo
             i = int(np.argmin(dist))
             if closest is None or dist[i] < closest[0]:
                 closest = (float(dist[i]), poses[t_ok][i], cyl)
-    for k, v in enumerate(variants):  # the paper's condition labels (C00: the baseline)
+    for k, v in enumerate(variants):  # a paper's condition (C00: the baseline) or a world
         runs = sum(str(r["variant"]) == v for r in results)
-        label = f"true path{'s' if runs > 1 else ''}, condition {v}"
+        what = f"condition {v}" if re.fullmatch(r"[A-Z]\d\d", v) else v
+        label = f"true path{'s' if runs > 1 else ''}, {what}"
         ax.plot([], [], color=colours(k % 10), label=label)
     drawn = set()
     for r in results:

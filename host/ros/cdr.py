@@ -56,9 +56,13 @@ class _Writer:
         self.buf += _string(text)
 
     def header(self, h: Any) -> None:
+        self.stamped(h.stamp.sec, h.stamp.nanosec, h.frame_id)
+
+    def stamped(self, sec: int, nanosec: int, frame_id: str) -> None:
+        """A std_msgs/Header from its stamp and frame."""
         self.align(4)
-        self.buf += _I32_U32.pack(h.stamp.sec, h.stamp.nanosec)
-        self.buf += _string(h.frame_id)
+        self.buf += _I32_U32.pack(sec, nanosec)
+        self.buf += _string(frame_id)
 
     def f64s(self, packer: struct.Struct, *values: float) -> None:
         self.align(8)
@@ -106,12 +110,9 @@ def stamped_head(sec: int, nanosec: int, frame_id: str, *texts: str) -> bytes:
     return HEADER + _I32_U32.pack(sec, nanosec) + _names((frame_id, *texts), 0)
 
 
-def _f64_bytes(values: Any) -> bytes:
+def f64_bytes(values: Any) -> bytes:
     """A fixed-size float64 array at an offset aligned to 8 (no count)."""
     return np.ascontiguousarray(values, dtype="<f8").tobytes()
-
-
-f64_bytes = _f64_bytes
 
 
 def _odometry(m: Any) -> bytes:
@@ -120,7 +121,7 @@ def _odometry(m: Any) -> bytes:
     v, w = tw.twist.linear, tw.twist.angular
     return odometry(
         _stamped(m.header, m.child_frame_id), (p.x, p.y, p.z, q.x, q.y, q.z, q.w),
-        _f64_bytes(pose.covariance), (v.x, v.y, v.z, w.x, w.y, w.z), _f64_bytes(tw.covariance),
+        f64_bytes(pose.covariance), (v.x, v.y, v.z, w.x, w.y, w.z), f64_bytes(tw.covariance),
     )  # fmt: skip
 
 
@@ -138,9 +139,9 @@ def odometry(
 def _imu(m: Any) -> bytes:
     q, a, f = m.orientation, m.angular_velocity, m.linear_acceleration
     return imu(
-        _stamped(m.header), (q.x, q.y, q.z, q.w), _f64_bytes(m.orientation_covariance),
-        (a.x, a.y, a.z), _f64_bytes(m.angular_velocity_covariance), (f.x, f.y, f.z),
-        _f64_bytes(m.linear_acceleration_covariance),
+        _stamped(m.header), (q.x, q.y, q.z, q.w), f64_bytes(m.orientation_covariance),
+        (a.x, a.y, a.z), f64_bytes(m.angular_velocity_covariance), (f.x, f.y, f.z),
+        f64_bytes(m.linear_acceleration_covariance),
     )  # fmt: skip
 
 
@@ -175,9 +176,7 @@ def joint_state(
 ) -> bytes:
     """A sensor_msgs/JointState from its stamp (sec, nanosec), frame, names and sequences."""
     w = _Writer()
-    w.align(4)
-    w.buf += _I32_U32.pack(*stamp)
-    w.buf += _string(frame_id)
+    w.stamped(*stamp, frame_id)
     w.u32(len(names))
     for name in names:
         w.string(name)
@@ -188,23 +187,15 @@ def joint_state(
 
 
 def _tf_message(m: Any) -> bytes:
-    return tf_message(
-        [
-            (
-                (t.header.stamp.sec, t.header.stamp.nanosec), t.header.frame_id,
-                t.child_frame_id, (t.transform.translation.x, t.transform.translation.y,
-                                   t.transform.translation.z, t.transform.rotation.x,
-                                   t.transform.rotation.y, t.transform.rotation.z,
-                                   t.transform.rotation.w),
-            )
-            for t in m.transforms
-        ]
-    )  # fmt: skip
+    items = []
+    for t in m.transforms:
+        h, v, q = t.header, t.transform.translation, t.transform.rotation
+        pose = (v.x, v.y, v.z, q.x, q.y, q.z, q.w)
+        items.append(((h.stamp.sec, h.stamp.nanosec), h.frame_id, t.child_frame_id, pose))
+    return tf_message(items)
 
 
-def tf_message(
-    transforms: Any,
-) -> bytes:
+def tf_message(transforms: Any) -> bytes:
     """A tf2_msgs/TFMessage from its transforms, each ((sec, nanosec), parent, child, (x, y, z,
     qx, qy, qz, qw))."""
     parts = [HEADER, _U32.pack(len(transforms))]

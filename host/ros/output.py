@@ -107,13 +107,7 @@ class RosOutput(CoreListener):
         self._next_diagnostics_s: float | None = None
         self._mission: Mission | None = None  # the last frame's mission
         self._nav: NavigateMission | None = None  # its navigation (navigation_of)
-        self._pack: FramePacker | None = None
-
-    def _packer(self) -> FramePacker:
-        """The frame messages' packer, of the present builder."""
-        if self._pack is None or self._pack.builder is not self.builder:
-            self._pack = FramePacker(self.builder)
-        return self._pack
+        self.pack = FramePacker(builder)  # the frame's messages, packed with its names
 
     def send(self, key: str, t_s: float, msg: Any) -> None:
         """Hand one message to every sink."""
@@ -131,7 +125,7 @@ class RosOutput(CoreListener):
 
     def on_command(self, v_m_s: float, w_rad_s: float, host_time_ns: int) -> None:
         # taken at the frame that applies it: stamped with the last frame's time
-        self.send("cmd_vel", self._t_s, self._packer().twist(self._t_s, v_m_s, w_rad_s))
+        self.send("cmd_vel", self._t_s, self.pack.twist(self._t_s, v_m_s, w_rad_s))
 
     def on_result(self, result: FrameResult) -> None:
         b, t_s, odo, t = self.builder, result.t_s, result.odometry, result.telemetry
@@ -149,7 +143,7 @@ class RosOutput(CoreListener):
             elif key == "initialpose":
                 x, y, yaw, frame, cov = value
                 self.send(key, t_s, b.initial_pose(t_s, x, y, yaw, cov, frame or "map"))
-        pack = self._packer()
+        pack = self.pack
         for raw in self._pending:
             self.send("telemetry", t_s, pack.raw_frame(raw))
         self._pending.clear()
@@ -170,7 +164,7 @@ class RosOutput(CoreListener):
             return
         b = self.builder
         self._static(t_s)
-        pack = self._packer()
+        pack = self.pack
         self.send("filtered", t_s, pack.filtered(t_s, state))
         if b.settings.publish_tf and b.settings.tf_source == "filtered":
             self.send("tf", t_s, pack.odom_tf(t_s, state.x_m, state.y_m, state.yaw_rad))
@@ -250,7 +244,7 @@ class RosOutput(CoreListener):
             self._local_plan(t_s, nav.navigator.published_local_plan, corr)
         if b.settings.publish_tf:
             odom, xyz = b.settings.odom_frame, (corr.x, corr.y, 0.0)
-            self.send("tf", t_s, self._packer().transform(t_s, "map", odom, xyz, corr.yaw))
+            self.send("tf", t_s, self.pack.transform(t_s, "map", odom, xyz, corr.yaw))
         mapping = nav.mapper is not None
         due = self._map_sent_s is None or (mapping and t_s - self._map_sent_s >= MAP_PERIOD_S)
         grid = nav.built_map() if mapping else nav.static_map

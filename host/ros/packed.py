@@ -119,7 +119,7 @@ class FramePacker:
         return ns, (sec, nanosec)
 
     def _odometry(
-        self, ns: int, stamp: tuple[int, int], pose: tuple[float, float, float],
+        self, stamp: tuple[int, int], pose: tuple[float, float, float],
         twist: tuple[float, float, float], covariances: tuple[bytes, bytes],
     ) -> bytes:  # fmt: skip
         s = self.builder.settings
@@ -134,7 +134,7 @@ class FramePacker:
         """/wheel/odom (:meth:`MessageBuilder.wheel_odom`)."""
         ns, stamp = self._stamp(t_s)
         data = self._odometry(
-            ns, stamp, (float(odo.x_m), float(odo.y_m), float(odo.yaw_rad)),
+            stamp, (float(odo.x_m), float(odo.y_m), float(odo.yaw_rad)),
             (float(odo.v_m_s), 0.0, float(odo.w_rad_s)),
             (self._odom_pose_cov, self._odom_twist_cov),
         )  # fmt: skip
@@ -149,7 +149,7 @@ class FramePacker:
             cdr.f64_bytes(planar_covariance(d[3], d[4], 0.0, 0.0, 0.0, d[5])),
         )
         data = self._odometry(
-            ns, stamp, (float(state.x_m), float(state.y_m), float(state.yaw_rad)),
+            stamp, (float(state.x_m), float(state.y_m), float(state.yaw_rad)),
             (float(state.vx_m_s), float(state.vy_m_s), float(state.vyaw_rad_s)), covariances,
         )  # fmt: skip
         return Packed(ODOMETRY, data, self._made(ns, "filtered", t_s, state))

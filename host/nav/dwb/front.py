@@ -49,6 +49,8 @@ class FrontLayout:
         The bounds it was made for.
     forward_m : tuple of float
         The distinct forward point distances the align critics read [m].
+    forward : ndarray, shape (F,)
+        The same, as the compiled call reads them.
     params : ndarray, shape (11,)
         The window's and the roll-outs' parameters, in the compiled call's order.
     counts : tuple of int
@@ -64,6 +66,7 @@ class FrontLayout:
 
     kinematics: Kinematics
     forward_m: tuple[float, ...]
+    forward: FloatArray
     params: FloatArray
     counts: tuple[int, int, int]
     capacity: npt.NDArray[np.int64]
@@ -122,7 +125,8 @@ class FrontLayout:
         )  # fmt: skip
         floats, indices, flags = (_offsets(names, sizes) for names in (_FLOATS, _INDICES, _FLAGS))
         return cls(
-            kinematics, forward, params, (c.vx_samples, c.vtheta_samples, _CULL_STEPS),
+            kinematics, forward, np.array(forward, np.float64), params,
+            (c.vx_samples, c.vtheta_samples, _CULL_STEPS),
             np.array((m, n_v, n_w, n_k), np.int64), floats, indices, flags,
             np.array((*floats[:-1], *indices[:-1], *flags[:-1]), np.int64),
         )  # fmt: skip
@@ -170,7 +174,6 @@ def front(
     b = np.empty(bo[-1], np.uint8)
     state = np.array((velocity[0], velocity[1], pose.x, pose.y, pose.yaw), np.float64)
     grid = np.array((g.origin_x_m, g.origin_y_m, g.resolution_m), np.float64)
-    forward = np.array(layout.forward_m, np.float64)
     sizes = np.zeros(5, np.int64)
     address = native.address
     at = address(layout.offsets)
@@ -179,8 +182,8 @@ def front(
     vx, vth, stride = layout.counts
     failed = lib.jackson_dwb_front(
         address(layout.params), vx, vth, stride, address(state), address(grid), g.rows, g.cols,
-        forward.size, address(forward), address(layout.capacity), address(sizes), address(f),
-        at, address(n), at_i, address(b), at_b,
+        layout.forward.size, address(layout.forward), address(layout.capacity), address(sizes),
+        address(f), at, address(n), at_i, address(b), at_b,
     )  # fmt: skip
     if failed:
         return None
@@ -206,10 +209,9 @@ def front(
         x_c[-1], y_c[-1], f[fo[9] : fo[9] + m], f[fo[10] : fo[10] + m], f[fo[11] : fo[11] + m],
         n[io[2] : io[2] + m], flags[bo[0] : bo[0] + m], costmap,
     )  # fmt: skip
-    for j, d in enumerate(layout.forward_m):
-        at = j * m
+    for j, d in enumerate(layout.forward_m):  # distance j's m cells
         batch._forward[d] = (
-            n[io[3] + at : io[3] + at + m],
-            flags[bo[1] + at : bo[1] + at + m],
+            n[io[3] + j * m : io[3] + (j + 1) * m],
+            flags[bo[1] + j * m : bo[1] + (j + 1) * m],
         )
     return ro, batch

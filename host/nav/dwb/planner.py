@@ -232,6 +232,7 @@ class DwbPlanner:
         if made is None:
             v, w, v_brake = self.samples(v0, w0)
             ro = self.rollouts(pose, (v0, w0), v, w)
+            batch = Batch.of(v, w, v_brake, ro, costmap)
         else:
             ro, batch = made
             v, w = batch.v_m_s, batch.w_rad_s
@@ -243,8 +244,6 @@ class DwbPlanner:
         if unprepared:
             reason = NO_PATH if context.plan is None else "not prepared: " + ", ".join(unprepared)
             return Command(0.0, 0.0, np.empty((0, 3)), valid=False, samples=m, reason=reason)
-        if made is None:
-            batch = Batch.of(v, w, v_brake, ro, costmap)
         deferred = self._deferred if self.config.short_circuit_trajectory_evaluation else {}
         scored: list[tuple[FloatArray, BoolArray | None]] = [
             (deferred[i].raw_scores(batch), None) if i in deferred else critic.score(batch)
@@ -331,8 +330,8 @@ class DwbPlanner:
 
     def _plan_cells(self, pose: Pose2D, path: npt.ArrayLike, costmap: Costmap) -> PlanCells | None:
         """The global path's cells in the window
-        (:func:`~jackson.host.nav.dwb.core.path.plan_cells`), kept while the costmap and the slice
-        of the path stay the same."""
+        (:func:`~jackson.host.nav.dwb.core.path.plan_cells`): compiled, made each cycle; with
+        numpy, kept while the costmap and the slice of the path stay the same."""
         full = np.asarray(path, np.float64).reshape(-1, 2)
         if len(full) == 0:
             return None

@@ -67,6 +67,17 @@ def test_a_grid_geometry_places_cells_as_the_grids_do() -> None:
             assert g.padded_index(px, py) == g.padded_index(np.array([px]), np.array([py]))[0]
     for px, py in ((-0.0, 0.0), (math.inf, -math.inf), (1e300, -1e300)):
         assert g.padded_index(px, py) == g.padded_index(np.array([px]), np.array([py]))[0]
+    # and a point's cell, a cell's centre: numpy's scalars, of the same values
+    for px, py in [*points, (-0.0, 0.0)]:
+        one = g.world_to_cell(px, py)
+        many = g.world_to_cell(np.array([px]), np.array([py]))
+        assert [type(v) for v in one] == [np.int_, np.int_]
+        assert (int(one[0]), int(one[1])) == (int(many[0][0]), int(many[1][0]))
+    for r, c in ((0, 0), (-3, 57), (np.int64(12), np.int64(-1)), (2**40, 7)):
+        one_xy = g.cell_to_world(r, c)
+        many_xy = g.cell_to_world(np.array([r]), np.array([c]))
+        assert [type(v) for v in one_xy] == [np.float64, np.float64]
+        assert one_xy[0] == many_xy[0][0] and one_xy[1] == many_xy[1][0]
     # a rolling window moves by whole cells and stays on the map frame's cells
     w = GridGeometry.centred(0.33, -0.21, 60, 0.05)
     assert (w.origin_x_m, w.origin_y_m) == (

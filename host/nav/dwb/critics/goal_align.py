@@ -66,19 +66,16 @@ class GoalAlignCritic(GoalDistCritic):
         rows, cols = super().target_cells(context, plan)
         ar, ac = int(rows[-1]), int(cols[-1])
         if plan.reaches_end:
-            g, pose, goal = context.costmap.geometry, context.pose, context.goal
+            costmap, pose, goal = context.costmap, context.pose, context.goal
             heading = math.atan2(goal.y - pose.y, goal.x - pose.x)
             fpd = self.config.goal_align_forward_point_distance_m
-            # the cell's centre and the pushed point's cell, as cell_to_world and
-            # world_to_cell compute them, in plain floats
-            tx = g.origin_x_m + (ac + 0.5) * g.resolution_m
-            ty = g.origin_y_m + (ar + 0.5) * g.resolution_m
-            sx = (tx + fpd * math.cos(heading) - g.origin_x_m) / g.resolution_m
-            sy = (ty + fpd * math.sin(heading) - g.origin_y_m) / g.resolution_m
-            if math.isfinite(sx) and math.isfinite(sy):
-                sr, sc = math.floor(sy), math.floor(sx)
-                if 0 <= sr < g.rows and 0 <= sc < g.cols:
-                    ar, ac = sr, sc
+            tx, ty = costmap.cell_to_world(ar, ac)
+            sr, sc = costmap.world_to_cell(
+                float(tx) + fpd * math.cos(heading), float(ty) + fpd * math.sin(heading)
+            )
+            n_rows, n_cols = costmap.shape
+            if 0 <= sr < n_rows and 0 <= sc < n_cols:
+                ar, ac = int(sr), int(sc)
         return np.array([ar], np.intp), np.array([ac], np.intp)
 
     def scored_cells(self, batch: Batch) -> tuple[IntArray, BoolArray]:
