@@ -131,6 +131,12 @@ class LikelihoodField(GridCells):
         return cls(distance, grid.resolution_m, grid.origin_x_m, grid.origin_y_m, max_distance_m)
 
     @property
+    def padded_distance_m(self) -> FloatArray:
+        """The distances with one border cell of ``max_distance_m`` on every side, read-only:
+        what a lookup reads (the grid's cell (0, 0) is its (1, 1))."""
+        return self._padded
+
+    @property
     def height(self) -> int:
         """Rows."""
         return int(self.distance_m.shape[0])

@@ -121,6 +121,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         discs = lib.jackson_obstacle_discs
         classes = lib.jackson_obstacle_classes
         escape = lib.jackson_escape
+        weigh = lib.jackson_amcl_weigh
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -172,6 +173,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     classes.argtypes = [_N, _N, _N, _P, _N, _P, _P, _P, ctypes.c_uint8, _D, _D, _P]
     escape.restype = None
     escape.argtypes = [_N, _P, _D, _D, _D, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P, _P]
+    weigh.restype = None
+    weigh.argtypes = [_N, _P, _P, _P, _N, _P, _P, _N, _N, _P, _P]
     combine.restype = None
     combine.argtypes = [_N, _N, _P, _P, _D, _D, _P, _N, _P, _P, _P, _P, _P, _P, _P]
     return lib

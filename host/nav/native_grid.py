@@ -1,8 +1,9 @@
-"""The costmap's and DWB's grid loops compiled (``host/nav/native/collide.cpp``): a scan's update
-of the obstacle layer, the footprint checker's discs and classes, the path's cells in the window
-and the chosen roll-out's poses, each one call with numpy's operations in numpy's order (the
-library and its loading: :mod:`jackson.host.nav.native`; docs/compiled.md). The callers take
-their numpy path when :data:`jackson.host.nav.native.LIB` is None.
+"""The costmap's, DWB's and AMCL's grid loops compiled (``host/nav/native/collide.cpp``): a scan's
+update of the obstacle layer, the footprint checker's discs and classes, the path's cells in the
+window, the chosen roll-out's poses and the particles' likelihoods, each one call with numpy's
+operations in numpy's order (the library and its loading: :mod:`jackson.host.nav.native`;
+docs/compiled.md). The callers take their numpy path when :data:`jackson.host.nav.native.LIB` is
+None.
 """
 
 from __future__ import annotations
@@ -272,3 +273,55 @@ def obstacle_classes(
         pointer(cost, np.uint8), lethal_cost, bounds_m[0], bounds_m[1], pointer(cls, np.uint8),
     )  # fmt: skip
     return ids, cls
+
+
+def amcl_weigh(
+    particles: FloatArray,
+    cos_yaw: FloatArray,
+    sin_yaw: FloatArray,
+    beams: FloatArray,
+    grid: tuple[float, float, float],
+    cubes: FloatArray,
+) -> FloatArray:
+    """:func:`jackson.host.nav.amcl.sensor_model.likelihood_field_model`, compiled: each
+    particle's beam end points in the map, their cells of the padded field, the cubes of their
+    scores summed (numpy's pairwise order) plus one.
+
+    Parameters
+    ----------
+    particles : ndarray, shape (N, 3)
+        Poses (x [m], y [m], yaw [rad]).
+    cos_yaw, sin_yaw : ndarray, shape (N,) or (N, 1)
+        Their headings' cosines and sines (numpy's).
+    beams : ndarray, shape (B, 2)
+        End points in the base frame [m].
+    grid : tuple of float
+        The field's origin x, origin y [m] and resolution [m].
+    cubes : ndarray, shape (rows + 2, cols + 2)
+        Each padded cell's beam score cubed
+        (:func:`jackson.host.nav.amcl.sensor_model.beam_cubes`).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The likelihoods.
+    """
+    lib = native.LIB
+    assert lib is not None
+    p = np.ascontiguousarray(particles, np.float64)
+    c = np.ascontiguousarray(cos_yaw, np.float64).reshape(-1)
+    s = np.ascontiguousarray(sin_yaw, np.float64).reshape(-1)
+    b = np.ascontiguousarray(beams, np.float64)
+    n = len(p)
+    if p.shape != (n, 3) or c.shape != (n,) or s.shape != (n,) or b.ndim != 2 or b.shape[1] != 2:
+        raise ValueError(f"amcl_weigh: particles {p.shape}, headings {c.shape}, beams {b.shape}")
+    if cubes.ndim != 2 or cubes.dtype != np.float64 or not cubes.flags.c_contiguous:
+        raise ValueError("amcl_weigh: cubes must be a C-contiguous float64 grid")
+    g = np.array((grid[0], grid[1], 1.0 / grid[2]), np.float64)
+    out = np.empty(n, np.float64)
+    rows_p, cols_p = cubes.shape
+    lib.jackson_amcl_weigh(
+        n, pointer(p, F64), pointer(c, F64), pointer(s, F64), len(b), pointer(b, F64),
+        pointer(g, F64), rows_p, cols_p, pointer(cubes, F64), pointer(out, F64),
+    )  # fmt: skip
+    return out

@@ -19,11 +19,16 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.common.geometry import wrap_angle, wrap_angles
+from jackson.host.nav import native
 from jackson.host.nav.amcl.config import AmclConfig, LocalizationError
 from jackson.host.nav.amcl.kld import heaviest_cluster, histogram_bins, kld_sample_count
 from jackson.host.nav.amcl.motion_model import sample_motion_model_odometry
 from jackson.host.nav.amcl.resample import systematic_resample
-from jackson.host.nav.amcl.sensor_model import beam_end_points, likelihood_field_model
+from jackson.host.nav.amcl.sensor_model import (
+    beam_cubes,
+    beam_end_points,
+    likelihood_field_model,
+)
 from jackson.host.nav.grid import FREE, OccupancyGrid
 from jackson.host.nav.likelihood import LikelihoodField
 from jackson.host.nav.types import Pose2D, Scan
@@ -90,6 +95,15 @@ class ParticleFilter:
         self.resamples = 0
         self.motion_updates = 0
         self.injected = 0
+
+    # each padded cell's beam score cubed, made at the first weighing with the compiled library
+    # (not pickled: a snapshot stays the map's size; a filter pickled before it existed has none)
+    _cubes: FloatArray | None = None
+
+    def __getstate__(self) -> dict[str, object]:
+        state = dict(self.__dict__)
+        state.pop("_cubes", None)
+        return state
 
     # ------------------------------------------------------------------ state
 
@@ -241,8 +255,17 @@ class ParticleFilter:
     def _weigh(self, beams: FloatArray) -> None:
         """Multiply the weights by the likelihood field and normalise them."""
         c = self._config
+        if native.LIB is not None and self._cubes is None:
+            self._cubes = beam_cubes(self._field, c.z_hit, c.z_rand, c.sigma_hit, c.laser_max_range)
         likelihood = likelihood_field_model(
-            self._particles, beams, self._field, c.z_hit, c.z_rand, c.sigma_hit, c.laser_max_range
+            self._particles,
+            beams,
+            self._field,
+            c.z_hit,
+            c.z_rand,
+            c.sigma_hit,
+            c.laser_max_range,
+            self._cubes if native.LIB is not None else None,
         )
         weighted = self._weights * likelihood
         total = float(weighted.sum())

@@ -12,7 +12,10 @@ Nav2's ``LikelihoodFieldModel`` (Probabilistic Robotics, Table 6.3), in three st
    ``p = z_hit exp(-d^2 / 2 sigma_hit^2) + z_rand / laser_max_range`` and a particle's beams
    combine as AMCL combines them, ``1 + sum p^3``.
 
-All particles and beams are handled at once, as (particles, beams) arrays.
+All particles and beams are handled at once, as (particles, beams) arrays. With the compiled
+library (:mod:`jackson.host.nav.native`) steps 2 and 3 are one call over a table made once per
+map, each padded cell's score cubed (:func:`beam_cubes`, numpy's ``exp``): the same likelihoods
+bit for bit, since a beam's score depends on its cell alone.
 """
 
 from __future__ import annotations
@@ -20,7 +23,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from jackson.host.nav import native
 from jackson.host.nav.likelihood import LikelihoodField
+from jackson.host.nav.native_grid import amcl_weigh
 from jackson.host.nav.types import Pose2D, Scan
 
 FloatArray = npt.NDArray[np.float64]
@@ -72,6 +77,7 @@ def likelihood_field_model(
     z_rand: float,
     sigma_hit_m: float,
     max_range_m: float,
+    cubes: FloatArray | None = None,
 ) -> FloatArray:
     """Measurement likelihood of each particle: its beams' end points on the likelihood field.
 
@@ -94,6 +100,9 @@ def likelihood_field_model(
         Standard deviation of the hit part [m].
     max_range_m : float
         Range of the uniform part [m].
+    cubes : ndarray or None
+        :func:`beam_cubes` of these parameters: with the compiled library, the likelihoods are
+        summed from it in one call (the same numbers); None: numpy.
 
     Returns
     -------
@@ -102,6 +111,9 @@ def likelihood_field_model(
     """
     x, y, yaw = particles[:, 0:1], particles[:, 1:2], particles[:, 2:3]
     cos, sin = np.cos(yaw), np.sin(yaw)
+    if cubes is not None and native.LIB is not None:
+        grid = (field.origin_x_m, field.origin_y_m, field.resolution_m)
+        return amcl_weigh(particles, cos, sin, beams, grid, cubes)
     bx, by = beams[:, 0], beams[:, 1]
     distances = field.distance_xy(x + cos * bx - sin * by, y + sin * bx + cos * by)
     return likelihood_field_weights(distances, z_hit, z_rand, sigma_hit_m, max_range_m)
@@ -149,3 +161,24 @@ def likelihood_field_weights(
     p *= z_hit
     p += z_rand / max_range_m
     return np.asarray(1.0 + np.sum(p * p * p, axis=1), np.float64)
+
+
+def beam_cubes(
+    field: LikelihoodField, z_hit: float, z_rand: float, sigma_hit_m: float, max_range_m: float
+) -> FloatArray:
+    """Each cell of the padded field's beam score cubed, ``p^3`` of
+    :func:`likelihood_field_weights` (the same operations, elementwise), read-only: what a
+    beam ending in that cell adds to a particle's likelihood.
+
+    Returns
+    -------
+    ndarray of float, shape (rows + 2, cols + 2)
+    """
+    p = np.square(field.padded_distance_m)
+    p *= -0.5 / (sigma_hit_m * sigma_hit_m)
+    np.exp(p, out=p)
+    p *= z_hit
+    p += z_rand / max_range_m
+    cubes = np.ascontiguousarray(p * p * p)
+    cubes.flags.writeable = False
+    return cubes

@@ -1119,4 +1119,63 @@ void jackson_escape(std::int64_t m, const double* margin, double x, double y, do
   }
 }
 
+
+// numpy's pairwise summation of n doubles (its add reduction along a contiguous axis:
+// eight accumulators over blocks of up to 128, halves split on a multiple of 8 above).
+static double pairwise_sum(const double* a, std::int64_t n) {
+  if (n < 8) {
+    double res = 0.0;
+    for (std::int64_t i = 0; i < n; ++i) res += a[i];
+    return res;
+  }
+  if (n <= 128) {
+    double r[8];
+    for (int j = 0; j < 8; ++j) r[j] = a[j];
+    std::int64_t i = 8;
+    for (; i < n - (n % 8); i += 8)
+      for (int j = 0; j < 8; ++j) r[j] += a[i + j];
+    double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+    for (; i < n; ++i) res += a[i];
+    return res;
+  }
+  std::int64_t n2 = n / 2;
+  n2 -= n2 % 8;
+  return pairwise_sum(a, n2) + pairwise_sum(a + n2, n - n2);
+}
+
+// likelihood_field_model (host/nav/amcl/sensor_model.py) with its beams' scores cubed per cell
+// of the padded field beforehand (cubes, numpy's exp): each of n particles' b beam end points
+// carried into the map (cos and sin of its heading numpy's), its padded cell
+// (LikelihoodField.distance_xy), the cubes summed in numpy's pairwise order, plus one.
+// grid: origin x, origin y, 1 / resolution.
+void jackson_amcl_weigh(std::int64_t n, const double* particles, const double* cos_yaw,
+                        const double* sin_yaw, std::int64_t b, const double* beams,
+                        const double* grid, std::int64_t rows_p, std::int64_t cols_p,
+                        const double* cubes, double* likelihood) {
+  std::vector<double> q(static_cast<std::size_t>(b));
+  const double top_col = static_cast<double>(cols_p) - 2.0;
+  const double top_row = static_cast<double>(rows_p) - 2.0;
+  const double cols_d = static_cast<double>(cols_p);
+  const double shift = cols_d + 1.0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double x = particles[3 * i], y = particles[3 * i + 1];
+    const double c = cos_yaw[i], s = sin_yaw[i];
+    for (std::int64_t j = 0; j < b; ++j) {
+      const double bx = beams[2 * j], by = beams[2 * j + 1];
+      const double mx = (x + c * bx) - s * by;
+      const double my = (y + s * bx) + c * by;
+      // np.fmax(np.fmin(v, top), -1.0): NaN reads top, then a number; the sign of a zero
+      // cannot change the index
+      double col = std::floor((mx - grid[0]) * grid[2]);
+      col = col < top_col ? col : top_col;
+      col = col > -1.0 ? col : -1.0;
+      double row = std::floor((my - grid[1]) * grid[2]);
+      row = row < top_row ? row : top_row;
+      row = row > -1.0 ? row : -1.0;
+      q[static_cast<std::size_t>(j)] = cubes[static_cast<std::int64_t>((row * cols_d + col) + shift)];
+    }
+    likelihood[i] = 1.0 + pairwise_sum(q.data(), b);
+  }
+}
+
 }  // extern "C"
