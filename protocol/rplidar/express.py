@@ -210,6 +210,13 @@ def varbitscale_decode(code: npt.ArrayLike) -> tuple[I64Array, I64Array]:
     2048, 4096 and 16384 mm (codes 512, 1280, 1792, 3328): the largest, 4095, is 28656 mm.
     """
     c = np.asarray(code, dtype=np.int64)
+    if c.size and 0 <= c.min() and c.max() <= VBS_CODE_MAX:  # a 12-bit code: the tables
+        return _VBS_DISTANCE_MM[c], _VBS_LEVEL[c]
+    return _varbitscale_levels(c)
+
+
+def _varbitscale_levels(c: I64Array) -> tuple[I64Array, I64Array]:
+    """:func:`varbitscale_decode` level by level (any integers; the tables are made with it)."""
     distance = c.copy()
     level = np.zeros_like(c)
     done = np.zeros(c.shape, dtype=bool)
@@ -219,6 +226,10 @@ def varbitscale_decode(code: npt.ArrayLike) -> tuple[I64Array, I64Array]:
         level[here] = lvl
         done |= here
     return distance, level
+
+
+# every 12-bit code's distance [mm] and level, looked up instead of computed per capsule
+_VBS_DISTANCE_MM, _VBS_LEVEL = _varbitscale_levels(np.arange(VBS_CODE_MAX + 1, dtype=np.int64))
 
 
 def varbitscale_encode(distance_mm: npt.ArrayLike) -> I64Array:
@@ -457,7 +468,7 @@ class CapsuleDecoder:
         buf += data
         n = self.format.capsule_bytes
         pairs: list[tuple[bytes, bytes]] = []  # (capsule, the one that completes it)
-        pos, end = 0, len(buf)
+        pos, end = self._whole_capsules(pairs), len(buf)
         while pos < end:
             if buf[pos] >> 4 != CAPSULE_SYNC_1 or (
                 end - pos > 1 and buf[pos + 1] >> 4 != CAPSULE_SYNC_2
@@ -482,6 +493,37 @@ class CapsuleDecoder:
             self._held = capsule
         del buf[:pos]
         return self._decode(pairs) if pairs else SampleBatch.concat([])
+
+    def _whole_capsules(self, pairs: list[tuple[bytes, bytes]]) -> int:
+        """The capsules at the head of the buffer whose sync nibbles and checksums are good,
+        checked all at once and taken as :meth:`feed`'s loop takes them one by one (a stream
+        without garbage is nothing else); the bytes they fill (where the loop goes on)."""
+        buf = self._buf
+        n = self.format.capsule_bytes
+        k = len(buf) // n
+        if k == 0:
+            return 0
+        rows = np.frombuffer(buf, dtype=np.uint8, count=k * n).reshape(k, n)
+        good = (
+            ((rows[:, 0] >> 4) == CAPSULE_SYNC_1)
+            & ((rows[:, 1] >> 4) == CAPSULE_SYNC_2)
+            & (
+                np.bitwise_xor.reduce(rows[:, 2:], axis=1)
+                == (rows[:, 0] & 0xF) | ((rows[:, 1] & 0xF) << 4)
+            )
+        )
+        taken = k if good.all() else int(np.argmin(good))
+        del rows  # the buffer is resized below: no view of it may remain
+        for i in range(taken):
+            capsule = bytes(buf[i * n : (i + 1) * n])
+            self.capsules += 1
+            if (capsule[2] | (capsule[3] << 8)) & CAPSULE_START_BIT:
+                self.starts += 1
+                self._held = None
+            if self._held is not None:
+                pairs.append((self._held, capsule))
+            self._held = capsule
+        return taken * n
 
     def _decode(self, pairs: list[tuple[bytes, bytes]]) -> SampleBatch:
         """The samples of capsules, each with the capsule that followed it: all at once, one
