@@ -190,7 +190,10 @@ class RunRecorder:
             self.record(KIND_LIDAR, host_time_ns, data[pos : pos + MAX_PAYLOAD])
 
     def row(self, writer: Any, values: tuple[Any, ...]) -> None:
-        writer.writerow(_fmt(values))
+        # the csv module writes a float as its repr and anything else but None as its str:
+        # _fmt's text without a list made per row (a numpy float64 as a plain number, where
+        # _fmt's repr would name its type); None is written "None", as before
+        writer.writerow(values if None not in values else _fmt(values))
 
     def frame_done(self, t_s: float) -> None:
         """Every row of the telemetry frame of MCU time ``t_s`` is written: flush all files
