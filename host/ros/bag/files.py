@@ -9,12 +9,12 @@ from pathlib import Path
 from typing import BinaryIO
 
 from mcap.writer import CompressionType
-from mcap.writer import Writer as McapFileWriter
 
 from jackson.host.ros.bag.chunk_index import ChunkIndexFile
 from jackson.host.ros.bag.errors import BagError
 from jackson.host.ros.bag.metadata import BagFile
 from jackson.host.ros.bag.topics import BagTopic
+from jackson.host.ros.bag.writer import BagWriter
 
 COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -77,7 +77,7 @@ class McapFiles:
         file = self.folder / f"{self.folder.name}_{len(self.paths)}.mcap"
         try:
             self.file = file.open("xb")
-            self.writer = McapFileWriter(self.file, compression=self.compression)
+            self.writer = BagWriter(self.file, compression=self.compression)
             self.writer.start(profile="ros2", library="jackson")
             schema_ids: dict[str, int] = {}
             self._channels: dict[str, int] = {}
