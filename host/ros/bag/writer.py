@@ -24,6 +24,10 @@ from mcap.writer import Writer as McapFileWriter
 # a Message record's opcode, length and fixed fields: channel id, sequence, log and publish time
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")
 _MESSAGE_FIXED = 2 + 4 + 8 + 8  # the fixed fields' bytes, counted in the record's length
+# mcap 1.6's private state the append reads (name-mangled attributes of its Writer)
+_STATISTICS = "_Writer__statistics"
+_CHUNK_BUILDER = "_Writer__chunk_builder"
+_FINALIZE = "_Writer__maybe_finalize_chunk"
 
 
 class BagWriter(McapFileWriter):
@@ -31,14 +35,7 @@ class BagWriter(McapFileWriter):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self._lean = all(
-            hasattr(self, name)
-            for name in (
-                "_Writer__statistics",
-                "_Writer__chunk_builder",
-                "_Writer__maybe_finalize_chunk",
-            )
-        )
+        self._lean = all(hasattr(self, name) for name in (_STATISTICS, _CHUNK_BUILDER, _FINALIZE))
 
     def add_message(
         self,
@@ -49,11 +46,11 @@ class BagWriter(McapFileWriter):
         sequence: int = 0,
     ) -> None:
         """``mcap``'s ``Writer.add_message``, the same bytes (module docstring)."""
-        chunk = self._Writer__chunk_builder if self._lean else None
+        chunk = getattr(self, _CHUNK_BUILDER) if self._lean else None
         if not chunk:
             super().add_message(channel_id, log_time, data, publish_time, sequence)
             return
-        stats = self._Writer__statistics
+        stats = getattr(self, _STATISTICS)
         if stats.message_count == 0:
             stats.message_start_time = log_time
         else:
@@ -76,4 +73,4 @@ class BagWriter(McapFileWriter):
         fixed = (channel_id, sequence, log_time, publish_time)
         buffer.write(_MESSAGE_HEAD.pack(Opcode.MESSAGE, _MESSAGE_FIXED + len(data), *fixed))
         buffer.write(data)
-        self._Writer__maybe_finalize_chunk()
+        getattr(self, _FINALIZE)()
