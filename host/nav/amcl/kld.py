@@ -91,11 +91,16 @@ def kld_sample_count(
     span = bins.max(axis=0) + 1
     codes = (bins[:, 0] * span[1] + bins[:, 1]) * yaw_bins + bins[:, 2]
     _, first = np.unique(codes, return_index=True)
-    taken = np.arange(1, m + 1)
-    bins_so_far = np.searchsorted(np.sort(first), taken, side="left")
-    need = kld_particle_limit(bins_so_far, pf_err, pf_z, min_particles, m)
-    enough = np.flatnonzero(taken >= need)
-    return int(taken[enough[0]]) if len(enough) else m
+    # the prefixes of n draws with k bins filled are those with f[k-1] < n <= f[k] (f the
+    # sorted draws where each bin is first filled, f[0] = 0): the first of them that needs no
+    # more draws is max(f[k-1] + 1, need(k)), when still in that range. The bounds are
+    # searched per bin count, not per prefix: a converged cloud fills a handful of bins.
+    starts = np.sort(first) + 1  # the shortest prefix with k bins, k = 1, 2, ...
+    ends = np.append(starts[1:] - 1, m)  # the longest
+    need = kld_particle_limit(np.arange(1, len(starts) + 1), pf_err, pf_z, min_particles, m)
+    n = np.maximum(starts, need)
+    enough = np.flatnonzero(n <= ends)
+    return int(n[enough[0]]) if len(enough) else m
 
 
 def histogram_bins(
@@ -150,6 +155,13 @@ def heaviest_cluster(bins: IntArray, yaw_bins: int, weights: FloatArray) -> npt.
     iy = bins[:, 1] - bins[:, 1].min()
     per_yaw = np.bincount(bins[:, 2], minlength=yaw_bins)
     empty = np.flatnonzero(per_yaw == 0)
+    if len(empty) and ix.max() <= 1 and iy.max() <= 1:
+        # within 2 x 2 bins of x and y every two bins of neighbouring (or the same) yaw touch,
+        # so occupied yaw bins in one run (the yaw axis cut at an empty one) are one cluster
+        # (a converged cloud: labelling it would find the same)
+        occupied_yaw = np.flatnonzero(np.roll(per_yaw, -int(empty[0])))
+        if occupied_yaw[-1] - occupied_yaw[0] + 1 == len(occupied_yaw):
+            return np.ones(len(bins), np.bool_)
     iyaw = (bins[:, 2] - (empty[0] if len(empty) else 0)) % yaw_bins
     occupied = np.zeros((int(ix.max()) + 1, int(iy.max()) + 1, yaw_bins), bool)
     occupied[ix, iy, iyaw] = True
