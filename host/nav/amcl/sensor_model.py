@@ -112,6 +112,8 @@ def likelihood_field_model(
     x, y, yaw = particles[:, 0:1], particles[:, 1:2], particles[:, 2:3]
     cos, sin = np.cos(yaw), np.sin(yaw)
     if cubes is not None and native.LIB is not None:
+        if cubes.shape != field.padded_distance_m.shape:
+            raise ValueError(f"cubes of {cubes.shape}: not this field's {field.shape} padded")
         grid = (field.origin_x_m, field.origin_y_m, field.resolution_m)
         return amcl_weigh(particles, cos, sin, beams, grid, cubes)
     bx, by = beams[:, 0], beams[:, 1]

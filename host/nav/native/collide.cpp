@@ -1119,7 +1119,6 @@ void jackson_escape(std::int64_t m, const double* margin, double x, double y, do
   }
 }
 
-
 // numpy's pairwise summation of n doubles (its add reduction along a contiguous axis:
 // eight accumulators over blocks of up to 128, halves split on a multiple of 8 above).
 static double pairwise_sum(const double* a, std::int64_t n) {
@@ -1172,7 +1171,8 @@ void jackson_amcl_weigh(std::int64_t n, const double* particles, const double* c
       double row = std::floor((my - grid[1]) * grid[2]);
       row = row < top_row ? row : top_row;
       row = row > -1.0 ? row : -1.0;
-      q[static_cast<std::size_t>(j)] = cubes[static_cast<std::int64_t>((row * cols_d + col) + shift)];
+      const auto cell = static_cast<std::int64_t>((row * cols_d + col) + shift);
+      q[static_cast<std::size_t>(j)] = cubes[cell];
     }
     likelihood[i] = 1.0 + pairwise_sum(q.data(), b);
   }

@@ -8,8 +8,8 @@ writer (chunks, compression, indexes, statistics, summary) and appends a message
 chunk as one packed header and the data, updating the same statistics, chunk bounds and message
 index in the same order: the file is the same byte for byte (``tests/ros/test_bag_writer.py``
 writes the same messages through both). The append reads ``mcap`` 1.6's private state
-(``Writer.__statistics``, ``Writer.__chunk_builder``); a writer without it (another ``mcap``
-version, or chunking off) appends as ``mcap`` does.
+(``Writer.__statistics``, ``Writer.__chunk_builder`` and its record buffer); a writer without
+it (another ``mcap`` version, or chunking off) appends as ``mcap`` does.
 """
 
 from __future__ import annotations
@@ -36,6 +36,9 @@ class BagWriter(McapFileWriter):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._lean = all(hasattr(self, name) for name in (_STATISTICS, _CHUNK_BUILDER, _FINALIZE))
+        chunk = getattr(self, _CHUNK_BUILDER, None)
+        if chunk is not None:  # and its chunk's buffer, written in place
+            self._lean = self._lean and hasattr(getattr(chunk, "record_writer", None), "_buffer")
 
     def add_message(
         self,

@@ -83,6 +83,9 @@ def test_the_call_refuses_arrays_of_the_wrong_shape() -> None:
 
     field = LikelihoodField(np.ones((4, 5)), 0.05, 0.0, 0.0, 2.0)
     cubes = sm.beam_cubes(field, *MODEL)
+    other = sm.beam_cubes(LikelihoodField(np.ones((5, 4)), 0.05, 0.0, 0.0, 2.0), *MODEL)
+    with pytest.raises(ValueError, match="not this field"):
+        sm.likelihood_field_model(np.zeros((2, 3)), np.ones((3, 2)), field, *MODEL, cubes=other)
     with pytest.raises(ValueError, match="amcl_weigh"):
         amcl_weigh(np.zeros((3, 2)), np.ones(3), np.zeros(3), np.zeros((4, 2)), (0, 0, 0.05), cubes)
     with pytest.raises(ValueError, match="amcl_weigh"):
