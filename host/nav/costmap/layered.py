@@ -265,19 +265,40 @@ class Costmap(GridCells):
         sensor_xy : tuple of float
             The sensor's position in the map frame [m].
         """
-        self.obstacles.update(points_xy, sensor_xy, self._geometry)
+        p = np.asarray(points_xy, np.float64).reshape(-1, 2)
+        self.obstacles.update(p, sensor_xy, self._geometry)
         if self._collision_checks:
             self._update_master()
             return
-        # the scan changed cells within reach of the sensor only (rays are cleared up to
-        # raytrace_max_range_m, returns marked up to obstacle_max_range_m)
-        cfg = self.config
-        reach = max(cfg.raytrace_max_range_m, cfg.obstacle_max_range_m) + self.resolution_m
-        (r0, r1), (c0, c1) = self.world_to_cell(
-            [sensor_xy[0] - reach, sensor_xy[0] + reach],
-            [sensor_xy[1] - reach, sensor_xy[1] + reach],
-        )
+        (r0, r1), (c0, c1) = self.world_to_cell(*self._changed_box(p, sensor_xy))
         self._update_window(int(r0), int(r1) + 1, int(c0), int(c1) + 1)
+
+    def _changed_box(
+        self, p: FloatArray, sensor_xy: tuple[float, float]
+    ) -> tuple[list[float], list[float]]:
+        """The x and y bounds [m] of the cells a scan's update of the obstacle layer can
+        change, a cell wider on every side: the sensor and each ray to where it stops (rays
+        are cleared up to raytrace_max_range_m, returns marked up to obstacle_max_range_m), as
+        Nav2's obstacle layer bounds its update. In a corridor that is a strip, not the square
+        of the ranges around the sensor, which the costs are combined and inflated over."""
+        cfg = self.config
+        sx, sy = sensor_xy
+        reach = max(cfg.raytrace_max_range_m, cfg.obstacle_max_range_m)
+        res = self.resolution_m
+        if len(p):
+            dx, dy = p[:, 0] - sx, p[:, 1] - sy
+            f = np.minimum(1.0, reach / np.maximum(np.hypot(dx, dy), 1e-12))
+            dx *= f
+            dy *= f
+            x0, x1 = min(float(dx.min()), 0.0), max(float(dx.max()), 0.0)
+            y0, y1 = min(float(dy.min()), 0.0), max(float(dy.max()), 0.0)
+            if math.isfinite(x0 + x1 + y0 + y1):
+                return [sx + x0 - res, sx + x1 + res], [sy + y0 - res, sy + y1 + res]
+        # no return, or one not finite: the square of the ranges
+        return (
+            [sx - reach - res, sx + reach + res],
+            [sy - reach - res, sy + reach + res],
+        )
 
     def clear_obstacles(
         self, beyond_m: float = 0.0, centre_xy: tuple[float, float] = (0, 0)

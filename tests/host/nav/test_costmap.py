@@ -248,6 +248,42 @@ def test_a_planning_costmap_reinflates_only_around_the_scan_and_gets_the_same_co
         assert np.all(np.isinf(windowed.lethal_distance_m[~near]))
 
 
+@pytest.mark.parametrize("shape", ["corridor", "sector", "far", "off_grid", "one_return"])
+def test_a_scan_reinflates_only_the_box_of_its_rays_and_gets_the_same_costs(shape: str) -> None:
+    """The part re-inflated is the box of the scan's rays (a strip in a corridor, a corner for
+    a sector, the ranges' square for returns beyond them): every cost still equals that of a
+    full re-inflation."""
+    g = OccupancyGrid.empty(20.0, 16.0, RES, origin_x_m=-1.0, origin_y_m=-2.0, fill=-1)
+    g.data[: g.height // 2, :] = 0
+    g.data[::40, :] = 100
+    g.data[:, ::60] = 100
+    cfg = CostmapConfig(track_unknown_space=True)
+    full = Costmap.from_map(g, cfg)
+    windowed = Costmap.from_map(g, cfg, collision_checks=False)
+    rng = np.random.default_rng(len(shape))
+    for _ in range(10):
+        centre = (float(rng.uniform(1.0, 17.0)), float(rng.uniform(0.0, 12.0)))
+        a = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+        r = rng.uniform(0.2, 4.0, a.size)
+        if shape == "corridor":  # walls 0.8 m either side, open ends 6-9 m away
+            r = np.minimum(0.8 / np.maximum(np.abs(np.sin(a)), 1e-3), rng.uniform(6.0, 9.0))
+        elif shape == "sector":
+            a, r = a[(a > 0.3) & (a < 1.2)], r[(a > 0.3) & (a < 1.2)]
+        elif shape == "far":
+            r = rng.uniform(3.5, 12.0, a.size)
+        elif shape == "off_grid":
+            centre = (float(rng.choice([-2.5, 21.0])), float(rng.uniform(-3.0, 15.0)))
+        else:
+            a, r = a[:1], r[:1]
+        points = np.column_stack((centre[0] + r * np.cos(a), centre[1] + r * np.sin(a)))
+        full.update(points, centre)
+        windowed.update(points, centre)
+        assert np.array_equal(windowed.costs, full.costs)
+        near = full.lethal_distance_m <= cfg.inflation_radius_m
+        assert np.array_equal(windowed.lethal_distance_m[near], full.lethal_distance_m[near])
+        assert np.all(np.isinf(windowed.lethal_distance_m[~near]))
+
+
 def test_clearing_beyond_a_range_keeps_the_obstacles_near_the_robot() -> None:
     cm = Costmap.rolling_window(CostmapConfig(), 0.0, 0.0, size_m=10.0)
     cm.update(np.array([[1.0, 0.0], [2.4, 0.0]]), (0.0, 0.0))
