@@ -484,13 +484,7 @@ class CapsuleDecoder:
                 pos += 1
                 continue
             pos += n
-            self.capsules += 1
-            if _U16.unpack_from(capsule, 2)[0] & CAPSULE_START_BIT:
-                self.starts += 1
-                self._held = None
-            if self._held is not None:
-                pairs.append((self._held, capsule))
-            self._held = capsule
+            self._take(capsule, pairs)
         del buf[:pos]
         return self._decode(pairs) if pairs else SampleBatch.concat([])
 
@@ -515,15 +509,18 @@ class CapsuleDecoder:
         taken = k if good.all() else int(np.argmin(good))
         del rows  # the buffer is resized below: no view of it may remain
         for i in range(taken):
-            capsule = bytes(buf[i * n : (i + 1) * n])
-            self.capsules += 1
-            if (capsule[2] | (capsule[3] << 8)) & CAPSULE_START_BIT:
-                self.starts += 1
-                self._held = None
-            if self._held is not None:
-                pairs.append((self._held, capsule))
-            self._held = capsule
+            self._take(bytes(buf[i * n : (i + 1) * n]), pairs)
         return taken * n
+
+    def _take(self, capsule: bytes, pairs: list[tuple[bytes, bytes]]) -> None:
+        """A whole capsule: counted, a start dropping the one held, else completing it."""
+        self.capsules += 1
+        if _U16.unpack_from(capsule, 2)[0] & CAPSULE_START_BIT:
+            self.starts += 1
+            self._held = None
+        if self._held is not None:
+            pairs.append((self._held, capsule))
+        self._held = capsule
 
     def _decode(self, pairs: list[tuple[bytes, bytes]]) -> SampleBatch:
         """The samples of capsules, each with the capsule that followed it: all at once, one

@@ -265,7 +265,7 @@ class ParticleFilter:
             c.z_rand,
             c.sigma_hit,
             c.laser_max_range,
-            self._cubes if native.LIB is not None else None,
+            self._cubes,
         )
         weighted = self._weights * likelihood
         total = float(weighted.sum())
