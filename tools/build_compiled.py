@@ -1,5 +1,6 @@
 """Compile the twin's per-step model, ``sim/physics.py``, with mypyc, the costmap's collision
-tests, ``host/nav/native/collide.cpp`` (:func:`build_nav`), with the C++ compiler, and the
+tests, ``host/nav/native/collide.cpp`` (:func:`build_nav`), and the RPLIDAR's capsule decoding,
+``protocol/native/capsules.cpp`` (:func:`build_protocol`), with the C++ compiler, and the
 firmware core as the twin's MCU (:func:`build_firmware`) with pybind11 (run by ``make setup``).
 
 The build is ``build/compiled/<digest>/jackson_sim_physics<EXT_SUFFIX>``, named by the digest
@@ -165,8 +166,29 @@ def build_nav(force: bool) -> Path | None:
     """
     from jackson.host.nav import native
 
-    source = native.source_path()
-    text, digest, builds, target = _wanted(native, source)
+    return _build_shared(native, force)
+
+
+def build_protocol(force: bool) -> Path | None:
+    """Build the RPLIDAR's compiled capsule decoding (``protocol/native/capsules.cpp``)
+    into ``build/compiled-protocol/<digest>/libjackson_protocol.so`` unless that build exists
+    (loaded with ctypes by :mod:`jackson.protocol.native`), as :func:`build_nav`.
+
+    Raises
+    ------
+    BuildError
+        It cannot be made.
+    """
+    from jackson.protocol import native
+
+    return _build_shared(native, force)
+
+
+def _build_shared(module: Any, force: bool) -> Path | None:
+    """A C++ source compiled into a shared library for ctypes, as ``module`` names and loads
+    it (``source_path``, ``source_digest``, ``builds_dir``, ``build_path``, ``load_library``)."""
+    source = module.source_path()
+    text, digest, builds, target = _wanted(module, source)
     if target.is_file() and not force:
         return None
     cxx = _cxx()
@@ -185,7 +207,7 @@ def build_nav(force: bool) -> Path | None:
         if out.returncode != 0 or not built.is_file():
             raise BuildError(f"{cxx[0]} failed: {_last_error(out.stdout + out.stderr)}")
         try:
-            native.load_library(built)
+            module.load_library(built)
         except OSError as e:
             raise BuildError(f"the build does not load: {e}") from e
         return built
@@ -307,8 +329,8 @@ def main() -> int:
         have interpreted stand-ins; the twin's MCU has none).
     """
     parser = argparse.ArgumentParser(
-        description="Compile sim/physics.py (mypyc), the costmap's collision tests and the "
-        "firmware core as the twin's MCU."
+        description="Compile sim/physics.py (mypyc), the costmap's collision tests, the "
+        "RPLIDAR's capsule decoding and the firmware core as the twin's MCU."
     )
     parser.add_argument("--force", action="store_true", help="rebuild an existing build")
     args = parser.parse_args()
@@ -331,6 +353,18 @@ def main() -> int:
         why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
         print(
             f"setup: compiled collision tests not built, the costmap uses numpy: {why}",
+            file=sys.stderr,
+        )
+    t0 = time.monotonic()
+    try:
+        proto = build_protocol(args.force)
+        if proto is not None:
+            took = time.monotonic() - t0
+            print(f"setup: compiled protocol/native/capsules.cpp ({took:.0f} s)")
+    except Exception as e:  # never break make setup
+        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
+        print(
+            f"setup: compiled capsule decoding not built, the LiDAR's decoder uses numpy: {why}",
             file=sys.stderr,
         )
     t0 = time.monotonic()

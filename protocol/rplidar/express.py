@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from jackson.protocol import native
 from jackson.protocol.errors import EncodeError
 from jackson.protocol.rplidar.conf import _U16
 from jackson.protocol.rplidar.packets import ANGLE_Q6_MAX, BoolArray, DataType, Descriptor, SendMode
@@ -466,6 +467,8 @@ class CapsuleDecoder:
         """
         buf = self._buf
         buf += data
+        if native.LIB is not None and buf:
+            return self._feed_compiled()
         n = self.format.capsule_bytes
         pairs: list[tuple[bytes, bytes]] = []  # (capsule, the one that completes it)
         pos, end = self._whole_capsules(pairs), len(buf)
@@ -487,6 +490,23 @@ class CapsuleDecoder:
             self._take(capsule, pairs)
         del buf[:pos]
         return self._decode(pairs) if pairs else SampleBatch.concat([])
+
+    def _feed_compiled(self) -> SampleBatch:
+        """:meth:`feed` past appending the chunk, in one compiled call
+        (:func:`jackson.protocol.native.capsules_feed`): the same samples, counts and
+        held capsule."""
+        fmt = self.format
+        fed = native.capsules_feed(
+            fmt.answer_type, fmt.capsule_bytes, fmt.samples, bytes(self._buf), self._held,
+            self._last_sync,
+        )  # fmt: skip
+        del self._buf[: fed.consumed]
+        self.capsules += fed.capsules
+        self.starts += fed.starts
+        self.malformed_bytes += fed.malformed
+        self._held = fed.held
+        self._last_sync = fed.last_sync
+        return SampleBatch(fed.start, fed.angle_q6, fed.distance_q2)
 
     def _whole_capsules(self, pairs: list[tuple[bytes, bytes]]) -> int:
         """The capsules at the head of the buffer whose sync nibbles and checksums are good,

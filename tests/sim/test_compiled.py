@@ -177,7 +177,8 @@ def test_module_says_which_model_runs() -> None:
 def test_a_build_that_cannot_be_made_is_one_line_and_only_the_firmware_core_stops_setup(
     tmp_path: Path,
 ) -> None:
-    # the physics and the collision tests have interpreted stand-ins; the twin's MCU has none
+    # the physics, collision tests and capsule decoding have interpreted stand-ins; the twin's
+    # MCU has none
     out = subprocess.run(
         [sys.executable, str(ROOT / "tools" / "build_compiled.py"), "--force"],
         capture_output=True,
@@ -190,6 +191,8 @@ def test_a_build_that_cannot_be_made_is_one_line_and_only_the_firmware_core_stop
         "setup: compiled physics not built, the twin runs interpreted: "
         f"no C compiler ({tmp_path / 'no-such-cc'} not found)\n"
         "setup: compiled collision tests not built, the costmap uses numpy: "
+        f"no C++ compiler ({tmp_path / 'no-c++'} not found)\n"
+        "setup: compiled capsule decoding not built, the LiDAR's decoder uses numpy: "
         f"no C++ compiler ({tmp_path / 'no-c++'} not found)\n"
         "setup: the firmware core (the twin's MCU) cannot be built: "
         f"no C++ compiler ({tmp_path / 'no-c++'} not found)\n"

@@ -1,0 +1,194 @@
+"""EXPRESS_SCAN capsule decoding compiled (``protocol/native/capsules.cpp``), used when
+current.
+
+:class:`~jackson.protocol.rplidar.CapsuleDecoder` turns the capsules of an RPLIDAR's stream
+into samples with numpy, some forty array operations per chunk, which a navigating daemon
+paid on every revolution. ``make setup`` compiles the same walk over the bytes and the same
+fixed-point arithmetic (Slamtec's SDK's) with the system's C++ compiler
+(``tools/build_compiled.py``, ``-ffp-contract=off``) into
+``build/compiled-protocol/<digest>/libjackson_protocol.so``, named by the digest of the source,
+and this module loads it with :mod:`ctypes` only while the source still has that digest. The
+samples, counts and held capsule are the interpreted decoder's bit for bit
+(``tests/protocol/test_rplidar_native.py``). Without a build, or with
+``JACKSON_PROTOCOL_INTERPRETED=1``, the decoder uses numpy.
+
+``python -m jackson.protocol.native`` prints which one is in use.
+
+Attributes
+----------
+LIB : ctypes.CDLL or None
+    The loaded library (None: numpy).
+REASON : str
+    Why, one line.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+ENV_INTERPRETED = "JACKSON_PROTOCOL_INTERPRETED"
+LIBRARY = "libjackson_protocol.so"
+DIGEST_HEX = 16
+
+_P = ctypes.c_void_p
+_N = ctypes.c_int64
+_BYTE = ctypes.c_char
+
+
+def source_path() -> Path:
+    """``protocol/native/capsules.cpp`` of this checkout (links resolved)."""
+    return Path(__file__).resolve().parent / "native" / "capsules.cpp"
+
+
+def source_digest(source: bytes) -> str:
+    """A build's name: the first :data:`DIGEST_HEX` hex digits of the source's SHA-256."""
+    return hashlib.sha256(source).hexdigest()[:DIGEST_HEX]
+
+
+def builds_dir(source: Path) -> Path:
+    """``build/compiled-protocol`` of the checkout that holds ``source``."""
+    return source.parents[2] / "build" / "compiled-protocol"
+
+
+def build_path(builds: Path, digest: str) -> Path:
+    """``<builds>/<digest>/libjackson_protocol.so``."""
+    return builds / digest / LIBRARY
+
+
+def load_library(path: Path) -> ctypes.CDLL:
+    """Load a build and declare its function's arguments.
+
+    Raises
+    ------
+    OSError
+        It does not load or lacks the function.
+    """
+    lib = ctypes.CDLL(str(path))
+    try:
+        feed = lib.jackson_capsules_feed
+    except AttributeError as e:
+        raise OSError(f"{path}: {e}") from e
+    feed.restype = _N
+    feed.argtypes = [_N, _N, _N, ctypes.c_char_p, _N, ctypes.c_char_p, _P, _P, _P, _P, _P]
+    return lib
+
+
+def _select() -> tuple[ctypes.CDLL | None, str]:
+    if os.environ.get(ENV_INTERPRETED, "") not in ("", "0"):
+        return None, f"numpy ({ENV_INTERPRETED} is set)"
+    source = source_path()
+    try:
+        digest = source_digest(source.read_bytes())
+    except OSError as e:
+        return None, f"numpy (cannot read the source: {e})"
+    path = build_path(builds_dir(source), digest)
+    if not path.is_file():
+        return None, f"numpy (no build of capsules.cpp {digest}; make setup)"
+    try:
+        return load_library(path), f"compiled ({path})"
+    except OSError as e:
+        return None, f"numpy (the build does not load: {e})"
+
+
+LIB, REASON = _select()
+
+
+class Fed(NamedTuple):
+    """What one :func:`capsules_feed` call did.
+
+    Attributes
+    ----------
+    consumed : int
+        Bytes of the buffer used up (the rest waits for the next chunk).
+    capsules, starts, malformed : int
+        Capsules taken, of them with the S bit, and bytes skipped.
+    held : bytes or None
+        The capsule held now.
+    last_sync : bool
+        The dense format's last sync flag.
+    start : ndarray of bool
+    angle_q6, distance_q2 : ndarray of int64
+        The samples, as :class:`~jackson.protocol.rplidar.SampleBatch` holds them.
+    """
+
+    consumed: int
+    capsules: int
+    starts: int
+    malformed: int
+    held: bytes | None
+    last_sync: bool
+    start: npt.NDArray[np.bool_]
+    angle_q6: npt.NDArray[np.int64]
+    distance_q2: npt.NDArray[np.int64]
+
+
+def capsules_feed(
+    answer_type: int,
+    capsule_bytes: int,
+    samples: int,
+    buf: bytes,
+    held: bytes | None,
+    last_sync: bool,
+) -> Fed:
+    """:meth:`CapsuleDecoder.feed`'s walk over ``buf`` and its decoding, compiled.
+
+    Parameters
+    ----------
+    answer_type : int
+        The capsule format's answer type (0x82, 0x84 or 0x85).
+    capsule_bytes, samples : int
+        The format's capsule size and samples per capsule.
+    buf : bytes
+        The bytes not yet used: what was left over, then the new chunk.
+    held : bytes or None
+        The capsule held from before (``capsule_bytes`` long), waiting for the next.
+    last_sync : bool
+        The dense format's last sync flag.
+
+    Returns
+    -------
+    Fed
+        The counts, the state to keep, and the samples.
+    """
+    assert LIB is not None
+    if held is not None and len(held) != capsule_bytes:
+        raise ValueError(f"a held capsule of {len(held)} bytes, not {capsule_bytes}")
+    room = max(len(buf) // capsule_bytes, 1) * samples
+    start = np.empty(room, np.uint8)
+    angle = np.empty(room, np.int64)
+    distance = np.empty(room, np.int64)
+    state = np.array((held is not None, last_sync), np.uint8)
+    counts = np.empty(5, np.int64)
+    address = _address
+    out = LIB.jackson_capsules_feed(
+        answer_type, capsule_bytes, samples, buf, len(buf), held, address(state),
+        address(counts), address(start), address(angle), address(distance),
+    )  # fmt: skip
+    consumed, capsules, starts, malformed, held_at = counts.tolist()
+    if held_at >= 0:
+        held = buf[held_at : held_at + capsule_bytes]
+    return Fed(
+        consumed, capsules, starts, malformed, held, bool(state[1]),
+        start[:out].view(np.bool_), angle[:out], distance[:out],
+    )  # fmt: skip
+
+
+def _address(a: npt.NDArray[np.generic]) -> int:
+    """The address of a writable, C-contiguous, non-empty array made here."""
+    return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]  # a buffer
+
+
+def main() -> None:
+    """``python -m jackson.protocol.native``: print which capsule decoder is in use."""
+    print(f"jackson.protocol capsule decoding: {REASON}")
+
+
+if __name__ == "__main__":
+    main()

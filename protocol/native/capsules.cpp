@@ -1,0 +1,222 @@
+// EXPRESS_SCAN capsule streams decoded in one call: jackson.protocol.rplidar.CapsuleDecoder's
+// feed, compiled (loaded with ctypes by jackson.protocol.native).
+//
+// The same walk over the bytes as the interpreted decoder (a capsule is recognised by its
+// sync nibbles and checksum, a byte that starts none is skipped and counted), the same
+// bookkeeping of the held capsule and the S bit, and the same fixed-point arithmetic as
+// Slamtec's SDK for every sample: integers throughout but for the ultra capsules' parallax,
+// whose radian-to-degree conversion is one IEEE double division as numpy's. The samples are
+// the interpreted decoder's bit for bit (tests/protocol/test_rplidar_native.py).
+//
+// Built by tools/build_compiled.py with -ffp-contract=off.
+
+#include <cstdint>
+#include <cstring>
+
+namespace {
+
+constexpr int64_t kSync1 = 0xA;
+constexpr int64_t kSync2 = 0x5;
+constexpr int64_t kStartBit = 0x8000;
+constexpr int64_t kHeader = 4;
+constexpr int64_t kAngleQ6Max = 0x7FFF;
+constexpr int64_t kTurnQ6 = 360 * 64;
+constexpr int64_t kTurnQ16 = int64_t{360} << 16;
+constexpr int64_t kPredictNone = 0x1FF;
+
+// the formats, by answer type
+constexpr int kLegacy = 0x82;
+constexpr int kUltra = 0x84;
+constexpr int kDense = 0x85;
+
+int64_t shl(int64_t v, int64_t n) { return v * (int64_t{1} << n); }  // numpy's << on int64
+
+int64_t floor_shr(int64_t v, int n) {  // numpy's >> on int64: arithmetic (floor)
+    return v >= 0 ? v >> n : -((-v - 1) >> n) - 1;
+}
+
+int64_t floor_div(int64_t a, int64_t b) {  // numpy's // for b > 0
+    const int64_t q = a / b;
+    return (a % b != 0 && a < 0) ? q - 1 : q;
+}
+
+int64_t floor_mod(int64_t a, int64_t b) { return a - floor_div(a, b) * b; }  // numpy's %, b > 0
+
+int64_t u16(const uint8_t* p) { return int64_t{p[0]} | (int64_t{p[1]} << 8); }
+
+int64_t u32(const uint8_t* p) {
+    return int64_t{p[0]} | (int64_t{p[1]} << 8) | (int64_t{p[2]} << 16) | (int64_t{p[3]} << 24);
+}
+
+// a 12-bit variable-bit-scale code's distance [mm] and level
+void varbitscale(int64_t c, int64_t* mm, int64_t* level) {
+    if (c >= 3328) {
+        *mm = (int64_t{1} << 14) + ((c - 3328) << 4);
+        *level = 4;
+    } else if (c >= 1792) {
+        *mm = (int64_t{1} << 12) + ((c - 1792) << 3);
+        *level = 3;
+    } else if (c >= 1280) {
+        *mm = (int64_t{1} << 11) + ((c - 1280) << 2);
+        *level = 2;
+    } else if (c >= 512) {
+        *mm = (int64_t{1} << 9) + ((c - 512) << 1);
+        *level = 1;
+    } else {
+        *mm = c;
+        *level = 0;
+    }
+}
+
+int64_t signed10(int64_t x) { return x >= 0x200 ? x - 0x400 : x; }
+
+// ultra_angle_offset_q16: the parallax subtracted from an ultra sample's angle
+int64_t ultra_offset_q16(int64_t q) {
+    int64_t rad_q16;
+    if (q >= 200) {
+        int64_t k = 98361 / (q > 1 ? q : 1);  // q > 0 here: floor and C's division agree
+        rad_q16 = 9150 - shl(k, 6) - (k * k * k) / 98304;
+    } else {
+        rad_q16 = 8578;
+    }
+    return static_cast<int64_t>(static_cast<double>(rad_q16 * 180) / 3.14159265);
+}
+
+int64_t wrap_q6(int64_t a) {
+    if (a < 0) a += kTurnQ6;
+    if (a >= kTurnQ6) a -= kTurnQ6;
+    return a;
+}
+
+// one capsule's samples, given the capsule after it
+void decode_pair(int fmt, int64_t samples, const uint8_t* held, const uint8_t* follow,
+                 uint8_t* last_sync, uint8_t* start, int64_t* angle_q6, int64_t* dist_q2) {
+    const int64_t first_q8 = (u16(held + 2) & kAngleQ6Max) << 2;
+    const int64_t next_q8 = (u16(follow + 2) & kAngleQ6Max) << 2;
+    const int64_t diff_q8 = next_q8 - first_q8 + (first_q8 > next_q8 ? (int64_t{360} << 8) : 0);
+    int64_t inc_q16;
+    if (fmt == kLegacy) {
+        inc_q16 = shl(diff_q8, 3);
+    } else if (fmt == kUltra) {
+        inc_q16 = floor_div(shl(diff_q8, 3), 3);  // negative past a 15-bit start angle
+    } else {
+        inc_q16 = floor_div(shl(diff_q8, 8), 40);
+    }
+    const uint8_t* body = held + kHeader;
+    for (int64_t k = 0; k < samples; ++k) {
+        const int64_t raw_q16 = shl(first_q8, 8) + k * inc_q16;
+        int64_t dist = 0;
+        int64_t angle = 0;
+        if (fmt == kLegacy) {
+            const uint8_t* cab = body + 5 * (k / 2);
+            const int64_t w = (k % 2 == 0) ? u16(cab) : u16(cab + 2);
+            dist = w & 0xFFFC;
+            const int64_t dtheta_q3 =
+                (k % 2 == 0) ? ((cab[4] & 0xF) | ((w & 3) << 4)) : ((cab[4] >> 4) | ((w & 3) << 4));
+            angle = floor_shr(raw_q16 - shl(dtheta_q3, 13), 10);
+        } else if (fmt == kUltra) {
+            const int64_t j = k / 3;
+            const int64_t word = u32(body + 4 * j);
+            const int64_t next_word = (j + 1 < samples / 3) ? u32(body + 4 * (j + 1))
+                                                            : u32(follow + kHeader);
+            int64_t this_mm, this_lvl, next_mm, next_lvl;
+            varbitscale(word & 0xFFF, &this_mm, &this_lvl);
+            varbitscale(next_word & 0xFFF, &next_mm, &next_lvl);
+            int64_t d;
+            switch (k % 3) {
+                case 0:
+                    d = this_mm;
+                    break;
+                case 1: {
+                    const bool borrow = this_mm == 0 && next_mm != 0;
+                    const int64_t base = borrow ? next_mm : this_mm;
+                    const int64_t lvl = borrow ? next_lvl : this_lvl;
+                    const int64_t p = signed10((word >> 12) & 0x3FF);
+                    d = (p == -512 || p == kPredictNone) ? 0 : shl(p, lvl) + base;
+                    break;
+                }
+                default: {
+                    const int64_t p = signed10((word >> 22) & 0x3FF);
+                    d = (p == -512 || p == kPredictNone) ? 0 : shl(p, next_lvl) + next_mm;
+                    break;
+                }
+            }
+            dist = shl(d, 2);
+            angle = floor_shr(raw_q16 - ultra_offset_q16(dist), 10);
+        } else {
+            dist = shl(u16(body + 2 * k), 2);
+            angle = floor_shr(raw_q16, 10);
+        }
+        bool sync;
+        if (fmt == kDense) {  // a sync flag is raised once per turn, along the stream
+            const int64_t wrapped = floor_mod(raw_q16 + inc_q16, kTurnQ16);
+            sync = wrapped < 2 * inc_q16 && !*last_sync;
+            *last_sync = sync ? 1 : 0;
+        } else {  // the last sample's next angle: the next capsule's own start
+            const int64_t nxt = (k + 1 < samples) ? raw_q16 + inc_q16 : shl(first_q8 + diff_q8, 8);
+            sync = raw_q16 < kTurnQ16 && nxt >= kTurnQ16;
+        }
+        start[k] = sync ? 1 : 0;
+        angle_q6[k] = wrap_q6(angle);
+        dist_q2[k] = dist;
+    }
+}
+
+}  // namespace
+
+extern "C" {
+
+// CapsuleDecoder.feed over the buffer ``buf`` (``len`` bytes, capsules of ``n`` bytes with
+// ``samples`` samples, answer type ``fmt``); ``held`` is the capsule held from before (or
+// null). ``state`` in/out: [held is set, the dense format's last sync flag]. ``counts`` out:
+// [bytes consumed, capsules, starts, malformed bytes, offset in ``buf`` of the capsule now
+// held (-1: the one held before, or none)]. The samples of every capsule the next one
+// completed go to ``start``, ``angle_q6`` and ``dist_q2`` (room for ``len / n * samples``).
+// Returns the number of samples written.
+int64_t jackson_capsules_feed(int64_t fmt, int64_t n, int64_t samples, const uint8_t* buf,
+                              int64_t len, const uint8_t* held, uint8_t* state, int64_t* counts,
+                              uint8_t* start, int64_t* angle_q6, int64_t* dist_q2) {
+    const uint8_t* holding = state[0] ? held : nullptr;
+    uint8_t last_sync = state[1];
+    int64_t pos = 0;
+    int64_t capsules = 0, starts = 0, malformed = 0, held_at = -1, out = 0;
+    while (pos < len) {
+        if ((buf[pos] >> 4) != kSync1 || (len - pos > 1 && (buf[pos + 1] >> 4) != kSync2)) {
+            ++malformed;
+            ++pos;
+            continue;
+        }
+        if (len - pos < n) break;
+        const uint8_t* c = buf + pos;
+        uint8_t x = 0;
+        for (int64_t i = 2; i < n; ++i) x ^= c[i];
+        if (x != ((c[0] & 0xF) | ((c[1] & 0xF) << 4))) {
+            ++malformed;
+            ++pos;
+            continue;
+        }
+        ++capsules;
+        if (u16(c + 2) & kStartBit) {
+            ++starts;
+            holding = nullptr;
+        }
+        if (holding != nullptr) {
+            decode_pair(static_cast<int>(fmt), samples, holding, c, &last_sync, start + out,
+                        angle_q6 + out, dist_q2 + out);
+            out += samples;
+        }
+        holding = c;
+        held_at = pos;
+        pos += n;
+    }
+    state[0] = holding != nullptr ? 1 : 0;
+    state[1] = last_sync;
+    counts[0] = pos;
+    counts[1] = capsules;
+    counts[2] = starts;
+    counts[3] = malformed;
+    counts[4] = held_at;
+    return out;
+}
+
+}  // extern "C"
