@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import math
 import os
 from pathlib import Path
 from typing import NamedTuple
@@ -39,6 +40,7 @@ DIGEST_HEX = 16
 
 _P = ctypes.c_void_p
 _N = ctypes.c_int64
+_D = ctypes.c_double
 _BYTE = ctypes.c_char
 
 
@@ -63,20 +65,23 @@ def build_path(builds: Path, digest: str) -> Path:
 
 
 def load_library(path: Path) -> ctypes.CDLL:
-    """Load a build and declare its function's arguments.
+    """Load a build and declare its functions' arguments.
 
     Raises
     ------
     OSError
-        It does not load or lacks the function.
+        It does not load or lacks a function.
     """
     lib = ctypes.CDLL(str(path))
     try:
         feed = lib.jackson_capsules_feed
+        turn = lib.jackson_rplidar_turn
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     feed.restype = _N
     feed.argtypes = [_N, _N, _N, ctypes.c_char_p, _N, ctypes.c_char_p, _P, _P, _P, _P, _P]
+    turn.restype = None
+    turn.argtypes = [_N, _P, _P, _D, _D, _D, _D, _P, _P, _P]
     return lib
 
 
@@ -178,6 +183,49 @@ def capsules_feed(
         consumed, capsules, starts, malformed, held, bool(state[1]),
         start[:out].view(np.bool_), angle[:out], distance[:out],
     )  # fmt: skip
+
+
+def rplidar_turn(
+    angle_q6: npt.NDArray[np.int64],
+    distance_q2: npt.NDArray[np.int64],
+    q6_to_rad: float,
+    q2_to_m: float,
+    cap_m: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """A turn's samples as angles counter-clockwise in [-pi, pi) [rad] and ranges [m] (0 or
+    beyond ``cap_m``: inf), sorted by angle (stable), compiled: the same numbers as
+    :meth:`jackson.host.lidar.rplidar.RevolutionAssembler`'s numpy, bit for bit.
+
+    Parameters
+    ----------
+    angle_q6, distance_q2 : ndarray of int64
+        Headings [deg * 64] clockwise and distances [mm * 4], one per sample.
+    q6_to_rad, q2_to_m : float
+        The units' factors.
+    cap_m : float
+        The range cap [m].
+    """
+    assert LIB is not None
+    a = np.ascontiguousarray(angle_q6, np.int64)
+    d = np.ascontiguousarray(distance_q2, np.int64)
+    n = a.size
+    if d.size != n:
+        raise ValueError(f"{n} angles but {d.size} distances")
+    angles = np.empty(n)
+    ranges = np.empty(n)
+    if n == 0:
+        return angles, ranges
+    order = np.empty(n, np.int64)
+    LIB.jackson_rplidar_turn(
+        n, _any_address(a), _any_address(d), q6_to_rad, q2_to_m, cap_m, math.pi,
+        _address(angles), _address(ranges), _address(order),
+    )  # fmt: skip
+    return angles, ranges
+
+
+def _any_address(a: npt.NDArray[np.generic]) -> int:
+    """The address of a C-contiguous, non-empty array, read-only or not."""
+    return int(a.__array_interface__["data"][0])
 
 
 def _address(a: npt.NDArray[np.generic]) -> int:

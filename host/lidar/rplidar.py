@@ -42,6 +42,7 @@ import serial
 
 from jackson.common.errors import JacksonError, PortKind, port_open_message
 from jackson.common.geometry import wrap_angles
+from jackson.protocol import native as protocol_native
 from jackson.protocol.rplidar import (
     A1M8_SCAN_PERIOD_S,
     CAPSULE_FORMATS,
@@ -279,6 +280,12 @@ class RevolutionAssembler:
         distance_q2 = np.concatenate(self._distance_parts)
         self._angle_parts.clear()
         self._distance_parts.clear()
+        if protocol_native.LIB is not None:  # the same numbers, compiled
+            angles, ranges = protocol_native.rplidar_turn(
+                angle_q6, distance_q2, Q6_TO_RAD, MM_Q2_TO_M, self.range_cap_m
+            )
+            self.revolutions += 1
+            return Revolution(angles, ranges, len(angles))
         # heading clockwise -> counter-clockwise, wrapped to [-pi, pi)
         angles = -angle_q6.astype(np.float64) * Q6_TO_RAD
         angles = wrap_angles(angles)

@@ -10,8 +10,11 @@
 //
 // Built by tools/build_compiled.py with -ffp-contract=off.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
-#include <cstring>
+#include <numeric>
+#include <vector>
 
 namespace {
 
@@ -217,6 +220,36 @@ int64_t jackson_capsules_feed(int64_t fmt, int64_t n, int64_t samples, const uin
     counts[3] = malformed;
     counts[4] = held_at;
     return out;
+}
+
+// A turn's samples as the host's RevolutionAssembler hands them on: angles counter-clockwise
+// wrapped to [-pi, pi) [rad], ranges [m] (no return or beyond ``cap_m``: inf), in order of
+// angle (a stable sort; ``order`` out: the samples' order). The same IEEE operations as numpy's: -(double)q6 * q6_to_rad, then
+// (a + pi) mod 2 pi - pi with numpy's floor modulo (fmod, moved into [0, 2 pi), a zero
+// remainder +0).
+void jackson_rplidar_turn(int64_t n, const int64_t* angle_q6, const int64_t* dist_q2,
+                          double q6_to_rad, double q2_to_m, double cap_m, double pi,
+                          double* angles_out, double* ranges_out, int64_t* order) {
+    const double two_pi = 2.0 * pi;
+    std::vector<double> a(static_cast<size_t>(n)), r(static_cast<size_t>(n));
+    for (int64_t i = 0; i < n; ++i) {
+        const double x = -static_cast<double>(angle_q6[i]) * q6_to_rad + pi;
+        double mod = std::fmod(x, two_pi);
+        if (mod != 0.0) {
+            if ((two_pi < 0) != (mod < 0)) mod += two_pi;
+        } else {
+            mod = std::copysign(0.0, two_pi);
+        }
+        a[i] = mod - pi;
+        const double range = static_cast<double>(dist_q2[i]) * q2_to_m;
+        r[i] = (dist_q2[i] == 0 || range > cap_m) ? HUGE_VAL : range;
+    }
+    std::iota(order, order + n, int64_t{0});
+    std::stable_sort(order, order + n, [&a](int64_t i, int64_t j) { return a[i] < a[j]; });
+    for (int64_t i = 0; i < n; ++i) {
+        angles_out[i] = a[order[i]];
+        ranges_out[i] = r[order[i]];
+    }
 }
 
 }  // extern "C"

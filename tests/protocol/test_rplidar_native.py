@@ -149,3 +149,29 @@ def test_a_snapshot_decodes_on_alike(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_a_held_capsule_of_another_size_is_refused() -> None:
     with pytest.raises(ValueError, match="held capsule of 3 bytes"):
         native.capsules_feed(0x84, 132, 96, b"\xa0" * 200, b"abc", False)
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.uint16, np.int32])
+def test_a_turn_is_numpys_bit_for_bit(dtype: type, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every heading of two turns either way (each wrap, the seam at 180 deg), many repeated
+    (the stable sort keeps their order: the ranges tell), no returns and ranges at and past the
+    cap."""
+    rng = np.random.default_rng(3)
+    lo = 0 if dtype is np.uint16 else -23040
+    q6 = np.concatenate((np.arange(lo, 46080), rng.integers(max(lo, 0), 23040, 5000)))
+    q2 = rng.integers(0, 40000, q6.size)
+    q2[::7] = 0
+    q2[::11] = 32000  # exactly the 8 m cap
+    revs = []
+    for lib in (native.LIB, None):
+        monkeypatch.setattr(native, "LIB", lib)
+        asm = RevolutionAssembler(range_cap_m=8.0)
+        asm._angle_parts = [q6[:30000].astype(dtype), q6[30000:].astype(dtype)]
+        asm._distance_parts = [q2[:30000].astype(dtype), q2[30000:].astype(dtype)]
+        r = asm._finish_turn()
+        revs.append((r.angles_rad.tobytes(), r.ranges_m.tobytes(), r.nodes, asm.revolutions))
+    assert revs[0] == revs[1]
+    angles = np.frombuffer(revs[0][0])
+    assert angles.min() >= -np.pi and angles.max() < np.pi and np.all(np.diff(angles) >= 0)
+    ranges = np.frombuffer(revs[0][1])
+    assert np.isinf(ranges).sum() >= q6.size // 7 and (ranges == 8.0).any()
