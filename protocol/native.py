@@ -76,12 +76,15 @@ def load_library(path: Path) -> ctypes.CDLL:
     try:
         feed = lib.jackson_capsules_feed
         turn = lib.jackson_rplidar_turn
+        ranged = lib.jackson_ultra_ranged
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     feed.restype = _N
     feed.argtypes = [_N, _N, _N, ctypes.c_char_p, _N, ctypes.c_char_p, _P, _P, _P, _P, _P]
     turn.restype = None
     turn.argtypes = [_N, _P, _P, _D, _D, _D, _D, _P, _P, _P]
+    ranged.restype = _N
+    ranged.argtypes = [_N, _D, _D, _D, _P, _N, _P, _N, _D, _P]
     return lib
 
 
@@ -221,6 +224,51 @@ def rplidar_turn(
         _address(angles), _address(ranges), _address(order),
     )  # fmt: skip
     return angles, ranges
+
+
+def ultra_ranged(
+    beams: tuple[int, float, float, float],
+    ranges_m: npt.NDArray[np.float64],
+    raw_deg: npt.NDArray[np.float64],
+    iterations: int,
+    start_deg: float,
+) -> tuple[npt.NDArray[np.int64], int]:
+    """The twin's ultra samples ranged where a decoder will place them
+    (:meth:`jackson.sim.rplidar._SampleStream._parallax_ranged`), compiled: the same
+    distances bit for bit.
+
+    Parameters
+    ----------
+    beams : tuple
+        (beams, angle increment [rad], first beam's angle [rad], edge fraction).
+    ranges_m : ndarray
+        The revolution's ranges [m], one per beam.
+    raw_deg : ndarray
+        The samples' raw angles [deg], clockwise.
+    iterations : int
+        Steps of the search for each sample's offset (at least 1).
+    start_deg : float
+        The offset the search starts from [deg].
+
+    Returns
+    -------
+    tuple
+        (distances [mm], 0 for no return; samples with a return sent as none at an edge).
+    """
+    assert LIB is not None
+    count, inc, angle_min, edge = beams
+    r = np.ascontiguousarray(ranges_m, np.float64)
+    raw = np.ascontiguousarray(raw_deg, np.float64)
+    if r.size != count or count < 1 or iterations < 1:
+        raise ValueError(f"{r.size} ranges for {count} beams, {iterations} iterations")
+    out = np.empty(raw.size, np.int64)
+    if raw.size == 0:
+        return out, 0
+    dropouts = LIB.jackson_ultra_ranged(
+        count, inc, angle_min, edge, _any_address(r), raw.size, _any_address(raw), iterations,
+        start_deg, _address(out),
+    )  # fmt: skip
+    return out, int(dropouts)
 
 
 def _any_address(a: npt.NDArray[np.generic]) -> int:

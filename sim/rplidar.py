@@ -75,6 +75,7 @@ from typing import TypeVar
 import numpy as np
 import numpy.typing as npt
 
+from jackson.protocol import native as protocol_native
 from jackson.protocol.rplidar import (
     ANGLE_Q6_TURN,
     CAPSULE_DISTANCE_MM_MAX,
@@ -326,6 +327,14 @@ class _SampleStream:
         as the variable bit scale quantises it), found by iterating from the offset below 50 mm.
         Next to an edge the near side's offset is the smaller, and a raw angle between the
         two sides' offsets has no such distance: that sample is sent as no return."""
+        if protocol_native.LIB is not None:  # the same distances, compiled
+            spec = self.spec
+            out, dropouts = protocol_native.ultra_ranged(
+                (spec.beams, spec.angle_increment_rad, spec.angle_min_rad, EDGE_FRACTION),
+                ranges_m, raw_deg, PARALLAX_ITERATIONS, ULTRA_OFFSET_START_DEG,
+            )  # fmt: skip
+            self.edge_dropouts += dropouts
+            return out
         heading: F64Array = raw_deg - ULTRA_OFFSET_START_DEG
         for _ in range(PARALLAX_ITERATIONS):
             mm = _millimetres(ranges_at(self.spec, ranges_m, heading), 0xFFFF)

@@ -165,6 +165,63 @@ void decode_pair(int fmt, int64_t samples, const uint8_t* held, const uint8_t* f
     }
 }
 
+// numpy's floor modulo of doubles, b > 0: fmod, moved into [0, b), a zero remainder +0
+double np_fmod_floor(double a, double b) {
+    double mod = std::fmod(a, b);
+    if (mod != 0.0) {
+        if ((b < 0) != (mod < 0)) mod += b;
+    } else {
+        mod = std::copysign(0.0, b);
+    }
+    return mod;
+}
+
+// varbitscale_encode: the 12-bit code nearest to a distance [mm]
+int64_t varbitscale_code(int64_t d) {
+    int64_t code = d;
+    if (d >= (int64_t{1} << 14)) {
+        code = 3328 + ((d - (int64_t{1} << 14) + (int64_t{1} << 3)) >> 4);
+    } else if (d >= (int64_t{1} << 12)) {
+        code = 1792 + ((d - (int64_t{1} << 12) + (int64_t{1} << 2)) >> 3);
+    } else if (d >= (int64_t{1} << 11)) {
+        code = 1280 + ((d - (int64_t{1} << 11) + (int64_t{1} << 1)) >> 2);
+    } else if (d >= (int64_t{1} << 9)) {
+        code = 512 + ((d - (int64_t{1} << 9) + 1) >> 1);
+    }
+    return code < 0 ? 0 : (code > 0xFFF ? 0xFFF : code);
+}
+
+// The emulator's beams read at headings (sim/rplidar.py's ranges_at): linear between the two
+// beams around each heading unless they differ by more than edge_fraction of the nearer or one
+// has no return, then the nearer's. ``r`` holds the beams' ranges with no return as inf.
+struct Beams {
+    int64_t beams;
+    double inc, angle_min, gap, edge_fraction;
+    const double* r;
+
+    double at(double heading_deg) const {
+        const double alpha =
+            np_fmod_floor(-(heading_deg * (M_PI / 180.0)) - angle_min, 2.0 * M_PI);
+        int64_t i0 = static_cast<int64_t>(std::floor(alpha / inc));
+        if (i0 > beams - 1) i0 = beams - 1;
+        const double width = i0 == beams - 1 ? gap : inc;
+        double f = (alpha - static_cast<double>(i0) * inc) / width;
+        f = std::min(std::max(f, 0.0), 1.0);
+        const double r0 = r[i0], r1 = r[(i0 + 1) % beams];
+        const bool smooth = std::isfinite(r0) && std::isfinite(r1) &&
+                            std::fabs(r1 - r0) <= edge_fraction * std::min(r0, r1);
+        if (smooth) return r0 + f * (r1 - r0);
+        return f < 0.5 ? r0 : r1;
+    }
+};
+
+// _millimetres: a range [m] as whole millimetres for the wire, 0 for no return
+int64_t millimetres(double range_m, double top) {
+    if (!(std::isfinite(range_m) && range_m > 0.0)) return 0;
+    const double mm = std::nearbyint(range_m * 1000.0);
+    return static_cast<int64_t>(std::min(std::max(mm, 1.0), top));
+}
+
 }  // namespace
 
 extern "C" {
@@ -233,14 +290,7 @@ void jackson_rplidar_turn(int64_t n, const int64_t* angle_q6, const int64_t* dis
     const double two_pi = 2.0 * pi;
     std::vector<double> a(static_cast<size_t>(n)), r(static_cast<size_t>(n));
     for (int64_t i = 0; i < n; ++i) {
-        const double x = -static_cast<double>(angle_q6[i]) * q6_to_rad + pi;
-        double mod = std::fmod(x, two_pi);
-        if (mod != 0.0) {
-            if ((two_pi < 0) != (mod < 0)) mod += two_pi;
-        } else {
-            mod = std::copysign(0.0, two_pi);
-        }
-        a[i] = mod - pi;
+        a[i] = np_fmod_floor(-static_cast<double>(angle_q6[i]) * q6_to_rad + pi, two_pi) - pi;
         const double range = static_cast<double>(dist_q2[i]) * q2_to_m;
         r[i] = (dist_q2[i] == 0 || range > cap_m) ? HUGE_VAL : range;
     }
@@ -250,6 +300,45 @@ void jackson_rplidar_turn(int64_t n, const int64_t* angle_q6, const int64_t* dis
         angles_out[i] = a[order[i]];
         ranges_out[i] = r[order[i]];
     }
+}
+
+// The emulator's ultra samples (sim/rplidar.py's _SampleStream._parallax_ranged): each sample
+// at raw angle ``raw_deg`` ranged where a decoder will place it, its raw angle less the
+// parallax offset of the distance it will decode (variable-bit-scale quantised), found by
+// ``iterations`` steps from ``start_deg``; a sample whose distance there disagrees by more than
+// ``edge_fraction`` goes out as no return. ``ranges_m``: the revolution's ``beams`` ranges (inf,
+// NaN or <= 0: no return). Writes the distances [mm] to ``out_mm``; returns how many samples
+// with a return went out as none.
+int64_t jackson_ultra_ranged(int64_t beams, double inc, double angle_min, double edge_fraction,
+                             const double* ranges_m, int64_t n, const double* raw_deg,
+                             int64_t iterations, double start_deg, int64_t* out_mm) {
+    std::vector<double> r(static_cast<size_t>(beams));
+    for (int64_t i = 0; i < beams; ++i) {
+        const double x = ranges_m[i];
+        r[i] = (std::isfinite(x) && x > 0.0) ? x : HUGE_VAL;
+    }
+    // the beam after the last, one turn on
+    const double gap = std::max(2.0 * M_PI - static_cast<double>(beams - 1) * inc, inc);
+    const Beams b{beams, inc, angle_min, gap, edge_fraction, r.data()};
+    int64_t dropouts = 0;
+    for (int64_t k = 0; k < n; ++k) {
+        const double raw = raw_deg[k];
+        double heading = raw - start_deg;
+        int64_t mm = 0;
+        for (int64_t it = 0; it < iterations; ++it) {
+            mm = millimetres(b.at(heading), 65535.0);
+            int64_t decoded, level;
+            varbitscale(varbitscale_code(mm), &decoded, &level);
+            heading = raw - static_cast<double>(ultra_offset_q16(4 * decoded)) / 65536.0;
+        }
+        const int64_t there = millimetres(b.at(heading), 65535.0);
+        const int64_t diff = there > mm ? there - mm : mm - there;
+        const bool consistent =
+            static_cast<double>(diff) <= edge_fraction * static_cast<double>(std::min(there, mm));
+        if (!consistent && mm > 0) ++dropouts;
+        out_mm[k] = consistent ? mm : 0;
+    }
+    return dropouts;
 }
 
 }  // extern "C"
