@@ -329,12 +329,12 @@ class _SampleStream:
         two sides' offsets has no such distance: that sample is sent as no return."""
         if protocol_native.LIB is not None:  # the same distances, compiled
             spec = self.spec
-            out, dropouts = protocol_native.ultra_ranged(
+            ranged, dropouts = protocol_native.ultra_ranged(
                 (spec.beams, spec.angle_increment_rad, spec.angle_min_rad, EDGE_FRACTION),
                 ranges_m, raw_deg, PARALLAX_ITERATIONS, ULTRA_OFFSET_START_DEG,
             )  # fmt: skip
             self.edge_dropouts += dropouts
-            return out
+            return ranged
         heading: F64Array = raw_deg - ULTRA_OFFSET_START_DEG
         for _ in range(PARALLAX_ITERATIONS):
             mm = _millimetres(ranges_at(self.spec, ranges_m, heading), 0xFFFF)
