@@ -77,6 +77,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         feed = lib.jackson_capsules_feed
         turn = lib.jackson_rplidar_turn
         ranged = lib.jackson_ultra_ranged
+        ultra = lib.jackson_ultra_capsules
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     feed.restype = _N
@@ -85,6 +86,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     turn.argtypes = [_N, _P, _P, _D, _D, _D, _D, _P, _P, _P]
     ranged.restype = _N
     ranged.argtypes = [_N, _D, _D, _D, _P, _N, _P, _N, _D, _P]
+    ultra.restype = _N
+    ultra.argtypes = [_N, _P, _P, ctypes.c_uint8, _P]
     return lib
 
 
@@ -269,6 +272,43 @@ def ultra_ranged(
         start_deg, _address(out),
     )  # fmt: skip
     return out, int(dropouts)
+
+
+def ultra_capsules(
+    distance_mm: npt.NDArray[np.int64], start_q6: npt.NDArray[np.int64], start: bool
+) -> tuple[bytes, int]:
+    """Ultra capsules from their distances, compiled: ``encode_ultra_cabins`` and
+    ``ultra_capsule_of_cabins`` of each row, the same bytes.
+
+    Parameters
+    ----------
+    distance_mm : ndarray of int64, shape (C, 97)
+        Each capsule's 96 distances [mm] and the next one's first, >= 0.
+    start_q6 : ndarray of int64, shape (C,)
+        Each capsule's start angle [deg * 64], 0 to 0x7FFF.
+    start : bool
+        The first capsule starts a stream (its S bit).
+
+    Returns
+    -------
+    tuple
+        (the capsules' bytes, samples with a distance that decode as no return).
+    """
+    assert LIB is not None
+    d = np.ascontiguousarray(distance_mm, np.int64)
+    q6 = np.ascontiguousarray(start_q6, np.int64)
+    count = q6.size
+    if d.shape != (count, 97) or (count and (d.min() < 0 or q6.min() < 0 or q6.max() > 0x7FFF)):
+        raise ValueError(
+            f"ultra capsules: distances {d.shape}, start angles {q6.shape} out of range"
+        )
+    if count == 0:
+        return b"", 0
+    out = np.empty(count * 132, np.uint8)
+    dropouts = LIB.jackson_ultra_capsules(
+        count, _any_address(d), _any_address(q6), int(start), _address(out)
+    )
+    return out.tobytes(), int(dropouts)
 
 
 def _any_address(a: npt.NDArray[np.generic]) -> int:

@@ -375,6 +375,14 @@ class _SampleStream:
             return b""
         rows = np.arange(count)[:, None] * n + np.arange(n + 1)[None, :]
         d = np.asarray(self.distance_mm, np.int64)[rows]
+        if protocol_native.LIB is not None:  # the same bytes, compiled
+            q6 = np.rint(np.asarray(self.heading_deg)[: count * n : n] * 64.0).astype(np.int64)
+            data, dropouts = protocol_native.ultra_capsules(d, q6 % ANGLE_Q6_TURN, self.start_bit)
+            self.edge_dropouts += dropouts
+            self.start_bit = False
+            self.heading_deg = self.heading_deg[count * n :]
+            self.distance_mm = self.distance_mm[count * n :]
+            return data
         words, decoded_mm = encode_ultra_cabins(d)
         self.edge_dropouts += int(np.count_nonzero((decoded_mm == 0) & (d[:, :n] > 0)))
         start_q6 = np.rint(np.asarray(self.heading_deg)[: count * n : n] * 64.0).astype(np.int64)

@@ -341,4 +341,55 @@ int64_t jackson_ultra_ranged(int64_t beams, double inc, double angle_min, double
     return dropouts;
 }
 
+// Ultra capsules (encode_ultra_cabins and ultra_capsule_of_cabins of express.py): capsule c
+// from the 97 distances [mm] d[97 c .. 97 c + 96] (its 96 and the next one's first, >= 0) and
+// its start angle start_q6[c] (0..0x7FFF), the S bit on the first capsule when ``start``; 132
+// bytes each to ``out``. Returns how many samples with a distance decode as no return (a jump
+// the prediction cannot reach).
+int64_t jackson_ultra_capsules(int64_t count, const int64_t* d, const int64_t* start_q6,
+                               uint8_t start, uint8_t* out) {
+    int64_t dropouts = 0;
+    for (int64_t c = 0; c < count; ++c) {
+        const int64_t* dc = d + 97 * c;
+        int64_t mm[33], lvl[33], code[33];
+        for (int j = 0; j < 33; ++j) {
+            code[j] = varbitscale_code(dc[3 * j]);
+            varbitscale(code[j], &mm[j], &lvl[j]);
+        }
+        uint8_t* cap = out + 132 * c;
+        const int64_t word = start_q6[c] | ((c == 0 && start) ? kStartBit : 0);
+        cap[2] = static_cast<uint8_t>(word & 0xFF);
+        cap[3] = static_cast<uint8_t>(word >> 8);
+        for (int j = 0; j < 32; ++j) {
+            const bool borrow = mm[j] == 0 && mm[j + 1] != 0;
+            int64_t p[2];
+            const int64_t base[2] = {borrow ? mm[j + 1] : mm[j], mm[j + 1]};
+            const int64_t level[2] = {borrow ? lvl[j + 1] : lvl[j], lvl[j + 1]};
+            if (mm[j] == 0 && dc[3 * j] > 0) ++dropouts;
+            for (int k = 0; k < 2; ++k) {  // _predict
+                const int64_t target = dc[3 * j + 1 + k];
+                const int64_t step = int64_t{1} << level[k];
+                const int64_t q = floor_div(target - base[k] + (step >> 1), step);
+                const bool ok = target > 0 && q >= -511 && q <= 510;
+                p[k] = ok ? q : kPredictNone;
+                const int64_t got = ok ? base[k] + q * step : 0;  // what a decoder gets back
+                if (got == 0 && target > 0) ++dropouts;
+            }
+            const uint32_t w = static_cast<uint32_t>(code[j]) |
+                               (static_cast<uint32_t>(p[0] & 0x3FF) << 12) |
+                               (static_cast<uint32_t>(p[1] & 0x3FF) << 22);
+            uint8_t* at = cap + 4 + 4 * j;
+            at[0] = static_cast<uint8_t>(w);
+            at[1] = static_cast<uint8_t>(w >> 8);
+            at[2] = static_cast<uint8_t>(w >> 16);
+            at[3] = static_cast<uint8_t>(w >> 24);
+        }
+        uint8_t x = 0;
+        for (int i = 2; i < 132; ++i) x ^= cap[i];
+        cap[0] = static_cast<uint8_t>((kSync1 << 4) | (x & 0xF));
+        cap[1] = static_cast<uint8_t>((kSync2 << 4) | (x >> 4));
+    }
+    return dropouts;
+}
+
 }  // extern "C"

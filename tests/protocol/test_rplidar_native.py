@@ -12,7 +12,7 @@ import pytest
 
 from jackson.host.lidar.rplidar import RevolutionAssembler
 from jackson.protocol import native
-from jackson.protocol.rplidar import CapsuleDecoder
+from jackson.protocol.rplidar import CapsuleDecoder, express
 from tests.protocol.test_rplidar_capsule_stream import _damaged, _stream
 
 pytestmark = pytest.mark.skipif(native.LIB is None, reason=f"no compiled build: {native.REASON}")
@@ -175,3 +175,32 @@ def test_a_turn_is_numpys_bit_for_bit(dtype: type, monkeypatch: pytest.MonkeyPat
     assert angles.min() >= -np.pi and angles.max() < np.pi and np.all(np.diff(angles) >= 0)
     ranges = np.frombuffer(revs[0][1])
     assert np.isinf(ranges).sum() >= q6.size // 7 and (ranges == 8.0).any()
+
+
+def test_ultra_capsules_are_encoded_as_numpy_encodes_them() -> None:
+    """Random distances and, at every scale level, predictions on each side of the 10-bit
+    range (-511 and 510 steps from their base, and one beyond), borrows from a zero major,
+    no returns; the S bit on the first capsule only."""
+    rng = np.random.default_rng(11)
+    rows = [rng.integers(0, 30000, 97) for _ in range(20)]
+    for base in (300, 2000, 3000, 9000, 20000):
+        _, level = express.varbitscale_decode(express.varbitscale_encode(np.array([base])))
+        step = 1 << int(level[0])
+        d = np.full(97, base)
+        for j, k in enumerate(range(-514, -508)):
+            d[3 * j + 1] = max(base + k * step, 0)
+            d[3 * j + 2] = base + (k + 1021) * step  # -> 507 .. 512 steps
+        d[30:36] = 0  # no return, and a zero major borrowing the next one's
+        d[36] = 700
+        rows.append(d)
+    d = np.array(rows, np.int64)
+    q6 = rng.integers(0, 0x8000, len(rows))
+    data, dropouts = native.ultra_capsules(d, q6, True)
+    want = b"".join(
+        express.encode_ultra_capsule(int(q6[c]), c == 0, d[c]) for c in range(len(rows))
+    )
+    assert data == want
+    decoded = np.array([express.encode_ultra_cabins(row)[1] for row in d])
+    assert dropouts == int(np.count_nonzero((decoded == 0) & (d[:, :96] > 0))) > 0
+    with pytest.raises(ValueError, match="out of range"):
+        native.ultra_capsules(d - 40000, q6, False)
