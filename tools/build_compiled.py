@@ -220,7 +220,7 @@ def build_firmware(force: bool) -> Path | None:
     ``firmware/core``) into ``build/compiled-firmware/<digest>/`` unless that build exists.
 
     A Python extension module made with pybind11 (:mod:`jackson.sim.firmware_core`). Unlike the
-    two builds above it has no interpreted stand-in: the twin cannot run without it.
+    builds above it has no interpreted stand-in: the twin cannot run without it.
 
     Returns
     -------
@@ -325,8 +325,8 @@ def main() -> int:
     Returns
     -------
     int
-        0, or 1 when the firmware core cannot be built (the physics and the collision tests
-        have interpreted stand-ins; the twin's MCU has none).
+        0, or 1 when the firmware core cannot be built (the physics, the collision tests and
+        the capsule decoding have interpreted stand-ins; the twin's MCU has none).
     """
     parser = argparse.ArgumentParser(
         description="Compile sim/physics.py (mypyc), the costmap's collision tests, the "
