@@ -132,6 +132,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         classes = lib.jackson_obstacle_classes
         escape = lib.jackson_escape
         weigh = lib.jackson_amcl_weigh
+        cost_at = lib.jackson_cost_at
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -183,6 +184,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     classes.argtypes = [_N, _N, _N, _P, _N, _P, _P, _P, ctypes.c_uint8, _D, _D, _P]
     escape.restype = None
     escape.argtypes = [_N, _P, _D, _D, _D, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P, _P]
+    cost_at.restype = _N
+    cost_at.argtypes = [_N, _P, _P, _D, _D, _D, _N, _N, _P, _P]
     weigh.restype = None
     weigh.argtypes = [_N, _P, _P, _P, _N, _P, _P, _N, _N, _P, _P]
     combine.restype = None

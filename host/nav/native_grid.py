@@ -325,3 +325,42 @@ def amcl_weigh(
         pointer(g, F64), rows_p, cols_p, pointer(cubes, F64), pointer(out, F64),
     )  # fmt: skip
     return out
+
+
+def cost_at(
+    x_m: npt.ArrayLike,
+    y_m: npt.ArrayLike,
+    grid: tuple[float, float, float, int, int],
+    costs_padded: npt.NDArray[np.uint8],
+) -> npt.NDArray[np.uint8] | None:
+    """:meth:`jackson.host.nav.costmap.Costmap.cost_at` of points given as two float64 arrays of
+    one shape, compiled: the same padded indices and costs.
+
+    Parameters
+    ----------
+    x_m, y_m : array_like
+        Map-frame points [m], float64 arrays of one shape.
+    grid : tuple
+        (origin x [m], origin y [m], resolution [m], rows, cols).
+    costs_padded : ndarray of uint8
+        The costs padded by one ring, flat.
+
+    Returns
+    -------
+    ndarray of uint8 or None
+        The costs, the points' shape; None at a NaN (numpy's path answers that).
+    """
+    assert native.LIB is not None
+    x = np.ascontiguousarray(x_m, np.float64)
+    y = np.ascontiguousarray(y_m, np.float64)
+    ox, oy, res, rows, cols = grid
+    if costs_padded.size != (rows + 2) * (cols + 2) or x.shape != y.shape:
+        raise ValueError(f"cost_at: points {x.shape} and {y.shape}, grid {rows} x {cols}")
+    out = np.empty(x.shape, np.uint8)
+    if out.size == 0:
+        return out
+    failed = native.LIB.jackson_cost_at(
+        x.size, pointer(x, F64), pointer(y, F64), ox, oy, res, rows, cols,
+        pointer(costs_padded, np.uint8), native.address(out),
+    )  # fmt: skip
+    return None if failed else out

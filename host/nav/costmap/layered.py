@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.common.geometry import GridCells, GridGeometry
-from jackson.host.nav import native
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.costmap.footprint import FootprintChecker, ringed
 from jackson.host.nav.costmap.layers import InflationLayer, ObstacleLayer, StaticLayer, Window
 from jackson.host.nav.costmap.values import (
@@ -210,6 +210,11 @@ class Costmap(GridCells):
         ndarray of uint8
             Costs, the broadcast shape of the inputs.
         """
+        if _float_arrays(x_m, y_m) and native.LIB is not None:
+            grid = (self.origin_x_m, self.origin_y_m, self.resolution_m, *self.shape)
+            found = native_grid.cost_at(x_m, y_m, grid, self._costs_padded)
+            if found is not None:  # the same costs, compiled (None: a NaN, numpy's answer)
+                return found
         return np.take(self._costs_padded, self.padded_index(x_m, y_m))
 
     # ------------------------------------------------------------------ changes
@@ -490,6 +495,18 @@ class Costmap(GridCells):
         self.__dict__.update(state)
         self._costs_padded = self._costs_2d.ravel()
         self.costs = self._costs_2d[1:-1, 1:-1]
+
+
+def _float_arrays(x: object, y: object) -> bool:
+    """Two float64 arrays of one shape, not 0-d (what the compiled :meth:`Costmap.cost_at`
+    takes)."""
+    return (
+        isinstance(x, np.ndarray)
+        and isinstance(y, np.ndarray)
+        and x.shape == y.shape
+        and x.ndim > 0
+        and x.dtype == y.dtype == np.float64
+    )
 
 
 # what the single-class costmap kept for its collision tests, as the checker keeps it

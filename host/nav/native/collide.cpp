@@ -1178,4 +1178,24 @@ void jackson_amcl_weigh(std::int64_t n, const double* particles, const double* c
   }
 }
 
+// Costmap.cost_at (GridCells.padded_index, then np.take): the master cost at n map-frame points
+// (x, y) from the costs padded by one ring (rows + 2) x (cols + 2), a point off the grid on the
+// ring. The index by numpy's operations: (v - origin) / resolution + 1, clipped into [0, size +
+// 1], truncated. Returns 0, or -1 at a NaN (numpy's path then answers as it does).
+std::int64_t jackson_cost_at(std::int64_t n, const double* x, const double* y, double origin_x,
+                             double origin_y, double resolution, std::int64_t rows,
+                             std::int64_t cols, const std::uint8_t* costs, std::uint8_t* out) {
+  const double top_c = static_cast<double>(cols) + 1.0;
+  const double top_r = static_cast<double>(rows) + 1.0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double fx = (x[i] - origin_x) / resolution + 1.0;
+    const double fy = (y[i] - origin_y) / resolution + 1.0;
+    if (fx != fx || fy != fy) return -1;
+    const auto col = static_cast<std::int64_t>(std::min(std::max(fx, 0.0), top_c));
+    const auto row = static_cast<std::int64_t>(std::min(std::max(fy, 0.0), top_r));
+    out[i] = costs[row * (cols + 2) + col];
+  }
+  return 0;
+}
+
 }  // extern "C"

@@ -503,3 +503,45 @@ def test_a_checker_pickled_with_the_library_tests_with_numpy_where_it_is_not(
     loaded = pickle.loads(blob)
     assert not loaded.checker.compiled
     assert np.array_equal(loaded.trajectories_collide(x, y, yaw), want)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_costs_at_points_are_numpys(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Points on and off the grid, on cell edges (where the division rounds), far off it and
+    infinite, in arrays of several shapes; a NaN goes to numpy's path (which raises)."""
+    rng = np.random.default_rng(seed)
+    costmap = _scene(rng)
+    g = costmap.geometry
+    edges_x = g.origin_x_m + np.arange(-2, g.cols + 3) * g.resolution_m
+    edges_y = g.origin_y_m + np.arange(-2, g.rows + 3) * g.resolution_m
+    ex, ey = np.meshgrid(edges_x, edges_y)
+    span = max(g.rows, g.cols) * g.resolution_m
+    cases = [
+        (rng.uniform(g.origin_x_m - 1, g.origin_x_m + span + 1, 5000),
+         rng.uniform(g.origin_y_m - 1, g.origin_y_m + span + 1, 5000)),
+        (ex, ey),
+        (np.nextafter(ex, -np.inf), np.nextafter(ey, np.inf)),
+        (np.array([np.inf, -np.inf, 1e300, -1e300, 0.0]),
+         np.array([0.0, 0.0, 1e300, -1e300, -0.0])),
+        (rng.uniform(-3, 3, (7, 11, 3)), rng.uniform(-3, 3, (7, 11, 3))),
+    ]  # fmt: skip
+    for x, y in cases:
+        got = costmap.cost_at(x, y)
+        with monkeypatch.context() as m:
+            m.setattr(native, "LIB", None)
+            want = costmap.cost_at(x, y)
+        assert got.dtype == want.dtype == np.uint8 and got.shape == want.shape
+        assert np.array_equal(got, want)
+    assert (costmap.cost_at(*cases[0]) == LETHAL_OBSTACLE).any()
+    # a NaN: numpy's path answers, whatever it answers (an index error, or the cell its cast
+    # of NaN lands on), and never the compiled loop
+    for x, y in ((np.array([0.0, np.nan]), np.zeros(2)), (np.zeros(2), np.array([0.0, np.nan]))):
+        outcomes = []
+        for lib in (native.LIB, None):
+            with monkeypatch.context() as m, np.errstate(invalid="ignore"):
+                m.setattr(native, "LIB", lib)
+                try:
+                    outcomes.append(costmap.cost_at(x, y).tolist())
+                except IndexError as e:
+                    outcomes.append(str(e))
+        assert outcomes[0] == outcomes[1]
