@@ -33,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from jackson.host.control.navigator_config import NavigatorConfig
+from jackson.host.nav import native, native_grid
 from jackson.host.nav.astar import CostGrid, NoPathError, astar, path_cost
 from jackson.host.nav.costmap import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, Costmap
 from jackson.host.nav.dwb import prune_path
@@ -246,8 +247,18 @@ class GlobalPlanning:
         """
         if self.path is None:
             return False
-        ahead = prune_path(self.path, pose.x, pose.y)
         near = self.config.costmap.robot_radius_m + self.global_costmap.resolution_m
+        if native.LIB is not None:  # the same answer, compiled (None: a NaN, numpy's answer)
+            maps = (self.global_costmap, self.local_costmap)
+            found = native_grid.path_blocked(
+                self.path, (pose.x, pose.y), near,
+                (maps[0].geometry.as_tuple(), maps[1].geometry.as_tuple()),
+                (maps[0].costs_padded, maps[1].costs_padded),
+                (INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE),
+            )  # fmt: skip
+            if found is not None:
+                return found
+        ahead = prune_path(self.path, pose.x, pose.y)
         ahead = ahead[np.hypot(ahead[:, 0] - pose.x, ahead[:, 1] - pose.y) > near]
         if len(ahead) == 0:
             return False

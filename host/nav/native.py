@@ -133,6 +133,7 @@ def load_library(path: Path) -> ctypes.CDLL:
         escape = lib.jackson_escape
         weigh = lib.jackson_amcl_weigh
         cost_at = lib.jackson_cost_at
+        blocked = lib.jackson_path_blocked
     except AttributeError as e:
         raise OSError(f"{path}: {e}") from e
     hits.restype = None
@@ -186,6 +187,8 @@ def load_library(path: Path) -> ctypes.CDLL:
     escape.argtypes = [_N, _P, _D, _D, _D, _P, _N, _N, _N, _P, _N, _P, _P, _P, _P, _P, _P]
     cost_at.restype = _N
     cost_at.argtypes = [_N, _P, _P, _D, _D, _D, _N, _N, _P, _P]
+    blocked.restype = _N
+    blocked.argtypes = [_N, _P, _D, _D, _D, _P, _P, _P, ctypes.c_uint8, ctypes.c_uint8]
     weigh.restype = None
     weigh.argtypes = [_N, _P, _P, _P, _N, _P, _P, _N, _N, _P, _P]
     combine.restype = None

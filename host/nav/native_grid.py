@@ -364,3 +364,50 @@ def cost_at(
         pointer(costs_padded, np.uint8), native.address(out),
     )  # fmt: skip
     return None if failed else out
+
+
+def path_blocked(
+    path: FloatArray,
+    xy: tuple[float, float],
+    near_m: float,
+    grids: tuple[tuple[float, float, float, int, int], tuple[float, float, float, int, int]],
+    costs_padded: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]],
+    blocking: tuple[int, int],
+) -> bool | None:
+    """:meth:`jackson.host.control.replanning.GlobalPlanning.path_blocked`'s test, compiled: the
+    path from its point nearest ``xy`` on, without the points within ``near_m`` of it, on a
+    ``blocking`` cost (inscribed, lethal) of either costmap.
+
+    Parameters
+    ----------
+    path : ndarray, shape (N, 2)
+        The path [m].
+    xy : tuple of float
+        The robot [m].
+    near_m : float
+        Points this near the robot are left out [m].
+    grids : tuple
+        Each costmap's (origin x [m], origin y [m], resolution [m], rows, cols).
+    costs_padded : tuple of ndarray of uint8
+        Each costmap's costs padded by one ring, flat.
+    blocking : tuple of int
+        The two costs that block.
+
+    Returns
+    -------
+    bool or None
+        Whether the path ahead is blocked; None at a NaN (numpy's path answers that).
+    """
+    assert native.LIB is not None
+    p = np.ascontiguousarray(path, np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"path_blocked: a path of shape {p.shape}, not (N, 2)")
+    for (_, _, _, rows, cols), costs in zip(grids, costs_padded, strict=True):
+        if costs.size != (rows + 2) * (cols + 2):
+            raise ValueError(f"path_blocked: {costs.size} costs for a {rows} x {cols} grid")
+    g = np.array((*grids[0], *grids[1]), np.float64)
+    found = native.LIB.jackson_path_blocked(
+        len(p), pointer(p, F64) if len(p) else 0, xy[0], xy[1], near_m, native.address(g),
+        pointer(costs_padded[0], np.uint8), pointer(costs_padded[1], np.uint8), *blocking,
+    )  # fmt: skip
+    return None if found < 0 else bool(found)

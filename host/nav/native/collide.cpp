@@ -1198,4 +1198,41 @@ std::int64_t jackson_cost_at(std::int64_t n, const double* x, const double* y, d
   return 0;
 }
 
+// GlobalPlanning.path_blocked's test, after prune_path: of the n path points (x, y), those from
+// the one nearest (px, py) on (np.argmin of np.hypot: the first of equals) and farther than
+// ``near`` from it, whether one lies on an inscribed or lethal cell of either costmap (as
+// jackson_cost_at reads them; m = 2 costmaps: grids[5 k ..] = origin x, origin y, resolution,
+// rows, cols, costs[k] padded). Returns 1 (blocked), 0, or -1 at a NaN (numpy's path then
+// answers).
+std::int64_t jackson_path_blocked(std::int64_t n, const double* path, double px, double py,
+                                  double near, const double* grids, const std::uint8_t* costs0,
+                                  const std::uint8_t* costs1, std::uint8_t inscribed,
+                                  std::uint8_t lethal) {
+  if (n == 0) return 0;
+  std::int64_t first = 0;
+  double best = 0.0;
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double d = std::hypot(path[2 * i] - px, path[2 * i + 1] - py);
+    if (d != d) return -1;
+    if (i == 0 || d < best) {
+      best = d;
+      first = i;
+    }
+  }
+  const std::uint8_t* costs[2] = {costs0, costs1};
+  for (int k = 0; k < 2; ++k) {
+    const double* g = grids + 5 * k;
+    const auto rows = static_cast<std::int64_t>(g[3]), cols = static_cast<std::int64_t>(g[4]);
+    for (std::int64_t i = first; i < n; ++i) {
+      const double x = path[2 * i], y = path[2 * i + 1];
+      if (!(std::hypot(x - px, y - py) > near)) continue;
+      std::uint8_t cost = 0;
+      if (jackson_cost_at(1, &x, &y, g[0], g[1], g[2], rows, cols, costs[k], &cost) != 0)
+        return -1;
+      if (cost == inscribed || cost == lethal) return 1;
+    }
+  }
+  return 0;
+}
+
 }  // extern "C"

@@ -545,3 +545,74 @@ def test_costs_at_points_are_numpys(seed: int, monkeypatch: pytest.MonkeyPatch) 
                 except IndexError as e:
                     outcomes.append(str(e))
         assert outcomes[0] == outcomes[1]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_path_ahead_is_blocked_where_numpy_says(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Paths through free space and through walls, robots on and off the path, two points
+    equally near (argmin's first), a path leaving the window, an empty path."""
+    from jackson.host.control.navigator_config import NavigatorConfig
+    from jackson.host.control.replanning import GlobalPlanning
+    from jackson.host.nav.types import Pose2D
+
+    rng = np.random.default_rng(seed)
+    local = _scene(rng)
+    static = OccupancyGrid.empty(12.0, 9.0, 0.05, -6.0, -4.5, fill=0)
+    static.data[rng.integers(0, 180), 20:200] = 100
+    glob = Costmap.from_map(static, CostmapConfig(), collision_checks=False)
+    planning = GlobalPlanning(NavigatorConfig(), glob, glob, local)
+    answers = []
+    for _ in range(60):
+        n = int(rng.integers(0, 400))
+        start = rng.uniform(-5.0, 5.0, 2)
+        steps = rng.normal(0.0, 0.05, (n, 2)).cumsum(axis=0)
+        path = start + steps if n else np.zeros((0, 2))
+        if n > 4 and rng.random() < 0.3:
+            path[n // 2] = path[n // 4]  # two points equally near
+        planning.path = path
+        xy = path[int(rng.integers(0, n))] if n and rng.random() < 0.5 else rng.uniform(-5, 5, 2)
+        pose = Pose2D(float(xy[0]), float(xy[1]), 0.0)
+        got = planning.path_blocked(pose)
+        with monkeypatch.context() as m:
+            m.setattr(native, "LIB", None)
+            want = planning.path_blocked(pose)
+        assert got is want
+        answers.append(got)
+    assert True in answers and False in answers
+
+
+def test_the_path_ahead_starts_at_the_first_nearest_point_and_leaves_out_exactly_near(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A path through a wall and back to where the robot stands (the first of the two nearest
+    points counts: blocked), and a wall point exactly ``near`` away (left out: not blocked)."""
+    from jackson.host.control.navigator_config import NavigatorConfig
+    from jackson.host.control.replanning import GlobalPlanning
+    from jackson.host.nav.types import Pose2D
+
+    config = NavigatorConfig()
+    near = config.costmap.robot_radius_m + 0.05
+
+    def planning_with_wall_at(x_m: float) -> GlobalPlanning:
+        static = OccupancyGrid.empty(4.0, 4.0, 0.05, -2.0, -2.0, fill=0)
+        col = int((x_m + 2.0) / 0.05)
+        static.data[:, col] = 100
+        glob = Costmap.from_map(static, CostmapConfig(), collision_checks=False)
+        assert glob.resolution_m == 0.05
+        local = Costmap.rolling_window(CostmapConfig(), -1.5, -1.5)
+        return GlobalPlanning(config, glob, glob, local)
+
+    back = np.array([[0.0, 0.0], [1.05, 0.0], [0.0, 0.0], [0.0, 0.5]])
+    exact = np.array([[0.0, 0.0], [near, 0.0]])
+    assert math.hypot(exact[1, 0] - 0.0, 0.0) == near
+    for path, wall_x, expected in ((back, 1.05, True), (exact, near, False)):
+        planning = planning_with_wall_at(wall_x)
+        assert int(planning.global_costmap.cost_at(path[1:2, 0], path[1:2, 1])[0]) >= 253
+        planning.path = path
+        got = planning.path_blocked(Pose2D(0.0, 0.0, 0.0))
+        with monkeypatch.context() as m:
+            m.setattr(native, "LIB", None)
+            want = planning.path_blocked(Pose2D(0.0, 0.0, 0.0))
+        assert got is want is expected
