@@ -25,18 +25,17 @@ REASON : str
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import math
-import os
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common import native_lib
+
 ENV_INTERPRETED = "JACKSON_PROTOCOL_INTERPRETED"
 LIBRARY = "libjackson_protocol.so"
-DIGEST_HEX = 16
 
 _P = ctypes.c_void_p
 _N = ctypes.c_int64
@@ -50,8 +49,8 @@ def source_path() -> Path:
 
 
 def source_digest(source: bytes) -> str:
-    """A build's name: the first :data:`DIGEST_HEX` hex digits of the source's SHA-256."""
-    return hashlib.sha256(source).hexdigest()[:DIGEST_HEX]
+    """A build's name (:func:`jackson.common.native_lib.source_digest`)."""
+    return native_lib.source_digest(source)
 
 
 def builds_dir(source: Path) -> Path:
@@ -91,24 +90,12 @@ def load_library(path: Path) -> ctypes.CDLL:
     return lib
 
 
-def _select() -> tuple[ctypes.CDLL | None, str]:
-    if os.environ.get(ENV_INTERPRETED, "") not in ("", "0"):
-        return None, f"numpy ({ENV_INTERPRETED} is set)"
-    source = source_path()
-    try:
-        digest = source_digest(source.read_bytes())
-    except OSError as e:
-        return None, f"numpy (cannot read the source: {e})"
-    path = build_path(builds_dir(source), digest)
-    if not path.is_file():
-        return None, f"numpy (no build of capsules.cpp {digest}; make setup)"
-    try:
-        return load_library(path), f"compiled ({path})"
-    except OSError as e:
-        return None, f"numpy (the build does not load: {e})"
-
-
-LIB, REASON = _select()
+LIB, REASON = native_lib.select(
+    source_path(),
+    lambda digest: build_path(builds_dir(source_path()), digest),
+    load_library,
+    ENV_INTERPRETED,
+)
 
 
 class Fed(NamedTuple):

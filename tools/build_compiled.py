@@ -334,39 +334,22 @@ def main() -> int:
     )
     parser.add_argument("--force", action="store_true", help="rebuild an existing build")
     args = parser.parse_args()
-    t0 = time.monotonic()
-    try:
-        target = build(args.force)
-        if target is not None:
-            print(f"setup: compiled sim/physics.py with mypyc ({time.monotonic() - t0:.0f} s)")
-    except Exception as e:  # never break make setup
-        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
-        print(
-            f"setup: compiled physics not built, the twin runs interpreted: {why}", file=sys.stderr
-        )
-    t0 = time.monotonic()
-    try:
-        nav = build_nav(args.force)
-        if nav is not None:
-            print(f"setup: compiled host/nav/native/collide.cpp ({time.monotonic() - t0:.0f} s)")
-    except Exception as e:  # never break make setup
-        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
-        print(
-            f"setup: compiled collision tests not built, the costmap uses numpy: {why}",
-            file=sys.stderr,
-        )
-    t0 = time.monotonic()
-    try:
-        proto = build_protocol(args.force)
-        if proto is not None:
-            took = time.monotonic() - t0
-            print(f"setup: compiled protocol/native/capsules.cpp ({took:.0f} s)")
-    except Exception as e:  # never break make setup
-        why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
-        print(
-            f"setup: compiled capsule decoding not built, the LiDAR's decoder uses numpy: {why}",
-            file=sys.stderr,
-        )
+    optional = (
+        (build, "sim/physics.py with mypyc",
+         "compiled physics not built, the twin runs interpreted"),
+        (build_nav, "host/nav/native/collide.cpp",
+         "compiled collision tests not built, the costmap uses numpy"),
+        (build_protocol, "protocol/native/capsules.cpp",
+         "compiled capsule decoding not built, the LiDAR's decoder uses numpy"),
+    )  # fmt: skip
+    for make, what, without in optional:
+        t0 = time.monotonic()
+        try:
+            if make(args.force) is not None:
+                print(f"setup: compiled {what} ({time.monotonic() - t0:.0f} s)")
+        except Exception as e:  # never break make setup
+            why = str(e) if isinstance(e, BuildError) else f"{type(e).__name__}: {e}"
+            print(f"setup: {without}: {why}", file=sys.stderr)
     t0 = time.monotonic()
     try:
         fw = build_firmware(args.force)

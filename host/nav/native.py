@@ -25,8 +25,6 @@ REASON : str
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,9 +32,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from jackson.common import native_lib
+
 ENV_INTERPRETED = "JACKSON_NAV_INTERPRETED"
 LIBRARY = "libjackson_nav.so"
-DIGEST_HEX = 16
 
 # Arrays go in as bare addresses (c_void_p), checked by _ptr: numpy's ctypes adapters
 # (ndpointer, ndarray.ctypes) build reference cycles on every call, garbage the daemon's
@@ -90,8 +89,8 @@ def source_path() -> Path:
 
 
 def source_digest(source: bytes) -> str:
-    """A build's name: the first :data:`DIGEST_HEX` hex digits of the source's SHA-256."""
-    return hashlib.sha256(source).hexdigest()[:DIGEST_HEX]
+    """A build's name (:func:`jackson.common.native_lib.source_digest`)."""
+    return native_lib.source_digest(source)
 
 
 def builds_dir(source: Path) -> Path:
@@ -471,24 +470,12 @@ def dwb_collision_plan(
     return group, margin, near.view(np.bool_)
 
 
-def _select() -> tuple[ctypes.CDLL | None, str]:
-    if os.environ.get(ENV_INTERPRETED, "") not in ("", "0"):
-        return None, f"numpy ({ENV_INTERPRETED} is set)"
-    source = source_path()
-    try:
-        digest = source_digest(source.read_bytes())
-    except OSError as e:
-        return None, f"numpy (cannot read the source: {e})"
-    path = build_path(builds_dir(source), digest)
-    if not path.is_file():
-        return None, f"numpy (no build of collide.cpp {digest}; make setup)"
-    try:
-        return load_library(path), f"compiled ({path})"
-    except OSError as e:
-        return None, f"numpy (the build does not load: {e})"
-
-
-LIB, REASON = _select()
+LIB, REASON = native_lib.select(
+    source_path(),
+    lambda digest: build_path(builds_dir(source_path()), digest),
+    load_library,
+    ENV_INTERPRETED,
+)
 
 
 @dataclass(frozen=True)
