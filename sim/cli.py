@@ -426,6 +426,8 @@ def _summary(stats: RunnerStats, twin: Twin) -> int:
         f"({stats.spun_s:.3f} s of it polling for the host)",
         flush=True,
     )
+    for contact in twin.world.contacts:
+        print(f"twin: {contact.line()}", flush=True)
     if twin.faults is not None:
         for entry in twin.faults.record():
             print(f"fault: {entry['fault']}: {summary(entry)}", flush=True)

@@ -491,6 +491,7 @@ class Twin:
                 robot.step_free(dt)
                 return
         self._recheck -= 1
+        self.world.t_s = self.steps * self.dt  # a contact in this step is dated by it
         robot.step_space(space, dt)
 
     def truth(self) -> Truth:

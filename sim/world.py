@@ -15,6 +15,47 @@ from jackson.sim.lidar import Obstacles
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
+MAX_CONTACTS = 1000  # contacts kept with their time and place (every one is counted)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The robot's body touching a wall or a cylinder: when, where the robot was, and what.
+
+    Attributes
+    ----------
+    t_s : float
+        The twin's time of the physics step [s].
+    x_m, y_m, yaw_rad : float
+        The robot's body then (world frame) [m, m, rad].
+    obstacle : str
+        What it touched: ``wall (x1, y1)-(x2, y2)`` or ``cylinder at (x, y) r R`` [m].
+    """
+
+    t_s: float
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    obstacle: str
+
+    def line(self) -> str:
+        """One line for the twin's log."""
+        return (
+            f"contact at {self.t_s:.2f} s: the robot at ({self.x_m:.2f}, {self.y_m:.2f}) m, "
+            f"{math.degrees(self.yaw_rad):.0f} deg, touched the {self.obstacle}"
+        )
+
+
+def _describe(shape: pymunk.Shape) -> str:
+    if isinstance(shape, pymunk.Segment):
+        a, b = shape.a, shape.b
+        return f"wall ({a.x:.2f}, {a.y:.2f})-({b.x:.2f}, {b.y:.2f})"
+    if isinstance(shape, pymunk.Circle):
+        c = shape.offset
+        return f"cylinder at ({c.x:.2f}, {c.y:.2f}) r {shape.radius:.2f}"
+    return type(shape).__name__
+
+
 _DUE_S = 1e-9  # [s] an event this close after the check's instant is due at it
 
 
@@ -51,6 +92,8 @@ class World:
         self.segments: list[tuple[float, float, float, float]] = []
         self.circles: list[tuple[float, float, float]] = []
         self.collisions = 0
+        self.contacts: list[Contact] = []  # the first MAX_CONTACTS
+        self.t_s = 0.0  # the time of the step being integrated (the twin sets it)
         triggers = spec.triggers
         self._by_distance = sorted(
             (t for t in triggers if t.when_moved_m is not None), key=lambda t: t.when_moved_m or 0.0
@@ -79,6 +122,12 @@ class World:
 
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         self.collisions += 1
+        robot, obstacle = arbiter.shapes  # in the handler's order: the robot's first
+        body = robot.body
+        if len(self.contacts) < MAX_CONTACTS and body is not None:
+            self.contacts.append(
+                Contact(self.t_s, body.position.x, body.position.y, body.angle, _describe(obstacle))
+            )
 
     def add_cylinder(self, c: Cylinder) -> pymunk.Circle:
         """Insert a cylinder into the space, the clearance and the ray caster; return its

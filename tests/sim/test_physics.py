@@ -158,6 +158,13 @@ def test_driving_into_a_wall_collides_and_never_tunnels() -> None:
     tw.command(drive(1.0), drive(1.0))
     tw.advance(20.0)
     assert tw.collisions >= 1
+    # each contact kept with its time, the robot's pose and what it touched
+    first = tw.world.contacts[0]
+    assert len(tw.world.contacts) == tw.collisions
+    assert 0.0 < first.t_s <= tw.truth().t_s
+    assert first.obstacle == "wall (2.50, -1.50)-(2.50, 2.50)"
+    assert 2.5 - 0.2 < first.x_m < 2.5 and abs(first.y_m) < 0.1
+    assert first.line().startswith(f"contact at {first.t_s:.2f} s: the robot at (")
     front = tw.truth().x + 0.135177
     assert front <= 2.5 + 0.01  # pressed against the wall, not through it
     assert max(s.x for s in tw.truth_log) + 0.135177 <= 2.5 + 0.01
