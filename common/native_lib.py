@@ -14,8 +14,51 @@ import hashlib
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
 
 DIGEST_HEX = 16
+
+# Arrays go to the C functions as bare addresses (c_void_p): numpy's ctypes adapters
+# (ndpointer, ndarray.ctypes) build reference cycles on every call, garbage the daemon's
+# settled collector reaches only rarely, so its memory grew with the calls.
+_BYTE = ctypes.c_char
+_DTYPES: dict[type[np.generic], np.dtype[Any]] = {}  # each element type's dtype, made once
+
+
+def pointer(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
+    """The address of a C-contiguous array of ``dtype`` (the caller keeps the array alive).
+
+    A writable array's through ctypes' buffer view (0.4 us, no cycle), a read-only or empty
+    one's through ``__array_interface__`` (2 us: a navigating daemon takes about a hundred
+    addresses a frame).
+
+    Raises
+    ------
+    TypeError
+        Another element type, or an array that is not C-contiguous.
+    """
+    want = _DTYPES.get(dtype)
+    if want is None:
+        want = _DTYPES.setdefault(dtype, np.dtype(dtype))
+    if a.dtype is want or a.dtype == want:  # the same object but for an unpickled array's
+        if a.size:
+            try:  # ctypes refuses a buffer that is read-only or not C-contiguous
+                return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]
+            except TypeError:
+                pass
+        if a.flags.c_contiguous:
+            return int(a.__array_interface__["data"][0])
+    raise TypeError(f"expected a C-contiguous {np.dtype(dtype)} array, got {a.dtype}")
+
+
+def address(a: npt.NDArray[Any]) -> int:
+    """The address of a writable, C-contiguous, non-empty array (the caller keeps it alive and
+    knows its type): :func:`pointer`'s fast case without its checks, for buffers made to
+    measure."""
+    return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]  # a buffer
 
 
 def source_digest(source: bytes) -> str:

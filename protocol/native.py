@@ -38,9 +38,9 @@ ENV_INTERPRETED = "JACKSON_PROTOCOL_INTERPRETED"
 LIBRARY = "libjackson_protocol.so"
 
 _P = ctypes.c_void_p
+pointer, address = native_lib.pointer, native_lib.address
 _N = ctypes.c_int64
 _D = ctypes.c_double
-_BYTE = ctypes.c_char
 
 
 def source_path() -> Path:
@@ -164,7 +164,6 @@ def capsules_feed(
     distance = np.empty(room, np.int64)
     state = np.array((held is not None, last_sync), np.uint8)
     counts = np.empty(5, np.int64)
-    address = _address
     out = LIB.jackson_capsules_feed(
         answer_type, capsule_bytes, samples, buf, len(buf), held, address(state),
         address(counts), address(start), address(angle), address(distance),
@@ -210,8 +209,8 @@ def rplidar_turn(
         return angles, ranges
     order = np.empty(n, np.int64)
     LIB.jackson_rplidar_turn(
-        n, _any_address(a), _any_address(d), q6_to_rad, q2_to_m, cap_m, math.pi,
-        _address(angles), _address(ranges), _address(order),
+        n, pointer(a, np.int64), pointer(d, np.int64), q6_to_rad, q2_to_m, cap_m, math.pi,
+        address(angles), address(ranges), address(order),
     )  # fmt: skip
     return angles, ranges
 
@@ -255,8 +254,8 @@ def ultra_ranged(
     if raw.size == 0:
         return out, 0
     dropouts = LIB.jackson_ultra_ranged(
-        count, inc, angle_min, edge, _any_address(r), raw.size, _any_address(raw), iterations,
-        start_deg, _address(out),
+        count, inc, angle_min, edge, pointer(r, np.float64), raw.size,
+        pointer(raw, np.float64), iterations, start_deg, address(out),
     )  # fmt: skip
     return out, int(dropouts)
 
@@ -293,19 +292,9 @@ def ultra_capsules(
         return b"", 0
     out = np.empty(count * 132, np.uint8)
     dropouts = LIB.jackson_ultra_capsules(
-        count, _any_address(d), _any_address(q6), int(start), _address(out)
+        count, pointer(d, np.int64), pointer(q6, np.int64), int(start), address(out)
     )
     return out.tobytes(), int(dropouts)
-
-
-def _any_address(a: npt.NDArray[np.generic]) -> int:
-    """The address of a C-contiguous, non-empty array, read-only or not."""
-    return int(a.__array_interface__["data"][0])
-
-
-def _address(a: npt.NDArray[np.generic]) -> int:
-    """The address of a writable, C-contiguous, non-empty array made here."""
-    return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]  # a buffer
 
 
 def main() -> None:

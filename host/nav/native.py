@@ -37,50 +37,18 @@ from jackson.common import native_lib
 ENV_INTERPRETED = "JACKSON_NAV_INTERPRETED"
 LIBRARY = "libjackson_nav.so"
 
-# Arrays go in as bare addresses (c_void_p), checked by _ptr: numpy's ctypes adapters
-# (ndpointer, ndarray.ctypes) build reference cycles on every call, garbage the daemon's
-# settled collector reaches only rarely, so its memory grew with the calls.
+# Arrays go in as bare addresses (c_void_p, jackson.common.native_lib.pointer).
 _P = ctypes.c_void_p  # an array's address
 _N = ctypes.c_int64
 _D = ctypes.c_double
 _F, _L = np.float64, np.int64  # the element types the C++ reads
 F64, I64 = _F, _L
-_BYTE = ctypes.c_char
 FloatArray = npt.NDArray[np.float64]
 
 
-_DTYPES: dict[type[np.generic], np.dtype[Any]] = {}  # each element type's dtype, made once
-
-
-def _ptr(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
-    """The address of a C-contiguous array of ``dtype`` (the caller keeps the array alive).
-
-    A writable array's through ctypes' buffer view (0.4 us, no cycle), a read-only or empty
-    one's through ``__array_interface__`` (2 us: a navigating daemon takes about a hundred
-    addresses a frame)."""
-    want = _DTYPES.get(dtype)
-    if want is None:
-        want = _DTYPES.setdefault(dtype, np.dtype(dtype))
-    if a.dtype is want or a.dtype == want:  # the same object but for an unpickled array's
-        if a.size:
-            try:  # ctypes refuses a buffer that is read-only or not C-contiguous
-                return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]
-            except TypeError:
-                pass
-        if a.flags.c_contiguous:
-            return int(a.__array_interface__["data"][0])
-    raise TypeError(f"expected a C-contiguous {np.dtype(dtype)} array, got {a.dtype}")
-
-
-def address(a: npt.NDArray[Any]) -> int:
-    """The address of a writable, C-contiguous, non-empty array (the caller keeps it alive and
-    knows its type): :func:`_ptr`'s fast case without its checks, for buffers made to measure."""
-    return ctypes.addressof(_BYTE.from_buffer(a))  # type: ignore[arg-type]  # a buffer
-
-
-def pointer(a: npt.NDArray[Any], dtype: type[np.generic]) -> int:
-    """:func:`_ptr` for the modules that wrap more of the library's calls."""
-    return _ptr(a, dtype)
+_ptr = native_lib.pointer  # an array's address, its type and layout checked
+address = native_lib.address  # a buffer made to measure: no checks
+pointer = native_lib.pointer  # for the modules that wrap more of the library's calls
 
 
 def source_path() -> Path:
