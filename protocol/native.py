@@ -84,7 +84,7 @@ def load_library(path: Path) -> ctypes.CDLL:
     turn.restype = None
     turn.argtypes = [_N, _P, _P, _D, _D, _D, _D, _P, _P, _P]
     ranged.restype = _N
-    ranged.argtypes = [_N, _D, _D, _D, _P, _N, _P, _N, _D, _P]
+    ranged.argtypes = [_N, _D, _D, _D, _P, _N, _P, _N, _D, _D, _N, _P]
     ultra.restype = _N
     ultra.argtypes = [_N, _P, _P, ctypes.c_uint8, _P]
     return lib
@@ -221,9 +221,10 @@ def ultra_ranged(
     raw_deg: npt.NDArray[np.float64],
     iterations: int,
     start_deg: float,
+    window: tuple[float, int],
 ) -> tuple[npt.NDArray[np.int64], int]:
     """The twin's ultra samples ranged where a decoder will place them
-    (:meth:`jackson.sim.rplidar._SampleStream._parallax_ranged`), compiled: the same
+    (:func:`jackson.sim.rplidar_ranges.parallax_ranged`), compiled: the same
     distances bit for bit.
 
     Parameters
@@ -237,7 +238,10 @@ def ultra_ranged(
     iterations : int
         Steps of the search for each sample's offset (at least 1).
     start_deg : float
-        The offset the search starts from [deg].
+        The offset the first search starts from [deg].
+    window : tuple
+        (shift [deg], beams): the second search starts from the offset of the nearest of
+        ``beams`` beams from the one at heading raw + shift on.
 
     Returns
     -------
@@ -255,7 +259,7 @@ def ultra_ranged(
         return out, 0
     dropouts = LIB.jackson_ultra_ranged(
         count, inc, angle_min, edge, pointer(r, np.float64), raw.size,
-        pointer(raw, np.float64), iterations, start_deg, address(out),
+        pointer(raw, np.float64), iterations, start_deg, window[0], window[1], address(out),
     )  # fmt: skip
     return out, int(dropouts)
 

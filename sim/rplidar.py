@@ -104,13 +104,15 @@ from jackson.protocol.rplidar import (
     lidar_conf_response,
     response,
     scan_mode_conf,
-    ultra_angle_offset_q16,
     ultra_capsule_of_cabins,
-    varbitscale_decode,
-    varbitscale_encode,
 )
 from jackson.sim.lidar import LidarSpec
 from jackson.sim.link import PtyLink
+from jackson.sim.rplidar_ranges import (
+    millimetres,
+    parallax_ranged,
+    ranges_at,
+)
 
 __all__ = [
     "A1M8_SAMPLE_RATE",
@@ -158,11 +160,6 @@ A1M8_SAMPLE_RATE = SampleRate(508, 254)
 
 KNOWN_COMMANDS = frozenset(int(c) for c in Command)
 TIME_TOLERANCE_S = 1e-9  # a revolution ending this close after t_s counts as ended at t_s
-EDGE_FRACTION = 0.1
-"""Two neighbouring beams that differ by more than this fraction of the nearer one are an edge:
-a sample between them takes the nearer beam's range instead of interpolating."""
-PARALLAX_ITERATIONS = 3
-ULTRA_OFFSET_START_DEG = 7.5  # the parallax model's offset below 50 mm: where iterating starts
 RECENT_REQUESTS = 256
 
 # a revolution's ranges, or (its ranges, what the next turn's first beams read just after it
@@ -171,53 +168,6 @@ RangesFn = Callable[[float], npt.ArrayLike | tuple[npt.ArrayLike, npt.ArrayLike]
 F64Array = npt.NDArray[np.float64]
 I64Array = npt.NDArray[np.int64]
 ScalarT = TypeVar("ScalarT", bound=np.generic)
-
-
-def ranges_at(spec: LidarSpec, ranges_m: F64Array, heading_deg: F64Array) -> F64Array:
-    """A revolution's ranges [m] at clockwise headings [deg], from its beams.
-
-    Each heading falls between two beams (the last and the first bridge the gap of an
-    incomplete turn); the range is linear between theirs unless they differ by more than
-    :data:`EDGE_FRACTION` of the nearer or one has no return, and then it is the nearer beam's
-    (an edge stays an edge, a no return stays one).
-
-    Parameters
-    ----------
-    spec : LidarSpec
-        The beams' geometry.
-    ranges_m : ndarray
-        The revolution's ``spec.beams`` ranges [m] in beam order; ``inf``, NaN or <= 0 for no
-        return.
-    heading_deg : ndarray
-        Headings [deg], clockwise seen from above, any value (wrapped).
-
-    Returns
-    -------
-    ndarray
-        Ranges [m], ``inf`` for no return.
-    """
-    beams, inc = spec.beams, spec.angle_increment_rad
-    r = np.where(np.isfinite(ranges_m) & (ranges_m > 0.0), ranges_m, np.inf)
-    alpha = np.mod(-np.radians(heading_deg) - spec.angle_min_rad, 2.0 * math.pi)
-    i0 = np.minimum(np.floor(alpha / inc).astype(np.int64), beams - 1)
-    gap = max(2.0 * math.pi - (beams - 1) * inc, inc)  # last beam to the first, one turn on
-    width = np.where(i0 == beams - 1, gap, inc)
-    f = np.clip((alpha - i0 * inc) / width, 0.0, 1.0)
-    r0, r1 = r[i0], r[(i0 + 1) % beams]
-    with np.errstate(invalid="ignore"):
-        smooth = np.isfinite(r0) & np.isfinite(r1)
-        smooth &= np.abs(r1 - r0) <= EDGE_FRACTION * np.minimum(r0, r1)
-        lin = r0 + f * (r1 - r0)
-    out: F64Array = np.where(smooth, lin, np.where(f < 0.5, r0, r1))
-    return out
-
-
-def _millimetres(ranges_m: F64Array, top: int) -> I64Array:
-    """Ranges [m] as whole millimetres for the wire, 0 for no return."""
-    ok = np.isfinite(ranges_m) & (ranges_m > 0.0)
-    mm = np.zeros(len(ranges_m), dtype=np.int64)
-    mm[ok] = np.clip(np.rint(ranges_m[ok] * 1000.0), 1, top)
-    return mm
 
 
 class _SampleStream:
@@ -293,7 +243,7 @@ class _SampleStream:
         else:
             top = CAPSULE_DISTANCE_MM_MAX if self.format is CAPSULED else 0xFFFF
             r = self._split(n < n_end, heading, ranges_m, ahead_m, self._ranges_at)
-            mm = _millimetres(r, top)
+            mm = millimetres(r, top)
         self.heading_deg = np.concatenate((self.heading_deg, heading))
         self.distance_mm = np.concatenate((self.distance_mm, mm))
         return self._capsules()
@@ -316,35 +266,17 @@ class _SampleStream:
         return np.concatenate((ranged(ranges_m, heading[own]), ranged(ahead_m, heading[~own])))
 
     def _nodes(self, heading: F64Array, ranges: F64Array, start: npt.NDArray[np.bool_]) -> bytes:
-        distance_q2 = 4 * _millimetres(ranges, 0xFFFF // 4)
+        distance_q2 = 4 * millimetres(ranges, 0xFFFF // 4)
         angle_q6 = np.mod(np.rint(heading * 64.0).astype(np.int64), ANGLE_Q6_TURN)
         quality = np.where(distance_q2 > 0, QUALITY_RETURN, 0)
         return encode_nodes(start, quality, angle_q6, distance_q2)
 
     def _parallax_ranged(self, ranges_m: F64Array, raw_deg: F64Array) -> I64Array:
-        """Distances [mm] of ultra samples, each ranged where a decoder will place it: its raw
-        angle less the parallax model's offset for the distance it will decode (quantised
-        as the variable bit scale quantises it), found by iterating from the offset below 50 mm.
-        Next to an edge the near side's offset is the smaller, and a raw angle between the
-        two sides' offsets has no such distance: that sample is sent as no return."""
-        if protocol_native.LIB is not None:  # the same distances, compiled
-            spec = self.spec
-            ranged, dropouts = protocol_native.ultra_ranged(
-                (spec.beams, spec.angle_increment_rad, spec.angle_min_rad, EDGE_FRACTION),
-                ranges_m, raw_deg, PARALLAX_ITERATIONS, ULTRA_OFFSET_START_DEG,
-            )  # fmt: skip
-            self.edge_dropouts += dropouts
-            return ranged
-        heading: F64Array = raw_deg - ULTRA_OFFSET_START_DEG
-        for _ in range(PARALLAX_ITERATIONS):
-            mm = _millimetres(ranges_at(self.spec, ranges_m, heading), 0xFFFF)
-            decoded_mm, _ = varbitscale_decode(varbitscale_encode(mm))
-            heading = raw_deg - ultra_angle_offset_q16(4 * decoded_mm) / 65536.0
-        there = _millimetres(ranges_at(self.spec, ranges_m, heading), 0xFFFF)
-        consistent = np.abs(there - mm) <= EDGE_FRACTION * np.minimum(there, mm)
-        self.edge_dropouts += int(np.count_nonzero(~consistent & (mm > 0)))
-        out: I64Array = np.where(consistent, mm, 0)
-        return out
+        """Distances [mm] of ultra samples, each ranged where a decoder will place it
+        (:func:`~jackson.sim.rplidar_ranges.parallax_ranged`); the edge dropouts counted."""
+        mm, dropouts = parallax_ranged(self.spec, ranges_m, raw_deg)
+        self.edge_dropouts += dropouts
+        return mm
 
     def _capsules(self) -> bytes:
         fmt = self.format

@@ -191,9 +191,10 @@ int64_t varbitscale_code(int64_t d) {
     return code < 0 ? 0 : (code > 0xFFF ? 0xFFF : code);
 }
 
-// The emulator's beams read at headings (sim/rplidar.py's ranges_at): linear between the two
-// beams around each heading unless they differ by more than edge_fraction of the nearer or one
-// has no return, then the nearer's. ``r`` holds the beams' ranges with no return as inf.
+// The emulator's beams read at headings (sim/rplidar_ranges.py's ranges_at): linear between
+// the two beams around each heading unless they differ by more than edge_fraction of the
+// nearer or one has no return, then the nearer's. ``r`` holds the beams' ranges with no
+// return as inf.
 struct Beams {
     int64_t beams;
     double inc, angle_min, gap, edge_fraction;
@@ -302,16 +303,19 @@ void jackson_rplidar_turn(int64_t n, const int64_t* angle_q6, const int64_t* dis
     }
 }
 
-// The emulator's ultra samples (sim/rplidar.py's _SampleStream._parallax_ranged): each sample
+// The emulator's ultra samples (sim/rplidar_ranges.py's parallax_ranged): each sample
 // at raw angle ``raw_deg`` ranged where a decoder will place it, its raw angle less the
 // parallax offset of the distance it will decode (variable-bit-scale quantised), found by
-// ``iterations`` steps from ``start_deg``; a sample whose distance there disagrees by more than
-// ``edge_fraction`` goes out as no return. ``ranges_m``: the revolution's ``beams`` ranges (inf,
-// NaN or <= 0: no return). Writes the distances [mm] to ``out_mm``; returns how many samples
-// with a return went out as none.
+// ``iterations`` steps from two starts: the offset ``start_deg`` and the offset of the nearest
+// of the ``window`` beams from the one at heading raw + ``window_shift_deg`` on; the nearer
+// distance that fits wins. A sample whose distance disagrees by more than ``edge_fraction``
+// with the range where it decodes, from both starts, goes out as no return. ``ranges_m``: the
+// revolution's ``beams`` ranges (inf, NaN or <= 0: no return). Writes the distances [mm] to
+// ``out_mm``; returns how many samples with a return from the first start went out as none.
 int64_t jackson_ultra_ranged(int64_t beams, double inc, double angle_min, double edge_fraction,
                              const double* ranges_m, int64_t n, const double* raw_deg,
-                             int64_t iterations, double start_deg, int64_t* out_mm) {
+                             int64_t iterations, double start_deg, double window_shift_deg,
+                             int64_t window, int64_t* out_mm) {
     std::vector<double> r(static_cast<size_t>(beams));
     for (int64_t i = 0; i < beams; ++i) {
         const double x = ranges_m[i];
@@ -320,23 +324,56 @@ int64_t jackson_ultra_ranged(int64_t beams, double inc, double angle_min, double
     // the beam after the last, one turn on
     const double gap = std::max(2.0 * M_PI - static_cast<double>(beams - 1) * inc, inc);
     const Beams b{beams, inc, angle_min, gap, edge_fraction, r.data()};
-    int64_t dropouts = 0;
-    for (int64_t k = 0; k < n; ++k) {
-        const double raw = raw_deg[k];
-        double heading = raw - start_deg;
-        int64_t mm = 0;
+    // _parallax_search: the distance from a start heading, and whether it fits
+    const auto search = [&](double raw, double heading, int64_t* mm) {
+        *mm = 0;
         for (int64_t it = 0; it < iterations; ++it) {
-            mm = millimetres(b.at(heading), 65535.0);
+            *mm = millimetres(b.at(heading), 65535.0);
             int64_t decoded, level;
-            varbitscale(varbitscale_code(mm), &decoded, &level);
+            varbitscale(varbitscale_code(*mm), &decoded, &level);
             heading = raw - static_cast<double>(ultra_offset_q16(4 * decoded)) / 65536.0;
         }
         const int64_t there = millimetres(b.at(heading), 65535.0);
-        const int64_t diff = there > mm ? there - mm : mm - there;
-        const bool consistent =
-            static_cast<double>(diff) <= edge_fraction * static_cast<double>(std::min(there, mm));
-        if (!consistent && mm > 0) ++dropouts;
-        out_mm[k] = consistent ? mm : 0;
+        const int64_t diff = there > *mm ? there - *mm : *mm - there;
+        return static_cast<double>(diff) <=
+               edge_fraction * static_cast<double>(std::min(there, *mm));
+    };
+    // each beam's nearest range over the window from it on (van Herk's running minima: the
+    // minima of blocks of ``window`` from their start and from their end)
+    const int64_t len = beams + window - 1;
+    std::vector<double> ext(static_cast<size_t>(len)), ahead(ext.size()), behind(ext.size());
+    for (int64_t i = 0; i < len; ++i) ext[i] = r[i % beams];
+    for (int64_t i = 0; i < len; ++i)
+        ahead[i] = i % window == 0 ? ext[i] : std::min(ahead[i - 1], ext[i]);
+    for (int64_t i = len - 1; i >= 0; --i)
+        behind[i] = (i % window == window - 1 || i == len - 1) ? ext[i]
+                                                               : std::min(behind[i + 1], ext[i]);
+    std::vector<double> nearest_from(static_cast<size_t>(beams));
+    for (int64_t j = 0; j < beams; ++j)
+        nearest_from[j] = std::min(behind[j], ahead[j + window - 1]);
+    int64_t dropouts = 0;
+    for (int64_t k = 0; k < n; ++k) {
+        const double raw = raw_deg[k];
+        int64_t far_mm, near_mm;
+        const bool far_fits = search(raw, raw - start_deg, &far_mm);
+        // the nearest beam the laser's line can cross (_beam_index, _window_beams)
+        const double alpha =
+            np_fmod_floor(-((raw + window_shift_deg) * (M_PI / 180.0)) - angle_min, 2.0 * M_PI);
+        int64_t first = static_cast<int64_t>(std::floor(alpha / inc));
+        if (first > beams - 1) first = beams - 1;
+        const int64_t nearest_mm = millimetres(nearest_from[first], 65535.0);
+        const int64_t far = far_fits ? far_mm : 0;
+        bool near = false;
+        if (far == 0 || nearest_mm < far) {  // else nothing the line crosses is nearer
+            int64_t decoded, level;
+            varbitscale(varbitscale_code(nearest_mm), &decoded, &level);
+            const double near_start =
+                raw - static_cast<double>(ultra_offset_q16(4 * decoded)) / 65536.0;
+            const bool near_fits = search(raw, near_start, &near_mm);
+            near = near_fits && near_mm > 0 && (far == 0 || near_mm < far);
+        }
+        out_mm[k] = near ? near_mm : far;
+        if (out_mm[k] == 0 && !far_fits && far_mm > 0) ++dropouts;
     }
     return dropouts;
 }

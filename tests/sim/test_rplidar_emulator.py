@@ -21,6 +21,7 @@ import pytest
 from numpy.typing import NDArray
 
 from jackson.host.lidar.rplidar import LidarError, Revolution, RplidarDriver, open_error
+from jackson.protocol import native as protocol_native
 from jackson.protocol.rplidar import (
     CapsuleDecoder,
     Command,
@@ -62,6 +63,7 @@ from jackson.sim.rplidar import (
     TWIN_INFO,
     DeviceAnswers,
     RplidarEmulator,
+    _SampleStream,
 )
 from jackson.sim.runner import RunnerStats, TwinRunner
 from jackson.sim.twin import Twin
@@ -704,6 +706,35 @@ def test_the_parallax_model_of_ultra_capsules() -> None:
     # 2 m: k = 98361 // 8000 = 12; 9150 - 12 << 6 = 8382 rad / 2**16 -> 480253 deg / 2**16
     # below 50 mm: 7.5 deg = 8578 -> 491483
     assert ultra_angle_offset_q16([8000, 100]).tolist() == [480253, 491483]
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0], ids=["left", "right"])
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "numpy"])
+def test_ultra_samples_see_a_near_wall_up_to_its_end(
+    side: float, compiled: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a thin wall 9.6 cm to one side whose end is 27 cm away (a door jamb beside the robot),
+    # the room's walls 4 m away behind it: a raw angle whose laser line crosses both returns
+    # the jamb (the nearer), so the decoded returns reach the wall's end on either side
+    if compiled and protocol_native.LIB is None:
+        pytest.skip(f"no compiled build: {protocol_native.REASON}")
+    if not compiled:
+        monkeypatch.setattr(protocol_native, "LIB", None)
+    spec = LidarSpec(noise_sigma_m=0.0)
+    room = Obstacles()
+    room.add_polygon([(-4.0, -4.0), (4.0, -4.0), (4.0, 4.0), (-4.0, 4.0)])
+    room.add_segment(0.25, side * 0.096, 3.0, side * 0.096)
+    ranges = Lidar(spec, np.random.default_rng(0)).true_ranges(0.0, 0.0, 0.0, room)
+    stream = _SampleStream(spec, A1M8_SCAN_MODES[3], 0.0)
+    data = b"".join(stream.revolution(k * spec.scan_period_s, ranges, None) for k in range(1, 4))
+    samples = CapsuleDecoder(DataType.MEASUREMENT_ULTRA_CAPSULED).feed(data)
+    a, d = -np.radians(samples.angle_deg), samples.distance_mm / 1000.0
+    x, y = d * np.cos(a), d * np.sin(a)
+    on = (d > 0) & (np.abs(y - side * 0.096) < 0.005) & (x > 0.0) & (x < 1.0)
+    assert on.sum() > 100
+    # within two samples (0.34 deg, 7 mm along the wall seen this slantwise) of its end
+    assert x[on].min() < 0.25 + 0.007
+    assert stream.edge_dropouts < 150  # the far side's shadow, samples that fit no distance
 
 
 def test_the_capsule_decoder_skips_garbage_and_bad_checksums() -> None:

@@ -33,9 +33,11 @@ def _revolutions(rng: np.random.Generator, spec: LidarSpec) -> list[np.ndarray]:
     noisy[rng.random(spec.beams) < 0.03] = 0.0
     noisy[rng.random(spec.beams) < 0.03] = -1.0
     steps = np.repeat(rng.uniform(0.01, 9.0, spec.beams // 30 + 1), 30)[: spec.beams]
+    # narrow plateaus: samples the far field's search cannot place and the near one can
+    narrow = np.repeat(rng.uniform(0.05, 9.0, spec.beams // 10 + 1), 10)[: spec.beams]
     # 10 and 11 mm side by side: a sample 1 mm off is exactly at the edge fraction's bound
     near = np.tile(np.repeat([0.010, 0.011, 0.020, 0.022], 3), spec.beams // 12 + 1)[: spec.beams]
-    return [room, noisy, steps, near, np.full(spec.beams, np.inf)]
+    return [room, noisy, steps, narrow, near, np.full(spec.beams, np.inf)]
 
 
 @pytest.mark.parametrize("seed", range(3))
