@@ -9,10 +9,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 from jackson.common.robot import LIDAR_RANGE_NOISE_M
 
 POLICIES = ("continue", "stop")
+
+
+def two_sided_z(probability: float) -> float:
+    """The z within which a standard normal falls with ``probability``: ``norm.ppf((1 + p) /
+    2)``, from the standard library's :class:`statistics.NormalDist` at the tail ``(1 - p) /
+    2``: within 1e-14 of scipy's ``ndtri`` there, and its square within 5e-14 of scipy's
+    chi-square(1) quantile, relative, at every probability the config accepts
+    (``tests/host/health/test_policy.py``). Not scipy: importing ``scipy.special`` took
+    0.3-0.7 s of every command that builds a health monitor (``jackson run square`` included),
+    and ``jackson brake`` imports this module through the host's config."""
+    return -NormalDist().inv_cdf(0.5 * (1.0 - probability))
 
 
 @dataclass(frozen=True)
@@ -230,17 +242,11 @@ class HealthConfig:
 
     @property
     def gate_nis(self) -> float:
-        """The per-sample NIS threshold (chi-square(1) quantile)."""
-        # scipy.special, not scipy.stats (the same quantile functions without the second of
-        # import time), and imported here: `jackson brake` imports this module's config
-        # through the host's and must start in well under a second
-        from scipy.special import gammaincinv
-
-        return 2.0 * float(gammaincinv(0.5, self.gate_probability))  # chi2(1).ppf
+        """The per-sample NIS threshold (chi-square(1) quantile: the square of the two-sided
+        normal quantile, :func:`two_sided_z`)."""
+        return two_sided_z(self.gate_probability) ** 2
 
     @property
     def window_z(self) -> float:
         """The windowed test's threshold in standard deviations (two-sided normal quantile)."""
-        from scipy.special import ndtri
-
-        return float(ndtri(0.5 + 0.5 * self.window_probability))  # norm.ppf
+        return two_sided_z(self.window_probability)

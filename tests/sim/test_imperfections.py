@@ -28,7 +28,7 @@ from jackson.sim.config import (
 from jackson.sim.mcu import SensorSample
 from jackson.sim.robot import WheelDrive
 from jackson.sim.twin import Truth, Twin, draw_trial
-from jackson.sim.world import FrictionField
+from jackson.sim.world import FrictionField, periodic_gaussian
 
 FLOOR = WorldSpec(name="test_floor", mu_static=0.8, mu_dynamic=0.7)
 TOP_SPEED_M_S = 100.0 * 2.0 * math.pi / 60.0 * 0.033  # REFERENCE: 100 RPM x r 0.033 m
@@ -327,6 +327,23 @@ def test_trial_draws_have_the_configured_spread() -> None:
     assert ticks.std() == pytest.approx(0.005, rel=0.1)
     assert bias.std() == pytest.approx(0.002, rel=0.1)
     assert np.abs(battery - 6.0).max() <= 3 * 0.2 + 1e-12
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_floors_smoothing_is_scipys_gaussian_filter_bit_for_bit(seed: int) -> None:
+    from scipy.ndimage import gaussian_filter, gaussian_filter1d
+
+    rng = np.random.default_rng(seed)
+    noise = rng.standard_normal((128, 128))
+    ours = periodic_gaussian(periodic_gaussian(noise, 4, 0), 4, 1)
+    assert np.array_equal(ours, gaussian_filter(noise, 4, mode="wrap"))
+    # other sizes and widths, a kernel wider than the tile included
+    for _ in range(10):
+        a = rng.standard_normal((int(rng.integers(3, 60)), int(rng.integers(3, 60))))
+        sigma, axis = float(rng.uniform(0.3, 8.0)), int(rng.integers(0, 2))
+        assert np.array_equal(
+            periodic_gaussian(a, sigma, axis), gaussian_filter1d(a, sigma, axis, mode="wrap")
+        )
 
 
 def test_friction_field_has_the_configured_spread_and_patch_size() -> None:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from jackson.host.health import HealthConfig, Transition
 from jackson.host.health.policy import Policy
 from jackson.host.health.states import SensorStates
@@ -40,3 +42,13 @@ def test_the_lidar_lost_stops_only_a_mission_that_navigates_by_it() -> None:
     assert _lost(cfg, "lidar") is None
     assert str(_lost(cfg, "lidar", lidar_needed=True)).startswith("the LiDAR excluded (broken)")
     assert _lost(replace(cfg, lidar_lost="continue"), "lidar", lidar_needed=True) is None
+
+
+def test_the_thresholds_are_scipys_quantiles_to_rounding() -> None:
+    from scipy.special import gammaincinv, ndtri
+
+    for p in np.concatenate((np.linspace(0.5001, 0.9999, 200), 1.0 - np.logspace(-4, -12, 30))):
+        cfg = HealthConfig(gate_probability=float(p), window_probability=float(p))
+        chi2 = 2.0 * float(gammaincinv(0.5, p))
+        assert abs(cfg.gate_nis - chi2) <= 5e-14 * chi2
+        assert abs(cfg.window_z + float(ndtri(0.5 * (1.0 - p)))) <= 1e-14 * cfg.window_z
