@@ -322,7 +322,7 @@ class Navigator:
         NavCommand
             The velocity command and the state.
         """
-        self.local_costmap.recentre(pose_map.x, pose_map.y)
+        self.local_costmap.recentre(pose_map.x, pose_map.y, scan_points_map is not None)
         if scan_points_map is not None:
             points = np.asarray(scan_points_map, np.float64).reshape(-1, 2)
             origin = (pose_map.x, pose_map.y)

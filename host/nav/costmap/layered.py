@@ -219,7 +219,7 @@ class Costmap(GridCells):
 
     # ------------------------------------------------------------------ changes
 
-    def recentre(self, x_m: float, y_m: float) -> None:
+    def recentre(self, x_m: float, y_m: float, scan_follows: bool = False) -> None:
         """Move a rolling window so it is centred on (x, y), keeping the overlap.
 
         Does nothing for a fixed grid or when the window would not move a whole cell. A
@@ -230,6 +230,10 @@ class Costmap(GridCells):
         ----------
         x_m, y_m : float
             New centre (the robot) [m].
+        scan_follows : bool
+            :meth:`update` comes next with a scan (a control tick with a new scan): the
+            layers move now and are combined once, by the update, instead of twice. The
+            costs are the same; until the update they are those of the window before.
         """
         if not self._rolling:
             return
@@ -244,6 +248,8 @@ class Costmap(GridCells):
         self.origin_y_m = self._geometry.origin_y_m
         for layer in (self.static, self.obstacles, self.inflation):
             layer.match(self._geometry, (dr, dc))
+        if scan_follows and self._collision_checks:  # update() combines everything
+            return
         self._update_master()
 
     def set_static_map(self, static_map: OccupancyGrid | None) -> None:

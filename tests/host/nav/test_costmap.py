@@ -156,6 +156,34 @@ def test_the_rolling_window_follows_a_jump_of_any_size(jump: tuple[float, float]
     assert cm.cost_at(x + 0.3, y) == FREE_SPACE
 
 
+def test_a_window_recentred_for_a_scan_combines_once_to_the_same_costs() -> None:
+    """recentre(..., scan_follows=True) then update: the costs, distances and collision
+    answers of recentre then update, combined once instead of twice."""
+    rng = np.random.default_rng(4)
+    windows = [Costmap.rolling_window(CostmapConfig(), 0.0, 0.0) for _ in range(2)]
+    x = y = 0.0
+    for _ in range(40):
+        x, y = x + rng.uniform(-0.12, 0.12), y + rng.uniform(-0.12, 0.12)
+        a = rng.uniform(0.0, 2.0 * math.pi, 60)
+        r = rng.uniform(0.2, 1.4, 60)
+        scan = np.column_stack((x + r * np.cos(a), y + r * np.sin(a)))
+        versions = []
+        for cm, deferred in zip(windows, (False, True), strict=True):
+            cm.recentre(x, y, scan_follows=deferred)
+            cm.update(scan, (x, y))
+            versions.append(cm.version)
+        old, new = windows
+        assert np.array_equal(old.costs, new.costs)
+        assert np.array_equal(old.lethal_distance_m, new.lethal_distance_m)
+        assert (old.origin_x_m, old.origin_y_m) == (new.origin_x_m, new.origin_y_m)
+        px, py = x + rng.uniform(-1.0, 1.0, 200), y + rng.uniform(-1.0, 1.0, 200)
+        yaw = rng.uniform(-math.pi, math.pi, 200)
+        assert np.array_equal(
+            old.footprint_collides(px, py, yaw), new.footprint_collides(px, py, yaw)
+        )
+    assert versions[1] < versions[0]  # combined fewer times
+
+
 def test_clearing_forgets_the_scans_but_keeps_the_map() -> None:
     grid = OccupancyGrid.empty(2.0, 2.0, RES, origin_x_m=-1.0, origin_y_m=-1.0, fill=0)
     grid.data[0, :] = 100
