@@ -11,6 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pymunk
 
+from jackson.common.geometry import wrap_angle
 from jackson.sim.config import DROP_CLEARANCE_M, ConfigError, Cylinder, Trigger, WorldSpec
 from jackson.sim.lidar import Obstacles
 
@@ -28,7 +29,7 @@ class Contact:
     t_s : float
         The twin's time of the physics step [s].
     x_m, y_m, yaw_rad : float
-        The robot's body then (world frame) [m, m, rad].
+        The robot's body then (world frame) [m, m, rad]; the heading in (-pi, pi].
     obstacle : str
         What it touched: ``wall (x1, y1)-(x2, y2)`` or ``cylinder at (x, y) r R`` [m].
     """
@@ -127,7 +128,13 @@ class World:
         body = robot.body
         if len(self.contacts) < MAX_CONTACTS and body is not None:
             self.contacts.append(
-                Contact(self.t_s, body.position.x, body.position.y, body.angle, _describe(obstacle))
+                Contact(
+                    self.t_s,
+                    body.position.x,
+                    body.position.y,
+                    wrap_angle(body.angle),
+                    _describe(obstacle),
+                )
             )
 
     def add_cylinder(self, c: Cylinder) -> pymunk.Circle:

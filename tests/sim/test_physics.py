@@ -155,6 +155,7 @@ def test_gravity_and_bias_appear_in_the_imu() -> None:
 def test_driving_into_a_wall_collides_and_never_tunnels() -> None:
     room = load_world("square_room")  # wall at x = 2.5
     tw = Twin(room, robot(), lidar=False)
+    tw.robot.yaw = 4.0 * math.pi  # two turns on the spot behind it: the same heading, unwrapped
     tw.command(drive(1.0), drive(1.0))
     tw.advance(20.0)
     assert tw.collisions >= 1
@@ -165,6 +166,7 @@ def test_driving_into_a_wall_collides_and_never_tunnels() -> None:
     assert first.obstacle == "wall (2.50, -1.50)-(2.50, 2.50)"
     assert 2.5 - 0.2 < first.x_m < 2.5 and abs(first.y_m) < 0.1
     assert first.line().startswith(f"contact at {first.t_s:.2f} s: the robot at (")
+    assert -math.pi < first.yaw_rad <= math.pi  # wrapped, as the log prints it
     front = tw.truth().x + 0.135177
     assert front <= 2.5 + 0.01  # pressed against the wall, not through it
     assert max(s.x for s in tw.truth_log) + 0.135177 <= 2.5 + 0.01
