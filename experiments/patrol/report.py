@@ -191,7 +191,7 @@ def _draw_floor(
     ax.set_title(
         f"{world.name} on {where}: {summary['reachable_reached']} reached, "
         f"{summary['unreachable_answered']} unreachable answered, "
-        f"{summary['contacts']} contacts"
+        f"{summary['contacts']} contact{'' if summary['contacts'] == 1 else 's'}"
     )
     # below the x label whatever the floor's shape: the gap in font sizes, not axes fractions
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, 0.0), borderaxespad=5.0,
