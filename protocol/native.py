@@ -37,10 +37,10 @@ from jackson.common import native_lib
 ENV_INTERPRETED = "JACKSON_PROTOCOL_INTERPRETED"
 LIBRARY = "libjackson_protocol.so"
 
-_P = ctypes.c_void_p
-pointer, address = native_lib.pointer, native_lib.address
+_P = ctypes.c_void_p  # an array's address (jackson.common.native_lib.pointer, address)
 _N = ctypes.c_int64
 _D = ctypes.c_double
+pointer, address = native_lib.pointer, native_lib.address
 
 
 def source_path() -> Path:

@@ -56,8 +56,7 @@ def ranges_at(spec: LidarSpec, ranges_m: F64Array, heading_deg: F64Array) -> F64
     """
     beams, inc = spec.beams, spec.angle_increment_rad
     r = np.where(np.isfinite(ranges_m) & (ranges_m > 0.0), ranges_m, np.inf)
-    alpha = np.mod(-np.radians(heading_deg) - spec.angle_min_rad, 2.0 * math.pi)
-    i0 = np.minimum(np.floor(alpha / inc).astype(np.int64), beams - 1)
+    alpha, i0 = _beam_position(spec, heading_deg)
     gap = max(2.0 * math.pi - (beams - 1) * inc, inc)  # last beam to the first, one turn on
     width = np.where(i0 == beams - 1, gap, inc)
     f = np.clip((alpha - i0 * inc) / width, 0.0, 1.0)
@@ -70,18 +69,27 @@ def ranges_at(spec: LidarSpec, ranges_m: F64Array, heading_deg: F64Array) -> F64
     return out
 
 
-def _beam_index(spec: LidarSpec, heading_deg: F64Array) -> I64Array:
-    """The beam at or counter-clockwise before each clockwise heading [deg] (as
-    :func:`ranges_at` finds it)."""
-    alpha = np.mod(-np.radians(heading_deg) - spec.angle_min_rad, 2.0 * math.pi)
-    out: I64Array = np.minimum(
+def _beam_position(spec: LidarSpec, heading_deg: F64Array) -> tuple[F64Array, I64Array]:
+    """Where each clockwise heading [deg] falls among the beams: its counter-clockwise angle
+    from the first beam in [0, 2 pi) [rad], and the beam at or before it."""
+    alpha: F64Array = np.mod(-np.radians(heading_deg) - spec.angle_min_rad, 2.0 * math.pi)
+    i0: I64Array = np.minimum(
         np.floor(alpha / spec.angle_increment_rad).astype(np.int64), spec.beams - 1
     )
+    return alpha, i0
+
+
+def _decoded_heading(raw_deg: F64Array, mm: I64Array) -> F64Array:
+    """The heading [deg] a decoder gives a sample of raw angle ``raw_deg`` sent with the
+    distance ``mm`` [mm]: the raw angle less the parallax offset of the distance as the
+    variable bit scale quantises it."""
+    decoded_mm, _ = varbitscale_decode(varbitscale_encode(mm))
+    out: F64Array = raw_deg - ultra_angle_offset_q16(4 * decoded_mm) / 65536.0
     return out
 
 
 def _window_beams(spec: LidarSpec) -> int:
-    """How many beams, from :func:`_beam_index` of ``raw - ULTRA_OFFSET_MIN_DEG`` on, hold every
+    """How many beams, from the one at heading ``raw - ULTRA_OFFSET_MIN_DEG`` on, hold every
     heading a raw angle's laser line can cross (the parallax model's offsets)."""
     span = math.radians(ULTRA_OFFSET_MAX_DEG - ULTRA_OFFSET_MIN_DEG)
     return math.ceil(span / spec.angle_increment_rad) + 2
@@ -129,11 +137,10 @@ def parallax_ranged(spec: LidarSpec, ranges_m: F64Array, raw_deg: F64Array) -> t
     r = np.where(np.isfinite(ranges_m) & (ranges_m > 0.0), ranges_m, np.inf)
     w = _window_beams(spec)
     nearest_from = sliding_window_view(np.concatenate((r, r[np.arange(w - 1) % spec.beams])), w)
-    first = _beam_index(spec, raw_deg + -ULTRA_OFFSET_MIN_DEG)
+    _, first = _beam_position(spec, raw_deg + -ULTRA_OFFSET_MIN_DEG)
     nearest_mm = millimetres(nearest_from.min(axis=1)[first], 0xFFFF)
     ask = np.flatnonzero((far == 0) | (nearest_mm < far))  # else nothing crossed is nearer
-    decoded_mm, _ = varbitscale_decode(varbitscale_encode(nearest_mm[ask]))
-    near_start = raw_deg[ask] - ultra_angle_offset_q16(4 * decoded_mm) / 65536.0
+    near_start = _decoded_heading(raw_deg[ask], nearest_mm[ask])
     near_mm, near_fits = _parallax_search(spec, ranges_m, raw_deg[ask], near_start)
     near = near_fits & (near_mm > 0) & ((far[ask] == 0) | (near_mm < far[ask]))
     out: I64Array = far.copy()
@@ -149,8 +156,7 @@ def _parallax_search(
     mm: I64Array = np.zeros(len(raw_deg), np.int64)
     for _ in range(PARALLAX_ITERATIONS):
         mm = millimetres(ranges_at(spec, ranges_m, heading), 0xFFFF)
-        decoded_mm, _ = varbitscale_decode(varbitscale_encode(mm))
-        heading = raw_deg - ultra_angle_offset_q16(4 * decoded_mm) / 65536.0
+        heading = _decoded_heading(raw_deg, mm)
     there = millimetres(ranges_at(spec, ranges_m, heading), 0xFFFF)
     fits = np.abs(there - mm) <= EDGE_FRACTION * np.minimum(there, mm)
     return mm, fits

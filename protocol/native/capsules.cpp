@@ -200,11 +200,17 @@ struct Beams {
     double inc, angle_min, gap, edge_fraction;
     const double* r;
 
+    // _beam_position: the heading's counter-clockwise angle from the first beam, and the
+    // beam at or before it
+    int64_t position(double heading_deg, double* alpha) const {
+        *alpha = np_fmod_floor(-(heading_deg * (M_PI / 180.0)) - angle_min, 2.0 * M_PI);
+        const int64_t i0 = static_cast<int64_t>(std::floor(*alpha / inc));
+        return i0 > beams - 1 ? beams - 1 : i0;
+    }
+
     double at(double heading_deg) const {
-        const double alpha =
-            np_fmod_floor(-(heading_deg * (M_PI / 180.0)) - angle_min, 2.0 * M_PI);
-        int64_t i0 = static_cast<int64_t>(std::floor(alpha / inc));
-        if (i0 > beams - 1) i0 = beams - 1;
+        double alpha;
+        const int64_t i0 = position(heading_deg, &alpha);
         const double width = i0 == beams - 1 ? gap : inc;
         double f = (alpha - static_cast<double>(i0) * inc) / width;
         f = std::min(std::max(f, 0.0), 1.0);
@@ -324,14 +330,18 @@ int64_t jackson_ultra_ranged(int64_t beams, double inc, double angle_min, double
     // the beam after the last, one turn on
     const double gap = std::max(2.0 * M_PI - static_cast<double>(beams - 1) * inc, inc);
     const Beams b{beams, inc, angle_min, gap, edge_fraction, r.data()};
+    // _decoded_heading: where a decoder puts a sample of raw angle ``raw`` sent with ``mm``
+    const auto decoded_heading = [](double raw, int64_t mm) {
+        int64_t decoded, level;
+        varbitscale(varbitscale_code(mm), &decoded, &level);
+        return raw - static_cast<double>(ultra_offset_q16(4 * decoded)) / 65536.0;
+    };
     // _parallax_search: the distance from a start heading, and whether it fits
     const auto search = [&](double raw, double heading, int64_t* mm) {
         *mm = 0;
         for (int64_t it = 0; it < iterations; ++it) {
             *mm = millimetres(b.at(heading), 65535.0);
-            int64_t decoded, level;
-            varbitscale(varbitscale_code(*mm), &decoded, &level);
-            heading = raw - static_cast<double>(ultra_offset_q16(4 * decoded)) / 65536.0;
+            heading = decoded_heading(raw, *mm);
         }
         const int64_t there = millimetres(b.at(heading), 65535.0);
         const int64_t diff = there > *mm ? there - *mm : *mm - there;
@@ -356,20 +366,14 @@ int64_t jackson_ultra_ranged(int64_t beams, double inc, double angle_min, double
         const double raw = raw_deg[k];
         int64_t far_mm, near_mm;
         const bool far_fits = search(raw, raw - start_deg, &far_mm);
-        // the nearest beam the laser's line can cross (_beam_index, _window_beams)
-        const double alpha =
-            np_fmod_floor(-((raw + window_shift_deg) * (M_PI / 180.0)) - angle_min, 2.0 * M_PI);
-        int64_t first = static_cast<int64_t>(std::floor(alpha / inc));
-        if (first > beams - 1) first = beams - 1;
+        // the nearest beam the laser's line can cross (_window_beams from this one on)
+        double alpha;
+        const int64_t first = b.position(raw + window_shift_deg, &alpha);
         const int64_t nearest_mm = millimetres(nearest_from[first], 65535.0);
         const int64_t far = far_fits ? far_mm : 0;
         bool near = false;
         if (far == 0 || nearest_mm < far) {  // else nothing the line crosses is nearer
-            int64_t decoded, level;
-            varbitscale(varbitscale_code(nearest_mm), &decoded, &level);
-            const double near_start =
-                raw - static_cast<double>(ultra_offset_q16(4 * decoded)) / 65536.0;
-            const bool near_fits = search(raw, near_start, &near_mm);
+            const bool near_fits = search(raw, decoded_heading(raw, nearest_mm), &near_mm);
             near = near_fits && near_mm > 0 && (far == 0 || near_mm < far);
         }
         out_mm[k] = near ? near_mm : far;
