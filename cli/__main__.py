@@ -1,7 +1,5 @@
 """``python -m jackson`` is the ``jackson`` command."""
 
-import sys
+from jackson.main import entry
 
-from jackson.main import main
-
-sys.exit(main())
+entry()

@@ -9,9 +9,13 @@ stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import atexit
+import contextlib
 import os
 import sys
+import threading
 from collections.abc import Sequence
+from typing import NoReturn
 
 from jackson import __version__
 from jackson.common.args import OneLineParser, one_line
@@ -79,13 +83,17 @@ def one_blas_thread() -> None:
         os.environ.setdefault(name, "1")
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, exit_fast: bool = False) -> int:
     """Parse the command line, run the subcommand, and turn a user's error into one line.
 
     Parameters
     ----------
     argv : sequence of str or None
         The arguments after ``jackson`` (None: ``sys.argv[1:]``).
+    exit_fast : bool
+        End the process (:func:`exit_now`) as soon as a subcommand whose parser sets
+        ``exit_fast`` has returned, instead of returning (the installed command's
+        :func:`entry`).
 
     Returns
     -------
@@ -113,4 +121,36 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    if exit_fast and getattr(args, "exit_fast", False):
+        exit_now(rc)
     return rc
+
+
+def exit_now(rc: int) -> None:
+    """End the process with status ``rc`` without the interpreter's teardown, when it is safe.
+
+    A command whose every file and process is closed when it returns (``jackson run``: its run
+    folder, bag and figure written, its twin and daemon stopped) gains nothing from the
+    interpreter's teardown of its modules and objects, which took 0.1-0.2 s of the square's
+    command. The exit handlers still run (logging's flush, ``tempfile``'s and
+    ``multiprocessing``'s clean-up) and the standard streams are flushed; with any thread
+    but this one still alive the process ends the usual way (it would be joined), so nothing
+    is cut short.
+
+    Parameters
+    ----------
+    rc : int
+        The exit status.
+    """
+    if threading.active_count() != 1:
+        return
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # a closed or broken pipe: said all
+            stream.flush()
+    os._exit(rc)
+
+
+def entry() -> NoReturn:
+    """The installed ``jackson`` command: :func:`main`, ending fast where a command allows."""
+    sys.exit(main(exit_fast=True))

@@ -22,7 +22,7 @@ from jackson.common.figures import save_figure
 from jackson.experiments import metrics as m
 from jackson.experiments.consistency import CampaignConsistency, plot_consistency
 from jackson.experiments.paper_figures import PAPER
-from jackson.experiments.trial import read_csv
+from jackson.experiments.run_csv import read_csv
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -200,16 +200,24 @@ def plot_trajectories(png: Path, mission: str, runs: list[Path], vector: bool = 
         Also write the PDF (False: the PNG only).
     """
     plt = pyplot()
-    from matplotlib.lines import Line2D
     from matplotlib.ticker import FuncFormatter
 
     n = len(runs)
     traces = [[anchored_trace(run / f) for f, *_ in SOURCES] for run in runs]
     colours = run_colours(n)
     path = m.square_path() if mission == "square" else m.figure_eight_path()
+    # one run's figure (jackson run's, drawn while the command waits) in fixed margins: the
+    # constrained layout measured every tick label first, a third of its 0.5 s; a campaign's
+    # figure keeps it, for its colour bar of runs
     fig, (ax, zx) = plt.subplots(
-        1, 2, figsize=(11.0, 6.2), layout="constrained", gridspec_kw={"width_ratios": [1, 1]}
+        1,
+        2,
+        figsize=(11.0, 6.2),
+        layout="constrained" if n > 1 else None,
+        gridspec_kw={"width_ratios": [1, 1]},
     )
+    if n == 1:
+        fig.subplots_adjust(left=0.065, right=0.985, bottom=0.15, top=0.9, wspace=0.17)
     gt_ends = [t[0].end for t in traces]
     ekf_ends = [t[1].end for t in traces]
     cx, cy, half = closure_zoom(gt_ends + ekf_ends)
@@ -267,6 +275,17 @@ def plot_trajectories(png: Path, mission: str, runs: list[Path], vector: bool = 
     runs_text = f"{n} runs" if n > 1 else "one run"
     name = {"square": "1 m square", "figure8": "figure-eight"}.get(mission, mission)
     fig.suptitle(f"{name} on the twin, {runs_text}", fontsize=11)
+    _trajectory_legend(fig, n)
+    if n > 1:
+        _run_colourbar(fig, [ax, zx], [run.name for run in runs])
+    save_figure(fig, png, vector=vector)
+
+
+def _trajectory_legend(fig: Figure, n: int) -> None:
+    """The legend under :func:`plot_trajectories`' panels: the sources' lines and ends, in
+    their colours for one run (in black, the runs coloured by the colour bar, for several)."""
+    from matplotlib.lines import Line2D
+
     handles = [
         Line2D([], [], color="0.75", lw=3, label="nominal path"),
         Line2D([], [], color="gold", marker="*", mec="k", ls="none", ms=11, label="start"),
@@ -286,10 +305,8 @@ def plot_trajectories(png: Path, mission: str, runs: list[Path], vector: bool = 
                 label=f"{label} end",
             ),
         )
-    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
-    if n > 1:
-        _run_colourbar(fig, [ax, zx], [run.name for run in runs])
-    save_figure(fig, png, vector=vector)
+    where = "outside lower center" if n > 1 else "lower center"
+    fig.legend(handles=handles, loc=where, ncol=4, fontsize=8, frameon=False)
 
 
 def _bar_label(ax: Axes, x: float, top: float, text: str) -> None:

@@ -52,13 +52,9 @@ import yaml
 
 from jackson.common.errors import JacksonError
 from jackson.experiments import metrics as m
+from jackson.experiments.run_csv import write_ground_truth
 from jackson.experiments.stall_retry import retry_stalled, stall_lines
-from jackson.experiments.trial import (
-    cut_reason,
-    twin_session,
-    wall_backstop_s,
-    write_ground_truth,
-)
+from jackson.experiments.trial import cut_reason, twin_session, wall_backstop_s
 from jackson.host.config import HostConfig, dump_config, load_config
 from jackson.host.control.navigate import (
     MAP_NAME,
@@ -467,7 +463,7 @@ CAMPAIGNS: dict[str, tuple[Variant, ...]] = {
 def trajectory_xy(run_dir: Path, result: dict[str, Any]) -> npt.NDArray[np.float64]:
     """The ground-truth path from time zero to the goal, anchored at the start (Eq. 19-20
     compare aligned trajectories)."""
-    from jackson.experiments.trial import read_csv
+    from jackson.experiments.run_csv import read_csv
 
     gt = read_csv(run_dir / "ground_truth.csv")
     t0 = float(result.get("t_start_s", 0.0) or 0.0)
@@ -696,7 +692,7 @@ def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]], vector: boo
     import matplotlib.pyplot as plt
     from matplotlib.patches import Circle, Polygon
 
-    from jackson.experiments.trial import read_csv
+    from jackson.experiments.run_csv import read_csv
 
     fig, ax = plt.subplots(figsize=(9, 6))
     first = out / results[0]["run"] if results else None

@@ -19,7 +19,6 @@ A trial cut either way says so in metrics.json: ``failure`` is ``not ended: lock
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import tempfile
@@ -39,6 +38,7 @@ from jackson.common.errors import JacksonError
 from jackson.common.threads import Watch, record
 from jackson.common.threads import start as start_thread
 from jackson.experiments import metrics as m
+from jackson.experiments.run_csv import read_csv, write_ground_truth
 from jackson.experiments.stall_retry import retry_stalled
 from jackson.host.actuation.i2c import open_bus
 from jackson.host.actuation.output import MotorOutput, Pca9685Output
@@ -245,14 +245,6 @@ class TrialSpec:
     stall_s: float = STALL_S
 
 
-def read_csv(path: Path) -> dict[str, NDArray[np.float64]]:
-    with path.open() as f:
-        rows = list(csv.reader(f))
-    cols = rows[0]
-    data = np.array([[float(v) for v in r] for r in rows[1:]], dtype=float).reshape(-1, len(cols))
-    return {c: data[:, i] for i, c in enumerate(cols)}
-
-
 def run_trial(spec: TrialSpec, *, retry_stall: bool = True) -> dict[str, Any]:
     """Drive one mission on the twin and return its metrics (also written to metrics.json);
     a run cut by a lockstep stall is run once more (:mod:`jackson.experiments.stall_retry`)
@@ -355,16 +347,6 @@ def trial_conditions(trial: Any) -> dict[str, Any]:
             "mu_factor_sd": float(cells.std()),
         }
     return out
-
-
-def write_ground_truth(path: Path, truth: list[Any]) -> None:
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(("t_s", "x_m", "y_m", "yaw_rad", "vx_m_s", "vy_m_s", "wz_rad_s"))
-        for s in truth:
-            w.writerow(
-                (repr(s.t_s), repr(s.x), repr(s.y), repr(s.yaw), repr(s.vx), repr(s.vy), repr(s.wz))
-            )
 
 
 def _anchor(

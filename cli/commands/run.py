@@ -59,7 +59,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "as a campaign's figures are",
     )
     add_twin_options(p)
-    p.set_defaults(func=_cmd_run)
+    p.set_defaults(func=_cmd_run, exit_fast=True)  # everything is written and closed at its end
 
 
 def _cmd_run(args: argparse.Namespace) -> int:

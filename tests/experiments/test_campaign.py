@@ -104,8 +104,8 @@ def test_runs_csv_has_every_runs_columns_when_the_first_run_failed(tmp_path: Pat
 def _nav_run(out: Path, short_of_goal_m: float) -> dict[str, object]:
     """The metrics of a run whose navigator reached its goal by its own estimate, the twin's
     truth ending ``short_of_goal_m`` before it on the straight line from the start."""
+    from jackson.experiments.run_csv import write_ground_truth
     from jackson.experiments.stage3 import STAGE3_GOAL, STAGE3_START, nav_metrics
-    from jackson.experiments.trial import write_ground_truth
     from jackson.host.config import HostConfig
     from jackson.host.control.navigate import NavigateConfig, NavigateMission
     from jackson.sim.twin import Truth

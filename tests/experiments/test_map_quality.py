@@ -19,8 +19,8 @@ from jackson.experiments.metrics.map_quality import (
     judge_run,
     plot_map_quality,
 )
+from jackson.experiments.run_csv import read_csv
 from jackson.experiments.stage3 import mapping_spec, run_nav_trial
-from jackson.experiments.trial import read_csv
 from jackson.host.nav.grid import OccupancyGrid
 from jackson.sim.config import Cylinder, WorldSpec, load_world
 from jackson.sim.raster import raster, reachable_free

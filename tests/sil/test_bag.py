@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from jackson.experiments import metrics
-from jackson.experiments.trial import read_csv
+from jackson.experiments.run_csv import read_csv
 from jackson.host.ros.bag import read_bag
 
 from .harness import JACKSON, TwinThread, run_daemon_cli, wait_for
