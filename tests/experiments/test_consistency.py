@@ -225,3 +225,24 @@ def test_figures_that_span_decades_keep_three_significant_digits() -> None:
         "2.62",
     ]
     assert [significant(v) for v in (0.0, math.nan)] == ["0", "nan"]
+
+
+# ------------------------------------------------------------------------ end to end
+
+
+def test_the_default_ekf_tells_the_truth_and_the_papers_does_not(tmp_path: Path) -> None:
+    """A square of the twin's jackson_physical with the real host: the default EKF's
+    covariance keeps the NEES in band and its 2-sigma covers the true end error by centimetres;
+    the paper's (jackson_bringup.yaml's Table 2 values) claims metres, under the band."""
+    from jackson.experiments.fidelity.mechanisms import BRINGUP_CONFIG
+    from jackson.experiments.trial import TrialSpec, run_trial
+
+    runs = {}
+    for name, config in (("default", None), ("paper", BRINGUP_CONFIG)):
+        out = tmp_path / name
+        run_trial(TrialSpec("square", 0, 7, "jackson_physical", "square_room", out, config))
+        runs[name] = run_consistency(out)
+    default, paper = runs["default"], runs["paper"]
+    assert default.in_band_fraction >= 0.8
+    assert default.end_error_m <= default.end_position_2sigma_m <= 0.2
+    assert paper.below_fraction > 0.95 and paper.end_position_2sigma_m > 1.0

@@ -46,7 +46,13 @@ The package, one idea a module:
 - :mod:`~jackson.host.estimation.ekf.output_clock`: the 30 Hz :class:`OutputClock`.
 """
 
-from jackson.host.estimation.ekf.config import DEFAULT_PROCESS_NOISE, EkfConfig, ProcessNoise
+from jackson.host.estimation.ekf.config import (
+    DEFAULT_PROCESS_NOISE,
+    PAPER_EKF,
+    PAPER_PROCESS_NOISE,
+    EkfConfig,
+    ProcessNoise,
+)
 from jackson.host.estimation.ekf.filter import (
     MIN_MEASUREMENT_VARIANCE,
     SENSOR_GYRO,
@@ -80,6 +86,8 @@ __all__ = [
     "AX",
     "DEFAULT_PROCESS_NOISE",
     "MIN_MEASUREMENT_VARIANCE",
+    "PAPER_EKF",
+    "PAPER_PROCESS_NOISE",
     "SENSOR_GYRO",
     "SENSOR_WHEEL",
     "SENSOR_WHEEL_YAW",

@@ -11,6 +11,8 @@ from jackson.common.geometry import wrap_angle
 from jackson.host.estimation.ekf import (
     AX,
     DEFAULT_PROCESS_NOISE,
+    PAPER_EKF,
+    PAPER_PROCESS_NOISE,
     VX,
     VY,
     VYAW,
@@ -137,9 +139,9 @@ def test_wheel_gate_uses_the_joint_distance_of_vx_and_vy() -> None:
 
 
 def test_without_input_p_xx_grows_by_q_dt() -> None:
-    ekf = Ekf()
+    ekf = Ekf(PAPER_EKF)  # Table 2's Q: every state's noise non-zero
     ekf.set_state(0.0, [0.0] * 7)  # P = 1e-9 I, state at rest
-    q = np.diag(DEFAULT_PROCESS_NOISE)
+    q = np.diag(PAPER_PROCESS_NOISE.diagonal)
 
     ekf.predict_to(OUTPUT_DT_S)
     assert ekf.P[X, X] == pytest.approx(1e-9 + 0.05 * OUTPUT_DT_S, rel=1e-6)

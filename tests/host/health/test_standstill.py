@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 import pytest
 
-from jackson.host.estimation.ekf import Ekf
+from jackson.host.estimation.ekf import PAPER_EKF, Ekf
 
 from .synthetic import DT, Robot, drive, monitor
 
@@ -27,7 +27,7 @@ def test_zero_velocity_updates_keep_a_parked_robots_covariance_bounded() -> None
     with zero-velocity updates its velocity settles at once and its pose variance stops."""
 
     def park(zupt: Callable[[Ekf, float], None] | None) -> tuple[float, float, float]:
-        ekf = Ekf()
+        ekf = Ekf(PAPER_EKF)
         t = 0.0
         for _ in range(100):  # driving at 0.2 m/s, then braking
             t += DT
