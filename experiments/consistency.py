@@ -482,7 +482,9 @@ def campaign_consistency(runs: Sequence[RunConsistency]) -> CampaignConsistency:
     )
 
 
-def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") -> None:
+def plot_consistency(
+    png: Path, campaign: CampaignConsistency, title: str = "", closed_path: bool = True
+) -> None:
     """The NEES figure: NEES over time per run with the band, and the end point per run.
 
     Top: every run's NEES against MCU time (log scale), the 95 % band of one run shaded, the
@@ -490,7 +492,9 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
     Bottom, per run (symmetric log scale, linear within +-1 cm): ground-truth closure, EKF
     closure, their difference the optimism gap with the paper's 4.69 +- 2.82 cm shaded, the
     EKF's true end-point error and the covariance's end-position 2-sigma radius; the error is
-    covered when its dot lies under the 2-sigma bar.
+    covered when its dot lies under the 2-sigma bar. A route that does not come back to its start
+    (``closed_path`` False: a navigation) has no closure and no optimism gap: the bottom panel
+    keeps the end-point error and the 2-sigma.
 
     Parameters
     ----------
@@ -500,6 +504,8 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
         The runs (:func:`campaign_consistency`).
     title : str
         Title of the top panel.
+    closed_path : bool
+        The runs end where they started (the square, the figure-eight).
     """
     import matplotlib
 
@@ -539,10 +545,11 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
 
     idx = np.arange(len(runs))
     mean_gap, sd_gap = PAPER_OPTIMISM_GAP_CM
-    bx.axhspan(
-        mean_gap - sd_gap, mean_gap + sd_gap, color="C4", alpha=0.15, label="paper's gap ± SD"
-    )
-    bx.axhline(mean_gap, color="C4", lw=0.8)
+    if closed_path:
+        bx.axhspan(
+            mean_gap - sd_gap, mean_gap + sd_gap, color="C4", alpha=0.15, label="paper's gap ± SD"
+        )
+        bx.axhline(mean_gap, color="C4", lw=0.8)
     bx.bar(
         idx,
         [r.end_position_2sigma_m * 100 for r in runs],
@@ -557,6 +564,8 @@ def plot_consistency(png: Path, campaign: CampaignConsistency, title: str = "") 
         ("gap", "D", "C4", "optimism gap (GT - EKF)"),
         ("end", "x", "C3", "true end-point error of the EKF"),
     ):
+        if not closed_path and key != "end":
+            continue
         values = [
             {
                 "gt": r.gt_closure_m,

@@ -45,7 +45,9 @@ def pyplot() -> Any:
     return plt
 
 
-def plot_nees(png: Path, campaign: CampaignConsistency, title: str = "") -> None:
+def plot_nees(
+    png: Path, campaign: CampaignConsistency, title: str = "", closed_path: bool = True
+) -> None:
     """``nees.png`` (:func:`jackson.experiments.consistency.plot_consistency`) and its PDF.
 
     Parameters
@@ -56,8 +58,10 @@ def plot_nees(png: Path, campaign: CampaignConsistency, title: str = "") -> None
         The runs.
     title : str
         Title of the top panel.
+    closed_path : bool
+        The runs end where they started (False: a navigation, without closures).
     """
-    plot_consistency(png, campaign, title=title)  # draws once, saves both (save_figure)
+    plot_consistency(png, campaign, title=title, closed_path=closed_path)  # saves PNG and PDF
 
 
 @dataclass(frozen=True)

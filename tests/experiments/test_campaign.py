@@ -158,3 +158,33 @@ def test_a_run_reached_by_its_estimate_but_not_in_truth_is_no_success(tmp_path: 
         ("True", "False", "False"),
         ("True", "True", "True"),
     ]
+    # runs without the EKF's CSV: the consistency section says why it is missing
+    assert "## Consistency of the EKF's covariance\n\nNot computed: " in summary
+
+
+def test_the_stage3_report_judges_the_ekfs_covariance_against_the_truth(tmp_path: Path) -> None:
+    """Navigation runs whose EKF estimate drifts off the truth in y, 3 cm at the end, with a
+    sigma that grows with it to 2 cm: the report pools their NEES (2.25 once the drift has
+    begun, inside the band; zero at the first row, where both are anchored) and draws
+    nees.png."""
+    from jackson.experiments.stage3 import write_stage3_report
+    from jackson.host.recording import EKF_COLUMNS
+
+    results = [_nav_run(tmp_path / "runs" / name, 0.1) for name in ("a", "b")]
+    for name in ("a", "b"):
+        run = tmp_path / "runs" / name
+        gt = np.genfromtxt(run / "ground_truth.csv", delimiter=",", names=True)
+        with (run / "ekf.csv").open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(EKF_COLUMNS)
+            end = float(gt["t_s"][-1])
+            for t, x, y in zip(gt["t_s"], gt["x_m"], gt["y_m"], strict=True):
+                drift, sd = 0.03 * t / end, 0.02 * t / end + 1e-6
+                w.writerow((t, x, y + drift, 0.0, *([0.0] * 4), 1e-4, sd**2, 1e-4, 0.0, 0.0, 0.0))
+    meta = {"robot": "r", "world": "maze", "trials": 2, "seed": 0, "workers": 1}
+    meta.update(wall_s=1.0, cpu_s=1.0, map="map.yaml")
+    write_stage3_report(tmp_path, "maze", results, meta)
+    summary = (tmp_path / "summary.md").read_text()
+    assert "| inside the band | 99.6% |" in summary  # all but each run's first row
+    assert "| end-point error within the end position's 2-sigma | 2/2 runs |" in summary
+    assert (tmp_path / "nees.png").stat().st_size > 0
