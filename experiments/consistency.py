@@ -544,8 +544,8 @@ def plot_consistency(
     ax.legend(fontsize=7, loc="best")
 
     idx = np.arange(len(runs))
-    mean_gap, sd_gap = PAPER_OPTIMISM_GAP_CM
     if closed_path:
+        mean_gap, sd_gap = PAPER_OPTIMISM_GAP_CM
         bx.axhspan(
             mean_gap - sd_gap, mean_gap + sd_gap, color="C4", alpha=0.15, label="paper's gap ± SD"
         )

@@ -261,14 +261,7 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     rows = summarise(mission, results)
     runs = [out / "runs" / f"R{i + 1:02d}" for i in range(len(results))]
-    consistency: CampaignConsistency | None = None
-    try:
-        consistency = campaign_consistency([run_consistency(run) for run in runs])
-    except ConsistencyError as exc:
-        consistency_lines = [f"Not computed: {exc}."]
-    else:
-        consistency_lines = consistency_section(consistency)
-        plot_nees(out / "nees.png", consistency, title=mission)
+    consistency, consistency_lines = judge_consistency(out, runs, mission)
     done = sum(1 for r in results if r.get("completed"))
     title = {"square": "Stage 1, 1 m square", "figure8": "Stage 2, figure-eight"}[mission]
     lines = [
@@ -314,6 +307,38 @@ def write_report(
     (out / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
     plot_trajectories(out / "trajectories.png", mission, runs)
     plot_closure(out / "closure.png", mission, results)
+
+
+def judge_consistency(
+    out: Path, runs: Sequence[Path], title: str, closed_path: bool = True
+) -> tuple[CampaignConsistency | None, list[str]]:
+    """The EKF's covariance over a campaign's run folders: pooled, ``nees.png`` drawn in
+    ``out``, and the summary's lines (or why it could not be judged).
+
+    Parameters
+    ----------
+    out : Path
+        The campaign folder.
+    runs : sequence of Path
+        The run folders.
+    title : str
+        The figure's title.
+    closed_path : bool
+        The runs end where they started (False: navigations, without closures).
+
+    Returns
+    -------
+    consistency : CampaignConsistency or None
+        None when it could not be computed.
+    lines : list of str
+        Markdown lines for the summary.
+    """
+    try:
+        c = campaign_consistency([run_consistency(run) for run in runs])
+    except ConsistencyError as exc:
+        return None, [f"Not computed: {exc}."]
+    plot_nees(out / "nees.png", c, title=title, closed_path=closed_path)
+    return c, consistency_section(c)
 
 
 def consistency_section(c: CampaignConsistency) -> list[str]:

@@ -670,7 +670,11 @@ def write_stage3_report(
     if failures:
         lines += ["", "Runs that did not reach the goal:", "", *failures]
     lines += stall_lines(results, lambda r: str(r["run"]))
-    lines += ["", "## Consistency of the EKF's covariance", "", *_consistency(out, results)]
+    from jackson.experiments.report import judge_consistency
+
+    runs = [out / str(r["run"]) for r in results]  # the odometry frame's pose, the truth in it
+    _, consistency = judge_consistency(out, runs, "navigation", closed_path=False)
+    lines += ["", "## Consistency of the EKF's covariance", "", *consistency]
     lines += [
         "",
         "Paper (REFERENCE): success 10/10 and 0 collisions on both domains; d_min 0.122 ± "
@@ -681,26 +685,6 @@ def write_stage3_report(
     (out / "summary.md").write_text("\n".join(lines))
     (out / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
     plot_stage3(out / "stage3.png", out, results)
-
-
-def _consistency(out: Path, results: list[dict[str, Any]]) -> list[str]:
-    """The EKF's covariance against the truth over the campaign's navigation runs, as the
-    Stage 1-2 reports give it (:func:`jackson.experiments.report.consistency_section`, with
-    ``nees.png``): its odometry frame's pose, the truth carried into it."""
-    from jackson.experiments.consistency import (
-        ConsistencyError,
-        campaign_consistency,
-        run_consistency,
-    )
-    from jackson.experiments.report import consistency_section
-    from jackson.experiments.report_plots import plot_nees
-
-    try:
-        c = campaign_consistency([run_consistency(out / str(r["run"])) for r in results])
-    except ConsistencyError as exc:
-        return [f"Not computed: {exc}."]
-    plot_nees(out / "nees.png", c, title="navigation", closed_path=False)
-    return consistency_section(c)
 
 
 def plot_stage3(png: Path, out: Path, results: list[dict[str, Any]], vector: bool = True) -> None:
