@@ -164,6 +164,7 @@ VARIATION_RANGES = {
     "gyro_bias_sigma_rad_s": (0.0, 0.1),
     "floor_mu_sigma": (0.0, 0.3),
     "floor_patch_size_m": (0.01, 5.0),
+    "caster_drag_sigma": (0.0, 0.3),
 }
 
 
@@ -190,6 +191,9 @@ class VariationSpec:
     floor_patch_size_m : float
         SD of the Gaussian kernel that smooths the field (patches about twice this
         across) [m].
+    caster_drag_sigma : float
+        The caster's rolling resistance (``caster_rolling_coeff``), relative: its bearing,
+        its swivel and what it rolls over differ from day to day [1].
     """
 
     battery_v_sigma: float = 0.0
@@ -198,6 +202,7 @@ class VariationSpec:
     gyro_bias_sigma_rad_s: float = 0.0
     floor_mu_sigma: float = 0.0
     floor_patch_size_m: float = 0.3
+    caster_drag_sigma: float = 0.0
 
     def __post_init__(self) -> None:
         _check_range("variation", VARIATION_RANGES, self)

@@ -73,6 +73,8 @@ class DiffDriveRobot:
         This trial's effective wheel radii [m] (None: ``spec.wheel_radius_m``).
     floor : FrictionField or None
         This trial's friction patches (None: a uniform floor).
+    caster_rolling_coeff : float or None
+        This trial's caster rolling resistance (None: ``spec.caster_rolling_coeff``).
 
     Attributes
     ----------
@@ -108,6 +110,7 @@ class DiffDriveRobot:
         battery_v: float | None = None,
         wheel_radius_m: Sides | None = None,
         floor: FrictionField | None = None,
+        caster_rolling_coeff: float | None = None,
     ) -> None:
         self.spec = spec
         m = spec.motor
@@ -135,9 +138,8 @@ class DiffDriveRobot:
             self.tau_drive_r *= battery_v / m.battery_v
         self.time_constant = m.time_constant_s
         self.n_wheel = self.mass * GRAVITY_M_S2 * (1.0 - spec.caster_load_fraction) / 2.0
-        self.f_caster = (
-            spec.caster_rolling_coeff * self.mass * GRAVITY_M_S2 * spec.caster_load_fraction
-        )
+        caster = spec.caster_rolling_coeff if caster_rolling_coeff is None else caster_rolling_coeff
+        self.f_caster = caster * self.mass * GRAVITY_M_S2 * spec.caster_load_fraction
         self.mu_s = mu_static
         self.mu_d = mu_dynamic
         self.floor = floor

@@ -66,6 +66,8 @@ class TrialConditions:
         Gyro bias at the start, xyz [rad/s].
     floor : FrictionField or None
         Friction patches (None: a uniform floor).
+    caster_rolling_coeff : float
+        The caster's rolling resistance coefficient [1].
     """
 
     battery_v: float
@@ -73,6 +75,7 @@ class TrialConditions:
     encoder_scale: Sides
     gyro_bias_rad_s: tuple[float, float, float]
     floor: FrictionField | None
+    caster_rolling_coeff: float
 
 
 def trial_stream(seed: int, index: int) -> np.random.Generator:
@@ -85,7 +88,7 @@ def trial_stream(seed: int, index: int) -> np.random.Generator:
         The twin's seed (>= 0).
     index : int
         Which quantity: 0 supply, 1 wheel radii, 2 encoders, 3 gyro bias, 4 floor, 5 bias walk,
-        6 the MCU's boot_id (:func:`trial_boot_id`).
+        6 the MCU's boot_id (:func:`trial_boot_id`), 7 the caster's drag.
 
     Returns
     -------
@@ -154,7 +157,10 @@ def draw_trial(
         floor = FrictionField.random(
             trial_stream(seed, 4), v.floor_mu_sigma, v.floor_patch_size_m, origin
         )
-    return TrialConditions(battery_v, radius, scale, bias, floor)
+    caster = robot.caster_rolling_coeff
+    if v.caster_drag_sigma > 0.0:
+        caster *= 1.0 + v.caster_drag_sigma * _normal(seed, 7, 1)[0]
+    return TrialConditions(battery_v, radius, scale, bias, floor, caster)
 
 
 class Truth(NamedTuple):
@@ -280,6 +286,7 @@ class Twin:
             battery_v=trial.battery_v,
             wheel_radius_m=trial.wheel_radius_m,
             floor=trial.floor,
+            caster_rolling_coeff=trial.caster_rolling_coeff,
         )
         self.robot.shape.collision_type = 1
         self.robot.place(x0, y0, yaw0)

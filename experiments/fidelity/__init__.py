@@ -78,11 +78,14 @@ from jackson.experiments.fidelity.verdicts import (
     Agreement,
     FigureResult,
     NavOutcome,
+    SeedSet,
     agreement,
     agreement_line,
     assess,
     figure_result,
     nav_outcome,
+    seed_set,
+    seed_sets,
 )
 
 __all__ = [
@@ -108,6 +111,7 @@ __all__ = [
     "Mechanism",
     "MechanismError",
     "NavOutcome",
+    "SeedSet",
     "ablate",
     "agreement",
     "agreement_line",
@@ -125,6 +129,8 @@ __all__ = [
     "robot_file",
     "robot_shown",
     "run_fidelity",
+    "seed_set",
+    "seed_sets",
     "seeds_text",
     "shown",
     "write_ablated",

@@ -50,6 +50,19 @@ def _runs_line(report: FidelityReport) -> str:
     return "Trials completed (only these enter the statistics): " + ", ".join(parts) + "."
 
 
+def _seed_set_lines(report: FidelityReport) -> list[str]:
+    sets = report.seed_sets
+    if not sets:
+        return []
+    parts = [
+        f"seeds {ss.first}-{ss.last}: {ss.agreement.within} of {ss.agreement.total}" for ss in sets
+    ]
+    return [
+        f"Each set of ten seeds alone, within the paper's mean ± 1 SD: {'; '.join(parts)}.",
+        "",
+    ]
+
+
 def _median_iqr(row: FigureResult) -> str:
     if row.missing is not None:
         return "—"
@@ -221,6 +234,7 @@ def fidelity_markdown(
         "",
         f"**{agreement_line(report.agreement)}.**",
         "",
+        *_seed_set_lines(report),
         *_check_lines(report),
         "## Stage 3: the maze with the dropped cylinder",
         "",

@@ -14,7 +14,14 @@ from jackson.experiments.fidelity.figures import (
     SD_RATIO_RANGE,
 )
 from jackson.experiments.fidelity.mechanisms import Mechanism
-from jackson.experiments.fidelity.verdicts import Agreement, FigureResult, NavOutcome, agreement
+from jackson.experiments.fidelity.verdicts import (
+    Agreement,
+    FigureResult,
+    NavOutcome,
+    SeedSet,
+    agreement,
+    seed_sets,
+)
 
 
 @dataclass(frozen=True)
@@ -69,6 +76,12 @@ class FidelityReport:
         """The Stage 1-2 figures within the paper's band (and with a fitting SD)."""
         return agreement(self.figures)
 
+    @property
+    def seed_sets(self) -> tuple[SeedSet, ...]:
+        """The Stage 1-2 figures of each set of ten seeds judged alone (campaigns of 20 trials
+        and more)."""
+        return seed_sets(self.figures, self.seed, self.trials)
+
 
 def seeds_text(seed: int, trials: int) -> str:
     """``"seed 0"``, ``"seeds 0-9"``: the seeds of ``trials`` trials from ``seed``."""
@@ -97,7 +110,20 @@ def report_json(report: FidelityReport) -> dict[str, Any]:
         "seed": report.seed,
         "stages": list(report.stages),
         "sd_ratio_range": list(SD_RATIO_RANGE),
-        "agreement": {"within": a.within, "within_and_sd": a.within_and_sd, "total": a.total},
+        "agreement": {
+            "within": a.within,
+            "within_and_sd": a.within_and_sd,
+            "sd_ok": a.sd_ok,
+            "total": a.total,
+        },
+        "seed_sets": [
+            {
+                "seeds": [ss.first, ss.last],
+                "within": ss.agreement.within,
+                "total": ss.agreement.total,
+            }
+            for ss in report.seed_sets
+        ],
         "figures": [r.as_json() for r in report.figures],
         "checks": [r.as_json() for r in report.checks],
         "stage3": {

@@ -40,12 +40,15 @@ class FigureResult:
         Trials of its campaign run and completed (0 attempted: the campaign was not run).
     values : tuple of float
         The metric of every completed trial that has a finite value.
+    seeds : tuple of int
+        The seed of each of ``values`` (empty when the trials did not say).
     """
 
     figure: Figure
     attempted: int
     completed: int
     values: tuple[float, ...]
+    seeds: tuple[int, ...] = ()
 
     @property
     def n(self) -> int:
@@ -150,12 +153,74 @@ def figure_result(figure: Figure, results: Sequence[Mapping[str, Any]]) -> Figur
     FigureResult
     """
     done = [r for r in results if r.get("completed")]
-    values = []
+    values, seeds = [], []
     for r in done:
         v = r.get(figure.key)
         if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
             values.append(float(v))
-    return FigureResult(figure, len(results), len(done), tuple(values))
+            seeds.append(r.get("seed"))
+    known = tuple(s for s in seeds if isinstance(s, int))
+    return FigureResult(
+        figure, len(results), len(done), tuple(values), known if len(known) == len(seeds) else ()
+    )
+
+
+def seed_set(row: FigureResult, first: int, last: int) -> FigureResult:
+    """``row`` restricted to the trials of seeds ``first``-``last``."""
+    keep = [i for i, s in enumerate(row.seeds) if first <= s <= last]
+    return FigureResult(
+        row.figure,
+        len(keep),
+        len(keep),
+        tuple(row.values[i] for i in keep),
+        tuple(row.seeds[i] for i in keep),
+    )
+
+
+@dataclass(frozen=True)
+class SeedSet:
+    """One set of consecutive seeds of a campaign, judged alone.
+
+    Attributes
+    ----------
+    first, last : int
+        Its seeds.
+    agreement : Agreement
+        Its figures within the paper's band (each from its completed trials of these seeds).
+    """
+
+    first: int
+    last: int
+    agreement: Agreement
+
+
+def seed_sets(
+    rows: Sequence[FigureResult], seed: int, trials: int, size: int = 10
+) -> tuple[SeedSet, ...]:
+    """The figures of each set of ``size`` consecutive seeds from ``seed``, judged alone: a
+    campaign of 30 trials is three samples of ten, as the paper's.
+
+    Parameters
+    ----------
+    rows : sequence of FigureResult
+        The figures over every trial (each with its seeds).
+    seed, trials : int
+        The campaign's first seed and trials per stage.
+    size : int
+        Trials per set.
+
+    Returns
+    -------
+    tuple of SeedSet
+        One per set; empty below two sets, or when a row does not know its seeds.
+    """
+    if trials < 2 * size or any(r.values and not r.seeds for r in rows):
+        return ()
+    out = []
+    for first in range(seed, seed + trials - size + 1, size):
+        last = first + size - 1
+        out.append(SeedSet(first, last, agreement([seed_set(r, first, last) for r in rows])))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -170,11 +235,15 @@ class Agreement:
         Of those, figures whose SD is also within :data:`SD_RATIO_RANGE` of the paper's.
     total : int
         Figures counted.
+    sd_ok : int
+        Figures whose SD is within :data:`SD_RATIO_RANGE` of the paper's, their mean within
+        the band or not.
     """
 
     within: int
     within_and_sd: int
     total: int
+    sd_ok: int = 0
 
 
 def agreement(rows: Sequence[FigureResult]) -> Agreement:
@@ -190,7 +259,12 @@ def agreement(rows: Sequence[FigureResult]) -> Agreement:
     Agreement
     """
     within = [r for r in rows if r.within]
-    return Agreement(len(within), sum(1 for r in within if r.sd_ok), len(rows))
+    return Agreement(
+        len(within),
+        sum(1 for r in within if r.sd_ok),
+        len(rows),
+        sum(1 for r in rows if r.sd_ok),
+    )
 
 
 @dataclass(frozen=True)
@@ -244,11 +318,13 @@ def nav_outcome(results: Sequence[Mapping[str, Any]], failure: str | None = None
 
 def agreement_line(a: Agreement) -> str:
     """``"N of 16 within the paper's mean ± 1 SD; M of them also with an SD within 0.5-2 times
-    the paper's"`` (an en dash and a multiplication sign in the text)."""
+    the paper's (K of 16 with such an SD)"`` (an en dash and a multiplication sign in the
+    text)."""
     lo, hi = SD_RATIO_RANGE
     return (
         f"{a.within} of {a.total} within the paper's mean ± 1 SD; {a.within_and_sd} of them "
-        f"also with an SD within {lo:g}\u2013{hi:g}\u00d7 the paper's"
+        f"also with an SD within {lo:g}\u2013{hi:g}\u00d7 the paper's ({a.sd_ok} of {a.total} "
+        "with such an SD)"
     )
 
 

@@ -30,6 +30,8 @@ from jackson.experiments.fidelity import (
     fidelity_markdown,
     figure_result,
     nav_outcome,
+    seed_set,
+    seed_sets,
     write_report_files,
 )
 from jackson.experiments.fidelity import run as fidelity_run
@@ -167,7 +169,28 @@ def test_the_counts_need_the_mean_within_and_then_the_sd_too() -> None:
         figure_result(EKF_CLOSURE, _trials("ekf_closure_cm", [], [1.0])),  # all failed
     ]
     a = agreement(rows)
-    assert (a.within, a.within_and_sd, a.total) == (2, 1, 4)
+    assert (a.within, a.within_and_sd, a.total, a.sd_ok) == (2, 1, 4, 2)  # outside, SD ok
+
+
+def test_each_set_of_ten_seeds_is_judged_alone() -> None:
+    # 30 trials of one figure: the first ten far above the band, the other twenty in it
+    values = [1.18 + 3 * 0.96] * 10 + [1.18 + 0.96 * s for s in SPREAD] * 2
+    runs = [{"completed": True, "seed": 500 + i, "ekf_closure_cm": v} for i, v in enumerate(values)]
+    row = figure_result(EKF_CLOSURE, runs)
+    assert row.seeds == tuple(range(500, 530))
+    sets = seed_sets([row], 500, 30)
+    assert [(s.first, s.last, s.agreement.within) for s in sets] == [
+        (500, 509, 0),
+        (510, 519, 1),
+        (520, 529, 1),
+    ]
+    assert seed_set(row, 510, 519).values == tuple(values[10:20])
+    assert agreement([row]).within == 1  # pooled: 1.18 + 1.0 SD
+    assert seed_sets([row], 500, 10) == ()  # one set: nothing to split
+    unknown = figure_result(
+        EKF_CLOSURE, [{k: v for k, v in r.items() if k != "seed"} for r in runs]
+    )
+    assert unknown.seeds == () and seed_sets([unknown], 500, 30) == ()
 
 
 def test_stage_3_success_and_contacts_count_every_attempted_run() -> None:
@@ -207,7 +230,8 @@ def test_the_page_holds_the_tables_and_the_counts_line() -> None:
     counts = (
         "6 of 16 within the paper's mean ± 1 SD; 6 of them also with an SD within 0.5\u20132\u00d7"
     )
-    assert f"**{counts} the paper's.**" in lines
+    assert f"**{counts} the paper's (6 of 16 with such an SD).**" in lines
+    assert not any(line.startswith("Each set of ten seeds") for line in lines)  # 10 trials
     assert (
         "Trials completed (only these enter the statistics): square 10/10, figure-eight 0/10, "
         "Stage 3 10/10."
@@ -225,6 +249,19 @@ def test_the_page_holds_the_tables_and_the_counts_line() -> None:
     assert page.endswith("\n## Why\n\nHand-written.\n")  # the notes verbatim, last
 
 
+def test_a_campaign_of_thirty_shows_each_set_of_ten_seeds() -> None:
+    runs: dict[str, list[Any]] = {"square": [], "figure8": [], "maze": []}
+    for k, mean_in_sds in enumerate((0.5, 3.0, 0.5)):  # the second set far above every band
+        for mission, trials in _synthetic(mean_in_sds).items():
+            runs[mission] += [{**r, "seed": 100 + 10 * k + i} for i, r in enumerate(trials)]
+    report = dataclasses.replace(_report(runs), trials=30, seed=100)
+    page = fidelity_markdown(report, "page.png")
+    assert (
+        "Each set of ten seeds alone, within the paper's mean ± 1 SD: seeds 100-109: 16 of 16; "
+        "seeds 110-119: 0 of 16; seeds 120-129: 16 of 16."
+    ) in page.splitlines()
+
+
 def test_the_report_files_hold_every_number_and_a_figure(tmp_path: Path) -> None:
     runs = _synthetic(1.2, 0.3)
     runs["maze"] = []  # not run
@@ -234,7 +271,8 @@ def test_the_report_files_hold_every_number_and_a_figure(tmp_path: Path) -> None
     png = tmp_path / "fidelity.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 50_000
     data = json.loads((tmp_path / "fidelity.json").read_text())
-    assert data["agreement"] == {"within": 0, "within_and_sd": 0, "total": 16}
+    assert data["agreement"] == {"within": 0, "within_and_sd": 0, "sd_ok": 0, "total": 16}
+    assert data["seed_sets"] == []
     first = data["figures"][0]
     assert (first["attempted"], first["completed"], first["n"]) == (10, 9, 9)
     assert first["paper"] == {"mean": 1.18, "sd": 0.96, "isaac": None}

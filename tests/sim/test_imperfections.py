@@ -50,6 +50,7 @@ OFF_FIELDS: dict[str, dict[str, object]] = {
         "gyro_bias_sigma_rad_s": 0.0,
         "floor_mu_sigma": 0.0,
         "floor_patch_size_m": 0.3,
+        "caster_drag_sigma": 0.0,
     },
 }
 # one "on" value per field (scrub only shows with creep, so it brings some)
@@ -70,6 +71,7 @@ ON_FIELDS: dict[tuple[str, str], dict[str, object]] = {
     ("variation", "encoder_scale_sigma"): {"encoder_scale_sigma": 0.01},
     ("variation", "gyro_bias_sigma_rad_s"): {"gyro_bias_sigma_rad_s": 0.01},
     ("variation", "floor_mu_sigma"): {"floor_mu_sigma": 0.2},
+    ("variation", "caster_drag_sigma"): {"caster_drag_sigma": 0.2},
 }
 
 
@@ -284,6 +286,7 @@ TRIAL = dict(
     encoder_scale_sigma=0.005,
     gyro_bias_sigma_rad_s=0.002,
     floor_mu_sigma=0.1,
+    caster_drag_sigma=0.2,
 )
 
 
@@ -298,7 +301,14 @@ def test_a_seed_reproduces_a_varied_trial_bit_for_bit() -> None:
     assert a[0] != other[0] and a[1] != other[1]
     assert draw_trial(spec, 5) == draw_trial(spec, 5)
     one, two = draw_trial(spec, 5), draw_trial(spec, 6)
-    for name in ("battery_v", "wheel_radius_m", "encoder_scale", "gyro_bias_rad_s", "floor"):
+    for name in (
+        "battery_v",
+        "wheel_radius_m",
+        "encoder_scale",
+        "gyro_bias_rad_s",
+        "floor",
+        "caster_rolling_coeff",
+    ):
         assert getattr(one, name) != getattr(two, name), name
 
 
@@ -319,6 +329,7 @@ def test_trial_draws_have_the_configured_spread() -> None:
     radius = np.array([d.wheel_radius_m.left for d in draws]) / 0.033 - 1.0
     ticks = np.array([d.encoder_scale.right for d in draws]) - 1.0
     bias = np.array([d.gyro_bias_rad_s[2] for d in draws])
+    caster = np.array([d.caster_rolling_coeff for d in draws]) / spec.caster_rolling_coeff - 1.0
     # the SD of 400 draws is within 10 % of sigma with probability > 0.99 (3-sigma truncation
     # takes 1.5 % off)
     assert battery.mean() == pytest.approx(6.0, abs=0.03)
@@ -326,6 +337,8 @@ def test_trial_draws_have_the_configured_spread() -> None:
     assert radius.std() == pytest.approx(0.005, rel=0.1)
     assert ticks.std() == pytest.approx(0.005, rel=0.1)
     assert bias.std() == pytest.approx(0.002, rel=0.1)
+    assert caster.std() == pytest.approx(0.2, rel=0.1)
+    assert np.abs(caster).max() <= 3 * 0.2 + 1e-12
     assert np.abs(battery - 6.0).max() <= 3 * 0.2 + 1e-12
 
 
@@ -391,6 +404,28 @@ def test_supply_voltage_scales_the_drive_not_the_friction() -> None:
         tw.command(drive(1.0), drive(1.0))
         tw.advance(3.0)
     assert low.truth().vx < nominal.truth().vx * (ratio + 0.005)
+
+
+def test_the_casters_drag_slows_forward_motion_only() -> None:
+    spec = with_variation(caster_drag_sigma=0.3)
+    seed = next(s for s in range(100) if draw_trial(spec, s).caster_rolling_coeff > 0.025)
+    draggy = Twin(FLOOR, spec, lidar=False, seed=seed)
+    nominal = Twin(FLOOR, robot(), lidar=False, seed=seed)
+    ratio = draggy.trial.caster_rolling_coeff / robot().caster_rolling_coeff
+    assert draggy.robot.f_caster == pytest.approx(nominal.robot.f_caster * ratio, rel=1e-12)
+    for tw in (draggy, nominal):
+        tw.command(drive(0.2), drive(0.2))
+        tw.advance(3.0)
+    assert draggy.truth().vx < nominal.truth().vx - 1e-4
+    spun = []
+    for tw in (
+        Twin(FLOOR, spec, lidar=False, seed=seed),
+        Twin(FLOOR, robot(), lidar=False, seed=seed),
+    ):
+        tw.command(drive(-0.5), drive(0.5))
+        tw.advance(2.0)
+        spun.append(tw.truth().wz)
+    assert spun[0] == pytest.approx(spun[1], rel=1e-9)  # on the spot the caster only swivels
 
 
 def test_encoder_mounting_and_wheel_radius_act_per_wheel() -> None:
