@@ -330,6 +330,10 @@ CASES: dict[str, Case] = {
     "campaign_fidelity_docs_no_folder": c("campaign fidelity --docs nowhere/f.md", "nowhere"),
     "campaign_square_docs": c("campaign square --docs f.md", "--docs is for jackson campaign fid"),
     "campaign_square_ablation": c("campaign figure8 --ablation", "--ablation is for"),
+    "campaign_fidelity_ablation_zero": c("campaign fidelity --ablation 0", "--ablation"),
+    "campaign_fidelity_ablation_over": c(
+        "campaign fidelity --trials 3 --ablation 4", "--ablation 4: at most the 3 trials"
+    ),
     "campaign_maze_stages": c("campaign maze --stages maze", "--stages is for"),
     # replay
     "replay_missing": c("replay runs/nowhere", "runs/nowhere"),

@@ -29,6 +29,7 @@ from jackson.common.args import (
     int_in,
     nonneg_upto,
     one_line,
+    positive_int,
 )
 
 MISSIONS = ["square", "figure8", "maze", "ofat", "robustness", "faults", "worlds", "fidelity"]
@@ -88,9 +89,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     p.add_argument(
         "--ablation",
-        action="store_true",
+        nargs="?",
+        const=0,  # the flag alone: every trial (a typed 0 is refused by the type)
+        type=positive_int,
+        metavar="N",
         help="fidelity: also run the square and figure-eight with each of the twin's "
-        "mechanisms switched off in turn",
+        "mechanisms switched off in turn (on the first N seeds; default all of --trials)",
     )
     p.add_argument(
         "--notes",
@@ -155,7 +159,7 @@ def _cmd_campaign_kind(args: argparse.Namespace) -> int:
     if args.mission != "fidelity":
         for option, value in (
             ("--docs", args.docs),
-            ("--ablation", args.ablation),
+            ("--ablation", args.ablation is not None),
             ("--notes", args.notes),
             ("--stages", args.stages),
         ):
@@ -368,12 +372,18 @@ def _cmd_campaign_fidelity(args: argparse.Namespace) -> int:
         if args.docs is not None:
             option = "--docs"
             check_docs(args.docs)
-        if args.ablation:
+        if args.ablation is not None:
             option = "--ablation:"
             ablate(MECHANISMS, args.robot, config, [])
     except FidelityError as exc:
         raise CliError(f"{option} {one_line(exc)}") from exc
     trials = args.trials if args.trials is not None else 10
+    ablation_trials = args.ablation or None  # None: not asked, or the flag alone (0)
+    if ablation_trials is not None and ablation_trials > trials:
+        raise CliError(
+            f"--ablation {ablation_trials}: at most the {trials} trials of --trials "
+            "(the ablation runs on the report's first seeds)"
+        )
     out = out_folder(args.out or Path("build/fidelity"))
     report = run_fidelity(
         trials,
@@ -383,10 +393,11 @@ def _cmd_campaign_fidelity(args: argparse.Namespace) -> int:
         config=config,
         workers=args.workers,
         cluster=args.cluster,
-        ablation=args.ablation,
+        ablation=args.ablation is not None,
         stages=stages,
         docs=args.docs,
         notes=args.notes,
+        ablation_trials=ablation_trials,
     )
     print((out / "fidelity.md").read_text())
     pages = f"; page: {args.docs}, {args.docs.with_suffix('.png')}" if args.docs else ""

@@ -56,7 +56,8 @@ MECHANISMS: tuple[Mechanism, ...] = (
         "tyre_creep_scrub",
         "tyre creep and yaw scrub: the robot turns slower than its encoders say, more in wide "
         "arcs than on the spot (a wider effective track)",
-        "fitted: the square's raw-odometry heading and closure, the loop diameters, the durations",
+        "fitted: the square's raw-odometry heading and closure, the loop diameters, the "
+        "durations; the scrub re-identified on 30 trials (seeds 66100-66129)",
         robot_patch={"tyre": {"longitudinal_compliance": 0.0, "scrub_arm_m": 0.0}},
     ),
     Mechanism(
@@ -76,7 +77,8 @@ MECHANISMS: tuple[Mechanism, ...] = (
     Mechanism(
         "gyro_scale",
         "the gyro reads low: each loop the EKF closes at 2 pi turns further on the floor",
-        "fitted: the optimism gap (T13); within the MPU-6050's ±3 % sensitivity tolerance",
+        "fitted: the optimism gap (T13) and the floor closure (T6) on 30 trials; within the "
+        "MPU-6050's ±3 % sensitivity tolerance",
         robot_patch={"imu": {"yaw_scale": 1.0}},
     ),
     Mechanism(

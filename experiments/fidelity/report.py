@@ -48,6 +48,8 @@ class FidelityReport:
         The mechanisms of the twin (:data:`MECHANISMS`).
     ablation : tuple of AblationColumn
         One per mechanism switched off (empty: no ablation).
+    ablation_trials : int
+        The ablation's trials per stage, on the first seeds (0: ``trials``).
     config : str
         The host configuration as the page names it ("" for the packaged defaults).
     robot_doc, config_doc : mapping
@@ -65,6 +67,7 @@ class FidelityReport:
     nav: NavOutcome
     mechanisms: tuple[Mechanism, ...] = ()
     ablation: tuple[AblationColumn, ...] = ()
+    ablation_trials: int = 0
     config: str = ""
     robot_doc: Mapping[str, Any] = field(default_factory=dict)
     config_doc: Mapping[str, Any] = field(default_factory=dict)
@@ -81,6 +84,12 @@ class FidelityReport:
         """The Stage 1-2 figures of each set of ten seeds judged alone (campaigns of 20 trials
         and more)."""
         return seed_sets(self.figures, self.seed, self.trials)
+
+    @property
+    def ablation_seeds(self) -> tuple[int, int]:
+        """The first and last seed of the ablation's trials."""
+        n = self.ablation_trials or self.trials
+        return self.seed, self.seed + n - 1
 
 
 def seeds_text(seed: int, trials: int) -> str:

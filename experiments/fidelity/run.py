@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import sys
@@ -56,6 +57,7 @@ def regenerate_command(
     out: Path | None = None,
     ablation: bool = False,
     notes: Path | None = None,
+    ablation_trials: int | None = None,
 ) -> str:
     """The ``jackson campaign fidelity`` command that gives the same page again.
 
@@ -66,6 +68,8 @@ def regenerate_command(
     robot, config, stages, docs, out, ablation, notes
         As run; the defaults are left out, paths shown by :func:`shown`. ``out`` is named
         only without ``docs``.
+    ablation_trials : int or None
+        The ablation's trials per stage when fewer than ``trials``.
 
     Returns
     -------
@@ -83,7 +87,8 @@ def regenerate_command(
     elif out is not None:
         parts.append(f"--out {shown(out)}")
     if ablation:
-        parts.append("--ablation")
+        few = ablation_trials is not None and ablation_trials < trials
+        parts.append(f"--ablation {ablation_trials}" if few else "--ablation")
     if notes is not None:
         parts.append(f"--notes {shown(notes)}")
     return " ".join(parts)
@@ -229,6 +234,7 @@ def run_fidelity(
     docs: Path | None = None,
     notes: Path | None = None,
     mechanisms: Sequence[Mechanism] = MECHANISMS,
+    ablation_trials: int | None = None,
 ) -> FidelityReport:
     """Run the stages, the ablation if asked, and write the report folder (and the page).
 
@@ -254,6 +260,9 @@ def run_fidelity(
         The campaigns' progress and one line per phase on stderr.
     ablation : bool
         Also run each of ``mechanisms`` switched off.
+    ablation_trials : int or None
+        The ablation's trials per stage, on the first seeds (None: ``trials``; at most
+        ``trials``): a report of 30 trials ablated on its first ten.
     stages : sequence of str
         The stages to run, of :data:`STAGES`.
     docs : Path or None
@@ -275,6 +284,9 @@ def run_fidelity(
         (:class:`MechanismError`); all checked before anything runs or is written.
     """
     stages = tuple(s for s in STAGES if s in stages)
+    n_off = trials if ablation_trials is None else ablation_trials
+    if not 1 <= n_off <= trials:
+        raise FidelityError(f"the ablation's trials must be 1-{trials} (--trials), got {n_off}")
     notes_text = read_notes(notes) if notes is not None else ""
     docs_png = check_docs(docs) if docs is not None else None
     inactive: list[str] = []
@@ -287,7 +299,7 @@ def run_fidelity(
     campaigns = _Campaigns(trials, seed, workers, cluster, progress)
     results, nav_failure = campaigns.run(stages, out, "", robot, config)
     figures, stage3, nav = assess(results, nav_failure)
-    columns = campaigns.ablation(ablated, stages, out)
+    columns = dataclasses.replace(campaigns, trials=n_off).ablation(ablated, stages, out)
     command = regenerate_command(
         trials=trials,
         seed=seed,
@@ -298,6 +310,7 @@ def run_fidelity(
         out=out,
         ablation=ablation,
         notes=notes,
+        ablation_trials=n_off,
     )
     report = FidelityReport(
         command=command,
@@ -310,6 +323,7 @@ def run_fidelity(
         nav=nav,
         mechanisms=tuple(mechanisms),
         ablation=columns,
+        ablation_trials=n_off,
         config=shown(config) if config is not None else "",
         robot_doc=robot_doc,
         config_doc=config_doc,

@@ -20,6 +20,7 @@ from jackson.experiments.fidelity import (
     FIGURES,
     MECHANISMS,
     STAGE3_FIGURES,
+    FidelityError,
     FidelityReport,
     Mechanism,
     MechanismError,
@@ -243,7 +244,7 @@ def test_the_page_holds_the_tables_and_the_counts_line() -> None:
     for m in MECHANISMS:
         assert any(line.startswith(f"| `{m.name}` |") for line in lines), m.name
     assert "| `caster_drag` |" in page and "robot `caster_rolling_coeff: 0.067 -> 0.0`" in page
-    assert "robot `motor.gain.left: 0.99 -> 1.0`" in page
+    assert "robot `motor.gain.left: 0.992 -> 1.0`" in page
     assert "Ablation" not in page  # not run
     assert "](page.png)" in page
     assert page.endswith("\n## Why\n\nHand-written.\n")  # the notes verbatim, last
@@ -303,7 +304,7 @@ def test_every_mechanism_switches_off_something_of_jackson_physical() -> None:
     assert [a.mechanism.name for a in ablated] == [m.name for m in MECHANISMS]
     by_name = {a.mechanism.name: a for a in ablated}
     assert by_name["tyre_creep_scrub"].robot["tyre"]["longitudinal_compliance"] == 0.0
-    assert by_name["tyre_creep_scrub"].robot["tyre"]["scrub_saturation_curvature_1_m"] == 12.5
+    assert by_name["tyre_creep_scrub"].robot["tyre"]["scrub_saturation_curvature_1_m"] == 14.5
     assert by_name["left_drive_weaker"].robot["motor"]["gain"] == {"left": 1.0, "right": 1.0}
     assert by_name["trial_variation"].robot["variation"]["floor_patch_size_m"] == 5.0
     bringup = yaml.safe_load(BRINGUP_CONFIG.read_text())
@@ -396,7 +397,7 @@ def test_the_ablation_runs_each_mechanism_on_its_own_files_with_the_same_seeds(
     folder = tmp_path / "out" / "ablation" / "caster_drag"
     assert yaml.safe_load((folder / "robot.yaml").read_text())["caster_rolling_coeff"] == 0.0
     assert yaml.safe_load((folder / "config.yaml").read_text()) == {}
-    assert load_robot(folder / "robot.yaml").tyre.scrub_arm_m == 0.0058  # the rest as it was
+    assert load_robot(folder / "robot.yaml").tyre.scrub_arm_m == 0.0072  # the rest as it was
     columns = {c.mechanism.name: c for c in report.ablation}
     duration = 3  # the square's duration
     assert report.figures[duration].within and not columns["caster_drag"].figures[duration].within
@@ -409,6 +410,44 @@ def test_the_ablation_runs_each_mechanism_on_its_own_files_with_the_same_seeds(
     ) in page.splitlines()
     assert "| Stage 3 | t_nav [s] (T14) |" in page  # a mechanism ran the maze
     assert "--ablation" in report.command
+
+
+def test_an_ablation_on_fewer_trials_runs_the_first_seeds_and_compares_like_with_like(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls: list[tuple[str, int, int]] = []
+
+    def campaign(mission: str, trials: int, out: Path, **kw: Any) -> list[dict[str, Any]]:
+        calls.append((mission, trials, kw["seed"]))
+        runs = _synthetic(0.0, 1.0, (-1.0, 0.0, 1.0))[mission][:trials]
+        return [{**r, "seed": kw["seed"] + i} for i, r in enumerate(runs)]
+
+    monkeypatch.setattr(fidelity_run, "run_campaign", campaign)
+    monkeypatch.setattr(fidelity_run, "plot_fidelity", lambda png, report: png.write_bytes(b"png"))
+    report = fd.run_fidelity(
+        3,
+        tmp_path / "out",
+        seed=40,
+        ablation=True,
+        ablation_trials=2,
+        stages=("square",),
+        mechanisms=MECHANISMS[1:2],
+        progress=False,
+    )
+    assert calls == [("square", 3, 40), ("square", 2, 40)]
+    assert report.command.endswith("--ablation 2") and report.ablation_seeds == (40, 41)
+    duration = report.figures[3]  # 47.52 - 0.26, 47.52, 47.52 + 0.26
+    first_two = f"{(2 * 47.52 - 0.26) / 2:.2f}"
+    row = next(
+        line
+        for line in (tmp_path / "out" / "fidelity.md").read_text().splitlines()
+        if line.startswith("| square | duration [s] (T11) | 47.52 ± 0.26 |")
+        and "±" not in line[40:]
+    )
+    assert row.split(" | ")[3] == first_two != f"{duration.mean:.2f}"  # the full model, seeds 40-41
+    assert "on the full model's seeds 40-41;" in (tmp_path / "out" / "fidelity.md").read_text()
+    with pytest.raises(FidelityError, match="the ablation's trials must be 1-3"):
+        fd.run_fidelity(3, tmp_path / "x", ablation=True, ablation_trials=4, progress=False)
 
 
 # ------------------------------------------------------------------------- on the twin
