@@ -15,8 +15,11 @@ above (optimistic: the errors are larger than P says) and below (pessimistic) th
 rows is a share of time.
 
 Left out, and counted: rows before the filter is initialised (a pose or covariance field that
-is empty or not finite), rows outside the ground truth's time span, and rows whose P is
-singular (the NEES is undefined; :data:`jackson.experiments.metrics.SINGULAR_RCOND`).
+is empty or not finite), rows outside the ground truth's time span, rows before the robot
+first moves (the truth within :data:`MOTION_M` and :data:`MOTION_RAD` of where it stood at the
+first row: the truth is put onto the estimate there, so their error is zero by construction,
+not by estimation, and below the band whatever P says), and rows whose P is singular (the NEES
+is undefined; :data:`jackson.experiments.metrics.SINGULAR_RCOND`).
 
 At the end of the run: the true end-point error ||p_ekf - p_gt|| beside the covariance's own
 2-sigma radius 2 sqrt(lambda_max(P_xy)) (:func:`jackson.experiments.metrics.position_two_sigma`),
@@ -45,6 +48,8 @@ EKF_COVARIANCE = ("p_xx", "p_yy", "p_yawyaw", "p_xy", "p_xyaw", "p_yyaw")
 TRUTH_POSE = ("t_s", "x_m", "y_m", "yaw_rad")
 PAPER_OPTIMISM_GAP_CM = (4.69, 2.82)  # physical robot, figure-eight: mean, SD (Sec. 4.2)
 AVERAGE_GRID_S = 1.0 / 30.0  # [s] time step of the campaign's average NEES (the EKF's rate)
+MOTION_M = 1e-3  # [m] the truth this far from where it stood: the robot has moved
+MOTION_RAD = 1e-3  # [rad] or turned this far
 
 
 class ConsistencyError(JacksonError, ValueError):
@@ -72,9 +77,10 @@ class RunConsistency:
         to tell which error breaks the band.
     band : tuple of float
         The two-sided 95 % chi-square band of a 3-dof NEES.
-    rows_uninitialised, rows_without_truth, rows_singular : int
+    rows_uninitialised, rows_without_truth, rows_before_motion, rows_singular : int
         ekf.csv rows left out: before the filter is initialised (empty or non-finite fields),
-        outside the ground truth's time span, with a singular P.
+        outside the ground truth's time span, before the robot first moves (none of
+        ``t_s``, ``errors``, ``covariances`` or the NEES), with a singular P.
     end_error_m : float
         ||p_ekf - p_gt|| at the last row [m].
     end_position_2sigma_m : float
@@ -93,6 +99,7 @@ class RunConsistency:
     band: tuple[float, float]
     rows_uninitialised: int
     rows_without_truth: int
+    rows_before_motion: int
     rows_singular: int
     end_error_m: float
     end_position_2sigma_m: float
@@ -147,8 +154,9 @@ class RunConsistency:
             ``nees_in_band_fraction``, ``nees_above_fraction``, ``nees_below_fraction``,
             ``nees_mean``, ``nees_xy_mean``, ``nees_yaw_mean``, ``nees_rows`` and the rows
             left out (``nees_rows_uninitialised``, ``nees_rows_without_truth``,
-            ``nees_rows_singular``), ``end_error_cm``, ``end_position_2sigma_cm`` (2 sqrt of
-            the largest eigenvalue of the end position's 2x2 covariance) and
+            ``nees_rows_before_motion``, ``nees_rows_singular``), ``end_error_cm``,
+            ``end_position_2sigma_cm`` (2 sqrt of the largest eigenvalue of the end position's
+            2x2 covariance) and
             ``end_error_covered``.
         """
         return {
@@ -161,6 +169,7 @@ class RunConsistency:
             "nees_rows": self.rows,
             "nees_rows_uninitialised": self.rows_uninitialised,
             "nees_rows_without_truth": self.rows_without_truth,
+            "nees_rows_before_motion": self.rows_before_motion,
             "nees_rows_singular": self.rows_singular,
             "end_error_cm": self.end_error_m * 100.0,
             "end_position_2sigma_cm": self.end_position_2sigma_m * 100.0,
@@ -330,27 +339,39 @@ def consistency_of(
     gt = truth_in_odom_frame(t, truth, t_gt_s, p_est[0])
     err = p_est - gt
     err[:, 2] = m.wrap_angle(err[:, 2])
-    eps = m.nees(err, cov)
-    eps_xy = m.nees(err[:, :2], cov[:, :2, :2])
-    eps_yaw = m.nees(err[:, 2:], cov[:, 2:, 2:])
+    first = first_motion(gt)
+    moving = slice(first, None)
+    eps = m.nees(err[moving], cov[moving])
+    eps_xy = m.nees(err[moving, :2], cov[moving, :2, :2])
+    eps_yaw = m.nees(err[moving, 2:], cov[moving, 2:, 2:])
     gt_valid = np.isfinite(truth).all(axis=1)
     return RunConsistency(
         folder=folder,
-        t_s=t,
-        errors=err,
-        covariances=cov,
+        t_s=t[moving],
+        errors=err[moving],
+        covariances=cov[moving],
         nees=eps,
         nees_xy=eps_xy,
         nees_yaw=eps_yaw,
         band=m.nees_band(POSE_DOF),
         rows_uninitialised=int(np.count_nonzero(~initialised)),
         rows_without_truth=int(np.count_nonzero(initialised & ~with_truth)),
+        rows_before_motion=first,
         rows_singular=int(np.count_nonzero(~np.isfinite(eps))),
         end_error_m=float(np.hypot(err[-1, 0], err[-1, 1])),
         end_position_2sigma_m=m.position_two_sigma(cov[-1, :2, :2]),
         gt_closure_m=m.closure_error(truth[gt_valid, :2]),
         ekf_closure_m=m.closure_error(p_est[:, :2]),
     )
+
+
+def first_motion(truth: FloatArray) -> int:
+    """Index of the first row where the truth (x, y, yaw rows) is more than :data:`MOTION_M`
+    or :data:`MOTION_RAD` from its first row; its length when the robot never moves."""
+    moved = (np.hypot(truth[:, 0] - truth[0, 0], truth[:, 1] - truth[0, 1]) > MOTION_M) | (
+        np.abs(m.wrap_angle(truth[:, 2] - truth[0, 2])) > MOTION_RAD
+    )
+    return int(np.argmax(moved)) if moved.any() else int(truth.shape[0])
 
 
 def run_consistency(folder: Path) -> RunConsistency:
@@ -420,6 +441,7 @@ class CampaignConsistency:
         skipped = {
             "uninitialised": sum(r.rows_uninitialised for r in self.runs),
             "without_truth": sum(r.rows_without_truth for r in self.runs),
+            "before_motion": sum(r.rows_before_motion for r in self.runs),
             "singular": sum(r.rows_singular for r in self.runs),
         }
         return {
@@ -458,8 +480,9 @@ def campaign_consistency(runs: Sequence[RunConsistency]) -> CampaignConsistency:
     def share(mask: npt.NDArray[np.bool_]) -> float:
         return float(np.count_nonzero(mask)) / n if n else math.nan
 
-    start = max(float(r.t_s[0]) for r in runs)
-    stop = min(float(r.t_s[-1]) for r in runs)
+    spans = [r.t_s for r in runs if r.t_s.size]  # a run that never moved has no rows
+    start = max((float(t[0]) for t in spans), default=0.0)
+    stop = min((float(t[-1]) for t in spans), default=-1.0)
     grid: FloatArray = np.arange(start, stop + 1e-9, AVERAGE_GRID_S, dtype=np.float64)
     columns = []
     for r in runs:

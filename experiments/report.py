@@ -361,7 +361,8 @@ def consistency_section(c: CampaignConsistency) -> list[str]:
     skipped = summary["rows_skipped"]
     return [
         f"NEES e^T P^-1 e of the pose [x, y, yaw] against ground truth at every EKF output "
-        f"(30 Hz), all {summary['rows']} rows of the {n} runs pooled; the two-sided 95 % "
+        f"(30 Hz) from the robot's first motion on, all {summary['rows']} rows of the {n} "
+        "runs pooled; the two-sided 95 % "
         f"chi-square band with 3 degrees of freedom is [{lo:.3f}, {hi:.3f}] "
         "(docs/estimation.md).",
         "",
@@ -374,8 +375,9 @@ def consistency_section(c: CampaignConsistency) -> list[str]:
         f"| the {n}-run average NEES inside its band [{a_lo:.3f}, {a_hi:.3f}] "
         f"| {c.average_in_band_fraction:.1%} of the time |",
         f"| end-point error within the end position's 2-sigma | {c.covered}/{n} runs |",
-        f"| rows left out: uninitialised, without truth, singular P | {skipped['uninitialised']}, "
-        f"{skipped['without_truth']}, {skipped['singular']} |",
+        "| rows left out: uninitialised, without truth, before the first motion, singular P "
+        f"| {skipped['uninitialised']}, {skipped['without_truth']}, "
+        f"{skipped['before_motion']}, {skipped['singular']} |",
         "",
         "![NEES over time and the end point per run](nees.png)",
     ]

@@ -96,7 +96,8 @@ def test_errors_drawn_from_the_covariance_stay_in_band_95_percent_of_the_time(
     tmp_path: Path,
 ) -> None:
     r = run_consistency(_synthetic(tmp_path))
-    assert r.rows == ROWS
+    assert r.rows == ROWS - 1  # the first row, where the robot stands, is before any motion
+    assert r.rows_before_motion == 1
     assert 0.93 < r.in_band_fraction < 0.97
     assert r.above_fraction == pytest.approx(0.025, abs=0.012)
     assert r.below_fraction == pytest.approx(0.025, abs=0.012)
@@ -125,14 +126,15 @@ def test_a_pessimistic_covariance_is_flagged_below_the_band(tmp_path: Path) -> N
 def test_the_heading_error_is_wrapped_across_pi(tmp_path: Path) -> None:
     # truth turns from 3.0 to 3.3 rad (wrapped in the file to -2.98); the EKF reads 0.01 rad more
     t = np.arange(300) / 30.0
-    truth = np.column_stack((np.zeros(300), np.zeros(300), 3.0 + 0.03 * t))
+    truth = np.column_stack((np.zeros(300), np.zeros(300), 3.0 + 0.0303 * t))
     est = truth.copy()
     est[1:, 2] += 0.01
     cov = np.broadcast_to(np.diag([1e-4, 1e-4, 1e-4]), (300, 3, 3)).copy()
     r = run_consistency(_write_run(tmp_path / "wrap", t, est, cov, truth))
-    assert np.allclose(r.errors[1:, 2], 0.01, atol=1e-9)
-    assert np.allclose(r.nees[1:], 1.0, atol=1e-6)  # 0.01^2 / 1e-4
-    assert r.in_band_fraction == pytest.approx(299 / 300)
+    assert r.rows_before_motion == 1  # turned 1.01 mrad by the second row
+    assert np.allclose(r.errors[:, 2], 0.01, atol=1e-9)
+    assert np.allclose(r.nees, 1.0, atol=1e-6)  # 0.01^2 / 1e-4
+    assert r.in_band_fraction == 1.0
 
 
 def test_singular_and_uninitialised_rows_are_left_out_and_counted(tmp_path: Path) -> None:
@@ -146,11 +148,35 @@ def test_singular_and_uninitialised_rows_are_left_out_and_counted(tmp_path: Path
     assert r.rows_uninitialised == 5
     assert r.rows_singular == 11
     assert r.rows_without_truth == 0
-    assert r.rows == 200 - 5 - 11
-    assert np.isnan(r.nees[45:55]).all() and np.isnan(r.nees[75])
+    assert r.rows_before_motion == 1  # the first initialised row: the truth put onto it
+    assert r.rows == 200 - 5 - 1 - 11
+    assert np.isnan(r.nees[44:54]).all() and np.isnan(r.nees[74])
     assert r.in_band_fraction + r.above_fraction + r.below_fraction == pytest.approx(1.0)
     metrics = r.metrics()
     assert (metrics["nees_rows_singular"], metrics["nees_rows_uninitialised"]) == (11, 5)
+
+
+def test_rows_before_the_first_motion_are_left_out_and_counted(tmp_path: Path) -> None:
+    # 2 s standing (the gyro's bias window: zero error by construction), then a drive whose
+    # errors are the covariance's own size; the truth jitters by less than a millimetre first
+    t = np.arange(300) / 30.0
+    moving = np.clip(t - 2.0, 0.0, None)
+    truth = np.column_stack((0.2 * moving, np.zeros(300), np.zeros(300)))
+    truth[:60, 1] = 0.0009 * np.sin(t[:60])
+    cov = np.broadcast_to(np.diag([1e-4, 1e-4, 1e-4]), (300, 3, 3)).copy()
+    est = truth.copy()
+    est[:, 2] += np.where(truth[:, 0] > 0.0, 0.01, 0.0)  # NEES 1 once moving
+    r = run_consistency(_write_run(tmp_path / "still", t, est, cov, truth))
+    assert r.rows_before_motion == 61  # row 60 is at 2.0 s, 0 m; row 61 at 6.7 mm
+    assert r.rows == 300 - 61 and r.t_s[0] == pytest.approx(61 / 30.0)
+    assert r.in_band_fraction == 1.0
+    assert r.metrics()["nees_rows_before_motion"] == 61
+    never = run_consistency(_write_run(tmp_path / "never", t, 0.0 * est, cov, 0.0 * truth))
+    assert (never.rows, never.rows_before_motion) == (0, 300)
+    assert never.end_error_m == 0.0
+    pooled = campaign_consistency([r, never])
+    assert pooled.summary()["rows_skipped"]["before_motion"] == 361
+    assert pooled.in_band_fraction == 1.0
 
 
 def test_the_end_point_2_sigma_is_the_position_ellipse_semi_major_axis(tmp_path: Path) -> None:
@@ -205,9 +231,9 @@ def test_the_campaign_pools_its_runs_and_draws_the_figure(tmp_path: Path) -> Non
     )
     assert c.above_fraction > 0.45
     assert c.average_band == pytest.approx(m.nees_band(3, runs=2))
-    assert c.t_s.size == ROWS
+    assert c.t_s.size == ROWS - 1  # from the first motion on
     assert c.average_nees == pytest.approx(0.5 * (good.nees + bad.nees))
-    assert c.summary()["rows"] == 2 * ROWS
+    assert c.summary()["rows"] == 2 * (ROWS - 1)
     png = tmp_path / "nees.png"
     plot_consistency(png, c, title="synthetic")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
